@@ -1,0 +1,1 @@
+"""Compiled closed-loop kernels."""

@@ -1,0 +1,1 @@
+"""Experiments: shipped cases, the paper reproduction, figures and reports."""

@@ -1,0 +1,86 @@
+"""Built-in cases (TOML files shipped in the package) and user case files."""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ..config import Config, flatten, resolve
+from ..errors import CaseError
+from ..result import Result, SweepResult
+from ..simulate import simulate, simulate_sweep
+
+CASES_DIR = Path(__file__).parent / "cases"
+
+
+def names() -> list[str]:
+    """Names of the built-in cases."""
+    return sorted(p.stem for p in CASES_DIR.glob("*.toml"))
+
+
+def _path(name_or_path: str | Path) -> tuple[str, Path]:
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise CaseError(f"case file {str(p)!r} not found")
+        return p.stem, p
+    builtin = CASES_DIR / f"{name_or_path}.toml"
+    if not builtin.is_file():
+        raise CaseError(f"unknown case {str(name_or_path)!r}: built-in cases are "
+                        f"{', '.join(names())}; or give the path of a .toml file")
+    return str(name_or_path), builtin
+
+
+def load(name_or_path: str | Path) -> tuple[str, dict[str, Any]]:
+    """The case's name and its settings as dotted keys (not yet validated)."""
+    name, path = _path(name_or_path)
+    try:
+        table = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise CaseError(f"case file {str(path)!r} is not valid TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CaseError(f"case file {str(path)!r} cannot be read: {exc}") from None
+    return name, flatten(table)
+
+
+def resolve_case(name_or_path: str | Path,
+                 overrides: Mapping[str, Any] | None = None) -> tuple[str, Config]:
+    """Load a case and resolve it with ``overrides`` (dotted keys) on top."""
+    name, settings = load(name_or_path)
+    return name, resolve({**settings, **dict(overrides or {})})
+
+
+def describe(name: str) -> str:
+    return load(name)[1].get("description", "")
+
+
+def run_case(name_or_path: str | Path,
+             overrides: Mapping[str, Any] | None = None) -> Result | SweepResult:
+    """Run a built-in case or a case file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A built-in case name (see ``mfcontrol cases``) or the path of a TOML case file.
+    overrides : mapping, optional
+        Dotted configuration keys to set on top of the case, e.g.
+        ``{"fidelity": "paper", "plant.dR": 5.0}``.
+
+    Returns
+    -------
+    Result or SweepResult
+        A sweep case (one with ``[sweep]``) returns one member per swept value.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> r = mfcontrol.run_case("voltage-stable-standard", overrides={"sim.t_end": 1e-3})
+    >>> r.metrics["stable"], round(float(r.signals["y"][-1]), 3)
+    (True, 0.966)
+    """
+    name, cfg = resolve_case(name_or_path, overrides)
+    if cfg["sweep.key"] is not None:
+        return simulate_sweep(cfg, name=name)
+    return simulate(cfg, name=name)

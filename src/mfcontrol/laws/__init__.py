@@ -1,0 +1,1 @@
+"""Control laws as pure step functions over float64 columns (numba-compiled)."""

@@ -1,0 +1,66 @@
+"""Gain adaptation: the key gain ``gamma`` (the role of 1/alpha) of a model-free law.
+
+Modes
+-----
+constant
+    ``gamma_k = 1/alpha`` for every k (the standard law).
+variational
+    The symplectic integrator of Michel (CCTA 2025), eq. (32), with the published
+    indexing: ``gamma_0 = gamma_1 = gamma_2 = gamma0`` and, for k >= 3,
+    ``gamma_k = ((e_dot_k - eps_M) * Gamma + 2 gamma_{k-1}) - gamma_prev``
+    where ``gamma_prev`` is ``gamma_{k-2}`` (second order, as printed) or
+    ``gamma_{k-1}`` (first order, what the published code computes). Both orders share
+    this one expression, evaluated in the published code's floating-point order.
+
+Columns are SoA: ``CP[row, j]`` holds parameters and ``CS[row, j]`` state of member j.
+"""
+
+from .._jit import step_jit
+
+# parameter rows
+MODE = 0
+INV_ALPHA = 1
+GAMMA0 = 2
+GAMMA_RATE = 3  # the paper's Gamma
+EPS_M = 4
+ORDER = 5
+N_PARAMS = 6
+
+# state rows
+G1 = 0  # gamma_{k-1}
+G2 = 1  # gamma_{k-2}
+N_STATE = 2
+
+CONSTANT = 0
+VARIATIONAL = 1
+MODES = {"constant": CONSTANT, "variational": VARIATIONAL}
+
+
+@step_jit
+def initial(CP, j):
+    """gamma_0: gamma0 when adapting, 1/alpha otherwise."""
+    return CP[GAMMA0, j] if CP[MODE, j] == VARIATIONAL else CP[INV_ALPHA, j]
+
+
+@step_jit
+def reset(CP, CS, j):
+    g = initial(CP, j)
+    CS[G1, j] = g
+    CS[G2, j] = g
+
+
+@step_jit
+def update(CP, CS, j, k, e_dot):
+    """Advance to sample k (>= 1) given the error derivative; return (gamma_k, gamma_{k-1})."""
+    g1 = CS[G1, j]
+    if CP[MODE, j] == VARIATIONAL:
+        if k >= 3:
+            g_prev = CS[G2, j] if CP[ORDER, j] == 2.0 else g1
+            g = ((e_dot - CP[EPS_M, j]) * CP[GAMMA_RATE, j] + 2.0 * g1) - g_prev
+        else:
+            g = CP[GAMMA0, j]
+    else:
+        g = CP[INV_ALPHA, j]
+    CS[G2, j] = g1
+    CS[G1, j] = g
+    return g, g1

@@ -1,0 +1,135 @@
+"""Run results: time, signals, plant states, metrics, the resolved configuration, version."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .config import Config
+
+#: trajectory columns, in file order, with their units for a voltage-controlled buck
+SIGNALS = ("y_ref", "y", "duty", "u_raw", "gamma", "gain")
+
+
+@dataclass
+class Result:
+    """One simulated run.
+
+    Attributes
+    ----------
+    name : str
+        Case name (or file stem) the run came from.
+    config : Config
+        The fully resolved configuration.
+    time : ndarray
+        Sample times t_k (s), up to divergence.
+    signals : dict of ndarray
+        ``y_ref`` reference, ``y`` output at t_k before that sample's plant step,
+        ``duty`` applied (clipped) duty cycle, ``u_raw`` unclipped control, ``gamma`` the
+        adaptive gain (1/alpha for the standard law), ``gain`` what multiplied the
+        derivative error when computing u_k.
+    states : dict of ndarray
+        Plant states at t_k (``i_L``, ``v_C`` for the buck).
+    metrics : dict
+        See :mod:`mfcontrol.metrics`.
+    version : str
+        mfcontrol version that produced it.
+    """
+
+    name: str
+    config: Config
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    states: dict[str, np.ndarray]
+    metrics: dict[str, Any]
+    version: str
+    label: str = field(default="")
+
+    @property
+    def error(self) -> np.ndarray:
+        """Tracking error y - y*."""
+        return self.signals["y"] - self.signals["y_ref"]
+
+    def to_pandas(self):
+        """Trajectory as a DataFrame: t, y_ref, y, duty, u_raw, gamma, gain, states."""
+        import pandas as pd
+
+        return pd.DataFrame({"t": self.time, **self.signals, **self.states})
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write the trajectory; floats keep all 17 significant digits."""
+        path = Path(path)
+        self.to_pandas().to_csv(path, index=False, float_format="%.17g")
+        return path
+
+    def metrics_json(self) -> str:
+        return json.dumps(_jsonable({"case": self.name, "mfcontrol": self.version,
+                                     **self.metrics}), indent=2)
+
+    def plot(self, path: str | Path | None = None, title: str | None = None):
+        """Output and reference on top, duty cycle below (and gamma for adaptive laws).
+
+        Returns the matplotlib Figure; saves it as PNG when ``path`` is given.
+        """
+        from .plotting import plot_run
+
+        return plot_run(self, path=path, title=title)
+
+
+@dataclass
+class SweepResult:
+    """Members of a sweep case, each run on the same, freshly reset scenario."""
+
+    name: str
+    config: Config
+    key: str
+    values: list[float]
+    members: list[Result]
+    version: str
+
+    @property
+    def metrics(self) -> list[dict[str, Any]]:
+        return [{self.key: v, **m.metrics} for v, m in zip(self.values, self.members, strict=True)]
+
+    def to_pandas(self):
+        """All members' trajectories, long format, with a column naming the swept value."""
+        import pandas as pd
+
+        frames = []
+        for v, m in zip(self.values, self.members, strict=True):
+            df = m.to_pandas()
+            df.insert(0, self.key, v)
+            frames.append(df)
+        return pd.concat(frames, ignore_index=True)
+
+    def to_csv(self, path: str | Path) -> Path:
+        path = Path(path)
+        self.to_pandas().to_csv(path, index=False, float_format="%.17g")
+        return path
+
+    def metrics_json(self) -> str:
+        return json.dumps(_jsonable({"case": self.name, "mfcontrol": self.version,
+                                     "sweep": self.key, "members": self.metrics}), indent=2)
+
+    def plot(self, path: str | Path | None = None, kind: str = "gamma"):
+        """``kind='gamma'``: gamma(t) per member; ``kind='error'``: |y - y*| (log axis)."""
+        from .plotting import plot_sweep
+
+        return plot_sweep(self, kind=kind, path=path)
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {k: _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj

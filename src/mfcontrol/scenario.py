@@ -1,0 +1,167 @@
+"""From resolved configurations to the engine's arrays, and back to named results.
+
+A *scenario* is the set of float64 arrays the kernel runs: one column per member. Members
+of one scenario share the plant model, the law, the time grid and the number of scheduled
+changes; every numeric parameter may differ between them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import references
+from .config import Config
+from .engine import kernel
+from .laws import gain, recursive_ip
+from .plants import buck
+
+
+@dataclass
+class Scenario:
+    n_steps: int
+    h: float
+    t_end: float
+    plant_kind: int
+    PP: np.ndarray
+    X0: np.ndarray
+    law_kind: int
+    CP: np.ndarray
+    RP: np.ndarray
+    ev_steps: np.ndarray
+    ev_k: np.ndarray
+    ev_row: np.ndarray
+    ev_add: np.ndarray
+    ev_val: np.ndarray
+    S: np.ndarray
+    state_names: tuple[str, ...]
+
+    @property
+    def n_members(self) -> int:
+        return self.X0.shape[1]
+
+    def time(self) -> np.ndarray:
+        """Sample times t_k = (k t_end) / N, computed exactly as the kernel does."""
+        return (np.arange(self.n_steps) * self.t_end) / self.n_steps
+
+
+def n_steps(cfg: Config) -> int:
+    return round(cfg["sim.t_end"] / cfg["sim.h"])
+
+
+def _first_sample_at(t_event: float, t_end: float, n: int) -> int:
+    """First k with t_k >= t_event (n if never): the published test, evaluated on t_k."""
+    t = (np.arange(n) * t_end) / n
+    hits = np.flatnonzero(t >= t_event)
+    return int(hits[0]) if hits.size else n
+
+
+def _plant_column(cfg: Config) -> np.ndarray:
+    col = np.zeros(buck.N_PARAMS)
+    col[buck.E] = cfg["plant.E"]
+    col[buck.L] = cfg["plant.L"]
+    col[buck.R] = cfg["plant.R"]
+    col[buck.C] = cfg["plant.C"]
+    col[buck.COUPLING] = buck.COUPLINGS[cfg["plant.coupling"]]
+    col[buck.OUTPUT] = buck.OUTPUTS[cfg["plant.output"]]
+    return col
+
+
+def _law_column(cfg: Config) -> np.ndarray:
+    col = np.zeros(recursive_ip.N_PARAMS)
+    variational = cfg["controller.law"] == "variational"
+    col[gain.MODE] = gain.VARIATIONAL if variational else gain.CONSTANT
+    col[gain.INV_ALPHA] = 1 / cfg["controller.alpha"]
+    col[gain.GAMMA0] = cfg["controller.gamma0"]
+    col[gain.GAMMA_RATE] = cfg["controller.Gamma"]
+    col[gain.EPS_M] = cfg["controller.eps_M"]
+    col[gain.ORDER] = 2.0 if cfg["controller.integrator"] == "second-order" else 1.0
+    col[recursive_ip.KP] = cfg["controller.kp"]
+    col[recursive_ip.HD] = cfg["controller.deriv_scale"]
+    col[recursive_ip.U0] = cfg["controller.u0"]
+    col[recursive_ip.P_SIGN] = 1.0 if cfg["controller.p_error"] == "r-y" else -1.0
+    col[recursive_ip.P_CURRENT] = 1.0 if cfg["controller.p_sample"] == "current" else 0.0
+    if variational and cfg["controller.rate_term"]:
+        sign = 1.0 if cfg["controller.rate_sign"] == "plus" else -1.0
+        col[recursive_ip.RATE_COEF] = sign * cfg["controller.k_gamma"]
+    col[recursive_ip.USE_GAMMA] = 1.0 if cfg["controller.gain"] == "gamma" else 0.0
+    col[recursive_ip.OUT_GAIN] = cfg["controller.output_gain"]
+    col[recursive_ip.OUT_MIN] = cfg["controller.duty_min"]
+    col[recursive_ip.OUT_MAX] = cfg["controller.duty_max"]
+    return col
+
+
+def _reference_column(cfg: Config) -> np.ndarray:
+    col = np.zeros(references.N_PARAMS)
+    col[references.KIND] = references.KINDS[cfg["reference.kind"]]
+    col[references.SLOPE] = cfg["reference.slope"]
+    col[references.LEVEL] = cfg["reference.level"]
+    t2 = cfg["reference.t_ramp2"]
+    col[references.T_RAMP2] = math.inf if t2 is None else t2
+    col[references.SLOPE2] = cfg["reference.slope2"]
+    return col
+
+
+def _events(cfg: Config, n: int) -> list[tuple[int, int, bool, float]]:
+    """(sample, parameter row, additive?, value) for every scheduled change, in order."""
+    out = []
+    for t_change in cfg["plant.change_times"]:
+        k = _first_sample_at(t_change, cfg["sim.t_end"], n)
+        out.append((k, buck.R, True, cfg["plant.dR"]))
+        out.append((k, buck.C, True, cfg["plant.dC"]))
+    return out
+
+
+def build(configs: Sequence[Config]) -> Scenario:
+    """Stack the members' configurations into one scenario."""
+    first = configs[0]
+    n = n_steps(first)
+    for c in configs[1:]:
+        for key in ("plant.model", "controller.law", "sim.h", "sim.t_end"):
+            if c[key] != first[key]:
+                raise ValueError(f"members of one scenario must share {key}")
+        if len(c["plant.change_times"]) != len(first["plant.change_times"]):
+            raise ValueError("members of one scenario must share the number of load changes")
+    events = [_events(c, n) for c in configs]
+    n_ev = len(events[0])
+    ev_k = np.array([[ev[e][0] for ev in events] for e in range(n_ev)], dtype=np.int64)
+    ev_k = ev_k.reshape(n_ev, len(configs))
+    ev_val = np.array([[ev[e][3] for ev in events] for e in range(n_ev)]).reshape(ev_k.shape)
+    ev_row = np.array([e[1] for e in events[0]], dtype=np.int64)
+    ev_add = np.array([e[2] for e in events[0]], dtype=np.bool_)
+    ev_steps = np.unique(ev_k[ev_k < n]) if n_ev else np.zeros(0, dtype=np.int64)
+    X0 = np.array([[c["plant.i0"], c["plant.v0"]] for c in configs]).T.copy()
+    S = np.zeros(kernel.N_SETTINGS)
+    S[kernel.S_SETTLE] = first["metrics.settle_time"]
+    S[kernel.S_FINAL_START] = first["sim.t_end"] * (1 - first["metrics.final_window"])
+    S[kernel.S_DIVERGE_ABOVE] = first["sim.diverge_above"]
+    return Scenario(
+        n_steps=n, h=first["sim.h"], t_end=first["sim.t_end"],
+        plant_kind=kernel.BUCK,
+        PP=np.column_stack([_plant_column(c) for c in configs]),
+        X0=X0,
+        law_kind=kernel.RECURSIVE_IP,
+        CP=np.column_stack([_law_column(c) for c in configs]),
+        RP=np.column_stack([_reference_column(c) for c in configs]),
+        ev_steps=ev_steps.astype(np.int64), ev_k=ev_k, ev_row=ev_row, ev_add=ev_add,
+        ev_val=ev_val, S=S, state_names=buck.STATE_NAMES,
+    )
+
+
+def execute(scn: Scenario, keep: Sequence[int] | None = None):
+    """Run every member from its initial state; return (metrics M, trajectories traj)."""
+    n = scn.n_members
+    keep_arr = np.asarray(range(n) if keep is None else keep, dtype=np.int64)
+    n_rows = kernel.T_X0 + scn.X0.shape[0]
+    traj = np.full((n_rows, keep_arr.size, scn.n_steps), np.nan)
+    M = np.zeros((kernel.N_METRICS, n))
+    CS = np.zeros((recursive_ip.N_STATE, n))
+    CP = scn.CP
+    kernel.reset_members(scn.law_kind, CP, CS)
+    kernel.run_chunk(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
+                     scn.X0.copy(), scn.law_kind, CP, CS, scn.RP, scn.ev_steps, scn.ev_k,
+                     scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M, keep_arr, traj)
+    return M, traj
