@@ -240,8 +240,12 @@ class Config(Mapping[str, Any]):
 
 
 def resolve(settings: Mapping[str, Any]) -> Config:
-    """Validate ``settings`` (dotted keys) and fill every other option."""
-    explicit = {key: check_value(key, v) for key, v in settings.items()}
+    """Validate ``settings`` (dotted keys) and fill every other option. A value of None
+    unsets the key (its default or fidelity preset applies)."""
+    for key in settings:
+        if key not in BY_KEY:
+            raise unknown_key(key)
+    explicit = {key: check_value(key, v) for key, v in settings.items() if v is not None}
     fidelity = explicit.get("fidelity", BY_KEY["fidelity"].default)
     values: dict[str, Any] = {}
     for o in OPTIONS:

@@ -152,16 +152,27 @@ def build(configs: Sequence[Config]) -> Scenario:
 
 
 def execute(scn: Scenario, keep: Sequence[int] | None = None):
-    """Run every member from its initial state; return (metrics M, trajectories traj)."""
+    """Run every member from its initial state; return (metrics M, trajectories traj).
+
+    ``traj[row, m, k]`` holds the kept members (all by default), NaN after divergence.
+    A one-member scenario runs through the single-run kernel, several through the chunk
+    kernel; both call the same law, plant, reference and metric functions.
+    """
     n = scn.n_members
     keep_arr = np.asarray(range(n) if keep is None else keep, dtype=np.int64)
     n_rows = kernel.T_X0 + scn.X0.shape[0]
-    traj = np.full((n_rows, keep_arr.size, scn.n_steps), np.nan)
+    traj = np.empty((n_rows, keep_arr.size, scn.n_steps))
     M = np.zeros((kernel.N_METRICS, n))
     CS = np.zeros((recursive_ip.N_STATE, n))
-    CP = scn.CP
-    kernel.reset_members(scn.law_kind, CP, CS)
-    kernel.run_chunk(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
-                     scn.X0.copy(), scn.law_kind, CP, CS, scn.RP, scn.ev_steps, scn.ev_k,
-                     scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M, keep_arr, traj)
+    kernel.reset_members(scn.law_kind, scn.CP, CS)
+    args = (scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(), scn.X0.copy(),
+            scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps, scn.ev_k, scn.ev_row,
+            scn.ev_add, scn.ev_val, scn.S, M)
+    if n == 1 and keep_arr.size == 1:
+        kernel.run_single(*args, traj[:, 0, :])
+    else:
+        kernel.run_chunk(*args, keep_arr, traj)
+    # samples after a divergence were never written
+    for m, j in enumerate(keep_arr):
+        traj[:, m, int(M[kernel.M_N_SAMPLES, j]):] = np.nan
     return M, traj

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 from . import metrics, scenario
 from ._version import __version__
-from .config import Config, resolve
+from .config import Config
 from .engine import kernel
 from .result import Result, SweepResult
 
@@ -48,6 +48,4 @@ def simulate_sweep(cfg: Config, name: str = "") -> SweepResult:
 
 
 def _member(cfg: Config, key: str, value: float) -> Config:
-    explicit = {k: v for k, v in cfg.explicit.items() if not k.startswith("sweep.")}
-    explicit[key] = value
-    return resolve(explicit)
+    return cfg.with_overrides({key: value, "sweep.key": None, "sweep.values": None})

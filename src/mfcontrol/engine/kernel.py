@@ -97,34 +97,93 @@ def apply_events(k, ev_k, ev_row, ev_add, ev_val, PP, n):
 
 
 @step_jit
+def member_metrics(M, S, j, k, t, h, y, r, u, a, a_prev, gamma):
+    """Fold sample k of member j into its metrics; return False once it has diverged."""
+    if M[M_DIVERGED, j] != 0.0:
+        return False
+    if not (np.isfinite(y) and np.isfinite(u) and abs(y) <= S[S_DIVERGE_ABOVE]):
+        M[M_DIVERGED, j] = 1.0
+        M[M_T_DIVERGE, j] = t
+        return False
+    e = y - r
+    ae = abs(e)
+    M[M_IAE, j] += ae * h
+    M[M_ISE, j] += e * e * h
+    M[M_ITAE, j] += t * ae * h
+    if t >= S[S_SETTLE] and ae > M[M_MAX_E_SETTLED, j]:
+        M[M_MAX_E_SETTLED, j] = ae
+    if t >= S[S_FINAL_START] and ae > M[M_MAX_E_FINAL, j]:
+        M[M_MAX_E_FINAL, j] = ae
+    ar = abs(r)
+    if ar > M[M_MAX_ABS_R, j]:
+        M[M_MAX_ABS_R, j] = ar
+    if k > 0:
+        M[M_TV, j] += abs(a - a_prev)
+    M[M_FINAL_GAMMA, j] = gamma
+    M[M_N_SAMPLES, j] = k + 1
+    return True
+
+
+@step_jit
 def metrics_stage(k, t, h, Y, R, U, A, A_prev, GAM, M, S, n):
     alive_count = 0
     for j in range(n):
-        if M[M_DIVERGED, j] == 0.0:
-            y = Y[j]
-            if not (np.isfinite(y) and np.isfinite(U[j]) and abs(y) <= S[S_DIVERGE_ABOVE]):
-                M[M_DIVERGED, j] = 1.0
-                M[M_T_DIVERGE, j] = t
-            else:
-                alive_count += 1
-                e = y - R[j]
-                ae = abs(e)
-                M[M_IAE, j] += ae * h
-                M[M_ISE, j] += e * e * h
-                M[M_ITAE, j] += t * ae * h
-                if t >= S[S_SETTLE] and ae > M[M_MAX_E_SETTLED, j]:
-                    M[M_MAX_E_SETTLED, j] = ae
-                if t >= S[S_FINAL_START] and ae > M[M_MAX_E_FINAL, j]:
-                    M[M_MAX_E_FINAL, j] = ae
-                ar = abs(R[j])
-                if ar > M[M_MAX_ABS_R, j]:
-                    M[M_MAX_ABS_R, j] = ar
-                if k > 0:
-                    M[M_TV, j] += abs(A[j] - A_prev[j])
-                M[M_FINAL_GAMMA, j] = GAM[j]
-                M[M_N_SAMPLES, j] = k + 1
+        if member_metrics(M, S, j, k, t, h, Y[j], R[j], U[j], A[j], A_prev[j], GAM[j]):
+            alive_count += 1
         A_prev[j] = A[j]
     return alive_count
+
+
+@step_jit
+def member_output(kind, PP, X, j):
+    if kind == BUCK:
+        return buck.output(PP, X, j)
+    return np.nan
+
+
+@step_jit
+def member_law(kind, CP, CS, j, y, r):
+    if kind == RECURSIVE_IP:
+        return recursive_ip.step(CP, CS, j, y, r)
+    return np.nan, np.nan, np.nan, np.nan
+
+
+@step_jit
+def member_plant_step(kind, PP, X, j, a, h):
+    if kind == BUCK:
+        buck.step(PP, X, j, a, h)
+
+
+@kernel_jit
+def run_single(n_steps, h, t_end, plant_kind, PP, X, law_kind, CP, CS, RP,
+               ev_steps, ev_k, ev_row, ev_add, ev_val, S, M, traj):
+    """The same loop as :func:`run_chunk` for one member (column 0) and its trajectory
+    ``traj[row, k]``: no member loops, so nothing is spent on loop set-up each sample."""
+    n_x = X.shape[0]
+    plant_prepare_all(plant_kind, PP, 1)
+    p_ev = 0
+    a_prev = 0.0
+    for k in range(n_steps):
+        t = (k * t_end) / n_steps
+        if p_ev < ev_steps.size and ev_steps[p_ev] == k:
+            apply_events(k, ev_k, ev_row, ev_add, ev_val, PP, 1)
+            plant_prepare_all(plant_kind, PP, 1)
+            p_ev += 1
+        y = member_output(plant_kind, PP, X, 0)
+        r = references.value(RP, 0, t)
+        u, a, g, gamma = member_law(law_kind, CP, CS, 0, y, r)
+        if not member_metrics(M, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
+            break
+        a_prev = a
+        traj[T_REF, k] = r
+        traj[T_Y, k] = y
+        traj[T_U, k] = u
+        traj[T_APPLIED, k] = a
+        traj[T_GAMMA, k] = gamma
+        traj[T_GAIN, k] = g
+        for s in range(n_x):
+            traj[T_X0 + s, k] = X[s, 0]
+        member_plant_step(plant_kind, PP, X, 0, a, h)
 
 
 @kernel_jit
@@ -134,7 +193,8 @@ def run_chunk(n_steps, h, t_end, plant_kind, PP, X, law_kind, CP, CS, RP,
 
     Sample k is at ``t_k = (k * t_end) / n_steps``. ``ev_steps`` lists, sorted and unique,
     the samples at which any member has a scheduled change. ``keep`` lists the members
-    whose trajectories go to ``traj[row, m, k]`` (NaN-filled by the caller).
+    whose trajectories go to ``traj[row, m, k]``; samples after a member diverges are not
+    written.
     """
     n = X.shape[1]
     Y = np.empty(n)

@@ -81,6 +81,11 @@ def run_case(name_or_path: str | Path,
     (True, 0.966)
     """
     name, cfg = resolve_case(name_or_path, overrides)
+    return run_config(cfg, name)
+
+
+def run_config(cfg: Config, name: str = "") -> Result | SweepResult:
+    """Run a resolved configuration: a sweep when it has ``sweep.key``, else one run."""
     if cfg["sweep.key"] is not None:
         return simulate_sweep(cfg, name=name)
     return simulate(cfg, name=name)

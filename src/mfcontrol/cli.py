@@ -1,0 +1,129 @@
+"""Command line: ``mfcontrol cases | show | run | reproduce``.
+
+Thin by design: parse, call the library, print. Bad input ends with one line on stderr and
+exit code 2; an interrupted command ends with exit code 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ._version import __version__
+from .config import parse_assignment
+from .errors import CaseError, ConfigError
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, no usage dump
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def _overrides(pairs: list[str] | None) -> dict:
+    out = {}
+    for text in pairs or []:
+        key, value = parse_assignment(text)
+        out[key] = value
+    return out
+
+
+def _cmd_cases(args) -> int:
+    from .experiments import cases
+
+    names = cases.names()
+    width = max(len(n) for n in names)
+    for n in names:
+        print(f"{n:<{width}}  {cases.describe(n)}")
+    return 0
+
+
+def _cmd_show(args) -> int:
+    from .experiments import cases
+
+    _, cfg = cases.resolve_case(args.case, _overrides(args.set))
+    sys.stdout.write(cfg.to_toml())
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from .experiments import cases
+    from .result import SweepResult
+
+    name, cfg = cases.resolve_case(args.case, _overrides(args.set))
+    out = Path(args.out) if args.out else Path("results") / name
+    out.mkdir(parents=True, exist_ok=True)
+    result = cases.run_config(cfg, name)
+    result.to_csv(out / "trajectory.csv")
+    (out / "metrics.json").write_text(result.metrics_json() + "\n")
+    (out / "config.toml").write_text(cfg.to_toml())
+    if isinstance(result, SweepResult):
+        result.plot(out / "figure.png", kind="error")
+        result.plot(out / "figure-gamma.png", kind="gamma")
+        for v, m in zip(result.values, result.members, strict=True):
+            print(f"{result.key} = {v:g}: stable = {m.metrics['stable']}, "
+                  f"IAE = {m.metrics['iae']:.4g}")
+    else:
+        result.plot(out / "figure.png")
+        m = result.metrics
+        print(f"{name}: stable = {m['stable']}, IAE = {m['iae']:.4g}, "
+              f"max |e| after settle = {m['max_abs_e']:.4g}, TV(duty) = {m['tv_duty']:.4g}")
+    print(f"wrote {out}/trajectory.csv, metrics.json, config.toml, figure.png")
+    return 0
+
+
+def _cmd_reproduce(args) -> int:
+    from .experiments.reproduce import reproduce
+
+    fidelities = ["published", "paper"] if args.fidelity == "both" else [args.fidelity]
+    report = reproduce(Path(args.out), fidelities,
+                       progress=lambda msg: print(msg, file=sys.stderr, flush=True))
+    print(f"wrote {report}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="mfcontrol", description="Model-free control: intelligent controllers, "
+                "variational gain tuning and a buck converter test bench.")
+    p.add_argument("--version", action="version", version=f"mfcontrol {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    s = sub.add_parser("cases", help="list the built-in cases")
+    s.set_defaults(func=_cmd_cases)
+
+    setting = {"action": "append", "metavar": "KEY=VALUE",
+               "help": "set a configuration key (repeatable), e.g. controller.alpha=5"}
+    s = sub.add_parser("show", help="print a case's fully resolved configuration as TOML")
+    s.add_argument("case", help="built-in case name or path of a .toml file")
+    s.add_argument("--set", **setting)
+    s.set_defaults(func=_cmd_show)
+
+    s = sub.add_parser("run", help="run one case: trajectory.csv, metrics.json, figure.png")
+    s.add_argument("case", help="built-in case name or path of a .toml file")
+    s.add_argument("--set", **setting)
+    s.add_argument("--out", help="output folder (default results/CASE)")
+    s.set_defaults(func=_cmd_run)
+
+    s = sub.add_parser("reproduce", help="reproduce every result of the paper's section IV")
+    s.add_argument("--out", default="results", help="output folder (default results)")
+    s.add_argument("--fidelity", choices=("published", "paper", "both"), default="both")
+    s.set_defaults(func=_cmd_reproduce)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ConfigError, CaseError) as exc:
+        print(f"mfcontrol: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("mfcontrol: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
