@@ -30,6 +30,13 @@ def _overrides(pairs: list[str] | None) -> dict:
     return out
 
 
+def _out_dir(path: str) -> Path:
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise ConfigError("--out", path, "must be a folder (it is an existing file)")
+    return out
+
+
 def _cmd_cases(args) -> int:
     from .experiments import cases
 
@@ -53,7 +60,7 @@ def _cmd_run(args) -> int:
     from .result import SweepResult
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set))
-    out = Path(args.out) if args.out else Path("results") / name
+    out = _out_dir(args.out) if args.out else Path("results") / name
     out.mkdir(parents=True, exist_ok=True)
     result = cases.run_config(cfg, name)
     result.to_csv(out / "trajectory.csv")
@@ -78,7 +85,7 @@ def _cmd_reproduce(args) -> int:
     from .experiments.reproduce import reproduce
 
     fidelities = ["published", "paper"] if args.fidelity == "both" else [args.fidelity]
-    report = reproduce(Path(args.out), fidelities,
+    report = reproduce(_out_dir(args.out), fidelities,
                        progress=lambda msg: print(msg, file=sys.stderr, flush=True))
     print(f"wrote {report}")
     return 0

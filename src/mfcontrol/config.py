@@ -135,6 +135,14 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
+def _as_float(v: Any) -> float:
+    """float(v), with integers beyond the float range read as infinite (then rejected)."""
+    try:
+        return float(v)
+    except OverflowError:
+        return math.inf
+
+
 def _check_number(o: Option, v: float) -> bool:
     if not math.isfinite(v):
         return False
@@ -145,14 +153,14 @@ def check_value(key: str, value: Any) -> Any:
     """Return ``value`` converted to the option's type, or raise ConfigError."""
     o = BY_KEY.get(key)
     if o is None:
-        raise unknown_key(key)
+        raise unknown_key(key, value)
     if o.kind == "float":
-        if not _is_number(value) or not _check_number(o, float(value)):
+        if not _is_number(value) or not _check_number(o, _as_float(value)):
             raise ConfigError(key, value, _allowed(o))
         return float(value)
     if o.kind == "floats":
         if (not isinstance(value, list | tuple)
-                or not all(_is_number(x) and _check_number(o, float(x)) for x in value)):
+                or not all(_is_number(x) and _check_number(o, _as_float(x)) for x in value)):
             raise ConfigError(key, value, _allowed(o))
         return [float(x) for x in value]
     if o.kind == "bool":
@@ -164,10 +172,10 @@ def check_value(key: str, value: Any) -> Any:
     return value
 
 
-def unknown_key(key: str) -> ConfigError:
+def unknown_key(key: str, value: Any) -> ConfigError:
     close = difflib.get_close_matches(key, BY_KEY, n=1)
     hint = f"did you mean {close[0]}?" if close else "see `mfcontrol show` for the known keys"
-    return ConfigError(key, "...", f"unknown key; {hint}")
+    return ConfigError(key, value, f"unknown key; {hint}")
 
 
 def flatten(table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -242,9 +250,9 @@ class Config(Mapping[str, Any]):
 def resolve(settings: Mapping[str, Any]) -> Config:
     """Validate ``settings`` (dotted keys) and fill every other option. A value of None
     unsets the key (its default or fidelity preset applies)."""
-    for key in settings:
+    for key, value in settings.items():
         if key not in BY_KEY:
-            raise unknown_key(key)
+            raise unknown_key(key, value)
     explicit = {key: check_value(key, v) for key, v in settings.items() if v is not None}
     fidelity = explicit.get("fidelity", BY_KEY["fidelity"].default)
     values: dict[str, Any] = {}
@@ -260,8 +268,15 @@ def resolve(settings: Mapping[str, Any]) -> Config:
     return Config(values)
 
 
+#: most samples one run may have (its trajectory alone would need 9 x 8 bytes a sample)
+MAX_STEPS = 100_000_000
+
+
 def _check_consistency(v: dict[str, Any]) -> None:
     n = v["sim.t_end"] / v["sim.h"]
+    if not n <= MAX_STEPS:  # also catches an overflow to inf
+        raise ConfigError("sim.t_end", v["sim.t_end"],
+                          f"must be at most {MAX_STEPS:,} steps of sim.h = {v['sim.h']!r}")
     if abs(n - round(n)) > 1e-9 * n or round(n) < 2:
         raise ConfigError("sim.t_end", v["sim.t_end"],
                           f"must be a whole number (>= 2) of sim.h = {v['sim.h']!r} steps")
@@ -279,10 +294,28 @@ def _check_consistency(v: dict[str, Any]) -> None:
                           "sweep.key and sweep.values go together")
     if v["sweep.key"] is not None:
         o = BY_KEY.get(v["sweep.key"])
-        if o is None or o.kind != "float" or o.key.startswith("sweep."):
-            raise ConfigError("sweep.key", v["sweep.key"], "must name a numeric option")
+        if (o is None or o.kind != "float" or o.key.startswith("sweep.")
+                or o.key in _GRID_KEYS):
+            raise ConfigError("sweep.key", v["sweep.key"], "must name a numeric option that "
+                              "keeps the time grid (not sim.h or sim.t_end)")
         for x in v["sweep.values"]:
             check_value(o.key, x)
+            _check_consistency({**v, o.key: x, "sweep.key": None, "sweep.values": None})
+
+
+_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n",
+                 "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_char(ch: str) -> str:
+    """One character of a TOML basic string: control characters must be escaped."""
+    if ch in _TOML_ESCAPES:
+        return _TOML_ESCAPES[ch]
+    return f"\\u{ord(ch):04x}" if ord(ch) < 0x20 or ord(ch) == 0x7F else ch
+
+
+#: options every member of one scenario shares: they set the time grid
+_GRID_KEYS = ("sim.h", "sim.t_end")
 
 
 def _toml_value(v: Any) -> str:
@@ -293,7 +326,7 @@ def _toml_value(v: Any) -> str:
     if isinstance(v, int):
         return str(v)
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + "".join(_toml_char(ch) for ch in v) + '"'
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     raise TypeError(f"cannot write {v!r} as TOML")
@@ -307,3 +340,17 @@ def to_toml(nested: Mapping[str, Any]) -> str:
             lines.append(f"\n[{k}]")
             lines.extend(f"{kk} = {_toml_value(vv)}" for kk, vv in v.items())
     return "\n".join(lines) + "\n"
+
+
+def options_markdown() -> str:
+    """The option table of the README, generated from :data:`OPTIONS`."""
+    def default(o: Option) -> str:
+        if o.preset:
+            return " / ".join(f"{f}: `{_toml_value(v)}`" for f, v in o.preset.items())
+        return "none" if o.default is None else f"`{_toml_value(o.default)}`"
+
+    rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
+    for o in OPTIONS:
+        allowed = _allowed(o).removeprefix("must be ").replace("|", "\\|")
+        rows.append(f"| `{o.key}` | {default(o)} | {allowed} | {o.doc.replace('|', '/')} |")
+    return "\n".join(rows)

@@ -53,10 +53,17 @@ def n_steps(cfg: Config) -> int:
 
 
 def _first_sample_at(t_event: float, t_end: float, n: int) -> int:
-    """First k with t_k >= t_event (n if never): the published test, evaluated on t_k."""
-    t = (np.arange(n) * t_end) / n
-    hits = np.flatnonzero(t >= t_event)
-    return int(hits[0]) if hits.size else n
+    """First k with t_k >= t_event (n if never), t_k = (k t_end)/n evaluated in float64
+    exactly as the kernel does: a guess from the real quotient, then corrected."""
+    def t(k: int) -> float:
+        return (k * t_end) / n
+
+    k = min(max(math.ceil(t_event * n / t_end), 0), n)
+    while k > 0 and t(k - 1) >= t_event:
+        k -= 1
+    while k < n and t(k) < t_event:
+        k += 1
+    return k
 
 
 def _plant_column(cfg: Config) -> np.ndarray:

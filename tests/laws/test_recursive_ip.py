@@ -1,0 +1,90 @@
+"""The recursive i-P law, checked as identities on the trajectories it produces."""
+
+import numpy as np
+import pytest
+
+import mfcontrol
+
+SHORT = {"sim.t_end": 2e-3}
+
+
+def _edot(r, hd):
+    y, ref = r.signals["y"], r.signals["y_ref"]
+    return (y[1:] - y[:-1]) / hd - (ref[1:] - ref[:-1]) / hd
+
+
+def test_standard_law_recursion():
+    r = mfcontrol.run_case("voltage-stable-standard", SHORT)
+    s, c = r.signals, r.config
+    assert s["u_raw"][0] == c["controller.u0"]
+    e_dot = _edot(r, c["controller.deriv_scale"])
+    expected = (s["u_raw"][:-1] - e_dot / c["controller.alpha"]
+                + c["controller.kp"] * (s["y_ref"][1:] - s["y"][:-1]))
+    np.testing.assert_allclose(s["u_raw"][1:], expected, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(s["gamma"], 1 / c["controller.alpha"])
+
+
+def test_duty_is_the_clipped_scaled_control():
+    r = mfcontrol.run_case("voltage-unstable-standard")
+    c = r.config
+    d = np.clip(c["controller.output_gain"] * r.signals["u_raw"], c["controller.duty_min"],
+                c["controller.duty_max"])
+    np.testing.assert_array_equal(r.signals["duty"], d)
+    assert r.signals["duty"].max() == c["controller.duty_max"]  # it does saturate
+
+
+@pytest.mark.parametrize("order,lag", [("first-order", 1), ("second-order", 2)])
+def test_gamma_integrator_difference_equation(order, lag):
+    r = mfcontrol.run_case("voltage-stable-variational",
+                           {**SHORT, "controller.integrator": order, "controller.Gamma": 1e-6})
+    c, g = r.config, r.signals["gamma"]
+    e_dot = _edot(r, c["controller.deriv_scale"])  # e_dot[k-1] belongs to sample k
+    assert g[0] == g[1] == g[2] == c["controller.gamma0"]
+    k = np.arange(3, g.size)
+    if lag == 1:
+        lhs = g[k] - g[k - 1]
+    else:
+        lhs = g[k] - 2 * g[k - 1] + g[k - 2]
+    rhs = c["controller.Gamma"] * (e_dot[k - 1] - c["controller.eps_M"])
+    np.testing.assert_allclose(lhs, rhs, rtol=1e-6, atol=1e-15)
+
+
+def test_rate_term_enters_u_with_its_sign():
+    for sign, s in (("plus", 1.0), ("minus", -1.0)):
+        r = mfcontrol.run_case("voltage-stable-variational",
+                               {**SHORT, "fidelity": "paper", "controller.rate_sign": sign})
+        c, sig = r.config, r.signals
+        hd = c["controller.deriv_scale"]
+        e_dot = _edot(r, hd)
+        g = sig["gamma"]
+        expected = ((sig["u_raw"][:-1] - g[1:] * e_dot)
+                    + c["controller.kp"] * (sig["y_ref"][1:] - sig["y"][:-1])
+                    + s * c["controller.k_gamma"] * (g[1:] - g[:-1]) / hd)
+        np.testing.assert_allclose(sig["u_raw"][1:], expected, rtol=1e-12, atol=1e-9)
+
+
+def test_gain_alpha_multiplies_the_derivative_error_by_one_over_alpha():
+    r = mfcontrol.run_case("voltage-stable-variational",
+                           {**SHORT, "fidelity": "paper", "controller.gain": "alpha"})
+    np.testing.assert_array_equal(r.signals["gain"][1:], 1 / r.config["controller.alpha"])
+    assert np.ptp(r.signals["gamma"]) > 0  # gamma still adapts, through the rate term
+
+
+def test_variational_with_zero_Gamma_is_the_equal_gain_standard_law():
+    var = mfcontrol.run_case("voltage-unstable-variational", {"controller.Gamma": 0.0})
+    std = mfcontrol.run_case("voltage-unstable-standard", {"controller.alpha": 1.0})
+    for key in ("y", "duty", "u_raw"):
+        np.testing.assert_array_equal(var.signals[key], std.signals[key])
+
+
+def test_zero_k_gamma_rate_term_changes_nothing():
+    a = mfcontrol.run_case("voltage-stable-variational",
+                           {**SHORT, "controller.rate_term": True, "controller.k_gamma": 0.0})
+    b = mfcontrol.run_case("voltage-stable-variational", {**SHORT, "controller.rate_term": False})
+    np.testing.assert_array_equal(a.signals["u_raw"], b.signals["u_raw"])
+
+
+def test_printed_p_term_is_positive_feedback():
+    r = mfcontrol.run_case("voltage-stable-standard",
+                           {"controller.p_error": "y-r", "controller.p_sample": "current"})
+    assert not r.metrics["stable"]

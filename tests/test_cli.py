@@ -1,0 +1,518 @@
+"""The ``mfcontrol`` command line, run for real in a subprocess.
+
+Requirement: bad input gets one line on stderr naming the key, the value and what is
+allowed, exit code 2, no traceback (unknown case or file, unknown key, malformed value,
+non-positive h/L/C/R/alpha/t_end, NaN or inf anywhere, malformed TOML). The happy paths
+(``cases``, ``show``, ``run``, ``--version``) are checked too.
+
+Every error command of ERRORS is checked twice: in-process through ``mfcontrol.cli.main``
+(fast, so the whole matrix is affordable) and, for the CORE subset that covers each
+category, as the real command in a subprocess. The subprocesses only parse and validate,
+so one module fixture starts them all at once, a few in parallel.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import tomllib
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+import mfcontrol
+from mfcontrol.cli import main
+from mfcontrol.experiments.cases import CASES_DIR
+
+CASE = "voltage-stable-standard"
+SHORT = ["--set", "sim.t_end=0.001"]  # 1000 samples: every run stays short
+HUGE_INT = "1" + "0" * 400  # a valid TOML integer far beyond the float range
+
+ALL_CASES = (
+    "voltage-stable-standard", "voltage-stable-variational", "voltage-unstable-standard",
+    "voltage-unstable-variational", "power-standard", "power-variational", "sweep-Gamma",
+    "sweep-epsM",
+)
+
+
+def _env() -> dict[str, str]:
+    return {**os.environ, "MPLBACKEND": "Agg"}
+
+
+def cli(*args: str, cwd: Path | str | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "mfcontrol.cli", *args], cwd=cwd,
+                          capture_output=True, text=True, env=_env(), timeout=120)
+
+
+def assert_usage_error(proc: subprocess.CompletedProcess, *needles: str) -> str:
+    """Exit code 2, nothing on stdout, exactly one non-empty line on stderr, no traceback,
+    and every needle (key, value, what is allowed) in that line."""
+    detail = f"rc={proc.returncode}\nstdout={proc.stdout!r}\nstderr={proc.stderr!r}"
+    assert "Traceback" not in proc.stderr, detail
+    assert proc.returncode == 2, detail
+    assert proc.stdout == "", detail
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1, detail
+    line = lines[0]
+    assert line.strip(), detail
+    assert proc.stderr == line + "\n", detail
+    assert "error:" in line, detail
+    for needle in needles:
+        assert needle in line, f"{needle!r} not in {line!r}"
+    return line
+
+
+# ---------------------------------------------------------------------------------------
+# bad input: one line, exit code 2, no traceback
+# ---------------------------------------------------------------------------------------
+
+#: case files written into the fixture's folder ({d} in the commands below)
+FILES: dict[str, bytes] = {
+    "nan-alpha.toml": b"[controller]\nalpha = nan\n",
+    "inf-E.toml": b"[plant]\nE = inf\n",
+    "neg-inf-kp.toml": b"[controller]\nkp = -inf\n",
+    "nan-change.toml": b"[plant]\nchange_times = [4e-3, nan]\n",
+    "nan-ramp2.toml": b"[reference]\nt_ramp2 = +nan\n",
+    "nan-sweep.toml": b'[sweep]\nkey = "controller.Gamma"\nvalues = [5e-8, inf]\n',
+    "nan-top.toml": b"fidelity = nan\n",
+    "bad-table.toml": b"[plant\nE = 3.0\n",
+    "bad-pair.toml": b"[controller]\nalpha =\n",
+    "bad-dup.toml": b"[plant]\nE = 1.0\nE = 2.0\n",
+    "bad-string.toml": b'description = "unterminated\n',
+    "bad-bytes.toml": b"\xff\xfe[plant]\nE = 1.0\n",
+    "unknown-key.toml": b"[controller]\nalpah = 3.0\n",
+    "unknown-table.toml": b"[plantt]\nE = 3.0\n",
+    "wrong-type.toml": b'[sim]\nh = "fast"\n',
+    "zero-h.toml": b"[sim]\nh = 0.0\n",
+    "huge-int.toml": b"[controller]\nalpha = " + HUGE_INT.encode() + b"\n",
+}
+
+S = "show"
+ERRORS = [
+    # unknown case or file
+    pytest.param([S, "nope"], ["'nope'", "unknown case", "built-in cases are",
+                               "voltage-stable-standard", ".toml"], id="unknown-case"),
+    pytest.param([S, "nope.toml"], ["'nope.toml'", "not found"], id="missing-file"),
+    pytest.param([S, "{d}/missing/case.toml"], ["case.toml", "not found"],
+                 id="missing-file-in-missing-folder"),
+    pytest.param([S, "{d}"], ["not found"], id="folder-instead-of-file"),
+    pytest.param(["run", "nope", "--out", "{d}/out-unknown"], ["'nope'", "unknown case"],
+                 id="run-unknown-case"),
+    pytest.param(["run", "nope.toml", *SHORT], ["'nope.toml'", "not found"],
+                 id="run-missing-file"),
+    # unknown key
+    pytest.param([S, CASE, "--set", "controller.alpah=3"],
+                 ["controller.alpah = 3", "unknown key", "did you mean controller.alpha?"],
+                 id="unknown-key"),
+    pytest.param([S, CASE, "--set", "bogus=1"], ["bogus = 1", "unknown key"],
+                 id="unknown-key-no-suggestion"),
+    pytest.param([S, "{d}/unknown-key.toml"], ["controller.alpah = 3.0", "unknown key",
+                                               "did you mean controller.alpha?"],
+                 id="unknown-key-in-file"),
+    pytest.param([S, "{d}/unknown-table.toml"], ["plantt.E = 3.0", "unknown key",
+                                                 "did you mean plant.E?"],
+                 id="unknown-table-in-file"),
+    # malformed value
+    pytest.param([S, CASE, "--set", "controller.alpha=abc"],
+                 ["controller.alpha", "'abc'", "must be a finite number > 0"],
+                 id="malformed-number"),
+    pytest.param([S, CASE, "--set", "controller.alpha="],
+                 ["controller.alpha", "''", "must be a finite number > 0"], id="empty-value"),
+    pytest.param([S, CASE, "--set", "controller.kp=1,5"],
+                 ["controller.kp", "'1,5'", "must be a finite number"], id="decimal-comma"),
+    pytest.param([S, CASE, "--set", "sim.h=true"],
+                 ["sim.h", "True", "must be a finite number > 0"], id="bool-for-number"),
+    pytest.param([S, CASE, "--set", "controller.rate_term=yes"],
+                 ["controller.rate_term", "'yes'", "must be true or false"],
+                 id="malformed-bool"),
+    pytest.param([S, CASE, "--set", "plant.change_times=0.004"],
+                 ["plant.change_times", "0.004", "must be a list of finite numbers >= 0"],
+                 id="number-for-list"),
+    pytest.param([S, CASE, "--set", "plant.change_times=[0.004, x]"],
+                 ["plant.change_times", "must be a list of finite numbers >= 0"],
+                 id="malformed-list"),
+    pytest.param([S, CASE, "--set", "description=3"],
+                 ["description", "3", "must be a string"], id="number-for-string"),
+    pytest.param([S, "{d}/wrong-type.toml"], ["sim.h", "'fast'", "must be a finite number > 0"],
+                 id="string-for-number-in-file"),
+    # choices
+    pytest.param([S, CASE, "--set", "fidelity=wrong"],
+                 ["fidelity", "'wrong'", "must be one of published, paper"], id="bad-fidelity"),
+    pytest.param([S, CASE, "--set", "controller.law=pid"],
+                 ["controller.law", "'pid'", "must be one of ip, variational"], id="bad-law"),
+    pytest.param([S, CASE, "--set", "plant.coupling=loose"],
+                 ["plant.coupling", "'loose'", "must be one of published, textbook"],
+                 id="bad-coupling"),
+    pytest.param([S, CASE, "--set", "controller.integrator=third-order"],
+                 ["controller.integrator", "'third-order'",
+                  "must be one of first-order, second-order"], id="bad-integrator"),
+    # --set without '='
+    pytest.param([S, CASE, "--set", "controller.alpha"],
+                 ["controller.alpha", "expected key=value"], id="set-without-equals"),
+    pytest.param([S, CASE, "--set", "=3"], ["=3", "expected key=value"], id="set-without-key"),
+    # non-positive h, L, C, R, alpha, t_end (and the other positive options)
+    *[pytest.param([S, CASE, "--set", f"{key}={raw}"],
+                   [f"{key} = {shown}", "must be a finite number > 0"], id=f"{key}={raw}")
+      for key, raw, shown in [
+          ("sim.h", "0", "0"), ("sim.h", "-1e-6", "-1e-06"), ("plant.L", "-1", "-1"),
+          ("plant.L", "0.0", "0.0"), ("plant.C", "0", "0"), ("plant.C", "-1e-5", "-1e-05"),
+          ("plant.R", "-5", "-5"), ("plant.R", "-0.0", "-0.0"),
+          ("controller.alpha", "0", "0"), ("controller.alpha", "-10", "-10"),
+          ("sim.t_end", "-1", "-1"), ("sim.t_end", "0", "0"), ("plant.E", "0", "0"),
+          ("controller.deriv_scale", "0", "0"), ("controller.output_gain", "-1", "-1"),
+          ("sim.diverge_above", "0", "0"), ("metrics.stable_tol", "0", "0")]],
+    pytest.param([S, "{d}/zero-h.toml"], ["sim.h = 0.0", "must be a finite number > 0"],
+                  id="zero-h-in-file"),
+    pytest.param(["run", CASE, "--set", "sim.h=0", "--out", "{d}/out-zero-h"],
+                 ["sim.h = 0", "must be a finite number > 0"], id="run-zero-h"),
+    pytest.param(["run", CASE, "--set", "plant.R=-5", *SHORT],
+                 ["plant.R = -5", "must be a finite number > 0"], id="run-negative-R"),
+    # other range checks
+    pytest.param([S, CASE, "--set", "metrics.final_window=1.5"],
+                 ["metrics.final_window = 1.5", "must be a number in (0, 1]"],
+                 id="fraction-above-1"),
+    pytest.param([S, CASE, "--set", "metrics.settle_time=-1"],
+                 ["metrics.settle_time = -1", "must be a finite number >= 0"],
+                 id="negative-settle-time"),
+    pytest.param([S, CASE, "--set", "plant.change_times=[-0.001]"],
+                 ["plant.change_times = [-0.001]", "must be a list of finite numbers >= 0"],
+                 id="negative-change-time"),
+    # consistency between keys
+    pytest.param([S, CASE, "--set", "sim.t_end=0.0010005"],
+                 ["sim.t_end = 0.0010005", "must be a whole number (>= 2) of sim.h"],
+                 id="t_end-not-whole-steps"),
+    pytest.param([S, CASE, "--set", "controller.duty_min=0.95"],
+                 ["controller.duty_min = 0.95", "must not exceed controller.duty_max = 0.9"],
+                 id="duty_min-above-duty_max"),
+    pytest.param([S, CASE, "--set", "plant.dR=-6"],
+                 ["plant.dR = -6.0", "must keep plant.R > 0 after 2 load changes"],
+                 id="dR-makes-R-negative"),
+    pytest.param([S, CASE, "--set", "sweep.key=controller.law", "--set", "sweep.values=[1.0]"],
+                 ["sweep.key = 'controller.law'", "must name a numeric option"],
+                 id="sweep-key-not-numeric"),
+    # NaN or inf anywhere: on the command line ...
+    pytest.param([S, CASE, "--set", "controller.kp=nan"],
+                 ["controller.kp = nan", "must be a finite number"], id="nan-kp"),
+    pytest.param([S, CASE, "--set", "plant.E=inf"],
+                 ["plant.E = inf", "must be a finite number > 0"], id="inf-E"),
+    pytest.param([S, CASE, "--set", "controller.Gamma=-inf"],
+                 ["controller.Gamma = -inf", "must be a finite number"], id="neg-inf-Gamma"),
+    pytest.param([S, CASE, "--set", "sim.h=nan"],
+                 ["sim.h = nan", "must be a finite number > 0"], id="nan-h"),
+    pytest.param([S, CASE, "--set", "controller.alpha=1e400"],
+                 ["controller.alpha = inf", "must be a finite number > 0"],
+                 id="float-literal-overflows-to-inf"),
+    pytest.param([S, CASE, "--set", "plant.change_times=[0.004, nan]"],
+                 ["plant.change_times = [0.004, nan]", "must be a list of finite numbers"],
+                 id="nan-in-list"),
+    pytest.param([S, CASE, "--set", "sweep.key=controller.Gamma",
+                  "--set", "sweep.values=[1e-8, nan]"],
+                 ["sweep.values = [1e-08, nan]", "must be a list of finite numbers"],
+                 id="nan-in-sweep-values"),
+    pytest.param(["run", CASE, "--set", "controller.kp=nan", "--out", "{d}/out-nan"],
+                 ["controller.kp = nan", "must be a finite number"], id="run-nan-kp"),
+    # ... and inside a case file (TOML has nan and inf literals)
+    pytest.param([S, "{d}/nan-alpha.toml"],
+                 ["controller.alpha = nan", "must be a finite number > 0"], id="file-nan"),
+    pytest.param([S, "{d}/inf-E.toml"], ["plant.E = inf", "must be a finite number > 0"],
+                 id="file-inf"),
+    pytest.param([S, "{d}/neg-inf-kp.toml"], ["controller.kp = -inf", "must be a finite number"],
+                 id="file-neg-inf"),
+    pytest.param([S, "{d}/nan-change.toml"],
+                 ["plant.change_times = [0.004, nan]", "must be a list of finite numbers"],
+                 id="file-nan-in-list"),
+    pytest.param([S, "{d}/nan-ramp2.toml"],
+                 ["reference.t_ramp2 = nan", "must be a finite number >= 0"],
+                 id="file-nan-optional-key"),
+    pytest.param([S, "{d}/nan-sweep.toml"],
+                 ["sweep.values = [5e-08, inf]", "must be a list of finite numbers"],
+                 id="file-inf-in-sweep"),
+    pytest.param([S, "{d}/nan-top.toml"], ["fidelity = nan", "must be one of published, paper"],
+                 id="file-nan-for-choice"),
+    pytest.param(["run", "{d}/nan-alpha.toml", *SHORT],
+                 ["controller.alpha = nan", "must be a finite number > 0"], id="run-file-nan"),
+    # malformed TOML
+    pytest.param([S, "{d}/bad-table.toml"], ["bad-table.toml", "is not valid TOML", "line 1"],
+                 id="toml-unclosed-table"),
+    pytest.param([S, "{d}/bad-pair.toml"], ["bad-pair.toml", "is not valid TOML", "line 2"],
+                 id="toml-missing-value"),
+    pytest.param([S, "{d}/bad-dup.toml"], ["bad-dup.toml", "is not valid TOML", "line 3"],
+                 id="toml-duplicate-key"),
+    pytest.param([S, "{d}/bad-string.toml"], ["bad-string.toml", "is not valid TOML"],
+                 id="toml-unterminated-string"),
+    pytest.param([S, "{d}/bad-bytes.toml"], ["bad-bytes.toml", "cannot be read"],
+                 id="not-utf8"),
+    pytest.param(["run", "{d}/bad-table.toml", *SHORT], ["bad-table.toml", "is not valid TOML"],
+                 id="run-malformed-toml"),
+    # argument errors (argparse) follow the same rule
+    pytest.param([S], ["the following arguments are required: case"], id="show-without-case"),
+    pytest.param(["frobnicate"], ["invalid choice", "'frobnicate'"], id="unknown-command"),
+    pytest.param(["reproduce", "--fidelity", "wrong"],
+                 ["--fidelity", "'wrong'", "published", "paper", "both"],
+                 id="reproduce-bad-fidelity"),
+    pytest.param([S, CASE, "--bogus"], ["unrecognized arguments: --bogus"],
+                 id="unknown-option"),
+    # regressions: each of these once ended in a traceback and exit code 1
+    pytest.param([S, CASE, "--set", f"controller.alpha={HUGE_INT}"],
+                 ["controller.alpha = 1000000", "must be a finite number > 0"],
+                 id="huge-integer"),
+    pytest.param([S, "{d}/huge-int.toml"],
+                 ["controller.alpha = 1000000", "must be a finite number > 0"],
+                 id="huge-integer-in-file"),
+    pytest.param([S, CASE, "--set", "sim.t_end=1e308"], ["sim.t_end = 1e+308", "sim.h"],
+                 id="t_end-over-h-overflows"),
+    pytest.param([S, CASE, "--set", "sim.h=5e-324"], ["sim.t_end", "sim.h = 5e-324"],
+                 id="tiny-h-overflows"),
+    pytest.param(["run", CASE, *SHORT, "--set", "sweep.key=sim.h",
+                  "--set", "sweep.values=[1e-6, 2e-6]", "--out", "{d}/out-sweep-h"],
+                 ["sweep.key = 'sim.h'", "must name a numeric option"], id="sweep-over-sim.h"),
+    pytest.param([S, CASE, "--set", "sweep.key=sim.t_end", "--set", "sweep.values=[0.001]"],
+                 ["sweep.key = 'sim.t_end'", "must name a numeric option"],
+                 id="sweep-over-sim.t_end"),
+    pytest.param([S, CASE, "--set", "controller.alpah=37.5"],
+                 ["controller.alpah = 37.5", "unknown key"], id="unknown-key-names-its-value"),
+]
+
+
+#: the subset also run as the real command: at least one of every category, and the
+#: regressions
+CORE = {
+    "unknown-case", "missing-file", "run-unknown-case", "unknown-key", "unknown-key-in-file",
+    "malformed-number", "bad-fidelity", "set-without-equals", "sim.h=0", "plant.L=-1",
+    "plant.C=0", "plant.R=-5", "controller.alpha=0", "sim.t_end=-1", "run-zero-h",
+    "t_end-not-whole-steps", "nan-kp", "inf-E", "nan-in-list", "file-nan", "file-inf",
+    "run-file-nan", "toml-unclosed-table", "run-malformed-toml", "show-without-case",
+    "reproduce-bad-fidelity", "huge-integer", "t_end-over-h-overflows", "sweep-over-sim.h",
+    "unknown-key-names-its-value",
+}
+CORE_ERRORS = [p for p in ERRORS if p.id in CORE]
+assert len(CORE_ERRORS) == len(CORE)
+
+
+def _argv(args: list[str], d: Path) -> tuple[str, ...]:
+    return tuple(a.replace("{d}", str(d)) for a in args)
+
+
+@pytest.fixture(scope="module")
+def case_dir(tmp_path_factory) -> Path:
+    """A fresh folder holding FILES; the commands run with it as working directory."""
+    d = tmp_path_factory.mktemp("cli-errors")
+    for name, text in FILES.items():
+        (d / name).write_bytes(text)
+    return d
+
+
+@pytest.fixture(scope="module")
+def error_runs(case_dir) -> dict[tuple[str, ...], subprocess.CompletedProcess]:
+    """Run every command of CORE_ERRORS once as a subprocess, a few at a time."""
+    commands = sorted({_argv(p.values[0], case_dir) for p in CORE_ERRORS})
+    with ThreadPoolExecutor(max_workers=max(2, min(8, (os.cpu_count() or 2) * 2))) as pool:
+        procs = pool.map(lambda c: cli(*c, cwd=case_dir), commands)
+        return dict(zip(commands, procs, strict=True))
+
+
+@pytest.mark.parametrize(("args", "needles"), CORE_ERRORS)
+def test_bad_input_is_one_line_exit_2(error_runs, case_dir, args, needles):
+    assert_usage_error(error_runs[_argv(args, case_dir)], *needles)
+
+
+@pytest.mark.parametrize(("args", "needles"), ERRORS)
+def test_bad_input_is_one_line_exit_2_in_process(case_dir, monkeypatch, capsys, args, needles):
+    """The same contract through ``mfcontrol.cli.main``: an exception escaping ``main``
+    (which would be a traceback) fails the test."""
+    monkeypatch.chdir(case_dir)
+    argv = list(_argv(args, case_dir))
+    try:
+        rc = main(argv)
+    except SystemExit as exc:  # argparse errors exit from inside parse_args
+        rc = exc.code
+    out, err = capsys.readouterr()
+    assert_usage_error(subprocess.CompletedProcess(argv, rc, out, err), *needles)
+
+
+def test_run_rejects_bad_input_before_writing_anything(error_runs, case_dir):
+    # the run-* commands above named these output folders; none may have been created
+    assert error_runs
+    for name in ("out-unknown", "out-zero-h", "out-nan", "out-sweep-h"):
+        assert not (case_dir / name).exists()
+    assert not (case_dir / "results").exists()
+
+
+def test_unknown_case_message_lists_every_builtin_case(error_runs, case_dir):
+    line = assert_usage_error(error_runs[_argv([S, "nope"], case_dir)])
+    for name in ALL_CASES:
+        assert name in line
+
+
+# ---------------------------------------------------------------------------------------
+# happy paths
+# ---------------------------------------------------------------------------------------
+
+
+def test_version():
+    proc = cli("--version")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == f"mfcontrol {mfcontrol.__version__}"
+    assert proc.stderr == ""
+
+
+def test_cases_lists_all_eight():
+    proc = cli("cases")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == ""
+    lines = proc.stdout.splitlines()
+    assert len(lines) == len(ALL_CASES)
+    listed = [line.split()[0] for line in lines]
+    assert sorted(listed) == sorted(ALL_CASES)
+    assert sorted(listed) == sorted(mfcontrol.case_names())
+    for line in lines:  # a description follows every name
+        assert len(line.split(maxsplit=1)) == 2
+
+
+def _show(*args: str, cwd: Path | None = None) -> tuple[str, dict]:
+    proc = cli("show", *args, cwd=cwd)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == ""
+    return proc.stdout, tomllib.loads(proc.stdout)
+
+
+def test_show_paper_fidelity_presets():
+    _, cfg = _show("voltage-stable-variational", "--set", "fidelity=paper")
+    assert cfg["fidelity"] == "paper"
+    assert cfg["controller"]["integrator"] == "second-order"
+    assert cfg["controller"]["rate_term"] is True
+    assert cfg["controller"]["gain"] == "gamma"
+    assert cfg["plant"]["coupling"] == "textbook"
+    # the rest of the case is still there
+    assert cfg["controller"]["law"] == "variational"
+    assert cfg["plant"]["dR"] == 1.0
+
+
+def test_show_published_fidelity_is_the_default():
+    _, cfg = _show("voltage-stable-variational")
+    assert cfg["fidelity"] == "published"
+    assert cfg["controller"]["integrator"] == "first-order"
+    assert cfg["controller"]["rate_term"] is False
+    assert cfg["controller"]["gain"] == "gamma"
+    assert cfg["plant"]["coupling"] == "published"
+
+
+def test_show_explicit_keys_beat_the_preset():
+    _, cfg = _show("voltage-stable-variational", "--set", "fidelity=paper",
+                   "--set", "plant.coupling=published", "--set", "controller.rate_term=false")
+    assert cfg["plant"]["coupling"] == "published"
+    assert cfg["controller"]["rate_term"] is False
+    assert cfg["controller"]["integrator"] == "second-order"  # still from the preset
+
+
+def test_show_set_values_are_parsed_as_toml():
+    _, cfg = _show(CASE, "--set", "controller.alpha=5", "--set", "plant.change_times=[1e-3]",
+                   "--set", "description=hello world", "--set", "controller.rate_term=true")
+    assert cfg["controller"]["alpha"] == 5.0
+    assert isinstance(cfg["controller"]["alpha"], float)
+    assert cfg["plant"]["change_times"] == [1e-3]
+    assert cfg["description"] == "hello world"
+    assert cfg["controller"]["rate_term"] is True
+
+
+def test_show_output_round_trips_as_a_case_file(tmp_path):
+    first, _ = _show("sweep-Gamma", "--set", "fidelity=paper", "--set", "plant.dR=2.5")
+    (tmp_path / "x.toml").write_text(first)
+    second, cfg = _show("x.toml", cwd=tmp_path)
+    assert second == first
+    assert cfg["sweep"]["values"] == [5e-10, 5e-9, 5e-8, 5e-7, 5e-6]
+
+
+def test_show_output_round_trips_with_a_multiline_description(tmp_path):
+    (tmp_path / "a.toml").write_text('description = "two\\nlines"\n[controller]\nalpha = 5.0\n')
+    first, cfg = _show("a.toml", cwd=tmp_path)
+    assert cfg["description"] == "two\nlines"
+    (tmp_path / "b.toml").write_text(first)
+    second, _ = _show("b.toml", cwd=tmp_path)
+    assert second == first
+
+
+def _read_csv(path: Path) -> tuple[list[str], list[list[str]]]:
+    with path.open(newline="") as f:
+        header, *rows = list(csv.reader(f))
+    return header, rows
+
+
+def test_run_writes_the_four_files(tmp_path):
+    out = tmp_path / "out"
+    proc = cli("run", CASE, "--out", str(out), *SHORT, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert f"{CASE}: stable = True" in proc.stdout
+    assert sorted(p.name for p in out.iterdir()) == [
+        "config.toml", "figure.png", "metrics.json", "trajectory.csv"]
+    header, rows = _read_csv(out / "trajectory.csv")
+    assert header == ["t", "y_ref", "y", "duty", "u_raw", "gamma", "gain", "i_L", "v_C"]
+    assert len(rows) == 1000
+    assert all(len(r) == len(header) for r in rows)
+    assert float(rows[0][0]) == 0.0
+    assert float(rows[-1][0]) == pytest.approx(0.001 - 1e-6)
+    metrics = json.loads((out / "metrics.json").read_text())
+    for key in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "stable"):
+        assert key in metrics
+    assert metrics["stable"] is True
+    assert metrics["case"] == CASE
+    config = tomllib.loads((out / "config.toml").read_text())
+    assert config["sim"]["t_end"] == 0.001
+    assert (out / "figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not (tmp_path / "results").exists()
+
+
+def test_run_user_case_file(tmp_path):
+    text = (CASES_DIR / f"{CASE}.toml").read_text()
+    assert "alpha = 10.0" in text
+    case = tmp_path / "my-case.toml"
+    case.write_text(text.replace("alpha = 10.0", "alpha = 5.0"))
+    out = tmp_path / "out"
+    proc = cli("run", str(case), "--out", str(out), *SHORT, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("my-case: ")
+    config = tomllib.loads((out / "config.toml").read_text())
+    assert config["controller"]["alpha"] == 5.0
+    assert config["sim"]["t_end"] == 0.001
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["case"] == "my-case"
+    assert metrics["final_gamma"] == pytest.approx(1 / 5.0)
+    _, rows = _read_csv(out / "trajectory.csv")
+    assert len(rows) == 1000
+    # the config.toml the run wrote is what `show` prints for the same input
+    expected, _ = _show(str(case), *SHORT)
+    assert (out / "config.toml").read_text() == expected
+
+
+def test_run_sweep_case_writes_the_gamma_figure(tmp_path):
+    out = tmp_path / "out"
+    proc = cli("run", "sweep-epsM", "--out", str(out), *SHORT, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        "config.toml", "figure-gamma.png", "figure.png", "metrics.json", "trajectory.csv"]
+    assert len(proc.stdout.splitlines()) == 4  # one line per member, then "wrote ..."
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert [m["controller.eps_M"] for m in metrics["members"]] == [1e-5, 0.1, 1e3]
+
+
+
+def test_out_that_is_a_file_is_a_one_line_error(tmp_path):
+    (tmp_path / "taken").write_text("x")
+    proc = subprocess.run([sys.executable, "-m", "mfcontrol.cli", "run", "power-standard",
+                           "--out", str(tmp_path / "taken"), "--set", "sim.t_end=0.001"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "--out" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_show_checks_every_sweep_member_against_the_cross_key_rules():
+    proc = subprocess.run([sys.executable, "-m", "mfcontrol.cli", "show", "sweep-Gamma",
+                           "--set", "sweep.key=plant.dR", "--set", "sweep.values=[1.0, -20.0]"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and "plant.dR = -20.0" in proc.stderr

@@ -1,0 +1,18 @@
+"""The README states what the code does: its option table and quick-start commands."""
+
+from pathlib import Path
+
+from mfcontrol.config import options_markdown
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_readme_option_table_is_the_schema():
+    assert options_markdown() in (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def test_readme_quick_start_commands():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert 'pip install . && mfcontrol reproduce --out results' in text
+    assert 'pip install ".[test]" && pytest' in text
+    assert 'pip install ".[test]" && pytest' in (ROOT / ".ci" / "run").read_text()
