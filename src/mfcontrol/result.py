@@ -16,8 +16,32 @@ from .config import Config
 SIGNALS = ("y_ref", "y", "duty", "u_raw", "gamma", "gain")
 
 
+class _Files:
+    """What both result types write: the trajectory as CSV and the metrics as JSON."""
+
+    name: str
+    version: str
+
+    def to_pandas(self):  # pragma: no cover - every result type defines it
+        raise NotImplementedError
+
+    def _metrics_payload(self) -> dict[str, Any]:  # pragma: no cover
+        raise NotImplementedError
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write the trajectory; floats keep all 17 significant digits."""
+        path = Path(path)
+        self.to_pandas().to_csv(path, index=False, float_format="%.17g")
+        return path
+
+    def metrics_json(self) -> str:
+        """Metrics as JSON, with the case name and the mfcontrol version (NaN as null)."""
+        payload = {"case": self.name, "mfcontrol": self.version, **self._metrics_payload()}
+        return json.dumps(_jsonable(payload), indent=2)
+
+
 @dataclass
-class Result:
+class Result(_Files):
     """One simulated run.
 
     Attributes
@@ -61,15 +85,8 @@ class Result:
 
         return pd.DataFrame({"t": self.time, **self.signals, **self.states})
 
-    def to_csv(self, path: str | Path) -> Path:
-        """Write the trajectory; floats keep all 17 significant digits."""
-        path = Path(path)
-        self.to_pandas().to_csv(path, index=False, float_format="%.17g")
-        return path
-
-    def metrics_json(self) -> str:
-        return json.dumps(_jsonable({"case": self.name, "mfcontrol": self.version,
-                                     **self.metrics}), indent=2)
+    def _metrics_payload(self) -> dict[str, Any]:
+        return dict(self.metrics)
 
     def plot(self, path: str | Path | None = None, title: str | None = None):
         """Output and reference on top, duty cycle below (and gamma for adaptive laws).
@@ -82,7 +99,7 @@ class Result:
 
 
 @dataclass
-class SweepResult:
+class SweepResult(_Files):
     """Members of a sweep case, each run on the same, freshly reset scenario."""
 
     name: str
@@ -107,14 +124,8 @@ class SweepResult:
             frames.append(df)
         return pd.concat(frames, ignore_index=True)
 
-    def to_csv(self, path: str | Path) -> Path:
-        path = Path(path)
-        self.to_pandas().to_csv(path, index=False, float_format="%.17g")
-        return path
-
-    def metrics_json(self) -> str:
-        return json.dumps(_jsonable({"case": self.name, "mfcontrol": self.version,
-                                     "sweep": self.key, "members": self.metrics}), indent=2)
+    def _metrics_payload(self) -> dict[str, Any]:
+        return {"sweep": self.key, "members": self.metrics}
 
     def plot(self, path: str | Path | None = None, kind: str = "gamma"):
         """``kind='gamma'``: gamma(t) per member; ``kind='error'``: |y - y*| (log axis)."""
