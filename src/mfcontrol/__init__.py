@@ -10,13 +10,17 @@ Quick use::
 
 from ._version import __version__
 from .config import Config, resolve
+from .controller import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
 from .errors import CaseError, ConfigError
 from .experiments.cases import names as case_names
 from .experiments.cases import run_case
+from .loop import Change, LoopResult, simulate_loop
 from .result import Result, SweepResult
 from .simulate import simulate, simulate_many, simulate_sweep
 
 __all__ = [
+    "IP", "IPD", "IPI", "IPID", "IntelligentController", "RecursiveIP",
     "CaseError", "Config", "ConfigError", "Result", "SweepResult", "__version__",
+    "Change", "LoopResult", "simulate_loop",
     "case_names", "resolve", "run_case", "simulate", "simulate_many", "simulate_sweep",
 ]

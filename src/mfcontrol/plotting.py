@@ -26,6 +26,11 @@ def _labels(result: Result) -> tuple[str, str, str]:
     return _OUTPUT[result.config["plant.output"]]
 
 
+def _time_scale(t: np.ndarray) -> tuple[float, str]:
+    """Milliseconds for runs shorter than a second, seconds otherwise."""
+    return (1e3, "time $t$ (ms)") if t.size and t[-1] < 1.0 else (1.0, "time $t$ (s)")
+
+
 def _time_ms(result: Result) -> np.ndarray:
     return result.time * 1e3
 
@@ -43,6 +48,37 @@ def _save(fig: Figure, path: str | Path | None) -> Figure:
     return fig
 
 
+def _tracking_panel(ax, t_ms, y, y_ref, ylabel: str, sym: str) -> None:
+    ax.plot(t_ms, y, color="tab:red", lw=1.4, label=f"output ${sym}$")
+    ax.plot(t_ms, y_ref, color="tab:blue", lw=1.2, ls="--", label=f"reference ${sym}^*$")
+    ax.set_ylabel(ylabel)
+    ax.legend(loc="best")
+
+
+def plot_loop(result, path: str | Path | None = None, title: str | None = None,
+              output_label: str = "output y", input_label: str = "control u") -> Figure:
+    """A :class:`~mfcontrol.loop.LoopResult`: output and reference on top, control below.
+    Labels should carry units, e.g. ``output_label="speed (rad/s)"``."""
+    fig = Figure(figsize=(8, 5.8), layout="constrained")
+    axes = fig.subplots(2, 1, sharex=True)
+    scale, time_label = _time_scale(result.time)
+    t = result.time * scale
+    _tracking_panel(axes[0], t, result.signals["y"], result.signals["y_ref"], output_label,
+                    "y")
+    axes[1].plot(t, result.signals["u"], color="tab:green", lw=1.0)
+    axes[1].set_ylabel(input_label)
+    for a in axes:
+        a.grid(True, alpha=0.3)
+        for c in result.changes:
+            a.axvline(c.time * scale, color="0.6", lw=0.8, ls=":")
+    axes[-1].set_xlabel(time_label)
+    if result.metrics.get("diverged"):
+        axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
+                          color="tab:red", fontsize=9, loc="right")
+    fig.suptitle(title if title is not None else result.name)
+    return _save(fig, path)
+
+
 def plot_run(result: Result, path: str | Path | None = None, title: str | None = None,
              with_gamma: bool | None = None) -> Figure:
     """Output and reference (top), duty cycle (middle/bottom), gamma (bottom, optional)."""
@@ -53,12 +89,8 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     axes = fig.subplots(n, 1, sharex=True)
     quantity, sym, unit = _labels(result)
     t = _time_ms(result)
-    ax = axes[0]
-    ax.plot(t, result.signals["y"], color="tab:red", lw=1.4, label=f"output ${sym}$")
-    ax.plot(t, result.signals["y_ref"], color="tab:blue", lw=1.2, ls="--",
-            label=f"reference ${sym}^*$")
-    ax.set_ylabel(f"{quantity} ${sym}$ ({unit})")
-    ax.legend(loc="upper left")
+    _tracking_panel(axes[0], t, result.signals["y"], result.signals["y_ref"],
+                    f"{quantity} ${sym}$ ({unit})", sym)
     axes[1].plot(t, result.signals["duty"], color="tab:green", lw=1.0)
     axes[1].set_ylabel("duty cycle $d$ (1)")
     if with_gamma:

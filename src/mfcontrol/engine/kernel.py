@@ -240,3 +240,15 @@ def reset_members(law_kind, CP, CS):
     if law_kind == RECURSIVE_IP:
         for j in range(CS.shape[1]):
             recursive_ip.reset(CP, CS, j)
+
+
+@kernel_jit
+def trajectory_metrics(t, h, y, r, u, applied, gamma, S, M):
+    """Fold a recorded trajectory into metrics column 0 of M, sample by sample, with the
+    same rule as the kernels (used by loops driven from Python)."""
+    a_prev = 0.0
+    for k in range(t.size):
+        if not member_metrics(M, S, 0, k, t[k], h, y[k], r[k], u[k], applied[k], a_prev,
+                              gamma[k]):
+            break
+        a_prev = applied[k]

@@ -4,6 +4,9 @@ Modes
 -----
 constant
     ``gamma_k = 1/alpha`` for every k (the standard law).
+external
+    ``gamma_k = 1/alpha_k`` with alpha_k supplied by the caller at every sample (written
+    to the state row ``ALPHA_EXT`` before the step).
 variational
     The symplectic integrator of Michel (CCTA 2025), eq. (32), with the published
     indexing: ``gamma_0 = gamma_1 = gamma_2 = gamma0`` and, for k >= 3,
@@ -29,11 +32,13 @@ N_PARAMS = 6
 # state rows
 G1 = 0  # gamma_{k-1}
 G2 = 1  # gamma_{k-2}
-N_STATE = 2
+ALPHA_EXT = 2  # external mode: alpha for the coming sample
+N_STATE = 3
 
 CONSTANT = 0
 VARIATIONAL = 1
-MODES = {"constant": CONSTANT, "variational": VARIATIONAL}
+EXTERNAL = 2
+MODES = {"constant": CONSTANT, "variational": VARIATIONAL, "external": EXTERNAL}
 
 
 @step_jit
@@ -47,18 +52,22 @@ def reset(CP, CS, j):
     g = initial(CP, j)
     CS[G1, j] = g
     CS[G2, j] = g
+    CS[ALPHA_EXT, j] = 1.0 / CP[INV_ALPHA, j]
 
 
 @step_jit
 def update(CP, CS, j, k, e_dot):
     """Advance to sample k (>= 1) given the error derivative; return (gamma_k, gamma_{k-1})."""
     g1 = CS[G1, j]
-    if CP[MODE, j] == VARIATIONAL:
+    mode = CP[MODE, j]
+    if mode == VARIATIONAL:
         if k >= 3:
             g_prev = CS[G2, j] if CP[ORDER, j] == 2.0 else g1
             g = ((e_dot - CP[EPS_M, j]) * CP[GAMMA_RATE, j] + 2.0 * g1) - g_prev
         else:
             g = CP[GAMMA0, j]
+    elif mode == EXTERNAL:
+        g = 1.0 / CS[ALPHA_EXT, j]
     else:
         g = CP[INV_ALPHA, j]
     CS[G2, j] = g1

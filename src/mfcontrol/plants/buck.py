@@ -56,8 +56,22 @@ def output(PP, X, j):
 
 
 @step_jit
+def _rhs(PP, j, i, v, b, cb):
+    """dx/dt = A x + (b, cb): b = d/L*E, cb = b (published coupling) or 0 (textbook)."""
+    return PP[A12, j] * v + b, (PP[A21, j] * i + PP[A22, j] * v) + cb
+
+
+@step_jit
+def deriv(PP, X, j, d):
+    """(di/dt, dv/dt) of member j under duty cycle d."""
+    b = d / PP[L, j] * PP[E, j]
+    return _rhs(PP, j, X[I_L, j], X[V_C, j], b, PP[COUPLING, j] * b)
+
+
+@step_jit
 def _increment(PP, j, i, v, b, cb, h):
-    return h * (PP[A12, j] * v + b), h * ((PP[A21, j] * i + PP[A22, j] * v) + cb)
+    di, dv = _rhs(PP, j, i, v, b, cb)
+    return h * di, h * dv
 
 
 @step_jit

@@ -1,0 +1,48 @@
+"""Your own plant as an ODE, under an intelligent proportional controller (i-P).
+
+A gravity-drained tank: level h (m), pump flow u (m^3/s) in, outflow through an orifice,
+    A dh/dt = u - a sqrt(2 g h).
+Nothing of this model is given to the controller: the i-P only assumes h' = F + alpha u
+and estimates F (outflow, and the unknown leak that opens at t = 60 s) at every sample.
+alpha = 1/A is the right order of magnitude ("h' and alpha u of the same size");
+kp = 0.2 1/s sets the error decay, e(t) ~ exp(-kp t).
+
+Run:  python examples/own_plant_ode.py [figure.png]
+"""
+
+import sys
+
+import numpy as np
+
+import mfcontrol
+from mfcontrol.plants.models import ODE
+
+AREA, ORIFICE, G = 0.5, 0.01, 9.81
+
+
+def tank(t, x, u, p):
+    area, orifice, leak = p
+    h = max(x[0], 0.0)
+    return np.array([(u - (orifice + leak) * np.sqrt(2 * G * h)) / area])
+
+
+def level(x, p):
+    return x[0]
+
+
+def main(path: str = "examples/own_plant_ode.png") -> mfcontrol.LoopResult:
+    plant = ODE(tank, level, x0=[0.2], params={"area": AREA, "orifice": ORIFICE, "leak": 0.0})
+    ctrl = mfcontrol.IP(alpha=1 / AREA, kp=0.2, sample_time=0.1, output_limits=(0.0, 0.2))
+    setpoint = lambda t: 1.0 if t < 100 else 0.6  # noqa: E731
+    res = mfcontrol.simulate_loop(plant, ctrl, setpoint, t_end=150.0,
+                                  changes=[mfcontrol.Change(60.0, "leak", 0.005)])
+    res.plot(path, title="Tank level under i-P (leak opens at 60 s)",
+             output_label="level h (m)", input_label="pump flow u (m$^3$/s)")
+    m = res.metrics
+    print(f"tank i-P: stable={m['stable']} IAE={m['iae']:.3f} m s, "
+          f"final error={res.error[-1]:+.2e} m, wrote {path}")
+    return res
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:2])

@@ -1,0 +1,68 @@
+"""Compiled entry points for controllers driven one sample at a time from Python.
+
+One numba call per sample: the argument list is kept short and scalar so that the call
+costs little more than numba's own dispatch.
+"""
+
+import numpy as np
+
+from .._jit import kernel_jit
+from ..laws import gain, intelligent, recursive_ip
+
+
+@kernel_jit
+def intelligent_step(CP, CS, backup, y, r, dt, alpha):
+    """One sample of an intelligent controller (member 0); ``alpha`` is used in external
+    gain mode only. A non-finite result (finite but huge inputs can overflow) leaves the
+    state as it was and returns NaN, for the caller to hold its last output."""
+    n = CS.shape[0]
+    for i in range(n):
+        backup[i] = CS[i, 0]
+    CS[gain.ALPHA_EXT, 0] = alpha
+    u = intelligent.step(CP, CS, 0, y, r, dt)
+    if not np.isfinite(u):
+        for i in range(n):
+            CS[i, 0] = backup[i]
+        return np.nan
+    return u
+
+
+@kernel_jit
+def intelligent_reset(CP, CS):
+    intelligent.reset(CP, CS, 0)
+
+
+@kernel_jit
+def recursive_step(CP, CS, backup, y, r):
+    """One sample of the paper's recursive i-P (member 0): (u_raw, applied, gain, gamma);
+    a non-finite raw control restores the state and returns NaNs, as above."""
+    n = CS.shape[0]
+    for i in range(n):
+        backup[i] = CS[i, 0]
+    u, applied, g, gamma = recursive_ip.step(CP, CS, 0, y, r)
+    if not (np.isfinite(u) and np.isfinite(applied)):
+        for i in range(n):
+            CS[i, 0] = backup[i]
+        return np.nan, np.nan, np.nan, np.nan
+    return u, applied, g, gamma
+
+
+@kernel_jit
+def recursive_reset(CP, CS):
+    recursive_ip.reset(CP, CS, 0)
+
+
+@kernel_jit
+def intelligent_pure(CP, state, y, r, dt, alpha):
+    """The step as a pure function of (state, inputs): (u, next state); ``state`` unchanged."""
+    CS = state.copy().reshape((state.size, 1))
+    CS[gain.ALPHA_EXT, 0] = alpha
+    u = intelligent.step(CP, CS, 0, y, r, dt)
+    return u, CS[:, 0]
+
+
+@kernel_jit
+def recursive_pure(CP, state, y, r):
+    CS = state.copy().reshape((state.size, 1))
+    _, applied, _, _ = recursive_ip.step(CP, CS, 0, y, r)
+    return applied, CS[:, 0]

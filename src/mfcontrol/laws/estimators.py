@@ -1,0 +1,226 @@
+"""Algebraic integral estimator of F over a sliding window of M samples, T = M h.
+
+Ultra-local model ``y^(n) = F + alpha u`` (n = 1 or 2), samples at t_i = i h. At sample k
+the window holds y_{k-M}, ..., y_k and u_{k-M}, ..., u_{k-1} (u_i is applied from t_i on).
+In the window s runs from 0 at the OLDEST sample to T at the newest (s_i = i h, sample
+k - M + i). With w(s) a kernel vanishing at both ends, integration by parts moves the
+derivatives of y onto w, where they are exact::
+
+    n = 1, w = s (T - s):  int w' y = -int w y' = -int w (F + alpha u), int w = T^3 / 6
+        F_hat = -(6 / T^3) int_0^T [ (T - 2 s) y(t-T+s) + alpha s (T - s) u(t-T+s) ] ds
+    n = 2, w = s^2 (T - s)^2 / 2 (w' vanishes at the ends too), int w = T^5 / 60
+        F_hat = (60 / T^5) int_0^T [ (T^2 - 6 T s + 6 s^2) y(t-T+s)
+                                      - (alpha / 2) s^2 (T - s)^2 u(t-T+s) ] ds
+
+The integral is exact for F constant over the window and, w being symmetric about T/2,
+gives F(t - T/2) for F linear in time: the estimate is delayed by half a window. The
+integrals are taken by the trapezoid rule (n = 1) and composite Simpson (n = 2, M even)
+over the M + 1 samples, u_i standing for u(t_i); u weighs nothing at either end, so u_k is
+never needed. The rule adds its own error, large for small M: with F constant and u = 0
+the estimate is F (1 + 2/M^2) for n = 1 and F (1 + 24/M^4) for n = 2.
+
+Sliding moments
+---------------
+In the centred window index c = i - M/2 both kernels are polynomials in c::
+
+    n = 1:  y weight ~ -2 c              u weight ~ M^2/4 - c^2
+    n = 2:  y weight ~ 6 c^2 - M^2/2     u weight ~ (M^2/4 - c^2)^2
+
+so F_hat is a fixed combination of the moments ``Y_p = sum c^p y`` (p <= 2) and
+``U_p = sum c^p u`` (p <= 4), plus the rule's end corrections, which need only the oldest
+and newest y. When the window slides by one sample every c drops by one, so
+``Y_p <- sum_q C(p, q) (-1)^(p-q) Y_q``, less the sample leaving, plus the one entering:
+O(1) work per sample whatever M. Simpson's 1-4-2-...-4-1 pattern needs separate sums over
+even and odd positions; a sample's position changes parity at every slide, its absolute
+index does not, so the sums are split by the parity of the absolute sample index. Centring
+keeps the moments near (M/2)^p instead of M^p and avoids most of the cancellation.
+
+The recurrence does not forget its rounding errors: an error in Y_q acts like a phantom
+sample that keeps sliding out of the window, and its weight in F_hat grows like a power of
+its age (the 4th for U_4). So every M samples the moments are recomputed exactly from the
+raw samples, kept in a ring buffer: O(M) once every M samples, O(1) amortised, and the
+drift stays a few M ulps of the summed terms. The resync also recovers from a non-finite
+sample, which poisons the running sums (inf - inf) until the first resync after it has
+left the window (at most 2M samples, against M + 1 for a direct sum).
+
+State rows (``CS[base + row, j]``)
+----------------------------------
+``COUNT`` samples pushed since reset; ``Y_MOM + N_YMOM * parity + p`` and
+``U_MOM + N_UMOM * parity + p`` the moments over samples of that index parity; ``RING``
+then M + 1 rows of y history and M + 1 rows of u history. Sample m lives in slot
+m % (M + 1): y_m, and the u pushed with it, u_{m-1}. The estimator has no parameter rows:
+the law embedding it passes M, h, alpha and n.
+"""
+
+import numpy as np
+
+from .._jit import step_jit
+
+# state rows, relative to the caller's base row
+COUNT = 0  # samples pushed since reset; the newest is sample k = COUNT - 1
+N_YMOM = 3  # y moments p = 0..2
+N_UMOM = 5  # u moments p = 0..4
+Y_MOM = 1
+U_MOM = Y_MOM + 2 * N_YMOM
+RING = U_MOM + 2 * N_UMOM  # y ring (M + 1 rows), then u ring (M + 1 rows)
+
+ORDERS = (1, 2)
+
+
+def n_state(M: int) -> int:
+    """CS rows the estimator needs for a window of M samples."""
+    return RING + 2 * (M + 1)
+
+
+def check_window(order: int, M: int) -> None:
+    """Raise ValueError unless (order, M) is a valid estimator: n = 1 or 2, M >= 2, even for n = 2.
+
+    Call it where parameters are built: the compiled functions cannot raise and return NaN
+    for an invalid pair instead.
+    """
+    if order not in ORDERS:
+        raise ValueError(f"order = {order!r}: the ultra-local model order must be 1 or 2")
+    if not isinstance(M, int | np.integer) or isinstance(M, bool) or M < 2:
+        raise ValueError(f"M = {M!r}: the window must be a whole number of samples >= 2")
+    if order == 2 and M % 2:
+        raise ValueError(f"M = {M!r}: Simpson's rule (order 2) needs an even number of intervals")
+
+
+@step_jit
+def _add(CS, j, row, n_mom, c, v):
+    """Moments rows row..row+n_mom-1 += v c^p."""
+    t = v
+    for p in range(n_mom):
+        CS[row + p, j] += t
+        t *= c
+
+
+@step_jit
+def _slide(CS, j, row, n_mom):
+    """Re-centre moments at c - 1: S_p <- sum_q C(p, q) (-1)^(p-q) S_q (Pascal's triangle)."""
+    for i in range(n_mom - 1):
+        for p in range(n_mom - 1, i, -1):
+            CS[row + p, j] -= CS[row + p - 1, j]
+
+
+@step_jit
+def resync(CS, j, base, M):
+    """Recompute every moment from the ring buffer (O(M)); push calls it every M samples."""
+    for row in range(Y_MOM, RING):
+        CS[base + row, j] = 0.0
+    k = int(CS[base + COUNT, j]) - 1  # newest sample
+    m1 = M + 1
+    half = 0.5 * M
+    for m in range(max(0, k - M), k + 1):  # oldest first, as the direct sum
+        slot = m % m1
+        c = m - k + half
+        _add(CS, j, base + Y_MOM + N_YMOM * (m % 2), N_YMOM, c, CS[base + RING + slot, j])
+        if m - 1 >= k - M:  # u_{m-1}, stored with y_m, is in the u window
+            _add(CS, j, base + U_MOM + N_UMOM * ((m + 1) % 2), N_UMOM, c - 1.0,
+                 CS[base + RING + m1 + slot, j])
+
+
+@step_jit
+def reset(CS, j, base, M):
+    """Empty the window (all rows, ring included, to zero: missing samples count as 0)."""
+    for row in range(RING + 2 * (M + 1)):  # n_state(M)
+        CS[base + row, j] = 0.0
+
+
+@step_jit
+def push(CS, j, base, M, y, u_prev):
+    """Add the newest sample: y_k and the control u_{k-1} applied since the previous one.
+
+    O(1) except on every M-th sample, where the moments are recomputed (O(M)).
+    """
+    n = int(CS[base + COUNT, j])  # index of the entering sample
+    m1 = M + 1
+    half = 0.5 * M
+    slot = n % m1
+    # leaving: y_{n-M-1} in the slot about to be overwritten, u_{n-M-1} in the next slot
+    # (stored with y_{n-M}); before the window has filled these read the zeros of reset
+    y_out = CS[base + RING + slot, j]
+    u_out = CS[base + RING + m1 + (n + 1) % m1, j]
+    for par in range(2):
+        _slide(CS, j, base + Y_MOM + N_YMOM * par, N_YMOM)
+        _slide(CS, j, base + U_MOM + N_UMOM * par, N_UMOM)
+    out_par = (n + M + 1) % 2  # parity of n - M - 1, kept non-negative
+    _add(CS, j, base + Y_MOM + N_YMOM * out_par, N_YMOM, -half - 1.0, -y_out)
+    _add(CS, j, base + U_MOM + N_UMOM * out_par, N_UMOM, -half - 1.0, -u_out)
+    _add(CS, j, base + Y_MOM + N_YMOM * (n % 2), N_YMOM, half, y)
+    _add(CS, j, base + U_MOM + N_UMOM * ((n + 1) % 2), N_UMOM, half - 1.0, u_prev)
+    CS[base + RING + slot, j] = y
+    CS[base + RING + m1 + slot, j] = u_prev
+    CS[base + COUNT, j] = n + 1.0
+    if (n + 1) % M == 0:
+        resync(CS, j, base, M)
+
+
+@step_jit
+def estimate(CS, j, base, M, h, alpha, order):
+    """F_hat for the window ending at the newest sample; it belongs to t_k - M h / 2.
+
+    NaN until the window is full (fewer than M + 1 samples) and for an invalid (order, M).
+    """
+    n = int(CS[base + COUNT, j])
+    if n <= M or M < 2:
+        return np.nan
+    k = n - 1
+    m1 = M + 1
+    y_old = CS[base + RING + n % m1, j]  # y_{k-M}
+    y_new = CS[base + RING + k % m1, j]
+    fm = float(M)
+    half = 0.5 * fm
+    h2 = half * half
+    y0 = base + Y_MOM
+    u0 = base + U_MOM
+    if order == 1:
+        y1 = CS[y0 + 1, j] + CS[y0 + N_YMOM + 1, j]
+        uu0 = CS[u0, j] + CS[u0 + N_UMOM, j]
+        uu2 = CS[u0 + 2, j] + CS[u0 + N_UMOM + 2, j]
+        # trapezoid: y weight -2c, ends halved (c = -M/2 and +M/2)
+        sy = 2.0 * y1 + half * (y_old - y_new)
+        su = h2 * uu0 - uu2
+        m3 = fm * fm * fm
+        return (6.0 / (h * m3)) * sy - (6.0 * alpha / m3) * su
+    if order == 2 and M % 2 == 0:
+        e = k % 2  # absolute parity of the even window positions (M even)
+        o = 1 - e
+        ye = y0 + N_YMOM * e
+        yo = y0 + N_YMOM * o
+        ue = u0 + N_UMOM * e
+        uo = u0 + N_UMOM * o
+        gy_e = 6.0 * CS[ye + 2, j] - 2.0 * h2 * CS[ye, j]
+        gy_o = 6.0 * CS[yo + 2, j] - 2.0 * h2 * CS[yo, j]
+        gu_e = h2 * h2 * CS[ue, j] - 2.0 * h2 * CS[ue + 2, j] + CS[ue + 4, j]
+        gu_o = h2 * h2 * CS[uo, j] - 2.0 * h2 * CS[uo + 2, j] + CS[uo + 4, j]
+        # Simpson 1-4-2-...-4-1: 2 everywhere, 4 at odd positions, 1 at the ends where the
+        # y weight is M^2 and the u weight 0
+        sy = 2.0 * gy_e + 4.0 * gy_o - fm * fm * (y_old + y_new)
+        su = 2.0 * gu_e + 4.0 * gu_o
+        m5 = fm * fm * fm * fm * fm
+        return (20.0 / (m5 * h * h)) * sy - (10.0 * alpha / m5) * su
+    return np.nan
+
+
+def weights(order: int, M: int, h: float, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """The estimator as FIR kernels, straight from the integral (no moments).
+
+    Returns ``(wy, wu)``, oldest sample first, of lengths M + 1 and M, such that
+    ``F_hat = wy @ [y_{k-M}, ..., y_k] + wu @ [u_{k-M}, ..., u_{k-1}]``.
+    """
+    check_window(order, M)
+    T = M * h
+    i = np.arange(M + 1)
+    s = h * i
+    if order == 1:
+        q = np.full(M + 1, h)  # trapezoid
+        q[0] = q[-1] = 0.5 * h
+        wy = -(6.0 / T**3) * q * (T - 2.0 * s)
+        wu = -(6.0 / T**3) * q * alpha * s * (T - s)
+    else:
+        q = np.where(i % 2 == 1, 4.0 * h / 3.0, 2.0 * h / 3.0)  # Simpson
+        q[0] = q[-1] = h / 3.0
+        wy = (60.0 / T**5) * q * (T**2 - 6.0 * T * s + 6.0 * s**2)
+        wu = -(60.0 / T**5) * q * (0.5 * alpha) * s**2 * (T - s) ** 2
+    return wy, wu[:M]

@@ -1,0 +1,160 @@
+"""Positional intelligent controllers (Fliess & Join): i-P, i-PI, i-PD, i-PID.
+
+Ultra-local model of order n = 1 or 2, ``y^(n) = F + alpha u``, error ``e = y - y*``::
+
+    u = -(F_hat - y*^(n) + K_P e + K_I int(e) + K_D e') / alpha
+
+i-P has K_I = K_D = 0, i-PI adds the integral, i-PD (n = 2) the derivative, i-PID all
+three. ``1/alpha`` is the gain gamma of :mod:`mfcontrol.laws.gain` (constant, the
+variational update of the paper driven by the error derivative, or supplied by the caller).
+
+F_hat, selectable:
+
+* backward difference: ``F_hat_k = y^(n)_k - alpha u_{k-1}`` with ``y'_k = (y_k - y_{k-1})/dt``
+  and ``y''_k = (y_k - 2 y_{k-1} + y_{k-2})/dt^2``. With it the i-P is the incremental law
+  ``u_k = u_{k-1} - (y^(n)_k - y*^(n)_k + K_P e_k)/alpha``.
+* algebraic: the integral estimator of :mod:`mfcontrol.laws.estimators` over the last M
+  samples (its value belongs to t - M dt / 2); the backward difference stands in until the
+  window is full.
+
+``u_{k-1}`` is the *applied* (limited) output: the ultra-local model relates y to what the
+plant received, so the F term never winds up. The integral can; anti-windup, selectable:
+
+* ``clamp``: conditional integration: the integral is frozen on a sample where the output
+  is limited and integrating would push it further past the limit;
+* ``back-calculation``: the integral is corrected by ``K_aw dt (u - u_unlimited)``,
+  expressed in integral units.
+
+Until n samples have been seen no derivative exists: the output holds ``u_init``.
+"""
+
+import math
+
+from .._jit import step_jit
+from . import estimators, gain
+
+# parameter rows (after the gain adaptation rows)
+N_ORDER = gain.N_PARAMS + 0  # ultra-local model order n (1 or 2)
+KP = gain.N_PARAMS + 1
+KI = gain.N_PARAMS + 2
+KD = gain.N_PARAMS + 3
+EST = gain.N_PARAMS + 4  # 0 backward difference, 1 algebraic
+M_WIN = gain.N_PARAMS + 5  # algebraic window, samples
+OUT_MIN = gain.N_PARAMS + 6
+OUT_MAX = gain.N_PARAMS + 7
+AW = gain.N_PARAMS + 8  # 0 none, 1 clamp, 2 back-calculation
+K_AW = gain.N_PARAMS + 9
+U_INIT = gain.N_PARAMS + 10
+N_PARAMS = gain.N_PARAMS + 11
+
+BACKWARD = 0.0
+ALGEBRAIC = 1.0
+ESTIMATORS = {"backward-difference": BACKWARD, "algebraic": ALGEBRAIC}
+AW_NONE = 0.0
+AW_CLAMP = 1.0
+AW_BACK = 2.0
+ANTI_WINDUP = {"none": AW_NONE, "clamp": AW_CLAMP, "back-calculation": AW_BACK}
+
+# state rows (after the gain adaptation rows)
+K = gain.N_STATE + 0
+Y1 = gain.N_STATE + 1  # y_{k-1}
+Y2 = gain.N_STATE + 2  # y_{k-2}
+R1 = gain.N_STATE + 3
+R2 = gain.N_STATE + 4
+U1 = gain.N_STATE + 5  # applied u_{k-1}
+INTEG = gain.N_STATE + 6  # integral of e
+E1 = gain.N_STATE + 7
+# the last sample's terms, for inspection
+C_F = gain.N_STATE + 8
+C_FF = gain.N_STATE + 9  # feed-forward y*^(n)
+C_P = gain.N_STATE + 10
+C_I = gain.N_STATE + 11
+C_D = gain.N_STATE + 12
+C_UNLIM = gain.N_STATE + 13
+EST_BASE = gain.N_STATE + 14
+
+
+def n_state(M: int) -> int:
+    """State rows for a window of M samples (M = 0: no algebraic estimator)."""
+    return EST_BASE + (estimators.n_state(M) if M > 0 else 0)
+
+
+@step_jit
+def reset(CP, CS, j):
+    gain.reset(CP, CS, j)
+    for row in range(K, EST_BASE):
+        CS[row, j] = 0.0
+    CS[U1, j] = CP[U_INIT, j]
+    if CP[EST, j] == ALGEBRAIC:
+        estimators.reset(CS, j, EST_BASE, int(CP[M_WIN, j]))
+
+
+@step_jit
+def _limit(x, lo, hi):
+    return hi if x > hi else (lo if x < lo else x)
+
+
+@step_jit
+def step(CP, CS, j, y, r, dt):
+    """One sample: measurement y_k, reference r_k and period dt in; applied u_k out."""
+    k = CS[K, j]
+    n = CP[N_ORDER, j]
+    u1 = CS[U1, j]
+    lo = CP[OUT_MIN, j]
+    hi = CP[OUT_MAX, j]
+    algebraic = CP[EST, j] == ALGEBRAIC
+    m_win = int(CP[M_WIN, j])
+    e = y - r
+    if algebraic:
+        estimators.push(CS, j, EST_BASE, m_win, y, u1)
+    if k < n:
+        u = u1
+        CS[C_UNLIM, j] = u
+    else:
+        yd = (y - CS[Y1, j]) / dt
+        rd = (r - CS[R1, j]) / dt
+        gamma, _ = gain.update(CP, CS, j, k, yd - rd)
+        alpha = 1.0 / gamma
+        if n == 2.0:
+            yn = (y - 2.0 * CS[Y1, j] + CS[Y2, j]) / (dt * dt)
+            rn = (r - 2.0 * CS[R1, j] + CS[R2, j]) / (dt * dt)
+        else:
+            yn = yd
+            rn = rd
+        f_hat = yn - alpha * u1
+        if algebraic:
+            f_alg = estimators.estimate(CS, j, EST_BASE, m_win, dt, alpha, int(n))
+            if not math.isnan(f_alg):
+                f_hat = f_alg
+        integ = CS[INTEG, j] + e * dt
+        e_d = (e - CS[E1, j]) / dt
+        ki = CP[KI, j]
+        base = f_hat - rn + CP[KP, j] * e + CP[KD, j] * e_d
+        u_unlim = -gamma * (base + ki * integ)
+        u = _limit(u_unlim, lo, hi)
+        aw = CP[AW, j]
+        if ki != 0.0 and u != u_unlim:
+            if aw == AW_CLAMP:
+                # integrating moved u further past the limit it hit: undo it
+                pushed = -gamma * ki * (integ - CS[INTEG, j])
+                if (u_unlim > hi and pushed > 0.0) or (u_unlim < lo and pushed < 0.0):
+                    integ = CS[INTEG, j]
+                    u_unlim = -gamma * (base + ki * integ)
+                    u = _limit(u_unlim, lo, hi)
+            elif aw == AW_BACK:
+                integ = integ + CP[K_AW, j] * dt * (u - u_unlim) / (-gamma * ki)
+        CS[INTEG, j] = integ
+        CS[C_F, j] = f_hat
+        CS[C_FF, j] = rn
+        CS[C_P, j] = CP[KP, j] * e
+        CS[C_I, j] = ki * integ
+        CS[C_D, j] = CP[KD, j] * e_d
+        CS[C_UNLIM, j] = u_unlim
+    CS[Y2, j] = CS[Y1, j]
+    CS[Y1, j] = y
+    CS[R2, j] = CS[R1, j]
+    CS[R1, j] = r
+    CS[E1, j] = e
+    CS[U1, j] = u
+    CS[K, j] = k + 1.0
+    return u

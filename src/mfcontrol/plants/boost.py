@@ -1,0 +1,85 @@
+"""Averaged boost converter in continuous conduction, states x = (i_L, v_C), input d (duty).
+
+::
+
+    L di/dt = E - (1 - d) v,     C dv/dt = (1 - d) i - v / R
+
+Output: ``v``. For a constant duty cycle D the equilibrium is ``v = E / (1 - D)``,
+``i = v / ((1 - D) R)``.
+
+Non-minimum phase from d to v. Linearised around an operating point (D, I, V), with
+``D' = 1 - D``::
+
+    v(s) / d(s) = (V / D') (1 - s L / (D'^2 R)) / (1 + s L / (D'^2 R) + s^2 L C / D'^2)
+
+has a right-half-plane zero at ``s = D'^2 R / L`` (rad/s): raising d first diverts the
+inductor current from the capacitor (``C dv/dt`` drops by ``I dd``), so v dips before it
+rises towards its higher equilibrium. The zero moves towards the origin as D grows or R
+drops (heavier load); it bounds the bandwidth a voltage loop can reach.
+
+Between samples d is held and the state advances by one classical RK4 step in increment
+form, ``x + (f1 + 2 (f2 + f3) + f4) / 6`` with ``f = h * dx/dt``.
+"""
+
+from .._jit import step_jit
+
+# parameter rows
+E = 0
+L = 1
+R = 2
+C = 3
+INV_L = 4  # derived: 1/L
+INV_C = 5  # derived: 1/C
+INV_RC = 6  # derived: 1/(R C)
+N_PARAMS = 7
+#: physical parameters a schedule may change, by name
+PARAM_ROWS = {"E": E, "L": L, "R": R, "C": C}
+
+# state rows
+I_L = 0
+V_C = 1
+N_STATE = 2
+STATE_NAMES = ("i_L", "v_C")
+
+
+@step_jit
+def prepare(PP, j):
+    """Recompute the derived coefficients after any parameter change."""
+    PP[INV_L, j] = 1.0 / PP[L, j]
+    PP[INV_C, j] = 1.0 / PP[C, j]
+    PP[INV_RC, j] = 1.0 / (PP[R, j] * PP[C, j])
+
+
+@step_jit
+def output(PP, X, j):
+    return X[V_C, j]
+
+
+@step_jit
+def _dxdt(PP, j, i, v, dp):
+    """(di/dt, dv/dt) at (i, v) with dp = 1 - d."""
+    return (PP[E, j] - dp * v) * PP[INV_L, j], dp * i * PP[INV_C, j] - v * PP[INV_RC, j]
+
+
+@step_jit
+def deriv(PP, X, j, d):
+    """(di/dt, dv/dt) of member j at its current state with duty cycle d."""
+    return _dxdt(PP, j, X[I_L, j], X[V_C, j], 1.0 - d)
+
+
+@step_jit
+def step(PP, X, j, d, h):
+    """Advance member j by one RK4 step of size h with duty cycle d held."""
+    i = X[I_L, j]
+    v = X[V_C, j]
+    dp = 1.0 - d
+    a1, b1 = _dxdt(PP, j, i, v, dp)
+    p1, q1 = h * a1, h * b1
+    a2, b2 = _dxdt(PP, j, i + p1 / 2, v + q1 / 2, dp)
+    p2, q2 = h * a2, h * b2
+    a3, b3 = _dxdt(PP, j, i + p2 / 2, v + q2 / 2, dp)
+    p3, q3 = h * a3, h * b3
+    a4, b4 = _dxdt(PP, j, i + p3, v + q3, dp)
+    p4, q4 = h * a4, h * b4
+    X[I_L, j] = i + (p1 + 2 * (p2 + p3) + p4) / 6
+    X[V_C, j] = v + (q1 + 2 * (q2 + q3) + q4) / 6

@@ -1,0 +1,75 @@
+"""First-order plant with a constant disturbance, state x = (y,)::
+
+    dy/dt = a y + b u + w
+
+Output: ``y``. ``w`` is a parameter, so a schedule can switch the disturbance on or off.
+
+Two steps with the input u held over [t, t + h]:
+
+``step``
+    One classical RK4 step in increment form, ``y + (f1 + 2 (f2 + f3) + f4) / 6`` with
+    ``f = h * dy/dt``, like every other plant (this is what a run integrates).
+``exact_step``
+    The closed form ``y(t + h) = e^{a h} y + (e^{a h} - 1) / a (b u + w)``, which is
+    ``y + h (b u + w)`` for a = 0: the reference the RK4 step is measured against.
+"""
+
+import math
+
+from .._jit import step_jit
+
+# parameter rows
+A = 0
+B = 1
+W = 2
+N_PARAMS = 3
+#: physical parameters a schedule may change, by name
+PARAM_ROWS = {"a": A, "b": B, "w": W}
+
+# state rows
+Y = 0
+N_STATE = 1
+STATE_NAMES = ("y",)
+
+
+@step_jit
+def prepare(PP, j):
+    """Nothing is derived from the parameters; kept so that every plant has the same API."""
+
+
+@step_jit
+def output(PP, X, j):
+    return X[Y, j]
+
+
+@step_jit
+def deriv(PP, X, j, u):
+    """(dy/dt,) of member j at its current state with input u: a tuple, as for every plant."""
+    return (PP[A, j] * X[Y, j] + (PP[B, j] * u + PP[W, j]),)
+
+
+@step_jit
+def step(PP, X, j, u, h):
+    """Advance member j by one RK4 step of size h with u held."""
+    a = PP[A, j]
+    g = PP[B, j] * u + PP[W, j]
+    y = X[Y, j]
+    f1 = h * (a * y + g)
+    f2 = h * (a * (y + f1 / 2) + g)
+    f3 = h * (a * (y + f2 / 2) + g)
+    f4 = h * (a * (y + f3) + g)
+    X[Y, j] = y + (f1 + 2 * (f2 + f3) + f4) / 6
+
+
+@step_jit
+def exact_step(PP, X, j, u, h):
+    """Advance member j by h along the exact solution with u held."""
+    a = PP[A, j]
+    g = PP[B, j] * u + PP[W, j]
+    y = X[Y, j]
+    ah = a * h
+    # expm1 keeps (e^{ah} - 1)/a accurate when |a h| is small, where e^{ah} - 1 cancels;
+    # testing a h (not a) also covers an a so small that a h underflows to 0
+    em1 = math.expm1(ah)
+    phi = em1 / a if ah != 0.0 else h
+    X[Y, j] = y + (em1 * y + phi * g)

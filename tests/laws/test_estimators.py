@@ -1,0 +1,282 @@
+"""The sliding-window algebraic estimator of F, checked against facts.
+
+* its O(1) sliding moments give the direct FIR sum of the integral (``weights``);
+* it recovers a known F from signals that obey the ultra-local model, at t - T/2;
+* for F constant or linear in t it is exact up to the quadrature rule's error, which for
+  polynomial signals is known in closed form (Euler-Maclaurin);
+* the per-sample work does not depend on M (structurally, not by timing).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from numpy.lib.stride_tricks import sliding_window_view
+from numpy.polynomial import Polynomial
+
+from mfcontrol.laws import estimators as est
+
+U_BEFORE = 123.0  # u_{-1}, pushed with y_0: never inside a full window, must not leak
+
+MOMENT_ROWS = range(est.Y_MOM, est.RING)
+
+# Rounding tolerance of the moment form against the direct sum, relative to the size of
+# the summed terms sum |w_i x_i| (the estimate itself can cancel to ~0, so it cannot be
+# the reference). Both forms round a few ulps per term; the moments add the binomial
+# shifts (factors <= 6) over the < M slides since the last resync, each error weighing at
+# most ~64x a window weight (a phantom sample at most 1.5 M outside the window, U_4 of
+# n = 2). M = 64 gives a bound of order 64 * 64 * 10 ulps ~ 1e-11; what is seen is ~1e-15.
+RTOL_SCALE = 1e-10
+
+
+def make_state(M, base=0, members=1):
+    CS = np.full((base + est.n_state(M), members), np.nan)  # reset must clear every row
+    for j in range(members):
+        est.reset(CS, j, base, M)
+    return CS
+
+
+def run(order, M, h, alpha, y, u, base=0):
+    """Push y_k, u_{k-1} one by one; return the estimates (NaN while the window fills)."""
+    CS = make_state(M, base)
+    f = np.empty(y.size)
+    for k in range(y.size):
+        est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE)
+        f[k] = est.estimate(CS, 0, base, M, h, alpha, order)
+    return f
+
+
+def direct(order, M, h, alpha, y, u):
+    """The FIR form over every full window (k = M .. N-1), and the size of its terms."""
+    wy, wu = est.weights(order, M, h, alpha)
+    Y = sliding_window_view(y, M + 1)
+    U = sliding_window_view(u[:-1], M)
+    return Y @ wy + U @ wu, np.abs(Y * wy).sum(1) + np.abs(U * wu).sum(1)
+
+
+def check_equals_direct(order, M, h, alpha, y, u):
+    f = run(order, M, h, alpha, y, u, base=3)
+    assert np.isnan(f[:M]).all()
+    d, scale = direct(order, M, h, alpha, y, u)
+    assert np.isfinite(f[M:]).all()
+    # A sliding sum keeps the rounding of every sample that passed through it until the
+    # next resync (at most M samples later), including samples whose FIR weight is zero
+    # (u at s = 0): 1.0 there absorbs a 1e-94 beside it (found by hypothesis). So the error
+    # is relative to the largest samples since then, times the weights' sizes.
+    wy, wu = est.weights(order, M, h, alpha)
+    ay, au = np.abs(y), np.abs(u)
+    since_resync = np.array([
+        ay[max(0, k - 2 * M - 1): k + 1].max() * np.abs(wy).sum()
+        + au[max(0, k - 2 * M - 1): k + 1].max() * np.abs(wu).sum()
+        for k in range(M, y.size)])
+    since_resync = np.maximum(since_resync, scale)
+    np.testing.assert_array_less(np.abs(f[M:] - d), RTOL_SCALE * since_resync + 1e-300)
+
+
+# --- 1. the sliding moments are the direct sum ------------------------------------------------
+
+WINDOWS = [(1, 2), (1, 3), (1, 4), (1, 7), (1, 64), (2, 2), (2, 4), (2, 10), (2, 64)]
+moderate = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def short_runs(draw):
+    order, M = draw(st.sampled_from(WINDOWS))
+    n = M + 1 + draw(st.integers(0, 3 * M))
+    # fill=nothing(): every sample drawn on its own, no repeated background value
+    y = draw(arrays(np.float64, n, elements=moderate, fill=st.nothing()))
+    u = draw(arrays(np.float64, n, elements=moderate, fill=st.nothing()))
+    h = draw(st.sampled_from([1e-4, 1e-3, 0.1, 1.0]))
+    alpha = draw(st.floats(-100.0, 100.0))
+    return order, M, h, alpha, y, u
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(short_runs())
+def test_moments_equal_direct_sum(case):
+    check_equals_direct(*case)
+
+
+@pytest.mark.parametrize("order,M", WINDOWS)
+@settings(max_examples=5, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), offset=moderate, y_amp=st.floats(1e-3, 1e3),
+       u_amp=st.floats(1e-3, 1e3), alpha=st.floats(-100.0, 100.0))
+def test_long_runs_stay_equal_to_direct_sum(order, M, seed, offset, y_amp, u_amp, alpha):
+    # 20 M samples: 20 resyncs, and drift would have grown between them
+    rng = np.random.default_rng(seed)
+    n = 20 * M + M // 2 + 1
+    y = offset + y_amp * rng.standard_normal(n)
+    u = u_amp * rng.uniform(-1.0, 1.0, n)
+    check_equals_direct(order, M, 1e-3, alpha, y, u)
+
+
+def test_a_non_finite_sample_is_forgotten_at_the_next_resync_after_it_leaves():
+    order, M, h, alpha = 2, 8, 1e-3, 2.0
+    rng = np.random.default_rng(1)
+    y, u = rng.standard_normal(200), rng.standard_normal(200)
+    m = 37
+    y[m] = np.nan
+    f = run(order, M, h, alpha, y, u)
+    d, _ = direct(order, M, h, alpha, y, u)
+    k_left = m + M + 1  # first window without it
+    k_sync = math.ceil((k_left + 1) / M) * M - 1  # first resync at or after it, as a sample
+    assert k_sync - m <= 2 * M
+    assert np.isnan(f[m:k_sync]).all()
+    np.testing.assert_allclose(f[k_sync:], d[k_sync - M:], rtol=1e-12, atol=1e-9)
+
+
+def test_invalid_windows():
+    with pytest.raises(ValueError, match="even"):
+        est.weights(2, 5, 1e-3, 1.0)
+    for order, M in ((3, 4), (1, 1), (1, 4.0), (2, 0)):
+        with pytest.raises(ValueError):
+            est.check_window(order, M)
+    # compiled code cannot raise: an odd Simpson window gives NaN
+    rng = np.random.default_rng(0)
+    assert np.isnan(run(2, 5, 1e-3, 1.0, rng.random(20), rng.random(20))).all()
+
+
+# --- 2. a known F is recovered at t - T/2 --------------------------------------------------
+
+
+@pytest.mark.parametrize("order,M", [(1, 100), (2, 20), (2, 100)])
+def test_recovers_known_F_at_the_window_centre(order, M):
+    h, alpha = 1e-3, 3.0
+    T = M * h
+    t = h * np.arange(3000)
+    w1, w2, w3 = 0.9, 1.7, 1.3  # rad/s: omega T <= 0.17, F smooth over the window
+
+    def yd(t, d):
+        return (w1**d * np.sin(w1 * t + 0.3 + d * np.pi / 2)
+                + 0.5 * w2**d * np.cos(w2 * t + d * np.pi / 2))
+
+    def u_of(t):
+        return 0.2 * np.sin(w3 * t) + 0.1
+
+    def F(t):  # y^(n) = F + alpha u
+        return yd(t, order) - alpha * u_of(t)
+
+    f = run(order, M, h, alpha, yd(t, 0), u_of(t))
+    k = np.arange(M, t.size)
+    amp = np.abs(F(t)).max()
+    err = np.abs(f[k] - F(t[k] - T / 2))
+    assert err.max() < 1e-3 * amp
+    # and the delay is real: the value at t itself is measurably worse
+    assert np.abs(f[k] - F(t[k])).max() > 5 * err.max()
+
+
+# --- 3. exact for F constant or linear, up to the quadrature rule's own error ---------------
+
+BERNOULLI = {2: 1 / 6, 4: -1 / 30, 6: 1 / 42, 8: -1 / 30, 10: 5 / 66}
+
+
+def trapezoid_error(p, T, h):
+    """Trapezoid(h) minus the integral over [0, T] of a polynomial of degree <= 10.
+
+    Euler-Maclaurin, whose remainder vanishes for such a polynomial.
+    """
+    assert p.degree() <= 10
+    return sum(b * h**m / math.factorial(m) * (p.deriv(m - 1)(T) - p.deriv(m - 1)(0))
+               for m, b in BERNOULLI.items())
+
+
+def simpson_error(p, T, h):
+    # composite Simpson on step h is Richardson's (4 trap(h) - trap(2h)) / 3
+    return (4.0 * trapezoid_error(p, T, h) - trapezoid_error(p, T, 2.0 * h)) / 3.0
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("M", [2, 4, 10, 40])
+@pytest.mark.parametrize("f1", [0.0, -7.0], ids=["F-constant", "F-linear"])
+@pytest.mark.parametrize("u_coef", [(), (0.4, -2.0, 30.0)], ids=["u-zero", "u-quadratic"])
+def test_exact_for_constant_and_linear_F_up_to_the_rule_error(order, M, f1, u_coef):
+    h, alpha = 1e-3, 1.5
+    T = M * h
+    F = Polynomial([2.5, f1])
+    u = Polynomial(u_coef or [0.0])
+    y = (F + alpha * u).integ(order, k=[0.3, -1.1][:order])  # y^(n) = F + alpha u, exactly
+    t = h * np.arange(3 * M + 1)
+    f = run(order, M, h, alpha, y(t), u(t))
+    _, scale = direct(order, M, h, alpha, y(t), u(t))
+    s = Polynomial([0.0, 1.0])
+    for k in range(M, t.size):
+        local = Polynomial([t[k] - T, 1.0])  # s -> t - T + s
+        if order == 1:
+            integrand = (T - 2 * s) * y(local) + alpha * s * (T - s) * u(local)
+            rule_part = -6.0 / T**3 * trapezoid_error(integrand, T, h)
+        else:
+            integrand = ((T**2 - 6 * T * s + 6 * s**2) * y(local)
+                         - alpha / 2 * s**2 * (T - s) ** 2 * u(local))
+            rule_part = 60.0 / T**5 * simpson_error(integrand, T, h)
+        # the integral itself is F(t - T/2) exactly; only the rule's error is added.
+        # Rounding: relative to the summed terms, as in RTOL_SCALE (n = 2 and a short window
+        # amplify it, ~60 |y| / T^2); ~4e-15 of them is seen.
+        err = abs(f[k] - (F(t[k] - T / 2) + rule_part))
+        assert err <= 1e-12 * scale[k - M]
+
+
+@pytest.mark.parametrize("order,bias", [(1, lambda M: 2 / M**2), (2, lambda M: 24 / M**4)])
+def test_constant_F_without_input_bias_closed_form(order, bias):
+    # the docstring's statement: F (1 + 2/M^2) for n = 1, F (1 + 24/M^4) for n = 2
+    h = 1e-3
+    for M in (2, 4, 6, 50):
+        t = h * np.arange(2 * M)
+        y = 0.7 + 4.0 * t**order / math.factorial(order)  # F = 4, u = 0
+        f = run(order, M, h, 9.0, y, np.zeros_like(t))
+        np.testing.assert_allclose(f[M:], 4.0 * (1 + bias(M)), rtol=1e-9)
+
+
+# --- 4. the per-sample work does not grow with M ----------------------------------------------
+# Not timed: timings are noisy and would test the machine. The O(M) part of push is the
+# resync; everything else is a fixed number of row updates. We check (a) that a push writes
+# a fixed set of rows whatever M (the moments, the counter and one ring slot for y and u)
+# and (b) that the moments are carried from sample to sample, the recomputation from the
+# ring happening only when the counter reaches a multiple of M.
+
+
+@pytest.mark.parametrize("M", [4, 64, 512])
+def test_push_writes_a_fixed_set_of_rows(M):
+    base, j = 5, 1
+    CS = make_state(M, base, members=3)
+    CS[:base] = -1.0
+    rng = np.random.default_rng(M)
+    for _ in range(M + 2):
+        est.push(CS, j, base, M, rng.standard_normal(), rng.standard_normal())
+    n_writes = []
+    for _ in range(2 * M):
+        count = int(CS[base + est.COUNT, j])
+        before = CS.copy()
+        est.push(CS, j, base, M, rng.standard_normal(), rng.standard_normal())
+        changed = np.flatnonzero((CS != before).any(axis=1))
+        assert not (CS[:, [0, 2]] != before[:, [0, 2]]).any()  # other members untouched
+        assert (changed >= base).all()  # rows before base untouched
+        if (count + 1) % M:
+            slot = count % (M + 1)
+            allowed = {est.COUNT, *MOMENT_ROWS, est.RING + slot, est.RING + M + 1 + slot}
+            assert set(changed - base) <= allowed
+            n_writes.append(changed.size)
+    assert max(n_writes) <= 3 + len(MOMENT_ROWS)  # independent of M
+
+
+def test_moments_are_carried_and_recomputed_only_every_M_samples():
+    M = 6
+    CS = make_state(M)
+    rng = np.random.default_rng(3)
+    for _ in range(2 * M + 1):
+        est.push(CS, 0, 0, M, rng.standard_normal(), rng.standard_normal())
+    CS[est.Y_MOM + 1, 0] += 1e3  # corrupt a running sum at count 2M + 1
+    rows = list(MOMENT_ROWS)
+    for count in range(2 * M + 2, 4 * M + 1):
+        est.push(CS, 0, 0, M, rng.standard_normal(), rng.standard_normal())
+        assert CS[est.COUNT, 0] == count
+        fresh = CS.copy()
+        est.resync(fresh, 0, 0, M)  # the moments recomputed from the ring
+        if count < 3 * M:  # the corruption is carried: push did not look at the ring
+            assert not np.allclose(CS[rows], fresh[rows])
+        else:  # recomputed at count 3M, clean since
+            np.testing.assert_allclose(CS[rows], fresh[rows], rtol=1e-12, atol=1e-12)
+            if count % M == 0:
+                np.testing.assert_array_equal(CS[rows], fresh[rows])

@@ -1,0 +1,36 @@
+"""Each example runs, saves its figure and does what its docstring says."""
+
+import runpy
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def _run(name, tmp_path, monkeypatch):
+    out = tmp_path / f"{name}.png"
+    monkeypatch.setattr(sys, "argv", [name, str(out)])
+    ns = runpy.run_path(str(EXAMPLES / f"{name}.py"), run_name="not_main")
+    result = ns["main"](str(out))
+    assert out.stat().st_size > 10_000
+    return result
+
+
+def test_own_plant_ode(tmp_path, monkeypatch):
+    res = _run("own_plant_ode", tmp_path, monkeypatch)
+    assert res.metrics["stable"] and abs(res.error[-1]) < 1e-3
+
+
+def test_live_loop(tmp_path, monkeypatch):
+    t, w, r, v, ctrl = _run("live_loop", tmp_path, monkeypatch)
+    assert ctrl.nan_count == 5
+    assert abs(w[-1] - r[-1]) < 0.5
+    assert abs(v).max() <= 24
+
+
+@pytest.mark.skipif(not (EXAMPLES / "boost_ipd.py").exists(), reason="example not written")
+def test_boost_ipd(tmp_path, monkeypatch):
+    res = _run("boost_ipd", tmp_path, monkeypatch)
+    assert res.metrics["stable"]
