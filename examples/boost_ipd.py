@@ -1,7 +1,7 @@
 """Voltage tracking of an averaged boost converter with an i-PD (ultra-local model n = 2).
 
 The output voltage follows a smooth 20 V -> 30 V ramp, then rides out a load step
-R 10 -> 15 ohm. Run ``python examples/boost_ipd.py [figure.png]``.
+R 10 -> 15 ohm.
 
 Why these gains. With the backward-difference estimate F_hat_k = v''_k - alpha d_{k-1} the
 i-PD is the incremental law alpha (d_k - d_{k-1}) = -(e'' + kd e' + kp e), i.e. a PID on
@@ -14,7 +14,7 @@ z = (1-D)^2 R / L = 4.4e3 rad/s at 30 V (D = 1/3). So:
 * alpha = E / (L C g h) = 1.3e11 puts the crossover at g = 1500 rad/s, a third of z: about
   70 degrees of phase margin, and the gain g/z < 1 where v answers the wrong way. The
   "physical" alpha E/(LC) = 2e9 gives g = 1/h >> z: bang-bang duty. Textbook gains
-  kp = w^2, kd = 2 w with w ~ 100 rad/s cross over at g w^2 LC/(1-D)^2 ~ 1 rad/s: a loop so
+  kp = w^2, kd = 2 w with w ~ 100 rad/s cross over at g w^2 LC/(1-D)^2 < 1 rad/s: a loop so
   slow it looks like a steady offset.
 * Backward difference, no window: an algebraic window of M samples delays F_hat by M h/2,
   slows the built-in integral action M/2 times (alpha must shrink by 2/M), and its Simpson
@@ -24,11 +24,12 @@ z = (1-D)^2 R / L = 4.4e3 rad/s at 30 V (D = 1/3). So:
 F_hat carries d_{k-1}, so the loop integrates and no ki is needed. The load step rings the
 LC tank: v overshoots by about 9 V, as it does open loop with d frozen (8 V); a loop kept
 well below z cannot act faster.
+
+Run:  python examples/boost_ipd.py [figure.png]
 """
 
 import math
 import sys
-from pathlib import Path
 
 import numpy as np
 
@@ -53,7 +54,7 @@ def reference(t: float) -> float:
     return V_START + (V_END - V_START) * (1 - math.cos(math.pi * x)) / 2
 
 
-def main(path: Path) -> None:
+def main(path: str = "examples/boost_ipd.png") -> mfcontrol.LoopResult:
     plant = Boost(E=E, L=L, R=R, C=C, x0=(V_START / R, V_START))
     ctrl = mfcontrol.IPD(ALPHA, KP, KD, sample_time=H, output_limits=(0, 0.9))
     res = mfcontrol.simulate_loop(plant, ctrl, reference, t_end=T_END,
@@ -62,11 +63,12 @@ def main(path: Path) -> None:
                          f"kd = {KD:.3g}, h = {H:g} s",
              output_label="output voltage v (V)", input_label="duty cycle d (1)")
     t, e = res.time, np.abs(res.error)
-    print(f"boost i-PD: stable={res.metrics['stable']}, max |e| {e[t < T_LOAD].max():.2f} V "
-          f"on the ramp, {1e3 * e[(t > 30e-3) & (t < T_LOAD)].max():.2g} mV before and "
-          f"{1e3 * e[t > 55e-3].max():.2g} mV after the load step (peak {e[t >= T_LOAD].max():.1f}"
-          f" V), IAE {res.metrics['iae']:.3g} V s; figure {path}")
+    print(f"boost i-PD: stable={res.metrics['stable']}, max |e| {e[t < T_LOAD].max():.2f} V on "
+          f"the ramp, {e[(t > 30e-3) & (t < T_LOAD)].max():.1e} V before and "
+          f"{e[t > 55e-3].max():.1e} V after the load step (peak {e[t >= T_LOAD].max():.1f} V), "
+          f"IAE {res.metrics['iae']:.3g} V s, figure {path}")
+    return res
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).with_name("boost_ipd.png"))
+    main(*sys.argv[1:2])

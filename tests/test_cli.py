@@ -36,6 +36,7 @@ ALL_CASES = (
     "voltage-stable-standard", "voltage-stable-variational", "voltage-unstable-standard",
     "voltage-unstable-variational", "power-standard", "power-variational", "sweep-Gamma",
     "sweep-epsM",
+    "buck-ipi", "boost-ipd", "first-order-ip-algebraic",
 )
 
 
@@ -143,7 +144,8 @@ ERRORS = [
     pytest.param([S, CASE, "--set", "fidelity=wrong"],
                  ["fidelity", "'wrong'", "must be one of published, paper"], id="bad-fidelity"),
     pytest.param([S, CASE, "--set", "controller.law=pid"],
-                 ["controller.law", "'pid'", "must be one of ip, variational"], id="bad-law"),
+                 ["controller.law", "'pid'",
+                  "must be one of ip, variational, i-P, i-PI, i-PD, i-PID"], id="bad-law"),
     pytest.param([S, CASE, "--set", "plant.coupling=loose"],
                  ["plant.coupling", "'loose'", "must be one of published, textbook"],
                  id="bad-coupling"),
@@ -360,7 +362,7 @@ def test_version():
     assert proc.stderr == ""
 
 
-def test_cases_lists_all_eight():
+def test_cases_lists_every_builtin_case():
     proc = cli("cases")
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr == ""

@@ -20,7 +20,7 @@ from mfcontrol.config import BY_KEY, OPTIONS, flatten, parse_assignment
 from mfcontrol.experiments.cases import CASES_DIR, resolve_case
 
 FLOAT_KEYS = [o.key for o in OPTIONS if o.kind == "float"]
-POSITIVE_KEYS = [o.key for o in OPTIONS if o.check == "positive"]
+POSITIVE_KEYS = [o.key for o in OPTIONS if o.check == "positive" and o.kind == "float"]
 PRESET_KEYS = ("plant.coupling", "controller.integrator", "controller.rate_term",
                "controller.gain")
 PRESETS = {
@@ -152,7 +152,7 @@ MALFORMED = [
     ("sweep.key", 3.0, "must be a string"),
     ("fidelity", "wrong", "must be one of published, paper"),
     ("fidelity", "Paper", "must be one of published, paper"),
-    ("controller.law", "pid", "must be one of ip, variational"),
+    ("controller.law", "pid", "must be one of ip, variational, i-P, i-PI, i-PD, i-PID"),
     ("plant.output", "current", "must be one of voltage, power"),
     ("plant.coupling", "loose", "must be one of published, textbook"),
     ("controller.integrator", "third-order", "must be one of first-order, second-order"),
@@ -160,8 +160,8 @@ MALFORMED = [
     ("controller.rate_sign", "+", "must be one of plus, minus"),
     ("controller.p_sample", "next", "must be one of previous, current"),
     ("controller.p_error", "r+y", "must be one of r-y, y-r"),
-    ("plant.model", "boost", "must be one of buck"),
-    ("reference.kind", "step", "must be one of ramp-hold-ramp"),
+    ("plant.model", "tank", "must be one of buck, boost, first-order"),
+    ("reference.kind", "step", "must be one of ramp-hold-ramp, smooth-step"),
     ("metrics.final_window", 1.5, "must be a number in (0, 1]"),
     ("metrics.final_window", 0.0, "must be a number in (0, 1]"),
     ("metrics.settle_time", -1.0, "must be a finite number >= 0"),
@@ -180,12 +180,21 @@ def test_malformed_value(key, value, allowed):
 def test_every_choice_is_accepted():
     for o in OPTIONS:
         for choice in o.choices:
-            assert resolve({o.key: choice})[o.key] == choice
+            value = int(choice) if o.kind == "int" else choice
+            # a first-order plant only takes the positional laws
+            extra = {"controller.law": "i-P"} if value == "first-order" else {}
+            assert resolve({o.key: value, **extra})[o.key] == value
 
 
 # ---------------------------------------------------------------------------------------
 # non-positive, NaN, inf
 # ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [0, -3, 2.5, "20", True])
+def test_whole_number_options(value):
+    rejects({"controller.window": value}, "controller.window", value,
+            "must be a whole number > 0")
 
 
 @pytest.mark.parametrize("value", [0, 0.0, -0.0, -1, -1e-300, -5.0])
@@ -542,9 +551,9 @@ def test_flatten():
 CASE_NAMES = sorted(p.stem for p in CASES_DIR.glob("*.toml"))
 
 
-def test_eight_builtin_cases():
+def test_builtin_cases():
     assert CASE_NAMES == sorted(mfcontrol.case_names())
-    assert len(CASE_NAMES) == 8
+    assert len(CASE_NAMES) == 11  # the paper's eight and three toolkit cases
 
 
 @pytest.mark.parametrize("fidelity", ["published", "paper"])

@@ -4,8 +4,6 @@ import runpy
 import sys
 from pathlib import Path
 
-import pytest
-
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
@@ -30,7 +28,9 @@ def test_live_loop(tmp_path, monkeypatch):
     assert abs(v).max() <= 24
 
 
-@pytest.mark.skipif(not (EXAMPLES / "boost_ipd.py").exists(), reason="example not written")
 def test_boost_ipd(tmp_path, monkeypatch):
     res = _run("boost_ipd", tmp_path, monkeypatch)
     assert res.metrics["stable"]
+    t = res.time
+    assert abs(res.error[(t > 0.03) & (t < 0.04)]).max() < 1e-3  # holds 30 V before the load
+    assert abs(res.error[t > 0.055]).max() < 1e-3  # and after it

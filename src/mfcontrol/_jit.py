@@ -6,7 +6,44 @@ engine flags. No fastmath: the published results are reproduced bit for bit, and
 must not fuse multiply-adds or reorder sums behind our back.
 """
 
+import hashlib
+import os
+from pathlib import Path
+
 from numba import njit
+
+
+def _drop_stale_cache() -> None:
+    """numba keys a cached function on its own file's time stamp only, so a kernel would
+    keep an inlined law from before an edit of the law's file. Hash every source file of
+    the package; when the hash differs from the one recorded with the cache, delete the
+    package's cached objects so that everything recompiles. A no-op for an installed
+    release, whose sources never change."""
+    pkg = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in sorted(pkg.rglob("*.py")):
+        digest.update(path.relative_to(pkg).as_posix().encode())
+        digest.update(path.read_bytes())
+    stamp = digest.hexdigest()
+    roots = [pkg]
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        roots.append(Path(os.environ["NUMBA_CACHE_DIR"]))
+    marker = pkg / "__pycache__" / "numba-source.sha256"
+    try:
+        if marker.exists() and marker.read_text() == stamp:
+            return
+        for root in roots:
+            for pattern in ("*.nbi", "*.nbc"):
+                for f in root.rglob(pattern):
+                    if "mfcontrol" in f.as_posix():
+                        f.unlink(missing_ok=True)
+        marker.parent.mkdir(exist_ok=True)
+        marker.write_text(stamp)
+    except OSError:
+        pass  # a read-only install: its sources cannot have changed either
+
+
+_drop_stale_cache()
 
 #: Small step functions: inlined into every kernel that calls them.
 step_jit = njit(inline="always", error_model="numpy", cache=True)

@@ -40,9 +40,10 @@ OPTIONS: tuple[Option, ...] = (
     _o("fidelity", "str", "published", "preset for the options below that differ between the "
        "published code and the printed equations", FIDELITIES),
     # plant
-    _o("plant.model", "str", "buck", "plant model", ("buck",)),
-    _o("plant.output", "str", "voltage", "measured output: v_C, or v_C * i_L",
-       ("voltage", "power")),
+    _o("plant.model", "str", "buck", "plant model: averaged buck or boost converter, or "
+       "y' = a y + b u + w", ("buck", "boost", "first-order")),
+    _o("plant.output", "str", "voltage", "converters' measured output: v_C, or v_C * i_L "
+       "(buck)", ("voltage", "power")),
     _o("plant.coupling", "str", None, "buck input coupling: the published code adds E d/L to "
        "dv/dt as well", ("published", "textbook"),
        preset={"published": "published", "paper": "textbook"}),
@@ -56,20 +57,46 @@ OPTIONS: tuple[Option, ...] = (
        "first sample t_k >= each time, before that sample's plant step", check="nonnegative"),
     _o("plant.i0", "float", 0.0, "initial inductor current (A)"),
     _o("plant.v0", "float", 0.0, "initial capacitor voltage (V)"),
+    _o("plant.a", "float", -1.0, "first-order: pole a (1/s)"),
+    _o("plant.b", "float", 1.0, "first-order: input gain b"),
+    _o("plant.w", "float", 0.0, "first-order: disturbance w"),
+    _o("plant.y0", "float", 0.0, "first-order: initial output"),
+    _o("plant.schedule", "events", [], "parameter changes: a list of {t = time (s), name = "
+       "parameter, set = value} or {..., add = delta}, applied at the first t_k >= t"),
     # reference
-    _o("reference.kind", "str", "ramp-hold-ramp", "reference shape: min(slope t, level), "
-       "then level + slope2 (t - t_ramp2) from t_ramp2 on", ("ramp-hold-ramp",)),
+    _o("reference.kind", "str", "ramp-hold-ramp", "ramp-hold-ramp: min(slope t, level), "
+       "then level + slope2 (t - t_ramp2) from t_ramp2 on; smooth-step: from initial to "
+       "final along a half cosine over [t0, t0 + duration]",
+       ("ramp-hold-ramp", "smooth-step")),
     _o("reference.slope", "float", 1000.0, "first slope (output unit/s)"),
     _o("reference.level", "float", 2.5, "hold level (output unit)"),
     _o("reference.t_ramp2", "float", None, "start of the second ramp (s); absent: none",
        check="nonnegative"),
     _o("reference.slope2", "float", 0.0, "second slope (output unit/s)"),
+    _o("reference.initial", "float", 0.0, "smooth-step: value before t0"),
+    _o("reference.final", "float", 1.0, "smooth-step: value after t0 + duration"),
+    _o("reference.t0", "float", 0.0, "smooth-step: start (s)", check="nonnegative"),
+    _o("reference.duration", "float", 0.0, "smooth-step: length (s); 0 for a plain step",
+       check="nonnegative"),
     # controller
-    _o("controller.law", "str", "ip", "ip: standard recursive i-P (eq. 8); variational: "
-       "with the symplectic gamma update (eq. 33)", ("ip", "variational")),
+    _o("controller.law", "str", "ip", "ip: the paper's recursive i-P (eq. 8); variational: "
+       "with the symplectic gamma update (eq. 33); i-P, i-PI, i-PD, i-PID: positional "
+       "intelligent controllers", ("ip", "variational", "i-P", "i-PI", "i-PD", "i-PID")),
     _o("controller.alpha", "float", 10.0, "key gain alpha of the ultra-local model",
        check="positive"),
     _o("controller.kp", "float", 2.0, "proportional gain K_P"),
+    _o("controller.ki", "float", 0.0, "i-PI, i-PID: integral gain K_I"),
+    _o("controller.kd", "float", 0.0, "i-PD, i-PID: derivative gain K_D"),
+    _o("controller.order", "int", 1, "positional laws: order n of y^(n) = F + alpha u",
+       ("1", "2")),
+    _o("controller.estimator", "str", "backward-difference", "positional laws: estimator of "
+       "F", ("backward-difference", "algebraic")),
+    _o("controller.window", "int", 20, "algebraic estimator: window M (samples; even for "
+       "n = 2)", check="positive"),
+    _o("controller.anti_windup", "str", "clamp", "positional laws: integral anti-windup",
+       ("clamp", "back-calculation", "none")),
+    _o("controller.adapt", "str", "constant", "positional laws: gain adaptation (variational "
+       "uses gamma0, Gamma, eps_M, integrator)", ("constant", "variational")),
     _o("controller.gamma0", "float", 1.0, "variational: initial gamma"),
     _o("controller.Gamma", "float", 5e-8, "variational: integrator gain Gamma (the paper "
        "states 5e-8; code v1.0.1 uses h^2/K_gamma = 1e-12 for single runs)"),
@@ -89,8 +116,8 @@ OPTIONS: tuple[Option, ...] = (
        "(published 1e-3; the paper writes h)", check="positive"),
     _o("controller.output_gain", "float", 1 / 2000, "duty = clip(output_gain * u)",
        check="positive"),
-    _o("controller.duty_min", "float", 1e-3, "lower duty limit"),
-    _o("controller.duty_max", "float", 0.9, "upper duty limit"),
+    _o("controller.duty_min", "float", 1e-3, "lower output (duty) limit"),
+    _o("controller.duty_max", "float", 0.9, "upper output (duty) limit"),
     _o("controller.p_sample", "str", "previous", "measurement in the P term: y_{k-1} "
        "(published) or y_k (printed)", ("previous", "current")),
     _o("controller.p_error", "str", "r-y", "P term error: Kp (r - y) (published) or "
@@ -98,6 +125,8 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.u0", "float", 1.0, "initial control u_0"),
     # simulation
     _o("sim.h", "float", 1e-6, "sample period and RK4 step (s)", check="positive"),
+    _o("sim.integrator", "str", "rk4", "plant integration between samples: one RK4 step "
+       "(published) or adaptive RK45 (scipy solve_ivp, input held)", ("rk4", "rk45")),
     _o("sim.t_end", "float", 0.01, "horizon (s); samples t_k = (k t_end)/N, N = t_end/h",
        check="positive"),
     _o("sim.diverge_above", "float", 1e12, "|y| above this (or any NaN/inf) ends a run as "
@@ -126,6 +155,9 @@ def _allowed(o: Option) -> str:
                   "fraction": "must be a number in (0, 1]",
                   "": "must be a finite number"}[o.check],
         "floats": "must be a list of finite numbers" + (" >= 0" if o.check else ""),
+        "int": "must be a whole number" + (" > 0" if o.check else ""),
+        "events": "must be a list of tables {t = time >= 0, name = parameter, set = value} "
+                  "or {t, name, add = delta}",
         "bool": "must be true or false",
         "str": "must be a string",
     }[o.kind]
@@ -163,6 +195,15 @@ def check_value(key: str, value: Any) -> Any:
                 or not all(_is_number(x) and _check_number(o, _as_float(x)) for x in value)):
             raise ConfigError(key, value, _allowed(o))
         return [float(x) for x in value]
+    if o.kind == "int":
+        if (not isinstance(value, int) or isinstance(value, bool)
+                or (o.check and value <= 0) or (o.choices and str(value) not in o.choices)):
+            raise ConfigError(key, value, _allowed(o))
+        return value
+    if o.kind == "events":
+        if not isinstance(value, list | tuple) or not all(_is_event(e) for e in value):
+            raise ConfigError(key, value, _allowed(o))
+        return [dict(e) for e in value]
     if o.kind == "bool":
         if not isinstance(value, bool):
             raise ConfigError(key, value, _allowed(o))
@@ -170,6 +211,15 @@ def check_value(key: str, value: Any) -> Any:
     if not isinstance(value, str) or (o.choices and value not in o.choices):
         raise ConfigError(key, value, _allowed(o))
     return value
+
+
+def _is_event(e: Any) -> bool:
+    if not isinstance(e, Mapping) or set(e) not in ({"t", "name", "set"}, {"t", "name", "add"}):
+        return False
+    t = e["t"]
+    v = e["set"] if "set" in e else e["add"]
+    return (_is_number(t) and math.isfinite(_as_float(t)) and t >= 0
+            and isinstance(e["name"], str) and _is_number(v) and math.isfinite(_as_float(v)))
 
 
 def unknown_key(key: str, value: Any) -> ConfigError:
@@ -289,6 +339,18 @@ def _check_consistency(v: dict[str, Any]) -> None:
         if lowest <= 0:
             raise ConfigError(f"plant.d{name}", delta,
                               f"must keep plant.{name} > 0 after {n_changes} load changes")
+    names = PLANT_PARAMETERS[v["plant.model"]]
+    for e in v["plant.schedule"]:
+        if e["name"] not in names:
+            raise ConfigError("plant.schedule", e, f"name must be a parameter of the "
+                              f"{v['plant.model']} plant: {', '.join(names)}")
+    if (v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
+            and v["controller.order"] == 2 and v["controller.window"] % 2):
+        raise ConfigError("controller.window", v["controller.window"],
+                          "must be even for order 2 (Simpson's rule)")
+    if v["controller.law"] in ("ip", "variational") and v["plant.model"] == "first-order":
+        raise ConfigError("controller.law", v["controller.law"], "the paper's recursive law "
+                          "drives a converter's duty cycle: use i-P .. i-PID for first-order")
     if (v["sweep.key"] is None) != (v["sweep.values"] is None):
         raise ConfigError("sweep.values", v["sweep.values"],
                           "sweep.key and sweep.values go together")
@@ -314,6 +376,12 @@ def _toml_char(ch: str) -> str:
     return f"\\u{ord(ch):04x}" if ord(ch) < 0x20 or ord(ch) == 0x7F else ch
 
 
+#: parameters a schedule may change, per plant model
+PLANT_PARAMETERS = {"buck": ("E", "L", "R", "C"), "boost": ("E", "L", "R", "C"),
+                    "first-order": ("a", "b", "w")}
+#: the positional intelligent laws (the others are the paper's recursive law)
+POSITIONAL = ("i-P", "i-PI", "i-PD", "i-PID")
+
 #: options every member of one scenario shares: they set the time grid
 _GRID_KEYS = ("sim.h", "sim.t_end")
 
@@ -329,6 +397,8 @@ def _toml_value(v: Any) -> str:
         return '"' + "".join(_toml_char(ch) for ch in v) + '"'
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):
+        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + "}"
     raise TypeError(f"cannot write {v!r} as TOML")
 
 

@@ -289,11 +289,12 @@ class IntelligentController(_Controller):
     @property
     def components(self) -> dict[str, float]:
         """The terms of the last output: F_hat, feed-forward y*^(n), P, I, D (as they enter
-        the bracket) and the output before limiting."""
+        the bracket), the output before limiting, and gamma = 1/alpha used."""
         s = self._CS[:, 0]
         return {"F_hat": float(s[intelligent.C_F]), "feedforward": float(s[intelligent.C_FF]),
                 "P": float(s[intelligent.C_P]), "I": float(s[intelligent.C_I]),
-                "D": float(s[intelligent.C_D]), "unlimited": float(s[intelligent.C_UNLIM])}
+                "D": float(s[intelligent.C_D]), "unlimited": float(s[intelligent.C_UNLIM]),
+                "gamma": float(s[gain_law.G1])}
 
     @property
     def gamma(self) -> float:

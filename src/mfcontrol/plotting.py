@@ -23,6 +23,8 @@ _OUTPUT = {
 
 
 def _labels(result: Result) -> tuple[str, str, str]:
+    if result.config["plant.model"] == "first-order":
+        return ("output", "y", "1")
     return _OUTPUT[result.config["plant.output"]]
 
 
@@ -31,15 +33,13 @@ def _time_scale(t: np.ndarray) -> tuple[float, str]:
     return (1e3, "time $t$ (ms)") if t.size and t[-1] < 1.0 else (1.0, "time $t$ (s)")
 
 
-def _time_ms(result: Result) -> np.ndarray:
-    return result.time * 1e3
-
-
-def _mark_changes(ax, result: Result) -> None:
-    t_end = result.config["sim.t_end"]
-    for tc in result.config["plant.change_times"]:
-        if tc < t_end:
-            ax.axvline(tc * 1e3, color="0.6", lw=0.8, ls=":")
+def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
+    cfg = result.config
+    times = list(cfg["plant.change_times"]) if cfg["plant.model"] != "first-order" else []
+    times += [e["t"] for e in cfg["plant.schedule"]]
+    for tc in times:
+        if tc < cfg["sim.t_end"]:
+            ax.axvline(tc * scale, color="0.6", lw=0.8, ls=":")
 
 
 def _save(fig: Figure, path: str | Path | None) -> Figure:
@@ -88,26 +88,29 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     fig = Figure(figsize=(8, 2.6 * n + 0.6), layout="constrained")
     axes = fig.subplots(n, 1, sharex=True)
     quantity, sym, unit = _labels(result)
-    t = _time_ms(result)
+    scale, time_label = _time_scale(result.time)
+    t = result.time * scale
     _tracking_panel(axes[0], t, result.signals["y"], result.signals["y_ref"],
                     f"{quantity} ${sym}$ ({unit})", sym)
     axes[1].plot(t, result.signals["duty"], color="tab:green", lw=1.0)
-    axes[1].set_ylabel("duty cycle $d$ (1)")
+    converter = result.config["plant.model"] != "first-order"
+    axes[1].set_ylabel("duty cycle $d$ (1)" if converter else "control $u$ (1)")
     if with_gamma:
         _gamma_axes(axes[2], result)
     for a in axes:
         a.grid(True, alpha=0.3)
-        _mark_changes(a, result)
-    axes[-1].set_xlabel("time $t$ (ms)")
+        _mark_changes(a, result, scale)
+    axes[-1].set_xlabel(time_label)
     if result.metrics.get("diverged"):
-        axes[0].set_title(f"diverged at t = {result.metrics['t_diverge'] * 1e3:.3f} ms",
+        axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
                           color="tab:red", fontsize=9, loc="right")
     fig.suptitle(title if title is not None else (result.label or result.name))
     return _save(fig, path)
 
 
 def _gamma_axes(ax, result: Result) -> None:
-    ax.plot(_time_ms(result), result.signals["gamma"], color="tab:purple", lw=1.2)
+    scale, _ = _time_scale(result.time)
+    ax.plot(result.time * scale, result.signals["gamma"], color="tab:purple", lw=1.2)
     ax.set_ylabel(r"gain $\gamma$ (1)")
     ax.ticklabel_format(axis="y", useOffset=False)
 
@@ -117,10 +120,11 @@ def plot_gamma(result: Result, path: str | Path | None = None,
     """gamma(t) on its own axes (the paper's Figs. 4 and 8)."""
     fig = Figure(figsize=(8, 3.2), layout="constrained")
     ax = fig.subplots()
+    scale, time_label = _time_scale(result.time)
     _gamma_axes(ax, result)
-    _mark_changes(ax, result)
+    _mark_changes(ax, result, scale)
     ax.grid(True, alpha=0.3)
-    ax.set_xlabel("time $t$ (ms)")
+    ax.set_xlabel(time_label)
     fig.suptitle(title if title is not None else f"{result.name}: evolution of gamma")
     return _save(fig, path)
 
@@ -136,8 +140,9 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
     first = sweep.members[0]
     quantity, sym, unit = _labels(first)
     short = sweep.key.split(".")[-1]
+    scale, time_label = _time_scale(first.time)
     for v, m in zip(sweep.values, sweep.members, strict=True):
-        t = _time_ms(m)
+        t = m.time * scale
         label = f"{short} = {v:g}" + (" (unstable)" if not m.metrics["stable"] else "")
         if kind == "gamma":
             ax.plot(t, m.signals["gamma"], lw=1.2, label=label)
@@ -149,9 +154,9 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
         ax.ticklabel_format(axis="y", useOffset=False)
     else:
         ax.set_ylabel(f"tracking error $|{sym} - {sym}^*|$ ({unit})")
-    _mark_changes(ax, first)
+    _mark_changes(ax, first, scale)
     ax.grid(True, which="both", alpha=0.3)
-    ax.set_xlabel("time $t$ (ms)")
+    ax.set_xlabel(time_label)
     ax.legend(fontsize=8)
     what = "gamma" if kind == "gamma" else "tracking error"
     fig.suptitle(title if title is not None else f"{sweep.name}: {what} for several {short}")

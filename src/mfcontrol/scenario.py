@@ -104,6 +104,12 @@ def _law_column(cfg: Config) -> np.ndarray:
 def _reference_column(cfg: Config) -> np.ndarray:
     col = np.zeros(references.N_PARAMS)
     col[references.KIND] = references.KINDS[cfg["reference.kind"]]
+    if cfg["reference.kind"] == "smooth-step":
+        col[references.INITIAL] = cfg["reference.initial"]
+        col[references.FINAL] = cfg["reference.final"]
+        col[references.T0] = cfg["reference.t0"]
+        col[references.DURATION] = cfg["reference.duration"]
+        return col
     col[references.SLOPE] = cfg["reference.slope"]
     col[references.LEVEL] = cfg["reference.level"]
     t2 = cfg["reference.t_ramp2"]

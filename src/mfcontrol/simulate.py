@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from . import metrics, scenario
 from ._version import __version__
 from .config import Config
@@ -24,13 +26,47 @@ def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: 
                   metrics=met, version=__version__)
 
 
+def compiled(cfg: Config) -> bool:
+    """Whether the compiled kernel covers this configuration (the paper's laws on the buck
+    with RK4); everything else runs through the general loop with the same laws."""
+    return (cfg["plant.model"] == "buck" and cfg["controller.law"] in ("ip", "variational")
+            and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"])
+
+
 def simulate(cfg: Config, name: str = "") -> Result:
     """Simulate one resolved configuration and return its full trajectory and metrics."""
+    if not compiled(cfg):
+        return _simulate_loop(cfg, name)
     return simulate_many([cfg], name=name)[0]
+
+
+def _simulate_loop(cfg: Config, name: str) -> Result:
+    from . import from_config
+    from .loop import simulate_loop
+
+    n = scenario.n_steps(cfg)
+    t = (np.arange(n) * cfg["sim.t_end"]) / n
+    ctrl = from_config.controller(cfg)
+    res = simulate_loop(
+        from_config.plant(cfg), ctrl, from_config.reference(cfg, t), t_end=cfg["sim.t_end"],
+        h=cfg["sim.h"], changes=from_config.changes(cfg),
+        settle_time=cfg["metrics.settle_time"], final_window=cfg["metrics.final_window"],
+        stable_tol=cfg["metrics.stable_tol"], diverge_above=cfg["sim.diverge_above"],
+        name=name)
+    s = res.signals
+    recursive = "u_raw" in s
+    gamma = s["gamma"]
+    signals = {"y_ref": s["y_ref"], "y": s["y"], "duty": s["u"],
+               "u_raw": s["u_raw"] if recursive else s["unlimited"], "gamma": gamma,
+               "gain": s["gain"] if recursive else gamma}
+    return Result(name=name, config=cfg, time=res.time, signals=signals, states=res.states,
+                  metrics=res.metrics, version=__version__)
 
 
 def simulate_many(cfgs: Sequence[Config], name: str = "") -> list[Result]:
     """Simulate members that share a model, law and time grid in one kernel call."""
+    if not all(compiled(c) for c in cfgs):
+        return [simulate(c, name=name) for c in cfgs]
     scn = scenario.build(cfgs)
     M, traj = scenario.execute(scn)
     return [_result(name, c, scn, M, traj, j, j) for j, c in enumerate(cfgs)]

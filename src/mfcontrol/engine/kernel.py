@@ -252,3 +252,10 @@ def trajectory_metrics(t, h, y, r, u, applied, gamma, S, M):
                               gamma[k]):
             break
         a_prev = applied[k]
+
+
+@kernel_jit
+def reference_series(RP, t, out):
+    """The reference of member 0 at every time in t (for loops driven from Python)."""
+    for k in range(t.size):
+        out[k] = references.value(RP, 0, t[k])

@@ -1,0 +1,69 @@
+"""Which path runs a configuration, and that both paths compute the same thing."""
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol.experiments.cases import resolve_case
+from mfcontrol.simulate import _simulate_loop, compiled
+
+
+@pytest.mark.parametrize("case", ["voltage-unstable-variational", "power-standard"])
+@pytest.mark.parametrize("fidelity", ["published", "paper"])
+def test_general_loop_reproduces_the_compiled_kernel_bit_for_bit(case, fidelity):
+    # the same law (RecursiveIP) and plant (Buck) objects, driven from Python
+    _, cfg = resolve_case(case, {"fidelity": fidelity, "sim.t_end": 5e-3})
+    assert compiled(cfg)
+    kernel = mfcontrol.simulate(cfg)
+    loop = _simulate_loop(cfg, "")
+    for key in ("y_ref", "y", "duty", "u_raw", "gamma"):
+        np.testing.assert_array_equal(loop.signals[key], kernel.signals[key])
+    np.testing.assert_array_equal(loop.states["v_C"], kernel.states["v_C"])
+    assert loop.metrics == kernel.metrics
+
+
+@pytest.mark.parametrize("case,max_error", [
+    ("buck-ipi", 0.1), ("boost-ipd", 10.0), ("first-order-ip-algebraic", 0.01)])
+def test_toolkit_cases_hold_their_reference(case, max_error):
+    r = mfcontrol.run_case(case)
+    assert not compiled(r.config)
+    assert r.metrics["stable"] and r.metrics["max_abs_e"] < max_error
+    assert np.all((r.signals["duty"] >= r.config["controller.duty_min"])
+                  & (r.signals["duty"] <= r.config["controller.duty_max"]))
+
+
+def test_boost_case_settles_after_its_load_step():
+    r = mfcontrol.run_case("boost-ipd")
+    late = r.time > 0.055
+    assert np.max(np.abs(r.error[late])) < 1e-3
+
+
+def test_smooth_step_reference():
+    r = mfcontrol.run_case("first-order-ip-algebraic", {"sim.t_end": 1.0})
+    t, ref = r.time, r.signals["y_ref"]
+    assert np.all(ref[t < 0.1] == 0.0) and np.all(ref[t >= 0.6] == 1.0)
+    mid = np.argmin(np.abs(t - 0.35))
+    assert ref[mid] == pytest.approx(0.5, abs=1e-12)
+    assert np.all(np.diff(ref) >= 0)
+
+
+def test_rk45_on_the_buck_agrees_with_rk4():
+    a = mfcontrol.run_case("voltage-stable-standard", {"sim.t_end": 2e-3})
+    b = mfcontrol.run_case("voltage-stable-standard", {"sim.t_end": 2e-3,
+                                                       "sim.integrator": "rk45"})
+    assert not compiled(b.config)
+    np.testing.assert_allclose(b.signals["y"], a.signals["y"], atol=1e-9)
+
+
+@pytest.mark.parametrize("overrides,key", [
+    ({"plant.schedule": [{"t": 0.1, "name": "Q", "set": 1.0}]}, "plant.schedule"),
+    ({"plant.schedule": [{"t": 0.1, "name": "w"}]}, "plant.schedule"),
+    ({"plant.schedule": [{"t": -1.0, "name": "w", "add": 1.0}]}, "plant.schedule"),
+    ({"controller.order": 2, "controller.window": 21}, "controller.window"),
+    ({"controller.law": "ip"}, "controller.law"),
+    ({"controller.order": 3}, "controller.order"),
+])
+def test_toolkit_options_are_validated(overrides, key):
+    with pytest.raises(mfcontrol.ConfigError) as err:
+        resolve_case("first-order-ip-algebraic", overrides)
+    assert err.value.key == key
