@@ -16,3 +16,14 @@ def test_readme_quick_start_commands():
     assert 'pip install . && mfcontrol reproduce --out results' in text
     assert 'pip install ".[test]" && pytest' in text
     assert 'pip install ".[test]" && pytest' in (ROOT / ".ci" / "run").read_text()
+
+
+def test_readme_plant_example_runs(tmp_path, monkeypatch):
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    blocks = text.split("```python\n")[1:]
+    code = next(b.split("```")[0] for b in blocks if "tank = ODE(" in b)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102
+    assert namespace["res"].metrics["stable"]
+    assert (tmp_path / "tank.png").exists()

@@ -93,8 +93,13 @@ OPTIONS: tuple[Option, ...] = (
        "F", ("backward-difference", "algebraic")),
     _o("controller.window", "int", 20, "algebraic estimator: window M (samples; even for "
        "n = 2)", check="positive"),
-    _o("controller.anti_windup", "str", "clamp", "positional laws: integral anti-windup",
-       ("clamp", "back-calculation", "none")),
+    _o("controller.anti_windup", "str", "auto", "when the output is limited: the recursive "
+       "laws' u (clamp: carry the limited value; back-calculation: a share k_aw h of the "
+       "excess), the positional laws' integral; auto = none for the recursive laws (as "
+       "published), clamp for the positional ones",
+       ("auto", "clamp", "back-calculation", "none")),
+    _o("controller.k_aw", "float", None, "back-calculation gain (1/s); absent: 1/sim.h",
+       check="positive"),
     _o("controller.adapt", "str", "constant", "positional laws: gain adaptation (variational "
        "uses gamma0, Gamma, eps_M, integrator)", ("constant", "variational")),
     _o("controller.gamma0", "float", 1.0, "variational: initial gamma"),

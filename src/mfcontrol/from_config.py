@@ -31,7 +31,7 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP:
     if law not in POSITIONAL:
         keys = ("law", "gamma0", "Gamma", "eps_M", "k_gamma", "integrator", "rate_term",
                 "rate_sign", "gain", "deriv_scale", "output_gain", "duty_min", "duty_max",
-                "p_sample", "p_error", "u0")
+                "p_sample", "p_error", "u0", "anti_windup", "k_aw")
         return RecursiveIP(cfg["controller.alpha"], cfg["controller.kp"],
                            **{k: cfg[f"controller.{k}"] for k in keys})
     options = {
@@ -39,7 +39,9 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP:
         "output_limits": limits, "estimator": cfg["controller.estimator"],
         "window": cfg["controller.window"] if cfg["controller.estimator"] == "algebraic"
         else None,
-        "anti_windup": cfg["controller.anti_windup"], "gain": cfg["controller.adapt"],
+        "anti_windup": ("clamp" if cfg["controller.anti_windup"] == "auto"
+                        else cfg["controller.anti_windup"]),
+        "k_aw": cfg["controller.k_aw"], "gain": cfg["controller.adapt"],
         "gamma0": cfg["controller.gamma0"], "Gamma": cfg["controller.Gamma"],
         "eps_M": cfg["controller.eps_M"], "integrator": cfg["controller.integrator"],
     }

@@ -98,7 +98,19 @@ def _law_column(cfg: Config) -> np.ndarray:
     col[recursive_ip.OUT_GAIN] = cfg["controller.output_gain"]
     col[recursive_ip.OUT_MIN] = cfg["controller.duty_min"]
     col[recursive_ip.OUT_MAX] = cfg["controller.duty_max"]
+    col[recursive_ip.AW_COEF] = anti_windup_coefficient(cfg)
     return col
+
+
+def anti_windup_coefficient(cfg: Config) -> float:
+    """Share of the excess over the limit that the recursive law sheds each sample."""
+    mode = cfg["controller.anti_windup"]
+    if mode in ("auto", "none"):
+        return 0.0
+    if mode == "clamp":
+        return 1.0
+    k_aw = cfg["controller.k_aw"]
+    return 1.0 if k_aw is None else min(1.0, k_aw * cfg["sim.h"])
 
 
 def _reference_column(cfg: Config) -> np.ndarray:

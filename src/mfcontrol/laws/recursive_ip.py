@@ -12,7 +12,10 @@ For k >= 1, with ``e_dot_k = (y_k - y_{k-1})/hd - (r_k - r_{k-1})/hd``::
   as printed (``-K_gamma`` is the sign the published code writes, where it is always 0).
 
 ``u_0`` is a given constant (1 in the published code). The applied output is
-``clip(output_gain * u_k, lo, hi)``; the recursion carries the unclipped u_k.
+``clip(output_gain * u_k, lo, hi)``. The published recursion carries the unclipped u_k
+and so winds up while the output is limited; with anti-windup it carries
+``u_k + c (u_sat - u_k)``, ``u_sat`` the applied output in u's units: c = 1 clamps the
+recursion to the limit, 0 < c < 1 is back-calculation (c = k_aw h).
 The operation order follows the published code so that results match it bit for bit.
 """
 
@@ -30,7 +33,8 @@ USE_GAMMA = gain.N_PARAMS + 6
 OUT_GAIN = gain.N_PARAMS + 7
 OUT_MIN = gain.N_PARAMS + 8
 OUT_MAX = gain.N_PARAMS + 9
-N_PARAMS = gain.N_PARAMS + 10
+AW_COEF = gain.N_PARAMS + 10  # 0 published (winds up), 1 clamp, k_aw h back-calculation
+N_PARAMS = gain.N_PARAMS + 11
 
 # state rows (after the gain adaptation rows)
 U_PREV = gain.N_STATE + 0
@@ -74,9 +78,10 @@ def step(CP, CS, j, y, r):
         c = CP[RATE_COEF, j]
         if c != 0.0:
             u = u + c * ((gamma - gamma_prev) / hd)
-    CS[U_PREV, j] = u
+    applied = clip(CP[OUT_GAIN, j] * u, CP[OUT_MIN, j], CP[OUT_MAX, j])
+    c = CP[AW_COEF, j]
+    CS[U_PREV, j] = u if c == 0.0 else u + c * (applied / CP[OUT_GAIN, j] - u)
     CS[Y_PREV, j] = y
     CS[R_PREV, j] = r
     CS[K, j] = k + 1.0
-    applied = clip(CP[OUT_GAIN, j] * u, CP[OUT_MIN, j], CP[OUT_MAX, j])
     return u, applied, g, gamma
