@@ -35,6 +35,14 @@ def test_python_control_transfer_function_as_plant():
     np.testing.assert_allclose(-res.error[late], expected, rtol=0.02)
 
 
+def test_python_control_system_passed_directly():
+    sys = control.tf([2.0], [1.0, 3.0])
+    a = simulate_loop(sys, mfcontrol.IP(alpha=2.0, kp=8.0, sample_time=1e-3), 0.5, t_end=0.2)
+    b = simulate_loop(LTI.from_control(sys), mfcontrol.IP(alpha=2.0, kp=8.0, sample_time=1e-3),
+                      0.5, t_end=0.2)
+    np.testing.assert_array_equal(a.signals["y"], b.signals["y"])
+
+
 def test_rk45_and_rk4_agree():
     a = simulate_loop(FirstOrder(-1.0, 1.0, integrator="rk45"),
                       mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2), 1.0, t_end=1.0)

@@ -1,4 +1,4 @@
-"""Command line: ``mfcontrol cases | show | run | reproduce``.
+"""Command line: ``mfcontrol cases | show | run | sweep | map | reproduce``.
 
 Thin by design: parse, call the library, print. Bad input ends with one line on stderr and
 exit code 2; an interrupted command ends with exit code 130.
@@ -81,6 +81,54 @@ def _cmd_run(args) -> int:
     return 0
 
 
+def _cmd_sweep(args) -> int:
+    from .batch import parse_grid
+    from .experiments import cases
+    from .experiments.sweeps import Progress, run_sweep
+
+    overrides = _overrides(args.set)
+    name, cfg = cases.resolve_case(args.case, overrides)
+    if cfg["sweep.key"] is not None:
+        cfg = cfg.with_overrides({"sweep.key": None, "sweep.values": None})
+    axes = parse_grid(args.grid or [])
+    out = _out_dir(args.out) if args.out else Path("results") / "sweeps" / name
+    if args.keep is not None and args.keep < 0:
+        raise ConfigError("--keep", args.keep, "must be a whole number >= 0")
+    if args.chunk is not None and args.chunk < 1:
+        raise ConfigError("--chunk", args.chunk, "must be a whole number >= 1")
+    total = 1
+    for v in axes.values():
+        total *= v.size
+    bar = Progress(total)
+    try:
+        path = run_sweep(name, cfg, overrides, axes, out, keep=args.keep or 0,
+                         chunk=args.chunk or 4096, dask=args.dask, progress=bar)
+    except KeyboardInterrupt:
+        bar.close()
+        print(f"mfcontrol: interrupted; finished chunks are kept in {out}/chunks: run the "
+              "same command again to resume", file=sys.stderr)
+        return 130
+    bar.close()
+    print(f"wrote {path}")
+    return 0
+
+
+def _cmd_map(args) -> int:
+    from .experiments import maps
+
+    where = {}
+    for text in args.where or []:
+        key, value = parse_assignment(text)
+        where[key] = value
+    try:
+        path = maps.draw_map(Path(args.folder), args.x, args.y, args.metric,
+                             path=args.out, where=where or None)
+    except (ValueError, KeyError) as exc:
+        raise CaseError(str(exc)) from None
+    print(f"wrote {path}")
+    return 0
+
+
 def _cmd_reproduce(args) -> int:
     from .experiments.reproduce import reproduce
 
@@ -112,6 +160,29 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--set", **setting)
     s.add_argument("--out", help="output folder (default results/CASE)")
     s.set_defaults(func=_cmd_run)
+
+    s = sub.add_parser("sweep", help="run a case over a grid of parameters (results.parquet)")
+    s.add_argument("case", help="built-in case name or path of a .toml file")
+    s.add_argument("--grid", action="append", metavar="KEY=SPEC",
+                   help="swept key and values: a,b,c | linspace(a,b,n) | logspace(a,b,n); "
+                        "several --grid combine as a product")
+    s.add_argument("--set", **setting)
+    s.add_argument("--out", help="output folder (default results/sweeps/CASE)")
+    s.add_argument("--keep", type=int, help="also write the trajectories of N members")
+    s.add_argument("--chunk", type=int, help="members per chunk file (default 4096)")
+    s.add_argument("--dask", metavar="ADDRESS", help="run chunks on a Dask scheduler, or "
+                   "local:N for a local cluster of N worker processes")
+    s.set_defaults(func=_cmd_sweep)
+
+    s = sub.add_parser("map", help="heatmap of a sweep's metric with its stability boundary")
+    s.add_argument("folder", help="a sweep's output folder")
+    s.add_argument("--x", required=True, help="swept key on the x axis")
+    s.add_argument("--y", required=True, help="swept key on the y axis")
+    s.add_argument("--metric", default="iae", help="metric column (default iae)")
+    s.add_argument("--where", action="append", metavar="KEY=VALUE",
+                   help="fix the other swept keys")
+    s.add_argument("--out", help="PNG path (default FOLDER/map-METRIC-X-Y.png)")
+    s.set_defaults(func=_cmd_map)
 
     s = sub.add_parser("reproduce", help="reproduce every result of the paper's section IV")
     s.add_argument("--out", default="results", help="output folder (default results)")

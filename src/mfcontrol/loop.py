@@ -87,8 +87,9 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
 
     Parameters
     ----------
-    plant : Plant
-        Any :class:`mfcontrol.plants.models.Plant`.
+    plant : Plant or control.LTI
+        Any :class:`mfcontrol.plants.models.Plant`, or a continuous-time python-control
+        ``StateSpace`` / ``TransferFunction`` (converted with ``LTI.from_control``).
     controller : callable
         A live controller (``u = controller(y, setpoint=r)``), e.g. :class:`mfcontrol.IP`.
     reference : float, callable or array
@@ -111,6 +112,10 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     >>> bool(res.metrics["stable"]), round(float(res.signals["y"][-1]), 4)
     (True, 1.0)
     """
+    if type(plant).__module__.startswith("control."):  # a python-control system
+        from .plants.models import LTI
+
+        plant = LTI.from_control(plant)
     h = float(controller.sample_time if h is None else h)
     if not (h > 0 and math.isfinite(h)):
         raise ValueError(f"h = {h!r}: must be a finite number > 0")

@@ -1,0 +1,223 @@
+"""Sweeps at scale: every member of a parameter grid over one case, in chunks, on all cores.
+
+A grid is a product of axes, one per swept key (``KEY=SPEC``, SPEC ``a,b,c``,
+``linspace(a,b,n)`` or ``logspace(a,b,n)``). Member m has the m-th combination in C order
+(the last key varies fastest). Members are built by the same code as a single run: for
+each axis value a one-member scenario is built from the configuration with that value
+set, and the array cells it changes are written into the members that have that value.
+So member m computes exactly what ``mfcontrol.simulate`` computes for its configuration.
+Cases the compiled kernel does not cover run member by member through the general loop.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numba import prange
+
+from . import metrics as _metrics
+from . import scenario
+from ._jit import parallel_jit
+from .config import BY_KEY, Config, check_value
+from .engine import kernel
+from .errors import ConfigError
+from .laws import recursive_ip
+from .simulate import compiled, simulate
+
+_SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
+METRIC_COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma",
+                  "max_abs_e_final", "max_abs_ref", "diverged", "t_diverge", "n_samples",
+                  "stable")
+
+
+def parse_spec(key: str, spec: str) -> np.ndarray:
+    """Values of one axis from ``a,b,c``, ``linspace(a,b,n)`` or ``logspace(a,b,n)``
+    (logspace takes decimal exponents, as numpy's)."""
+    allowed = "must be a,b,c or linspace(a,b,n) or logspace(a,b,n) with numbers a, b, n"
+    m = _SPEC.match(spec)
+    try:
+        if m:
+            a, b, n = float(m[2]), float(m[3]), int(m[4])
+            if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
+                raise ValueError
+            values = (np.linspace if m[1] == "linspace" else np.logspace)(a, b, n)
+        else:
+            values = np.array([float(x) for x in spec.split(",")])
+    except ValueError:
+        raise ConfigError(key, spec, allowed) from None
+    if values.size == 0:
+        raise ConfigError(key, spec, allowed)
+    return values
+
+
+def parse_grid(items: list[str] | Mapping[str, str]) -> dict[str, np.ndarray]:
+    """``["KEY=SPEC", ...]`` (or a mapping) to axes; each key once, each a numeric option."""
+    pairs = items.items() if isinstance(items, Mapping) else [
+        tuple(s.split("=", 1)) if "=" in s else (s, None) for s in items]
+    grid: dict[str, np.ndarray] = {}
+    for key, spec in pairs:
+        key = key.strip()
+        if spec is None:
+            raise ConfigError("--grid", key, "expected KEY=SPEC")
+        o = BY_KEY.get(key)
+        if o is None or o.kind != "float" or key.startswith("sweep.") or key in (
+                "sim.h", "sim.t_end"):
+            raise ConfigError("--grid", key, "must name a numeric option that keeps the time "
+                              "grid (not sim.h, sim.t_end or sweep.*)")
+        if key.startswith("metrics.") or key == "sim.diverge_above":
+            raise ConfigError("--grid", key, "is a setting shared by all members of a sweep; "
+                              "set it with --set")
+        if key in grid:
+            raise ConfigError("--grid", key, "is given twice")
+        grid[key] = parse_spec(key, str(spec))
+    if not grid:
+        raise ConfigError("--grid", "", "give at least one KEY=SPEC")
+    return grid
+
+
+@dataclass
+class Grid:
+    base: Config
+    axes: dict[str, np.ndarray]
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(v.size for v in self.axes.values())
+
+    @property
+    def n_members(self) -> int:
+        return math.prod(self.shape)
+
+    def values(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Each swept key's value for members start .. stop-1."""
+        idx = np.unravel_index(np.arange(start, stop), self.shape)
+        return {k: v[i] for (k, v), i in zip(self.axes.items(), idx, strict=True)}
+
+    def config(self, member: int) -> Config:
+        return self.base.with_overrides({k: float(v[0]) for k, v in
+                                         self.values(member, member + 1).items()})
+
+
+def make_grid(base: Config, axes: Mapping[str, np.ndarray]) -> Grid:
+    """Validate every axis value against the base configuration (one at a time)."""
+    for key, values in axes.items():
+        for v in values:
+            base.with_overrides({key: float(check_value(key, float(v)))})
+    return Grid(base=base, axes={k: np.asarray(v, dtype=float) for k, v in axes.items()})
+
+
+_ARRAYS = ("PP", "X0", "CP", "RP", "ev_k", "ev_val")
+
+
+def _cell_changes(grid: Grid) -> dict[str, list[tuple[np.ndarray, list]]]:
+    """For each key: per axis value, the (array, flat index, value) cells it changes."""
+    ref = scenario.build([grid.base])
+    out: dict[str, list] = {}
+    owner: dict[tuple[str, int], str] = {}
+    for key, values in grid.axes.items():
+        per_value = []
+        for v in values:
+            one = scenario.build([grid.base.with_overrides({key: float(v)})])
+            cells = []
+            for name in _ARRAYS:
+                a, b = getattr(ref, name).ravel(), getattr(one, name).ravel()
+                diff = np.flatnonzero(~((a == b) | (np.isnan(a) & np.isnan(b))))
+                for i in diff:
+                    other = owner.setdefault((name, int(i)), key)
+                    if other != key:
+                        raise ConfigError("--grid", key, f"changes the same model quantity as "
+                                          f"{other}: sweep one of them")
+                    cells.append((name, int(i), b[i]))
+            per_value.append(cells)
+        out[key] = per_value
+    return out
+
+
+def build_members(grid: Grid, start: int, stop: int,
+                  changes: dict | None = None) -> scenario.Scenario:
+    """The scenario of members start .. stop-1 of a compiled grid."""
+    changes = _cell_changes(grid) if changes is None else changes
+    n = stop - start
+    scn = scenario.build([grid.base])
+    tiled = {name: np.repeat(getattr(scn, name), n, axis=1) for name in _ARRAYS}
+    idx = np.unravel_index(np.arange(start, stop), grid.shape)
+    for (key, _), axis_index in zip(grid.axes.items(), idx, strict=True):
+        for vi in np.unique(axis_index):
+            members = np.flatnonzero(axis_index == vi)
+            for name, flat, value in changes[key][vi]:
+                row = flat // getattr(scn, name).shape[1]
+                tiled[name][row, members] = value
+    ev_k = tiled["ev_k"].astype(np.int64)
+    steps = np.unique(ev_k[ev_k < scn.n_steps]) if ev_k.size else np.zeros(0, np.int64)
+    return scenario.Scenario(
+        n_steps=scn.n_steps, h=scn.h, t_end=scn.t_end, plant_kind=scn.plant_kind,
+        PP=tiled["PP"], X0=tiled["X0"], law_kind=scn.law_kind, CP=tiled["CP"], RP=tiled["RP"],
+        ev_steps=steps.astype(np.int64), ev_k=ev_k, ev_row=scn.ev_row, ev_add=scn.ev_add,
+        ev_val=tiled["ev_val"], S=scn.S, state_names=scn.state_names)
+
+
+@parallel_jit
+def _run_blocks(n_steps, h, t_end, plant_kind, PP, X, law_kind, CP, CS, RP, ev_steps, ev_k,
+                ev_row, ev_add, ev_val, S, M, block):
+    """run_chunk over blocks of members, the blocks spread over all cores."""
+    n = X.shape[1]
+    n_blocks = (n + block - 1) // block
+    keep = np.zeros(0, dtype=np.int64)
+    traj = np.zeros((1, 0, 1))
+    for b in prange(n_blocks):
+        s0 = b * block
+        s1 = min(n, s0 + block)
+        Mb = M[:, s0:s1].copy()
+        kernel.run_chunk(n_steps, h, t_end, plant_kind, PP[:, s0:s1].copy(),
+                         X[:, s0:s1].copy(), law_kind, CP[:, s0:s1].copy(),
+                         CS[:, s0:s1].copy(), RP[:, s0:s1].copy(), ev_steps,
+                         ev_k[:, s0:s1].copy(), ev_row, ev_add, ev_val[:, s0:s1].copy(),
+                         S, Mb, keep, traj)
+        M[:, s0:s1] = Mb
+
+
+def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None,
+              block: int = 256) -> dict[str, np.ndarray]:
+    """Metrics of members start .. stop-1, as columns (swept keys first)."""
+    values = grid.values(start, stop)
+    tol = grid.base["metrics.stable_tol"]
+    if compiled(grid.base):
+        scn = build_members(grid, start, stop, changes)
+        n = stop - start
+        M = np.zeros((kernel.N_METRICS, n))
+        CS = np.zeros((recursive_ip.N_STATE, n))
+        kernel.reset_members(scn.law_kind, scn.CP, CS)
+        _run_blocks(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP, scn.X0.copy(),
+                    scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps, scn.ev_k, scn.ev_row,
+                    scn.ev_add, scn.ev_val, scn.S, M, block)
+        rows = [_metrics.from_kernel(M, j, tol) for j in range(n)]
+    else:  # the general loop, one member at a time
+        rows = [simulate(grid.config(m)).metrics for m in range(start, stop)]
+    cols: dict[str, np.ndarray] = {"member": np.arange(start, stop, dtype=np.int64), **values}
+    for name in METRIC_COLUMNS:
+        cols[name] = np.array([r[name] for r in rows])
+    return cols
+
+
+def chunks(n_members: int, size: int) -> Iterator[tuple[int, int, int]]:
+    """(index, start, stop) of consecutive chunks."""
+    for i, start in enumerate(range(0, n_members, size)):
+        yield i, start, min(n_members, start + size)
+
+
+def run_grid(grid: Grid, chunk: int = 4096,
+             progress: Callable[[int, int], None] | None = None) -> dict[str, np.ndarray]:
+    """Every member's metrics, in memory (the CLI writes chunks to disk instead)."""
+    changes = _cell_changes(grid) if compiled(grid.base) else None
+    parts = []
+    done = 0
+    for _, a, b in chunks(grid.n_members, chunk):
+        parts.append(run_range(grid, a, b, changes))
+        done += b - a
+        if progress:
+            progress(done, grid.n_members)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

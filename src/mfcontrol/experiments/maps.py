@@ -1,0 +1,412 @@
+"""Heat maps of a sweep's metrics over two swept keys, with the stability boundary.
+
+A sweep folder ``DIR`` holds ``DIR/results.parquet`` (one row per member: the swept keys
+under their dotted names, then the metrics) and ``DIR/sweep.json``. :func:`heatmap` turns
+the rows into a grid ``metric(x, y)`` and draws it with ``pcolormesh`` on the cell edges
+(geometric midpoints on a log axis, arithmetic otherwise), overlays the contour
+``stable = 0.5`` in red, hatches the unstable cells and greys out the members that
+diverged: their metrics only cover the samples before divergence, so a member that blew up
+early would otherwise look like the best one.
+
+Uses matplotlib's object API (no pyplot), like :mod:`mfcontrol.plotting`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.collections import PatchCollection
+from matplotlib.colors import LogNorm, Normalize
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch, Rectangle
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+#: Per-member columns of results.parquet that are not swept keys.
+METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "max_abs_e_final",
+           "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable", "member")
+
+#: Metrics that stay meaningful for a diverged member (the others stop accumulating at the
+#: divergence, so they are hidden for diverged members).
+_ABOUT_DIVERGENCE = frozenset({"diverged", "t_diverge", "n_samples", "stable", "member"})
+
+UNITS = {
+    "plant.dR": "ohm",
+    "plant.R": "ohm",
+    "controller.alpha": "1",
+    "controller.Gamma": "1",
+    "controller.eps_M": "1",
+    "controller.gamma0": "1",
+    "controller.kp": "1/s",
+}
+
+BAD_COLOR = "0.82"
+BOUNDARY_COLOR = "tab:red"
+HATCH_COLOR = (1.0, 1.0, 1.0, 0.45)
+CMAP = "viridis"
+RESULTS = "results.parquet"
+
+
+def load(folder: str | Path) -> pd.DataFrame:
+    """``folder/results.parquet`` as a DataFrame (a path to the parquet file also works).
+    The sweep's ``sweep.json``, when present, goes to ``frame.attrs["sweep"]``."""
+    import pandas as pd
+
+    folder = Path(folder)
+    path = folder if folder.suffix == ".parquet" and folder.is_file() else folder / RESULTS
+    if not path.is_file():
+        raise ValueError(f"{folder}: no results.parquet there (is it a sweep's output folder?)")
+    frame = pd.read_parquet(path)
+    meta = path.parent / "sweep.json"
+    if meta.is_file():
+        frame.attrs["sweep"] = json.loads(meta.read_text())
+    return frame
+
+
+def axis_label(key: str) -> str:
+    """The key name, with its unit when known: ``plant.dR (ohm)``."""
+    return f"{key} ({UNITS[key]})" if key in UNITS else key
+
+
+def swept_keys(frame: pd.DataFrame) -> list[str]:
+    """The columns that are not metrics, i.e. the swept keys."""
+    return [c for c in frame.columns if c not in METRICS]
+
+
+def is_log_spaced(values) -> bool:
+    """Positive values with a constant ratio between neighbours (after sorting and removing
+    duplicates). Two values count as log-spaced only when they differ by 10x or more."""
+    v = np.unique(np.asarray(values, dtype=float))
+    if v.size < 2 or not np.all(np.isfinite(v)) or v[0] <= 0:
+        return False
+    ratios = v[1:] / v[:-1]
+    if v.size == 2:
+        return bool(ratios[0] >= 10.0)
+    return bool(np.allclose(ratios, ratios[0], rtol=1e-6, atol=0.0))
+
+
+def cell_edges(values: np.ndarray, log: bool) -> np.ndarray:
+    """Edges of the cells centred on the sorted ``values``: midpoints between neighbours
+    (geometric when ``log``), the outer edges half a spacing beyond the end values."""
+    v = np.asarray(values, dtype=float)
+    if log:
+        return 10.0 ** cell_edges(np.log10(v), log=False)
+    if v.size == 1:
+        half = 0.5 * abs(v[0]) if v[0] != 0 else 0.5
+        return np.array([v[0] - half, v[0] + half])
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
+
+
+@dataclass
+class _Grid:
+    """The rows of one map arranged as ``z[i_y, i_x]``."""
+
+    x: str
+    y: str
+    metric: str
+    xs: np.ndarray
+    ys: np.ndarray
+    z: np.ndarray          # metric, NaN where hidden (diverged / missing / non-finite)
+    stable: np.ndarray | None  # 1.0 / 0.0, NaN where no member
+    n_diverged: int        # cells hidden because the member diverged
+    n_missing: int         # cells with no value for another reason
+    where: dict[str, Any]
+    log_x: bool
+    log_y: bool
+
+    def stability(self) -> str | None:
+        """'mixed', 'all stable', 'none stable', or None without a stable column."""
+        if self.stable is None:
+            return None
+        s = self.stable[np.isfinite(self.stable)]
+        if s.size == 0:
+            return None
+        if np.all(s == 1.0):
+            return "all stable"
+        if np.all(s == 0.0):
+            return "none stable"
+        return "mixed"
+
+
+def _fmt(value) -> str:
+    return f"{value:g}" if isinstance(value, (int, float, np.number)) else str(value)
+
+
+def _select(frame: pd.DataFrame, where: dict[str, Any]) -> pd.DataFrame:
+    keys = swept_keys(frame)
+    for key, value in where.items():
+        if key not in frame.columns:
+            raise ValueError(f"where: {key!r} is not a column; swept keys are {keys}")
+        col = frame[key]
+        if np.issubdtype(col.dtype, np.number) and isinstance(value, (int, float, np.number)):
+            mask = np.isclose(col.to_numpy(dtype=float), float(value), rtol=1e-9, atol=0.0)
+        else:
+            mask = (col == value).to_numpy()
+        if not mask.any():
+            available = ", ".join(_fmt(v) for v in sorted(col.unique()))
+            raise ValueError(f"where: no member has {key} = {_fmt(value)} "
+                             f"(its values: {available})")
+        frame = frame[mask]
+    return frame
+
+
+def _grid(frame: pd.DataFrame, x: str, y: str, metric: str, where: dict | None,
+          log_x: bool | None, log_y: bool | None) -> _Grid:
+    keys = swept_keys(frame)
+    metrics = [c for c in frame.columns if c in METRICS]
+    for role, name in (("x", x), ("y", y)):
+        if name not in keys:
+            raise ValueError(f"{role} = {name!r} is not a swept key; allowed: {keys}")
+    if x == y:
+        raise ValueError(f"x and y are both {x!r}")
+    if metric not in metrics:
+        raise ValueError(f"metric = {metric!r} is not a metric column; allowed: {metrics}")
+    where = dict(where or {})
+    for name in (x, y):
+        if name in where:
+            raise ValueError(f"where fixes {name!r}, which is an axis of the map")
+    rows = _select(frame, where)
+    unfixed = [k for k in keys
+               if k not in (x, y) and k not in where and rows[k].nunique(dropna=False) > 1]
+    if unfixed:
+        raise ValueError(f"more keys vary than x = {x!r} and y = {y!r}: {unfixed}; fix them "
+                         f"with where={{key: value}}")
+    if rows.duplicated([x, y]).any():
+        raise ValueError(f"several rows share the same ({x}, {y}); cannot make one map")
+
+    xs = np.sort(rows[x].unique()).astype(float)
+    ys = np.sort(rows[y].unique()).astype(float)
+    ix = np.searchsorted(xs, rows[x].to_numpy(dtype=float))
+    iy = np.searchsorted(ys, rows[y].to_numpy(dtype=float))
+
+    values = rows[metric].to_numpy(dtype=float)
+    hidden = ~np.isfinite(values)
+    if "diverged" in rows.columns and metric not in _ABOUT_DIVERGENCE:
+        diverged = rows["diverged"].to_numpy(dtype=bool)
+    else:
+        diverged = np.zeros(len(rows), dtype=bool)
+    z = np.full((ys.size, xs.size), np.nan)
+    z[iy, ix] = np.where(diverged | hidden, np.nan, values)
+    n_diverged = int(diverged.sum())
+    n_missing = int(np.isnan(z).sum()) - n_diverged
+
+    stable = None
+    if "stable" in rows.columns:
+        stable = np.full((ys.size, xs.size), np.nan)
+        stable[iy, ix] = rows["stable"].to_numpy(dtype=float)
+
+    def decide(name: str, vals: np.ndarray, flag: bool | None) -> bool:
+        if flag is None:
+            return is_log_spaced(vals)
+        if flag and vals[0] <= 0:
+            raise ValueError(f"log axis for {name!r} needs positive values, got {vals[0]:g}")
+        return bool(flag)
+
+    return _Grid(x, y, metric, xs, ys, z, stable, n_diverged, n_missing, where,
+                 decide(x, xs, log_x), decide(y, ys, log_y))
+
+
+def _norm(grids: list[_Grid], log_color: bool | None) -> Normalize:
+    """One colour scale for all grids: logarithmic for positive values spanning more than
+    two decades (or when ``log_color``), linear otherwise."""
+    finite = np.concatenate([g.z[np.isfinite(g.z)] for g in grids])
+    if finite.size == 0:
+        return Normalize(0.0, 1.0)
+    lo, hi = float(finite.min()), float(finite.max())
+    if log_color is None:
+        log_color = lo > 0 and hi / lo > 100.0
+    if log_color:
+        if lo <= 0:
+            raise ValueError(f"log colour scale needs positive values; {grids[0].metric} "
+                             f"reaches {lo:g}")
+        if lo == hi:
+            return LogNorm(lo / math.sqrt(10.0), hi * math.sqrt(10.0))
+        return LogNorm(lo, hi)
+    if lo == hi:
+        pad = 0.5 * abs(lo) if lo != 0 else 0.5
+        return Normalize(lo - pad, hi + pad)
+    return Normalize(lo, hi)
+
+
+def _hatch_unstable(ax, grid: _Grid) -> None:
+    """Light hatching over the unstable members that did not diverge (the diverged ones are
+    grey already), so the map shows which side of the boundary is which."""
+    ex, ey = cell_edges(grid.xs, grid.log_x), cell_edges(grid.ys, grid.log_y)
+    iy, ix = np.nonzero((grid.stable == 0.0) & np.isfinite(grid.z))
+    cells = [Rectangle((ex[i], ey[j]), ex[i + 1] - ex[i], ey[j + 1] - ey[j])
+             for j, i in zip(iy, ix, strict=True)]
+    if cells:
+        ax.add_collection(PatchCollection(cells, facecolor="none", edgecolor=HATCH_COLOR,
+                                          linewidth=0, hatch="///", gid="unstable-hatch"),
+                          autolim=False)
+
+
+def _boundary(ax, grid: _Grid) -> bool:
+    """Draw the contour stable = 0.5 (computed in the axes' own coordinates, so on a log
+    axis it crosses halfway between cells, on the cell edges). True if it was drawn."""
+    if grid.stability() != "mixed":
+        return False
+    import contourpy
+
+    # Extend the stable grid by its own border values out to the outer cell edges, so the
+    # boundary runs to the edge of the map (and a single row or column gets one too).
+    ex = cell_edges(grid.xs, grid.log_x)
+    ey = cell_edges(grid.ys, grid.log_y)
+    tx = np.concatenate([ex[:1], grid.xs, ex[-1:]])
+    ty = np.concatenate([ey[:1], grid.ys, ey[-1:]])
+    if grid.log_x:
+        tx = np.log10(tx)
+    if grid.log_y:
+        ty = np.log10(ty)
+    s = np.pad(grid.stable, 1, mode="edge")
+    gen = contourpy.contour_generator(tx, ty, np.ma.masked_invalid(s),
+                                      line_type=contourpy.LineType.Separate)
+    label = "stability boundary"
+    drawn = False
+    for line in gen.lines(0.5):
+        lx = 10.0 ** line[:, 0] if grid.log_x else line[:, 0]
+        ly = 10.0 ** line[:, 1] if grid.log_y else line[:, 1]
+        ax.plot(lx, ly, color=BOUNDARY_COLOR, lw=2.2, label=label if not drawn else None,
+                gid="stability-boundary")
+        drawn = True
+    return drawn
+
+
+def _title(grid: _Grid, title: str | None) -> str:
+    if title is None:
+        title = f"{grid.metric} over {grid.x} and {grid.y}"
+    fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in grid.where.items())
+    if fixed:
+        title += f"\n({fixed})"
+    state = grid.stability()
+    if state in ("all stable", "none stable"):
+        title += f" [{state}]" if fixed else f"\n[{state}]"
+    return title
+
+
+def _draw(ax, grid: _Grid, norm: Normalize, title: str | None):
+    cmap = colormaps[CMAP].with_extremes(bad=BAD_COLOR)
+    mesh = ax.pcolormesh(cell_edges(grid.xs, grid.log_x), cell_edges(grid.ys, grid.log_y),
+                         np.ma.masked_invalid(grid.z), cmap=cmap, norm=norm,
+                         edgecolors="face", linewidth=0)
+    if grid.log_x:
+        ax.set_xscale("log")
+    if grid.log_y:
+        ax.set_yscale("log")
+    ex, ey = cell_edges(grid.xs, grid.log_x), cell_edges(grid.ys, grid.log_y)
+    ax.set_xlim(ex[0], ex[-1])
+    ax.set_ylim(ey[0], ey[-1])
+    if grid.stable is not None:
+        _hatch_unstable(ax, grid)
+    _boundary(ax, grid)
+    handles, _ = ax.get_legend_handles_labels()
+    if any(c.get_gid() == "unstable-hatch" for c in ax.collections):
+        handles.append(Patch(facecolor="0.45", edgecolor=HATCH_COLOR, hatch="///", lw=0,
+                             label="unstable"))
+    if grid.n_diverged:
+        handles.append(Patch(facecolor=BAD_COLOR, edgecolor="0.5",
+                             label=f"diverged ({grid.n_diverged} of {grid.z.size})"))
+    if grid.n_missing:
+        what = "did not diverge" if grid.metric == "t_diverge" else "no value"
+        handles.append(Patch(facecolor=BAD_COLOR, edgecolor="0.5",
+                             label=f"{what} ({grid.n_missing} of {grid.z.size})"))
+    if handles:
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.14),
+                  ncols=min(len(handles), 3), fontsize=8, frameon=False)
+    ax.set_xlabel(axis_label(grid.x))
+    ax.set_ylabel(axis_label(grid.y))
+    ax.set_title(_title(grid, title), fontsize=10)
+    return mesh
+
+
+def heatmap(frame: pd.DataFrame, x: str, y: str, metric: str, *, ax=None,
+            where: dict | None = None, log_x: bool | None = None, log_y: bool | None = None,
+            log_color: bool | None = None, title: str | None = None) -> Figure:
+    """``metric`` over the swept keys ``x`` (horizontal) and ``y`` (vertical).
+
+    ``where`` fixes the other swept keys that vary in ``frame`` ({key: value}). Log axes
+    and the log colour scale are chosen automatically when left at None. Diverged members
+    are drawn light grey (their metrics stop at the divergence), except for the metrics
+    about divergence itself (``diverged``, ``t_diverge``, ``n_samples``, ``stable``); the
+    contour between stable and unstable members is drawn in red and the unstable cells are
+    hatched. Returns the new figure, or ``ax``'s figure.
+    """
+    grid = _grid(frame, x, y, metric, where, log_x, log_y)
+    norm = _norm([grid], log_color)
+    if ax is None:
+        fig = Figure(figsize=(7, 5.2), layout="constrained")
+        ax = fig.subplots()
+    else:
+        fig = ax.get_figure()
+    mesh = _draw(ax, grid, norm, title)
+    fig.colorbar(mesh, ax=ax, label=metric)
+    return fig
+
+
+def _case_title(folder: Path, metric: str) -> str | None:
+    meta = folder / "sweep.json"
+    if not meta.is_file():
+        return None
+    try:
+        case = json.loads(meta.read_text()).get("case")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return f"{case}: {metric}" if case else None
+
+
+def draw_map(folder: str | Path, x: str, y: str, metric: str, path: str | Path | None = None,
+             where: dict | None = None) -> Path:
+    """The heat map of one sweep folder as a PNG. The default path is
+    ``folder/map-{metric}-{x}-{y}.png`` (with ``-{key}={value}`` per fixed key when
+    ``where`` is given, so maps at different slices do not overwrite each other)."""
+    folder = Path(folder)
+    frame = load(folder)
+    if path is None:
+        name = f"map-{metric}-{x}-{y}"
+        name += "".join(f"-{k}={_fmt(v)}" for k, v in (where or {}).items())
+        path = folder / f"{name}.png"
+    fig = heatmap(frame, x, y, metric, where=where, title=_case_title(folder, metric))
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x: str, y: str,
+                           metric: str, path: str | Path, *, where: dict | None = None,
+                           log_color: bool | None = None) -> Path:
+    """One row of heat maps on one colour scale (the same norm for every panel), e.g. two
+    control laws swept over the same grid; each panel carries its title. ``where`` applies
+    to every frame. Writes a PNG and returns its path."""
+    if not frames_and_titles:
+        raise ValueError("draw_maps_side_by_side: no frames given")
+    grids = [_grid(frame, x, y, metric, where, None, None) for frame, _ in frames_and_titles]
+    # One axis scale for every panel: log only if it suits all of them.
+    log_x = all(g.log_x for g in grids)
+    log_y = all(g.log_y for g in grids)
+    for g in grids:
+        g.log_x, g.log_y = log_x, log_y
+    norm = _norm(grids, log_color)
+    n = len(grids)
+    fig = Figure(figsize=(4.8 * n + 1.2, 5.0), layout="constrained")
+    axes = fig.subplots(1, n, sharex=True, sharey=True, squeeze=False)[0]
+    mesh = None
+    for ax, grid, (_, title) in zip(axes, grids, frames_and_titles, strict=True):
+        grid.where = {}  # the fixed keys go to the figure title, once
+        mesh = _draw(ax, grid, norm, title)
+    for ax in axes[1:]:
+        ax.set_ylabel("")
+    fig.colorbar(mesh, ax=list(axes), label=metric)
+    head = f"{metric} over {x} and {y}"
+    fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in (where or {}).items())
+    fig.suptitle(head + (f" ({fixed})" if fixed else ""))
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    return path

@@ -1,0 +1,174 @@
+"""``mfcontrol sweep``: a grid over a case, written to disk chunk by chunk.
+
+Layout of ``OUT``::
+
+    sweep.json                 what was asked (case, overrides, grid, chunk size, version)
+    chunks/chunk-000012.parquet  each finished chunk, written atomically as it completes
+    results.parquet            all members (swept values and metrics), once every chunk is done
+    trajectories/member-N.csv  with --keep: the full trajectories of N members
+
+A chunk file exists only when its chunk is complete, so an interrupted or crashed sweep
+loses nothing it finished; running the same command again skips the finished chunks. A
+different sweep into the same folder is refused.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import batch
+from .._version import __version__
+from ..config import Config
+from ..errors import ConfigError
+from ..simulate import compiled, simulate
+
+CHUNK = 4096
+
+
+def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int) -> dict:
+    return {"case": case, "overrides": overrides,
+            "grid": {k: v.tolist() for k, v in grid.axes.items()}, "chunk": chunk,
+            "n_members": grid.n_members, "mfcontrol": __version__}
+
+
+def _check_folder(out: Path, manifest: dict) -> None:
+    path = out / "sweep.json"
+    if path.exists():
+        old = json.loads(path.read_text())
+        same = {k: old.get(k) for k in ("case", "overrides", "grid", "chunk")} == {
+            k: manifest[k] for k in ("case", "overrides", "grid", "chunk")}
+        if not same:
+            raise ConfigError("--out", str(out), "holds a different sweep (see its sweep.json):"
+                              " choose another folder")
+    else:
+        out.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(manifest, indent=2))
+
+
+def _write_atomic(frame, path: Path) -> None:
+    tmp = path.with_suffix(".tmp")
+    frame.to_parquet(tmp, index=False)
+    os.replace(tmp, path)
+
+
+def _chunk_frame(grid_spec: dict, index: int):
+    """Compute one chunk from a plain description (used locally and on Dask workers)."""
+    import pandas as pd
+
+    from ..config import resolve
+
+    base = resolve(grid_spec["base"])
+    grid = batch.Grid(base=base, axes={k: np.asarray(v) for k, v in grid_spec["grid"].items()})
+    start = index * grid_spec["chunk"]
+    stop = min(grid.n_members, start + grid_spec["chunk"])
+    return pd.DataFrame(batch.run_range(grid, start, stop))
+
+
+class Progress:
+    """Members done, rate and time left, on one line of stderr."""
+
+    def __init__(self, total: int, stream=sys.stderr):
+        self.total, self.stream, self.t0, self.done0 = total, stream, time.perf_counter(), None
+
+    def __call__(self, done: int) -> None:
+        if self.done0 is None:
+            self.done0 = done
+        elapsed = time.perf_counter() - self.t0
+        rate = (done - self.done0) / elapsed if elapsed > 0 else 0.0
+        left = (self.total - done) / rate if rate > 0 else float("nan")
+        eta = f"{left:,.0f} s left" if left == left else "..."
+        self.stream.write(f"\r[sweep] {done:,}/{self.total:,} members "
+                          f"({100 * done / self.total:.1f} %), {rate:,.0f} members/s, {eta}   ")
+        self.stream.flush()
+
+    def close(self) -> None:
+        self.stream.write("\n")
+
+
+def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str, np.ndarray],
+              out: Path, *, keep: int = 0, chunk: int = CHUNK, dask: str | None = None,
+              progress: Callable[[int], None] | None = None) -> Path:
+    """Run (or resume) a sweep into ``out``; return the path of results.parquet."""
+    import pandas as pd
+
+    grid = batch.make_grid(cfg, axes)
+    manifest = _manifest(case, overrides, grid, chunk)
+    _check_folder(out, manifest)
+    chunk_dir = out / "chunks"
+    chunk_dir.mkdir(exist_ok=True)
+    all_chunks = list(batch.chunks(grid.n_members, chunk))
+    todo = [c for c in all_chunks if not (chunk_dir / f"chunk-{c[0]:06d}.parquet").exists()]
+    done = grid.n_members - sum(b - a for _, a, b in todo)
+    if progress:
+        progress(done)
+    spec = {"base": cfg.explicit, "grid": manifest["grid"], "chunk": chunk}
+    if dask:
+        done = _run_dask(dask, spec, todo, chunk_dir, done, progress)
+    else:
+        changes = batch._cell_changes(grid) if compiled(cfg) else None
+        for i, a, b in todo:
+            frame = pd.DataFrame(batch.run_range(grid, a, b, changes))
+            _write_atomic(frame, chunk_dir / f"chunk-{i:06d}.parquet")
+            done += b - a
+            if progress:
+                progress(done)
+    frames = [pd.read_parquet(chunk_dir / f"chunk-{i:06d}.parquet") for i, _, _ in all_chunks]
+    results = pd.concat(frames, ignore_index=True)
+    path = out / "results.parquet"
+    _write_atomic(results, path)
+    if keep:
+        _keep(grid, keep, out)
+    return path
+
+
+def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progress) -> int:
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    if address.startswith("local:"):
+        try:
+            n = int(address.split(":", 1)[1])
+        except ValueError:
+            raise ConfigError("--dask", address, "must be local:N or a scheduler address") from None
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    else:
+        cluster = None
+        client = Client(address)
+    try:
+        futures = {client.submit(_chunk_frame, spec, i, pure=False): (i, a, b)
+                   for i, a, b in todo}
+        for fut in as_completed(futures):
+            i, a, b = futures[fut]
+            _write_atomic(fut.result(), chunk_dir / f"chunk-{i:06d}.parquet")
+            done += b - a
+            if progress:
+                progress(done)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return done
+
+
+def keep_members(n_members: int, keep: int) -> np.ndarray:
+    """``keep`` members spread evenly over the grid (first and last included)."""
+    return np.unique(np.round(np.linspace(0, n_members - 1, min(keep, n_members))).astype(int))
+
+
+def _keep(grid: batch.Grid, keep: int, out: Path) -> None:
+    folder = out / "trajectories"
+    folder.mkdir(exist_ok=True)
+    for m in keep_members(grid.n_members, keep):
+        path = folder / f"member-{m}.csv"
+        if not path.exists():
+            # the single-run kernel: bit-identical to the member's batch run
+            simulate(grid.config(int(m)), name=f"member {m}").to_csv(path)

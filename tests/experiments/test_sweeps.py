@@ -1,0 +1,107 @@
+"""mfcontrol sweep: files, resume after a kill, --keep, Dask."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import mfcontrol
+
+GRID = ["--grid", "controller.alpha=logspace(-1,1,4)", "--grid", "plant.dR=0,2.5,5"]
+FAST = ["--set", "sim.t_end=0.002"]
+
+
+def sweep(*args, check=True):
+    proc = subprocess.run([sys.executable, "-m", "mfcontrol.cli", "sweep", *args],
+                          capture_output=True, text=True)
+    if check:
+        assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def test_results_have_one_row_per_member(tmp_path):
+    sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(tmp_path / "s"))
+    d = pd.read_parquet(tmp_path / "s" / "results.parquet")
+    assert len(d) == 12 and d["member"].tolist() == list(range(12))
+    assert {"controller.alpha", "plant.dR", "iae", "stable", "t_diverge"} <= set(d.columns)
+    np.testing.assert_array_equal(d["plant.dR"][:3], [0.0, 2.5, 5.0])  # last key fastest
+    meta = json.loads((tmp_path / "s" / "sweep.json").read_text())
+    assert meta["n_members"] == 12 and meta["case"] == "voltage-stable-standard"
+
+
+def test_killed_sweep_resumes_and_equals_an_uninterrupted_one(tmp_path):
+    out = tmp_path / "killed"
+    args = [sys.executable, "-m", "mfcontrol.cli", "sweep", "voltage-stable-standard",
+            "--grid", "controller.alpha=logspace(-1,1,10)", "--grid", "plant.dR=0,5",
+            "--set", "sim.t_end=0.004", "--chunk", "2", "--out", str(out)]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not list((out / "chunks").glob("chunk-*.parquet")):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    finished = sorted((out / "chunks").glob("chunk-*.parquet"))
+    assert 1 <= len(finished)
+    if proc.returncode == 130:  # interrupted before the end: it says so, keeps its chunks
+        assert "resume" in err and not (out / "results.parquet").exists()
+    stamps = {p.name: p.stat().st_mtime_ns for p in finished}
+    rerun = subprocess.run(args, capture_output=True, text=True)
+    assert rerun.returncode == 0, rerun.stderr
+    for p in finished:  # finished chunks were skipped, not redone
+        assert p.stat().st_mtime_ns == stamps[p.name]
+    fresh = tmp_path / "fresh"
+    subprocess.run(args[:-1] + [str(fresh)], check=True, capture_output=True)
+    pd.testing.assert_frame_equal(pd.read_parquet(out / "results.parquet"),
+                                  pd.read_parquet(fresh / "results.parquet"))
+
+
+def test_a_different_sweep_into_the_same_folder_is_refused(tmp_path):
+    sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(tmp_path / "s"))
+    proc = sweep("voltage-stable-standard", "--grid", "plant.dR=1,2", *FAST, "--out",
+                 str(tmp_path / "s"), check=False)
+    assert proc.returncode == 2 and "different sweep" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_keep_writes_single_run_trajectories(tmp_path):
+    sweep("voltage-stable-variational", "--grid", "controller.Gamma=1e-8,1e-6,1e-4", *FAST,
+          "--keep", "2", "--out", str(tmp_path / "k"))
+    files = sorted((tmp_path / "k" / "trajectories").glob("member-*.csv"))
+    assert [f.name for f in files] == ["member-0.csv", "member-2.csv"]
+    traj = pd.read_csv(files[1])
+    single = mfcontrol.run_case("voltage-stable-variational",
+                                {"sim.t_end": 0.002, "controller.Gamma": 1e-4})
+    np.testing.assert_array_equal(traj["u_raw"].to_numpy(), single.signals["u_raw"])
+    d = pd.read_parquet(tmp_path / "k" / "results.parquet")
+    assert d["iae"][2] == single.metrics["iae"]
+
+
+@pytest.mark.parametrize("bad,needle", [(["--grid=plant.Q=1,2"], "plant.Q"),
+                                        (["--grid=plant.R=linspace(1,2)"], "plant.R"),
+                                        (["--grid=plant.R=1,2", "--keep=-1"], "--keep"),
+                                        ([], "--grid")])
+def test_bad_sweep_input_is_one_line_exit_2(tmp_path, bad, needle):
+    proc = sweep("voltage-stable-standard", *bad, *FAST, "--out", str(tmp_path / "b"),
+                 check=False)
+    assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_dask_local_cluster_gives_identical_results(tmp_path):
+    pytest.importorskip("dask.distributed")
+    sweep("voltage-stable-standard", *GRID, *FAST, "--chunk", "4", "--out",
+          str(tmp_path / "local"))
+    env_args = [*GRID, *FAST, "--chunk", "4", "--dask", "local:2", "--out",
+                str(tmp_path / "dask")]
+    proc = subprocess.run([sys.executable, "-m", "mfcontrol.cli", "sweep",
+                           "voltage-stable-standard", *env_args], capture_output=True,
+                          text=True, env={**os.environ, "NUMBA_NUM_THREADS": "1"})
+    assert proc.returncode == 0, proc.stderr
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "local" / "results.parquet"),
+                                  pd.read_parquet(tmp_path / "dask" / "results.parquet"))

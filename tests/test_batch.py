@@ -1,0 +1,78 @@
+"""Grids of members: specs, validation, and members equal to single runs."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mfcontrol
+from mfcontrol import batch
+from mfcontrol.experiments.cases import resolve_case
+
+
+def test_specs():
+    np.testing.assert_array_equal(batch.parse_spec("k", "1, 2.5,3e-1"), [1.0, 2.5, 0.3])
+    np.testing.assert_array_equal(batch.parse_spec("k", "linspace(0, 1, 5)"),
+                                  np.linspace(0, 1, 5))
+    np.testing.assert_array_equal(batch.parse_spec("k", "logspace(-1,2,4)"),
+                                  np.logspace(-1, 2, 4))
+
+
+@pytest.mark.parametrize("spec", ["", "a,b", "linspace(0,1)", "logspace(0,1,x)",
+                                  "linspace(0,inf,3)", "linspace(0,1,0)"])
+def test_bad_specs_name_the_key(spec):
+    with pytest.raises(mfcontrol.ConfigError, match="controller.alpha"):
+        batch.parse_spec("controller.alpha", spec)
+
+
+@pytest.mark.parametrize("items,needle", [
+    (["controller.alpah=1,2"], "controller.alpah"), (["sim.h=1e-6,2e-6"], "sim.h"),
+    (["controller.law=1,2"], "controller.law"), (["plant.R"], "KEY=SPEC"),
+    (["plant.R=1,2", "plant.R=3"], "twice"), ([], "at least one")])
+def test_bad_grids(items, needle):
+    with pytest.raises(mfcontrol.ConfigError, match=needle):
+        batch.parse_grid(items)
+
+
+def test_axis_values_are_validated():
+    _, base = resolve_case("voltage-stable-standard")
+    with pytest.raises(mfcontrol.ConfigError, match="controller.alpha"):
+        batch.make_grid(base, {"controller.alpha": np.array([1.0, -1.0])})
+
+
+@pytest.mark.parametrize("key", ["metrics.settle_time", "metrics.stable_tol",
+                                 "sim.diverge_above"])
+def test_settings_shared_by_all_members_cannot_be_swept(key):
+    # the kernel reads them once for every member: sweeping them would silently do nothing
+    with pytest.raises(mfcontrol.ConfigError, match="shared"):
+        batch.parse_grid([f"{key}=1,2"])
+
+
+_, BASE = resolve_case("voltage-unstable-variational", {"sim.t_end": 2e-3})
+keys = st.sampled_from([("controller.Gamma", (1e-9, 1e-5)), ("controller.kp", (0.5, 4.0)),
+                        ("plant.dR", (0.0, 10.0)), ("controller.gamma0", (0.1, 2.0)),
+                        ("plant.C", (5e-6, 2e-5)), ("reference.level", (1.0, 4.0))])
+
+
+@settings(max_examples=15, deadline=None)
+@given(picked=st.lists(keys, min_size=1, max_size=3, unique_by=lambda k: k[0]),
+       sizes=st.lists(st.integers(1, 3), min_size=3, max_size=3),
+       fidelity=st.sampled_from(["published", "paper"]), data=st.data())
+def test_every_member_equals_its_single_run(picked, sizes, fidelity, data):
+    base = BASE.with_overrides({"fidelity": fidelity})
+    axes = {k: np.linspace(lo, hi, n) for (k, (lo, hi)), n in zip(picked, sizes, strict=False)}
+    grid = batch.make_grid(base, axes)
+    cols = batch.run_grid(grid, chunk=5)
+    m = data.draw(st.integers(0, grid.n_members - 1))
+    single = mfcontrol.simulate(grid.config(m)).metrics
+    for name in batch.METRIC_COLUMNS:
+        a, b = cols[name][m], single[name]
+        assert a == b or (np.isnan(a) and np.isnan(b)), name
+
+
+def test_cases_outside_the_kernel_run_through_the_loop():
+    _, base = resolve_case("first-order-ip-algebraic", {"sim.t_end": 0.5})
+    grid = batch.make_grid(base, {"controller.kp": np.array([2.0, 5.0])})
+    cols = batch.run_grid(grid)
+    assert cols["stable"].tolist() == [True, True]
+    assert cols["iae"][1] == mfcontrol.simulate(grid.config(1)).metrics["iae"]
