@@ -37,6 +37,7 @@ ALL_CASES = (
     "voltage-unstable-variational", "power-standard", "power-variational", "sweep-Gamma",
     "sweep-epsM",
     "buck-ipi", "boost-ipd", "first-order-ip-algebraic",
+    "map-alpha-dR-standard", "map-alpha-dR-variational", "map-Gamma-epsM",
 )
 
 

@@ -553,7 +553,7 @@ CASE_NAMES = sorted(p.stem for p in CASES_DIR.glob("*.toml"))
 
 def test_builtin_cases():
     assert CASE_NAMES == sorted(mfcontrol.case_names())
-    assert len(CASE_NAMES) == 11  # the paper's eight and three toolkit cases
+    assert len(CASE_NAMES) == 14  # the paper's eight, three toolkit cases, three maps
 
 
 @pytest.mark.parametrize("fidelity", ["published", "paper"])

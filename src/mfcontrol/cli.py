@@ -88,9 +88,8 @@ def _cmd_sweep(args) -> int:
 
     overrides = _overrides(args.set)
     name, cfg = cases.resolve_case(args.case, overrides)
-    if cfg["sweep.key"] is not None:
-        cfg = cfg.with_overrides({"sweep.key": None, "sweep.values": None})
-    axes = parse_grid(args.grid or [])
+    axes = parse_grid(args.grid or cfg["sweep.grid"] or [])
+    cfg = cfg.with_overrides({"sweep.key": None, "sweep.values": None, "sweep.grid": None})
     out = _out_dir(args.out) if args.out else Path("results") / "sweeps" / name
     if args.keep is not None and args.keep < 0:
         raise ConfigError("--keep", args.keep, "must be a whole number >= 0")

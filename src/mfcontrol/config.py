@@ -146,6 +146,8 @@ OPTIONS: tuple[Option, ...] = (
     # sweeps
     _o("sweep.key", "str", None, "sweep cases: the option every member varies"),
     _o("sweep.values", "floats", None, "sweep cases: its values, one member each"),
+    _o("sweep.grid", "strs", None, "map cases: the grid `mfcontrol sweep` runs when given no "
+       "--grid, as [\"KEY=SPEC\", ...]"),
 )
 
 BY_KEY: dict[str, Option] = {o.key: o for o in OPTIONS}
@@ -161,6 +163,7 @@ def _allowed(o: Option) -> str:
                   "": "must be a finite number"}[o.check],
         "floats": "must be a list of finite numbers" + (" >= 0" if o.check else ""),
         "int": "must be a whole number" + (" > 0" if o.check else ""),
+        "strs": "must be a list of strings",
         "events": "must be a list of tables {t = time >= 0, name = parameter, set = value} "
                   "or {t, name, add = delta}",
         "bool": "must be true or false",
@@ -200,6 +203,10 @@ def check_value(key: str, value: Any) -> Any:
                 or not all(_is_number(x) and _check_number(o, _as_float(x)) for x in value)):
             raise ConfigError(key, value, _allowed(o))
         return [float(x) for x in value]
+    if o.kind == "strs":
+        if not isinstance(value, list | tuple) or not all(isinstance(x, str) for x in value):
+            raise ConfigError(key, value, _allowed(o))
+        return list(value)
     if o.kind == "int":
         if (not isinstance(value, int) or isinstance(value, bool)
                 or (o.check and value <= 0) or (o.choices and str(value) not in o.choices)):

@@ -161,3 +161,23 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
     what = "gamma" if kind == "gamma" else "tracking error"
     fig.suptitle(title if title is not None else f"{sweep.name}: {what} for several {short}")
     return _save(fig, path)
+
+
+def plot_long_horizon(rows, path: str | Path | None = None, fidelity: str = "") -> Figure:
+    """gamma(t) (top) and |y - y*| on a log axis (bottom) for each (case, integrator)."""
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    ax = fig.subplots(2, 1, sharex=True)
+    for case, order, r in rows:
+        label = f"{case.removeprefix('voltage-').removesuffix('-variational')}, {order}"
+        ax[0].plot(r.time * 1e3, r.signals["gamma"], lw=1.1, label=label)
+        err = np.abs(r.error)
+        ax[1].semilogy(r.time * 1e3, np.where(err > 0, err, np.nan), lw=0.7, label=label)
+    ax[0].set_ylabel(r"gain $\gamma$ (1)")
+    ax[0].ticklabel_format(axis="y", useOffset=False)
+    ax[1].set_ylabel("tracking error $|v - v^*|$ (V)")
+    ax[1].set_xlabel("time $t$ (ms)")
+    for a in ax:
+        a.grid(True, which="both", alpha=0.3)
+    ax[0].legend(fontsize=8)
+    fig.suptitle(f"variational i-P over {rows[0][2].time[-1] * 1e3:.0f} ms ({fidelity})")
+    return _save(fig, path)

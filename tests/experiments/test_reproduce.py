@@ -21,4 +21,9 @@ def test_reproduce_writes_every_figure_table_and_the_report(tmp_path):
         assert (tmp_path / link).exists(), link
     assert "equal gain" in text and "as printed, gain = alpha" in text
     assert "## Where the paper and its published code disagree" in text
-    assert len(messages) == 22 and messages[-1].startswith("[22/22]")
+    for fid in ("published", "paper"):
+        for name in ("map-alpha-dR.png", "map-Gamma-epsM.png", "long-horizon.png",
+                     "long-horizon.csv", "map-alpha-dR-standard.csv"):
+            assert (tmp_path / fid / name).exists(), name
+    assert "## Robustness maps" in text and "## Long horizon" in text
+    assert len(messages) == 30 and messages[-1].startswith("[30/30]")

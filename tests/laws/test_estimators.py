@@ -68,9 +68,11 @@ def check_equals_direct(order, M, h, alpha, y, u):
     # is relative to the largest samples since then, times the weights' sizes.
     wy, wu = est.weights(order, M, h, alpha)
     ay, au = np.abs(y), np.abs(u)
+    # run() pushes U_BEFORE as u_{-1} with y_0: it passes through the sums too
+    au = np.concatenate([[abs(U_BEFORE)], au])  # au[k] is now |u_{k-1}|
     since_resync = np.array([
         ay[max(0, k - 2 * M - 1): k + 1].max() * np.abs(wy).sum()
-        + au[max(0, k - 2 * M - 1): k + 1].max() * np.abs(wu).sum()
+        + au[max(0, k - 2 * M - 1): k + 2].max() * np.abs(wu).sum()
         for k in range(M, y.size)])
     since_resync = np.maximum(since_resync, scale)
     np.testing.assert_array_less(np.abs(f[M:] - d), RTOL_SCALE * since_resync + 1e-300)

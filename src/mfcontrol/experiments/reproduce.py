@@ -17,9 +17,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from ..plotting import plot_gamma, plot_run, plot_sweep
+from ..plotting import plot_gamma, plot_long_horizon, plot_run, plot_sweep
 from ..result import Result, SweepResult
-from . import report
+from . import maps, report
 from .cases import run_case
 
 SINGLE = (
@@ -29,6 +29,45 @@ SINGLE = (
 )
 SWEEPS = ("sweep-Gamma", "sweep-epsM")
 VARIATIONAL = tuple(c for c in SINGLE if c.endswith("variational"))
+MAPS = ("map-alpha-dR-standard", "map-alpha-dR-variational", "map-Gamma-epsM")
+#: the common x axis of the two alpha x dR maps: alpha, or 1/gamma0 for the variational law
+GAIN_AXIS = "alpha (variational: 1/gamma0)"
+LONG_HORIZON = 0.1  # s
+
+
+def run_map(case: str, fidelity: str):
+    """All members of a map case's grid, as a DataFrame."""
+    import pandas as pd
+
+    from .. import batch
+    from .cases import resolve_case
+
+    _, cfg = resolve_case(case, {"fidelity": fidelity})
+    axes = batch.parse_grid(cfg["sweep.grid"])
+    grid = batch.make_grid(cfg.with_overrides({"sweep.grid": None}), axes)
+    return pd.DataFrame(batch.run_grid(grid))
+
+
+def gain_axis(frame):
+    """The alpha x dR maps on one x axis: alpha (standard) or 1/gamma0 (variational)."""
+    frame = frame.copy()
+    if "controller.gamma0" in frame:
+        frame[GAIN_AXIS] = 1 / frame.pop("controller.gamma0")
+    else:
+        frame[GAIN_AXIS] = frame.pop("controller.alpha")
+    return frame
+
+
+def long_horizon(fidelity: str) -> list[tuple[str, str, Result]]:
+    """The variational cases over 100 ms with both gamma integrators. The reference holds
+    2.5 V after its first ramp (the paper's second ramp would pass E = 20 V)."""
+    rows = []
+    for case in ("voltage-stable-variational", "voltage-unstable-variational"):
+        for order in ("first-order", "second-order"):
+            r = run_case(case, {"fidelity": fidelity, "sim.t_end": LONG_HORIZON,
+                                "controller.integrator": order, "reference.t_ramp2": None})
+            rows.append((case, order, r))
+    return rows
 
 
 def comparison_rows(case: str, fidelity: str) -> list[tuple[str, Result]]:
@@ -58,7 +97,9 @@ def reproduce(out: Path, fidelities: list[str],
     out.mkdir(parents=True, exist_ok=True)
     runs: dict[str, dict[str, Result | SweepResult]] = {}
     tables: dict[str, dict[str, list[tuple[str, Result]]]] = {}
-    total = len(fidelities) * (len(SINGLE) + len(SWEEPS) + len(VARIATIONAL))
+    maps_done: dict[str, dict] = {}
+    horizons: dict[str, list] = {}
+    total = len(fidelities) * (len(SINGLE) + len(SWEEPS) + len(VARIATIONAL) + len(MAPS) + 1)
     done = 0
 
     def tick(what: str) -> None:
@@ -95,6 +136,24 @@ def reproduce(out: Path, fidelities: list[str],
             tables[fid][case] = rows
             report.table_frame(rows).to_csv(folder / f"comparison-{case}.csv", index=False)
             tick(f"{fid}/comparison {case}")
+        maps_done[fid] = {}
+        for case in MAPS:
+            frame = run_map(case, fid)
+            frame.to_csv(folder / f"{case}.csv", index=False, float_format="%.17g")
+            maps_done[fid][case] = frame
+            tick(f"{fid}/{case} ({len(frame)} members)")
+        std, var = (gain_axis(maps_done[fid][c]) for c in MAPS[:2])
+        maps.draw_maps_side_by_side(
+            [(std, "standard i-P"), (var, "variational i-P")], GAIN_AXIS, "plant.dR",
+            "max_abs_e", folder / "map-alpha-dR.png")
+        maps.heatmap(maps_done[fid]["map-Gamma-epsM"], "controller.Gamma", "controller.eps_M",
+                     "max_abs_e", title=f"variational i-P, dR = 5 ohm ({fid}): max |e| "
+                     "after 1 ms").savefig(folder / "map-Gamma-epsM.png", dpi=120)
+        horizons[fid] = long_horizon(fid)
+        plot_long_horizon(horizons[fid], folder / "long-horizon.png", fid)
+        report.horizon_frame(horizons[fid]).to_csv(folder / "long-horizon.csv", index=False)
+        tick(f"{fid}/long horizon")
     path = out / "report.md"
-    path.write_text(report.render(runs, tables, fidelities), encoding="utf-8")
+    path.write_text(report.render(runs, tables, fidelities, maps_done, horizons),
+                    encoding="utf-8")
     return path
