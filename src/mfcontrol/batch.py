@@ -161,39 +161,40 @@ def build_members(grid: Grid, start: int, stop: int,
 
 
 @parallel_jit
-def _run_blocks(n_steps, h, t_end, plant_kind, PP, X, law_kind, CP, CS, RP, ev_steps, ev_k,
-                ev_row, ev_add, ev_val, S, M, block):
-    """run_chunk over blocks of members, the blocks spread over all cores."""
-    n = X.shape[1]
-    n_blocks = (n + block - 1) // block
-    keep = np.zeros(0, dtype=np.int64)
-    traj = np.zeros((1, 0, 1))
-    for b in prange(n_blocks):
-        s0 = b * block
-        s1 = min(n, s0 + block)
-        Mb = M[:, s0:s1].copy()
-        kernel.run_chunk(n_steps, h, t_end, plant_kind, PP[:, s0:s1].copy(),
-                         X[:, s0:s1].copy(), law_kind, CP[:, s0:s1].copy(),
-                         CS[:, s0:s1].copy(), RP[:, s0:s1].copy(), ev_steps,
-                         ev_k[:, s0:s1].copy(), ev_row, ev_add, ev_val[:, s0:s1].copy(),
-                         S, Mb, keep, traj)
-        M[:, s0:s1] = Mb
+def _run_blocks(n_steps, h, t_end, D, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
+    """run_packed over blocks of kernel.BLOCK members (D[block]), spread over all cores."""
+    for b in prange(D.shape[0]):
+        kernel.run_packed(n_steps, h, t_end, D[b], RP[b], ev_steps, ev_k[b], ev_row, ev_add,
+                          ev_val[b], S)
 
 
-def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None,
-              block: int = 256) -> dict[str, np.ndarray]:
+def _blocks(a: np.ndarray, n_blocks: int) -> np.ndarray:
+    """(rows, n) -> (n_blocks, rows, BLOCK), the last block padded with copies of member 0."""
+    rows, n = a.shape
+    out = np.repeat(a[:, :1], n_blocks * kernel.BLOCK, axis=1)
+    out[:, :n] = a
+    return np.ascontiguousarray(out.reshape(rows, n_blocks, kernel.BLOCK).transpose(1, 0, 2))
+
+
+def run_range(grid: Grid, start: int, stop: int,
+              changes: dict | None = None) -> dict[str, np.ndarray]:
     """Metrics of members start .. stop-1, as columns (swept keys first)."""
     values = grid.values(start, stop)
     tol = grid.base["metrics.stable_tol"]
     if compiled(grid.base):
         scn = build_members(grid, start, stop, changes)
         n = stop - start
-        M = np.zeros((kernel.N_METRICS, n))
+        n_blocks = -(-n // kernel.BLOCK)
         CS = np.zeros((recursive_ip.N_STATE, n))
         kernel.reset_members(scn.law_kind, scn.CP, CS)
-        _run_blocks(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP, scn.X0.copy(),
-                    scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps, scn.ev_k, scn.ev_row,
-                    scn.ev_add, scn.ev_val, scn.S, M, block)
+        packed = np.vstack([scn.PP, scn.X0, scn.CP, CS, np.zeros((kernel.N_METRICS, n)),
+                            np.zeros((1, n))])
+        D = _blocks(packed, n_blocks)
+        _run_blocks(scn.n_steps, scn.h, scn.t_end, D, _blocks(scn.RP, n_blocks),
+                    scn.ev_steps, _blocks(scn.ev_k, n_blocks), scn.ev_row, scn.ev_add,
+                    _blocks(scn.ev_val, n_blocks), scn.S)
+        M = D.transpose(1, 0, 2).reshape(kernel.P_ROWS, -1)[kernel.P_M:kernel.P_M
+                                                             + kernel.N_METRICS, :n]
         rows = [_metrics.from_kernel(M, j, tol) for j in range(n)]
     else:  # the general loop, one member at a time
         rows = [simulate(grid.config(m)).metrics for m in range(start, stop)]

@@ -180,24 +180,34 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None):
     """Run every member from its initial state; return (metrics M, trajectories traj).
 
     ``traj[row, m, k]`` holds the kept members (all by default), NaN after divergence.
-    A one-member scenario runs through the single-run kernel, several through the chunk
-    kernel; both call the same law, plant, reference and metric functions.
+    Each member runs through the single-run kernel (sweeps use :mod:`mfcontrol.batch`).
     """
     n = scn.n_members
-    keep_arr = np.asarray(range(n) if keep is None else keep, dtype=np.int64)
+    keep_arr = list(range(n)) if keep is None else list(keep)
     n_rows = kernel.T_X0 + scn.X0.shape[0]
-    traj = np.empty((n_rows, keep_arr.size, scn.n_steps))
     M = np.zeros((kernel.N_METRICS, n))
     CS = np.zeros((recursive_ip.N_STATE, n))
     kernel.reset_members(scn.law_kind, scn.CP, CS)
-    args = (scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(), scn.X0.copy(),
-            scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps, scn.ev_k, scn.ev_row,
-            scn.ev_add, scn.ev_val, scn.S, M)
-    if n == 1 and keep_arr.size == 1:
-        kernel.run_single(*args, traj[:, 0, :])
-    else:
-        kernel.run_chunk(*args, keep_arr, traj)
-    # samples after a divergence were never written
-    for m, j in enumerate(keep_arr):
-        traj[:, m, int(M[kernel.M_N_SAMPLES, j]):] = np.nan
+    if n == 1 and keep_arr == [0]:  # the common case: the kernel writes the result itself
+        traj = np.empty((n_rows, 1, scn.n_steps))
+        kernel.run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
+                          scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,
+                          scn.ev_k, scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M,
+                          traj[:, 0, :])
+        traj[:, 0, int(M[kernel.M_N_SAMPLES, 0]):] = np.nan  # never written: diverged
+        return M, traj
+    traj = np.full((n_rows, len(keep_arr), scn.n_steps), np.nan)
+    one = np.empty((n_rows, scn.n_steps))
+    for j in range(n):
+        col = slice(j, j + 1)
+        Mj = np.zeros((kernel.N_METRICS, 1))
+        kernel.run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind,
+                          scn.PP[:, col].copy(), scn.X0[:, col].copy(), scn.law_kind,
+                          scn.CP[:, col].copy(), CS[:, col].copy(), scn.RP[:, col].copy(),
+                          scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,
+                          scn.ev_val[:, col].copy(), scn.S, Mj, one)
+        M[:, j] = Mj[:, 0]
+        if j in keep_arr:
+            done = int(Mj[kernel.M_N_SAMPLES, 0])
+            traj[:, keep_arr.index(j), :done] = one[:, :done]
     return M, traj

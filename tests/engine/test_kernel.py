@@ -13,16 +13,20 @@ def _cfg(case, **over):
     return resolve_case(case, over)[1]
 
 
-def test_chunk_members_equal_single_runs_bit_for_bit():
-    cfgs = [_cfg("voltage-unstable-variational", **{"controller.Gamma": g, "sim.t_end": 3e-3})
-            for g in (5e-8, 5e-6)] + [_cfg("voltage-unstable-variational",
-                                           **{"controller.eps_M": 1e3, "sim.t_end": 3e-3})]
-    many = mfcontrol.simulate_many(cfgs)
-    for cfg, member in zip(cfgs, many, strict=True):
-        single = mfcontrol.simulate(cfg)
-        for key in ("y", "duty", "u_raw", "gamma"):
-            np.testing.assert_array_equal(member.signals[key], single.signals[key])
-        assert member.metrics == single.metrics
+def _batch_metrics(base, key, values):
+    from mfcontrol import batch
+
+    grid = batch.make_grid(base, {key: np.asarray(values, dtype=float)})
+    return grid, batch.run_grid(grid)
+
+
+def test_packed_batch_members_equal_single_runs_bit_for_bit():
+    base = _cfg("voltage-unstable-variational", **{"sim.t_end": 3e-3, "fidelity": "paper"})
+    grid, cols = _batch_metrics(base, "controller.Gamma", [5e-8, 5e-6, 1e-4, 3e-4])
+    for m in range(grid.n_members):
+        single = mfcontrol.simulate(grid.config(m)).metrics
+        for name in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "stable"):
+            assert cols[name][m] == single[name], (m, name)
 
 
 def test_divergence_is_flagged_and_the_trajectory_kept_up_to_it():
@@ -36,13 +40,16 @@ def test_divergence_is_flagged_and_the_trajectory_kept_up_to_it():
 
 
 def test_a_diverging_member_does_not_spoil_the_others():
-    ok = _cfg("voltage-stable-standard", **{"sim.t_end": 2e-3})
-    bad = _cfg("voltage-stable-standard", **{"sim.t_end": 2e-3, "controller.kp": 4.0,
-                                             "controller.p_error": "y-r"})
-    alone = mfcontrol.simulate(ok)
-    mixed = mfcontrol.simulate_many([bad, ok, bad])
-    np.testing.assert_array_equal(mixed[1].signals["y"], alone.signals["y"])
-    assert mixed[1].metrics == alone.metrics
+    # output_gain 1e3 with unclipped limits: members blow up to inf at different speeds
+    base = _cfg("voltage-stable-standard", **{"sim.t_end": 2e-3, "controller.duty_min": -1e300,
+                                              "controller.duty_max": 1e300,
+                                              "sim.diverge_above": 1e6})
+    grid, cols = _batch_metrics(base, "controller.kp", [2.0, -5e3, 2.0, -5e4])
+    assert cols["diverged"].tolist() == [False, True, False, True]
+    alone = mfcontrol.simulate(grid.config(0)).metrics
+    for m in (0, 2):
+        assert cols["iae"][m] == alone["iae"] and cols["tv_duty"][m] == alone["tv_duty"]
+    assert all(np.isfinite(cols["t_diverge"][[1, 3]]))
 
 
 def test_scenario_time_grid_is_the_published_one():

@@ -56,20 +56,26 @@ def reset(CP, CS, j):
 
 
 @step_jit
+def next_gamma(mode, k, e_dot, g1, g2, inv_alpha, gamma0, rate, eps_m, order, alpha_ext):
+    """gamma_k from plain floats: the one place the adaptation is written. The branches
+    are uniform or predictable, cost nothing in a single run, and are if-converted where a
+    loop over members is vectorised."""
+    if mode == VARIATIONAL:
+        if k < 3:
+            return gamma0
+        second = g2 if order == 2.0 else g1
+        return ((e_dot - eps_m) * rate + 2.0 * g1) - second
+    if mode == EXTERNAL:
+        return 1.0 / alpha_ext
+    return inv_alpha
+
+
+@step_jit
 def update(CP, CS, j, k, e_dot):
     """Advance to sample k (>= 1) given the error derivative; return (gamma_k, gamma_{k-1})."""
     g1 = CS[G1, j]
-    mode = CP[MODE, j]
-    if mode == VARIATIONAL:
-        if k >= 3:
-            g_prev = CS[G2, j] if CP[ORDER, j] == 2.0 else g1
-            g = ((e_dot - CP[EPS_M, j]) * CP[GAMMA_RATE, j] + 2.0 * g1) - g_prev
-        else:
-            g = CP[GAMMA0, j]
-    elif mode == EXTERNAL:
-        g = 1.0 / CS[ALPHA_EXT, j]
-    else:
-        g = CP[INV_ALPHA, j]
+    g = next_gamma(CP[MODE, j], k, e_dot, g1, CS[G2, j], CP[INV_ALPHA, j], CP[GAMMA0, j],
+                   CP[GAMMA_RATE, j], CP[EPS_M, j], CP[ORDER, j], CS[ALPHA_EXT, j])
     CS[G2, j] = g1
     CS[G1, j] = g
     return g, g1

@@ -60,28 +60,46 @@ def clip(x, lo, hi):
 
 
 @step_jit
+def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, mode, inv_alpha, gamma0, rate, eps_m,
+            order, kp, hd, u0, p_sign, p_current, rate_coef, use_gamma, out_gain, lo, hi,
+            aw_coef):
+    """One sample from plain floats: the one place the law is written.
+
+    Returns (u_k, applied_k, gain_k, gamma_k, u carried to the next sample, gamma for
+    G1, gamma for G2). Sample 0 gives u_0 and the initial gamma.
+    """
+    if k == 0.0:  # the same sample for every member: a uniform, predictable branch
+        g0 = gamma0 if mode == gain.VARIATIONAL else inv_alpha
+        applied = clip(out_gain * u0, lo, hi)
+        carried = u0 if aw_coef == 0.0 else u0 + aw_coef * (applied / out_gain - u0)
+        return u0, applied, g0, g0, carried, g1, g2
+    e_dot = (y - y_prev) / hd - (r - r_prev) / hd
+    # the recursive law has no external gain: alpha_ext is never read
+    gamma = gain.next_gamma(mode, k, e_dot, g1, g2, inv_alpha, gamma0, rate, eps_m, order, 1.0)
+    g = gamma if use_gamma != 0.0 else inv_alpha
+    y_p = y if p_current != 0.0 else y_prev
+    u = (u_prev - g * e_dot) + p_sign * (kp * (r - y_p))
+    if rate_coef != 0.0:
+        u = u + rate_coef * ((gamma - g1) / hd)
+    applied = clip(out_gain * u, lo, hi)
+    carried = u if aw_coef == 0.0 else u + aw_coef * (applied / out_gain - u)
+    return u, applied, g, gamma, carried, gamma, g1
+
+
+@step_jit
 def step(CP, CS, j, y, r):
     """One sample: measurement y_k and reference r_k in, (u_k, applied, g_k, gamma_k) out."""
     k = CS[K, j]
-    if k == 0.0:
-        u = CP[U0, j]
-        g = gain.initial(CP, j)
-        gamma = g
-    else:
-        hd = CP[HD, j]
-        y_prev = CS[Y_PREV, j]
-        e_dot = (y - y_prev) / hd - (r - CS[R_PREV, j]) / hd
-        gamma, gamma_prev = gain.update(CP, CS, j, k, e_dot)
-        g = gamma if CP[USE_GAMMA, j] != 0.0 else CP[gain.INV_ALPHA, j]
-        y_p = y if CP[P_CURRENT, j] != 0.0 else y_prev
-        u = (CS[U_PREV, j] - g * e_dot) + CP[P_SIGN, j] * (CP[KP, j] * (r - y_p))
-        c = CP[RATE_COEF, j]
-        if c != 0.0:
-            u = u + c * ((gamma - gamma_prev) / hd)
-    applied = clip(CP[OUT_GAIN, j] * u, CP[OUT_MIN, j], CP[OUT_MAX, j])
-    c = CP[AW_COEF, j]
-    CS[U_PREV, j] = u if c == 0.0 else u + c * (applied / CP[OUT_GAIN, j] - u)
+    u, applied, g, gamma, carried, g1, g2 = advance(
+        k, y, r, CS[U_PREV, j], CS[Y_PREV, j], CS[R_PREV, j], CS[gain.G1, j], CS[gain.G2, j],
+        CP[gain.MODE, j], CP[gain.INV_ALPHA, j], CP[gain.GAMMA0, j], CP[gain.GAMMA_RATE, j],
+        CP[gain.EPS_M, j], CP[gain.ORDER, j], CP[KP, j], CP[HD, j], CP[U0, j], CP[P_SIGN, j],
+        CP[P_CURRENT, j], CP[RATE_COEF, j], CP[USE_GAMMA, j], CP[OUT_GAIN, j],
+        CP[OUT_MIN, j], CP[OUT_MAX, j], CP[AW_COEF, j])
+    CS[U_PREV, j] = carried
     CS[Y_PREV, j] = y
     CS[R_PREV, j] = r
+    CS[gain.G1, j] = g1
+    CS[gain.G2, j] = g2
     CS[K, j] = k + 1.0
     return u, applied, g, gamma

@@ -51,39 +51,46 @@ def prepare(PP, j):
 
 @step_jit
 def output(PP, X, j):
-    v = X[V_C, j]
-    return v * X[I_L, j] if PP[OUTPUT, j] != 0.0 else v
+    return measure(X[I_L, j], X[V_C, j], PP[OUTPUT, j])
 
 
 @step_jit
-def _rhs(PP, j, i, v, b, cb):
+def measure(i, v, power):
+    return v * i if power != 0.0 else v
+
+
+@step_jit
+def _rhs(a12, a21, a22, i, v, b, cb):
     """dx/dt = A x + (b, cb): b = d/L*E, cb = b (published coupling) or 0 (textbook)."""
-    return PP[A12, j] * v + b, (PP[A21, j] * i + PP[A22, j] * v) + cb
+    return a12 * v + b, (a21 * i + a22 * v) + cb
 
 
 @step_jit
 def deriv(PP, X, j, d):
     """(di/dt, dv/dt) of member j under duty cycle d."""
     b = d / PP[L, j] * PP[E, j]
-    return _rhs(PP, j, X[I_L, j], X[V_C, j], b, PP[COUPLING, j] * b)
+    return _rhs(PP[A12, j], PP[A21, j], PP[A22, j], X[I_L, j], X[V_C, j], b,
+                PP[COUPLING, j] * b)
 
 
 @step_jit
-def _increment(PP, j, i, v, b, cb, h):
-    di, dv = _rhs(PP, j, i, v, b, cb)
-    return h * di, h * dv
+def rk4(i, v, d, inductance, e_in, a12, a21, a22, coupling, h):
+    """One RK4 step from plain floats: the one place the buck's integration is written."""
+    b = d / inductance * e_in
+    cb = coupling * b
+    p1, q1 = _rhs(a12, a21, a22, i, v, b, cb)
+    p1, q1 = h * p1, h * q1
+    p2, q2 = _rhs(a12, a21, a22, i + p1 / 2, v + q1 / 2, b, cb)
+    p2, q2 = h * p2, h * q2
+    p3, q3 = _rhs(a12, a21, a22, i + p2 / 2, v + q2 / 2, b, cb)
+    p3, q3 = h * p3, h * q3
+    p4, q4 = _rhs(a12, a21, a22, i + p3, v + q3, b, cb)
+    p4, q4 = h * p4, h * q4
+    return i + (p1 + 2 * (p2 + p3) + p4) / 6, v + (q1 + 2 * (q2 + q3) + q4) / 6
 
 
 @step_jit
 def step(PP, X, j, d, h):
     """Advance member j by one RK4 step of size h with duty cycle d held."""
-    i = X[I_L, j]
-    v = X[V_C, j]
-    b = d / PP[L, j] * PP[E, j]
-    cb = PP[COUPLING, j] * b
-    p1, q1 = _increment(PP, j, i, v, b, cb, h)
-    p2, q2 = _increment(PP, j, i + p1 / 2, v + q1 / 2, b, cb, h)
-    p3, q3 = _increment(PP, j, i + p2 / 2, v + q2 / 2, b, cb, h)
-    p4, q4 = _increment(PP, j, i + p3, v + q3, b, cb, h)
-    X[I_L, j] = i + (p1 + 2 * (p2 + p3) + p4) / 6
-    X[V_C, j] = v + (q1 + 2 * (q2 + q3) + q4) / 6
+    X[I_L, j], X[V_C, j] = rk4(X[I_L, j], X[V_C, j], d, PP[L, j], PP[E, j], PP[A12, j],
+                               PP[A21, j], PP[A22, j], PP[COUPLING, j], h)
