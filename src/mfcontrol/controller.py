@@ -99,6 +99,18 @@ class _Controller:
             self._last_output = _number("last_output", last_output)
         self.auto_mode = bool(enabled)
 
+    def _measurement_ok(self, y: float, setpoint: float | None) -> bool:
+        """Take the setpoint; False when the law must not run (manual mode, or a NaN/inf
+        measurement, which is counted): the caller then returns the last output."""
+        if setpoint is not None:
+            self.setpoint = setpoint
+        if not self.auto_mode:
+            return False
+        if not math.isfinite(y):
+            self.nan_count += 1
+            return False
+        return True
+
     def snapshot(self) -> dict[str, Any]:
         """Everything needed to continue bit for bit, as plain data."""
         return {
@@ -266,12 +278,7 @@ class IntelligentController(_Controller):
     def __call__(self, y: float, setpoint: float | None = None, dt: float | None = None,
                  alpha: float | None = None) -> float:
         """One sample: the measurement in, the (limited) control out."""
-        if setpoint is not None:
-            self.setpoint = setpoint
-        if not self.auto_mode:
-            return self._last_output
-        if not math.isfinite(y):
-            self.nan_count += 1
+        if not self._measurement_ok(y, setpoint):
             return self._last_output
         if self._external:
             if alpha is None or not (alpha > 0 and math.isfinite(alpha)):
@@ -408,12 +415,7 @@ class RecursiveIP(_Controller):
         self._last_output = start
 
     def __call__(self, y: float, setpoint: float | None = None) -> float:
-        if setpoint is not None:
-            self.setpoint = setpoint
-        if not self.auto_mode:
-            return self._last_output
-        if not math.isfinite(y):
-            self.nan_count += 1
+        if not self._measurement_ok(y, setpoint):
             return self._last_output
         u, applied, g, gamma = live.recursive_step(self._CP, self._CS, self._backup,
                                                    float(y), float(self.setpoint))

@@ -41,63 +41,48 @@ __all__ = ["LTI", "ODE", "Boost", "Buck", "FirstOrder", "Plant"]
 # compiled wrappers: member 0 of (rows, 1) columns, callable from Python
 
 
-@kernel_jit
-def _buck_prepare(PP):
-    buck.prepare(PP, 0)
+BUCK, BOOST, FIRST_ORDER = 0, 1, 2
 
 
 @kernel_jit
-def _buck_output(PP, X):
-    return buck.output(PP, X, 0)
+def _prepare(kind, PP):
+    if kind == BUCK:
+        buck.prepare(PP, 0)
+    elif kind == BOOST:
+        boost.prepare(PP, 0)
+    else:
+        first_order.prepare(PP, 0)
 
 
 @kernel_jit
-def _buck_step(PP, X, u, h):
-    buck.step(PP, X, 0, u, h)
-
-
-@kernel_jit
-def _buck_deriv(PP, X, u):
-    out = np.empty(buck.N_STATE)
-    out[buck.I_L], out[buck.V_C] = buck.deriv(PP, X, 0, u)
-    return out
-
-
-@kernel_jit
-def _boost_prepare(PP):
-    boost.prepare(PP, 0)
-
-
-@kernel_jit
-def _boost_output(PP, X):
-    return boost.output(PP, X, 0)
-
-
-@kernel_jit
-def _boost_step(PP, X, u, h):
-    boost.step(PP, X, 0, u, h)
-
-
-@kernel_jit
-def _boost_deriv(PP, X, u):
-    out = np.empty(boost.N_STATE)
-    out[boost.I_L], out[boost.V_C] = boost.deriv(PP, X, 0, u)
-    return out
-
-
-@kernel_jit
-def _first_order_prepare(PP):
-    first_order.prepare(PP, 0)
-
-
-@kernel_jit
-def _first_order_output(PP, X):
+def _output(kind, PP, X):
+    if kind == BUCK:
+        return buck.output(PP, X, 0)
+    if kind == BOOST:
+        return boost.output(PP, X, 0)
     return first_order.output(PP, X, 0)
 
 
 @kernel_jit
-def _first_order_step(PP, X, u, h):
-    first_order.step(PP, X, 0, u, h)
+def _step(kind, PP, X, u, h):
+    if kind == BUCK:
+        buck.step(PP, X, 0, u, h)
+    elif kind == BOOST:
+        boost.step(PP, X, 0, u, h)
+    else:
+        first_order.step(PP, X, 0, u, h)
+
+
+@kernel_jit
+def _deriv(kind, PP, X, u):
+    out = np.empty(X.shape[0])
+    if kind == BUCK:
+        out[buck.I_L], out[buck.V_C] = buck.deriv(PP, X, 0, u)
+    elif kind == BOOST:
+        out[boost.I_L], out[boost.V_C] = boost.deriv(PP, X, 0, u)
+    else:
+        (out[first_order.Y],) = first_order.deriv(PP, X, 0, u)
+    return out
 
 
 @kernel_jit
@@ -280,10 +265,22 @@ class Plant(ABC):
 
 
 class _Kernels(NamedTuple):
-    prepare: Callable[..., Any]
-    output: Callable[..., Any]
-    step: Callable[..., Any]
-    deriv: Callable[..., Any]
+    """The compiled functions of one plant kind (numba caches kernels that dispatch on an
+    integer, not kernels that take functions as arguments)."""
+
+    kind: int
+
+    def prepare(self, PP):
+        _prepare(self.kind, PP)
+
+    def output(self, PP, X):
+        return _output(self.kind, PP, X)
+
+    def step(self, PP, X, u, h):
+        _step(self.kind, PP, X, u, h)
+
+    def deriv(self, PP, X, u):
+        return _deriv(self.kind, PP, X, u)
 
 
 class _CompiledPlant(Plant):
@@ -368,7 +365,7 @@ class Buck(_CompiledPlant):
     """
 
     _module = buck
-    _kernels = _Kernels(_buck_prepare, _buck_output, _buck_step, _buck_deriv)
+    _kernels = _Kernels(BUCK)
     _positive = frozenset({"E", "L", "R", "C"})
 
     def __init__(self, E: float = 20.0, L: float = 1e-3, R: float = 10.0, C: float = 10e-6, *,
@@ -415,7 +412,7 @@ class Boost(_CompiledPlant):
     """
 
     _module = boost
-    _kernels = _Kernels(_boost_prepare, _boost_output, _boost_step, _boost_deriv)
+    _kernels = _Kernels(BOOST)
     _positive = frozenset({"E", "L", "R", "C"})
 
     def __init__(self, E: float = 20.0, L: float = 1e-3, R: float = 10.0, C: float = 10e-6, *,
@@ -451,8 +448,7 @@ class FirstOrder(_CompiledPlant):
     """
 
     _module = first_order
-    _kernels = _Kernels(_first_order_prepare, _first_order_output, _first_order_step,
-                        _first_order_deriv)
+    _kernels = _Kernels(FIRST_ORDER)
     _integrators = ("rk4", "rk45", "exact")
 
     def __init__(self, a: float, b: float, w: float = 0.0, x0: float = 0.0, *,
