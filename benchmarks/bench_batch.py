@@ -12,7 +12,11 @@ Measured in one process, medians of repeated runs after warm-up (compilation):
 
 Prints the figures and the ratios; asserts nothing (machines are shared and noisy).
 
-Run:  python benchmarks/bench_batch.py [--members 4096] [--repeats 3]
+* memory (``--memory``): a 1,000,000-member metrics-only sweep (100 samples each, into a
+  temporary folder through the same code as ``mfcontrol sweep``), and the process's peak
+  resident memory.
+
+Run:  python benchmarks/bench_batch.py [--members 4096] [--repeats 3] [--memory]
 """
 
 from __future__ import annotations
@@ -76,6 +80,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--members", type=int, default=4096)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--memory", action="store_true", help="also the 1,000,000-member sweep")
     args = ap.parse_args()
     spec = importlib.util.spec_from_file_location(
         "bench_single", Path(__file__).with_name("bench_single.py"))
@@ -106,6 +111,28 @@ def main() -> None:
               f"{per_sim / n_steps * 1e9:6.2f} ns/scenario-sample  "
               f"{t_python / per_sim:10,.0f}x plain Python  {t_pc / per_sim:10,.0f}x "
               "python-control")
+
+
+    if args.memory:
+        memory()
+
+
+def memory() -> None:
+    import resource
+    import tempfile
+
+    from mfcontrol.experiments.sweeps import run_sweep
+
+    _, base = resolve_case("voltage-stable-standard", {"sim.t_end": 1e-4})
+    axes = {"controller.alpha": np.logspace(0, 2, 1000), "plant.dR": np.linspace(0, 10, 1000)}
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        run_sweep("voltage-stable-standard", base, {"sim.t_end": 1e-4}, axes, Path(tmp),
+                  chunk=8192)
+        dt = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"1,000,000-member metrics-only sweep (100 samples each): {dt:.1f} s, "
+          f"peak resident memory {peak:,.0f} MiB (target: under 2 GiB)")
 
 
 if __name__ == "__main__":

@@ -195,12 +195,12 @@ def run_range(grid: Grid, start: int, stop: int,
                     _blocks(scn.ev_val, n_blocks), scn.S)
         M = D.transpose(1, 0, 2).reshape(kernel.P_ROWS, -1)[kernel.P_M:kernel.P_M
                                                              + kernel.N_METRICS, :n]
-        rows = [_metrics.from_kernel(M, j, tol) for j in range(n)]
+        met = _metrics.table(M, tol)
     else:  # the general loop, one member at a time
         rows = [simulate(grid.config(m)).metrics for m in range(start, stop)]
+        met = {name: np.array([r[name] for r in rows]) for name in METRIC_COLUMNS}
     cols: dict[str, np.ndarray] = {"member": np.arange(start, stop, dtype=np.int64), **values}
-    for name in METRIC_COLUMNS:
-        cols[name] = np.array([r[name] for r in rows])
+    cols.update({name: met[name] for name in METRIC_COLUMNS})
     return cols
 
 

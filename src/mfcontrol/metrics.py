@@ -36,27 +36,32 @@ STABILITY_RULE = (
 )
 
 
-def is_stable(diverged: bool, max_abs_e_final: float, max_abs_ref: float, tol: float) -> bool:
-    if diverged or not math.isfinite(max_abs_e_final):
-        return False
-    return max_abs_e_final <= tol * max_abs_ref
+def is_stable(diverged, max_abs_e_final, max_abs_ref, tol):
+    """The stability rule; works on floats and, element-wise, on arrays."""
+    return np.logical_and(~np.asarray(diverged, dtype=bool) & np.isfinite(max_abs_e_final),
+                          np.asarray(max_abs_e_final) <= tol * np.asarray(max_abs_ref))
 
 
-def from_kernel(M: np.ndarray, j: int, tol: float) -> dict:
-    """Named metrics of member j from the kernel's metric rows."""
-    diverged = bool(M[kernel.M_DIVERGED, j])
+def table(M: np.ndarray, tol: float) -> dict[str, np.ndarray]:
+    """Named metrics of every member (columns of the kernel's metric rows)."""
+    diverged = M[kernel.M_DIVERGED] != 0.0
     out = {
-        "iae": float(M[kernel.M_IAE, j]),
-        "ise": float(M[kernel.M_ISE, j]),
-        "itae": float(M[kernel.M_ITAE, j]),
-        "max_abs_e": float(M[kernel.M_MAX_E_SETTLED, j]),
-        "tv_duty": float(M[kernel.M_TV, j]),
-        "final_gamma": float(M[kernel.M_FINAL_GAMMA, j]),
+        "iae": M[kernel.M_IAE].copy(),
+        "ise": M[kernel.M_ISE].copy(),
+        "itae": M[kernel.M_ITAE].copy(),
+        "max_abs_e": M[kernel.M_MAX_E_SETTLED].copy(),
+        "tv_duty": M[kernel.M_TV].copy(),
+        "final_gamma": M[kernel.M_FINAL_GAMMA].copy(),
         "diverged": diverged,
-        "t_diverge": float(M[kernel.M_T_DIVERGE, j]) if diverged else math.nan,
-        "max_abs_e_final": float(M[kernel.M_MAX_E_FINAL, j]),
-        "max_abs_ref": float(M[kernel.M_MAX_ABS_R, j]),
-        "n_samples": int(M[kernel.M_N_SAMPLES, j]),
+        "t_diverge": np.where(diverged, M[kernel.M_T_DIVERGE], math.nan),
+        "max_abs_e_final": M[kernel.M_MAX_E_FINAL].copy(),
+        "max_abs_ref": M[kernel.M_MAX_ABS_R].copy(),
+        "n_samples": M[kernel.M_N_SAMPLES].astype(np.int64),
     }
     out["stable"] = is_stable(diverged, out["max_abs_e_final"], out["max_abs_ref"], tol)
     return out
+
+
+def from_kernel(M: np.ndarray, j: int, tol: float) -> dict:
+    """Named metrics of member j, as plain Python values."""
+    return {k: v.item() for k, v in table(M[:, j:j + 1], tol).items()}
