@@ -63,5 +63,7 @@ def table(M: np.ndarray, tol: float) -> dict[str, np.ndarray]:
 
 
 def from_kernel(M: np.ndarray, j: int, tol: float) -> dict:
-    """Named metrics of member j, as plain Python values."""
-    return {k: v.item() for k, v in table(M[:, j:j + 1], tol).items()}
+    """Named metrics of member j, as plain Python values. NaN is always ``math.nan``: one
+    object, so that two runs with equal metrics give dicts that compare equal."""
+    out = {k: v.item() for k, v in table(M[:, j:j + 1], tol).items()}
+    return {k: math.nan if isinstance(v, float) and v != v else v for k, v in out.items()}
