@@ -22,6 +22,7 @@ import numpy as np
 from . import metrics as _metrics
 from ._version import __version__
 from .engine import kernel
+from .result import _Trajectory
 
 Reference = float | Callable[[float], float] | Sequence[float] | np.ndarray
 
@@ -38,9 +39,10 @@ class Change:
 
 
 @dataclass
-class LoopResult:
+class LoopResult(_Trajectory):
     """A simulated loop: time, signals (``y_ref``, ``y``, ``u`` and the controller's
-    components), plant states, metrics (as in :mod:`mfcontrol.metrics`)."""
+    components), plant states, metrics (as in :mod:`mfcontrol.metrics`); ``to_pandas``,
+    ``to_csv``, ``metrics_json`` and ``plot`` as for :class:`mfcontrol.Result`."""
 
     time: np.ndarray
     signals: dict[str, np.ndarray]
@@ -49,15 +51,6 @@ class LoopResult:
     changes: tuple[Change, ...] = ()
     version: str = __version__
     name: str = field(default="")
-
-    @property
-    def error(self) -> np.ndarray:
-        return self.signals["y"] - self.signals["y_ref"]
-
-    def to_pandas(self):
-        import pandas as pd
-
-        return pd.DataFrame({"t": self.time, **self.signals, **self.states})
 
     def plot(self, path: str | Path | None = None, title: str | None = None,
              output_label: str = "output y", input_label: str = "control u"):

@@ -17,7 +17,7 @@ SIGNALS = ("y_ref", "y", "duty", "u_raw", "gamma", "gain")
 
 
 class _Files:
-    """What both result types write: the trajectory as CSV and the metrics as JSON."""
+    """What every result type writes: the trajectory as CSV and the metrics as JSON."""
 
     name: str
     version: str
@@ -40,8 +40,31 @@ class _Files:
         return json.dumps(_jsonable(payload), indent=2)
 
 
+class _Trajectory(_Files):
+    """A single trajectory: time, signals (y_ref, y, ...) and plant states."""
+
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    states: dict[str, np.ndarray]
+    metrics: dict[str, Any]
+
+    @property
+    def error(self) -> np.ndarray:
+        """Tracking error y - y*."""
+        return self.signals["y"] - self.signals["y_ref"]
+
+    def to_pandas(self):
+        """Trajectory as a DataFrame: t, then the signals, then the plant states."""
+        import pandas as pd
+
+        return pd.DataFrame({"t": self.time, **self.signals, **self.states})
+
+    def _metrics_payload(self) -> dict[str, Any]:
+        return dict(self.metrics)
+
+
 @dataclass
-class Result(_Files):
+class Result(_Trajectory):
     """One simulated run.
 
     Attributes
@@ -73,20 +96,6 @@ class Result(_Files):
     metrics: dict[str, Any]
     version: str
     label: str = field(default="")
-
-    @property
-    def error(self) -> np.ndarray:
-        """Tracking error y - y*."""
-        return self.signals["y"] - self.signals["y_ref"]
-
-    def to_pandas(self):
-        """Trajectory as a DataFrame: t, y_ref, y, duty, u_raw, gamma, gain, states."""
-        import pandas as pd
-
-        return pd.DataFrame({"t": self.time, **self.signals, **self.states})
-
-    def _metrics_payload(self) -> dict[str, Any]:
-        return dict(self.metrics)
 
     def plot(self, path: str | Path | None = None, title: str | None = None):
         """Output and reference on top, duty cycle below (and gamma for adaptive laws).
