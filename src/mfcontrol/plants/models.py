@@ -90,13 +90,6 @@ def _first_order_exact_step(PP, X, u, h):
     first_order.exact_step(PP, X, 0, u, h)
 
 
-@kernel_jit
-def _first_order_deriv(PP, X, u):
-    out = np.empty(first_order.N_STATE)
-    (out[first_order.Y],) = first_order.deriv(PP, X, 0, u)
-    return out
-
-
 # ---------------------------------------------------------------------------------------------
 # validation
 
