@@ -17,13 +17,11 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from numba import prange
 
 from . import metrics as _metrics
 from . import scenario
-from ._jit import parallel_jit
 from .config import BY_KEY, Config, check_value
-from .engine import kernel
+from .engine import kernel, packed
 from .errors import ConfigError
 from .laws import recursive_ip
 from .simulate import compiled, simulate
@@ -160,40 +158,81 @@ def build_members(grid: Grid, start: int, stop: int,
         ev_val=tiled["ev_val"], S=scn.S, state_names=scn.state_names)
 
 
-@parallel_jit
-def _run_blocks(n_steps, h, t_end, D, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
-    """run_packed over blocks of kernel.BLOCK members (D[block]), spread over all cores."""
-    for b in prange(D.shape[0]):
-        kernel.run_packed(n_steps, h, t_end, D[b], RP[b], ev_steps, ev_k[b], ev_row, ev_add,
-                          ev_val[b], S)
+def _varying(changes: dict, scn: scenario.Scenario) -> tuple[set[int], bool]:
+    """The packed rows that differ between members of the whole grid (written by a swept
+    key or a scheduled change), and whether the reference differs: decided per grid, not
+    per chunk, so that every chunk of a sweep runs the same compiled kernel."""
+    rows = {packed.P_PP + int(r) for r in scn.ev_row}
+    ref = False
+    for per_value in changes.values():
+        for cells in per_value:
+            for name, flat, _ in cells:  # flat: the row (cells of one-member arrays)
+                if name == "PP":
+                    rows.add(packed.P_PP + flat)
+                elif name == "CP":
+                    rows.add(packed.P_CP + flat)
+                elif name == "RP":
+                    ref = True
+    return rows, ref
 
 
 def _blocks(a: np.ndarray, n_blocks: int) -> np.ndarray:
     """(rows, n) -> (n_blocks, rows, BLOCK), the last block padded with copies of member 0."""
     rows, n = a.shape
-    out = np.repeat(a[:, :1], n_blocks * kernel.BLOCK, axis=1)
+    out = np.repeat(a[:, :1], n_blocks * packed.BLOCK, axis=1)
     out[:, :n] = a
-    return np.ascontiguousarray(out.reshape(rows, n_blocks, kernel.BLOCK).transpose(1, 0, 2))
+    return np.ascontiguousarray(out.reshape(rows, n_blocks, packed.BLOCK).transpose(1, 0, 2))
 
 
-def run_range(grid: Grid, start: int, stop: int,
-              changes: dict | None = None) -> dict[str, np.ndarray]:
-    """Metrics of members start .. stop-1, as columns (swept keys first)."""
+#: scenario-samples of a grid from which the compiled path specialises its kernel by
+#: default: compiling one takes about 4 s and saves about 1 ns per scenario-sample
+SPECIALISE_ABOVE = 4e9
+
+
+def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
+              fast: bool = False, specialise: bool | None = None) -> dict[str, np.ndarray]:
+    """Metrics of members start .. stop-1, as columns (swept keys first).
+
+    Parameters
+    ----------
+    grid : Grid
+        The sweep.
+    start, stop : int
+        The members to run.
+    changes : dict, optional
+        ``_cell_changes(grid)``, when the caller runs several ranges of one grid.
+    fast : bool
+        Fast arithmetic (fused multiply-adds, reciprocals of shared divisors): members
+        agree with their single runs to about 1e-13 relative instead of bit for bit.
+        Implies ``specialise``.
+    specialise : bool, optional
+        Compile a kernel with the parameters every member of the grid shares built in
+        (see :func:`mfcontrol.engine.packed.block_kernel`); None: for grids of more than
+        :data:`SPECIALISE_ABOVE` scenario-samples, and with ``fast``. Exact results are
+        the same either way.
+    """
     values = grid.values(start, stop)
     tol = grid.base["metrics.stable_tol"]
     if compiled(grid.base):
+        changes = _cell_changes(grid) if changes is None else changes
         scn = build_members(grid, start, stop, changes)
         n = stop - start
-        n_blocks = -(-n // kernel.BLOCK)
+        n_blocks = -(-n // packed.BLOCK)
         CS = np.zeros((recursive_ip.N_STATE, n))
         kernel.reset_members(scn.law_kind, scn.CP, CS)
-        packed = np.vstack([scn.PP, scn.X0, scn.CP, CS, np.zeros((kernel.N_METRICS, n)),
-                            np.zeros((1, n))])
-        D = _blocks(packed, n_blocks)
-        _run_blocks(scn.n_steps, scn.h, scn.t_end, D, _blocks(scn.RP, n_blocks),
-                    scn.ev_steps, _blocks(scn.ev_k, n_blocks), scn.ev_row, scn.ev_add,
-                    _blocks(scn.ev_val, n_blocks), scn.S)
-        M = D.transpose(1, 0, 2).reshape(kernel.P_ROWS, -1)[kernel.P_M:kernel.P_M
+        kernel.plant_prepare_all(scn.plant_kind, scn.PP, n)
+        rows = np.vstack([scn.PP, scn.X0, scn.CP, CS, np.zeros((kernel.N_METRICS, n)),
+                          np.zeros((packed.P_ROWS - packed.P_APREV, n))])
+        varying, ref_varies = _varying(changes, scn)
+        if specialise is None:
+            specialise = fast or grid.n_members * scn.n_steps >= SPECIALISE_ABOVE
+        constants = packed.shared_constants(rows, varying) if (specialise or fast) else None
+        run = packed.block_kernel(constants, not ref_varies, fast)
+        D = _blocks(rows, n_blocks)
+        run(scn.n_steps, scn.h, scn.t_end, D, _blocks(scn.RP, n_blocks), scn.ev_steps,
+            _blocks(scn.ev_k, n_blocks), scn.ev_row, scn.ev_add, _blocks(scn.ev_val, n_blocks),
+            scn.S)
+        M = D.transpose(1, 0, 2).reshape(packed.P_ROWS, -1)[packed.P_M:packed.P_M
                                                              + kernel.N_METRICS, :n]
         met = _metrics.table(M, tol)
     else:  # the general loop, one member at a time
@@ -211,13 +250,15 @@ def chunks(n_members: int, size: int) -> Iterator[tuple[int, int, int]]:
 
 
 def run_grid(grid: Grid, chunk: int = 4096,
-             progress: Callable[[int, int], None] | None = None) -> dict[str, np.ndarray]:
-    """Every member's metrics, in memory (the CLI writes chunks to disk instead)."""
+             progress: Callable[[int, int], None] | None = None, *, fast: bool = False,
+             specialise: bool | None = None) -> dict[str, np.ndarray]:
+    """Every member's metrics, in memory (the CLI writes chunks to disk instead);
+    ``fast`` and ``specialise`` as in :func:`run_range`."""
     changes = _cell_changes(grid) if compiled(grid.base) else None
     parts = []
     done = 0
     for _, a, b in chunks(grid.n_members, chunk):
-        parts.append(run_range(grid, a, b, changes))
+        parts.append(run_range(grid, a, b, changes, fast=fast, specialise=specialise))
         done += b - a
         if progress:
             progress(done, grid.n_members)

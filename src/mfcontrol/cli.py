@@ -101,7 +101,8 @@ def _cmd_sweep(args) -> int:
     bar = Progress(total)
     try:
         path = run_sweep(name, cfg, overrides, axes, out, keep=args.keep or 0,
-                         chunk=args.chunk or 4096, dask=args.dask, progress=bar)
+                         chunk=args.chunk or 4096, dask=args.dask, progress=bar,
+                         fast=args.fast)
     except KeyboardInterrupt:
         bar.close()
         print(f"mfcontrol: interrupted; finished chunks are kept in {out}/chunks: run the "
@@ -171,6 +172,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--chunk", type=int, help="members per chunk file (default 4096)")
     s.add_argument("--dask", metavar="ADDRESS", help="run chunks on a Dask scheduler, or "
                    "local:N for a local cluster of N worker processes")
+    s.add_argument("--fast", action="store_true", help="fast arithmetic: fused multiply-adds "
+                   "and hoisted reciprocals, members within about 1e-13 relative of their "
+                   "exact runs (default: bit-identical to single runs)")
     s.set_defaults(func=_cmd_sweep)
 
     s = sub.add_parser("map", help="heatmap of a sweep's metric with its stability boundary")

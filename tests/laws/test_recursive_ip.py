@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import mfcontrol
 
@@ -108,3 +110,17 @@ def test_published_recursion_winds_up_and_anti_windup_stops_it():
 def test_auto_anti_windup_keeps_the_published_behaviour(published_reference):
     r = mfcontrol.run_case("voltage-stable-standard", {"controller.anti_windup": "auto"})
     np.testing.assert_array_equal(r.signals["u_raw"], published_reference["u_raw"].to_numpy())
+
+
+@settings(max_examples=60, deadline=None)
+@given(k=st.integers(3, 10**9), y=st.floats(-10, 10), r=st.floats(-10, 10),
+       state=st.lists(st.floats(-5, 5), min_size=5, max_size=5),
+       mode=st.sampled_from([0.0, 1.0]), order=st.sampled_from([1.0, 2.0]),
+       use_gamma=st.sampled_from([0.0, 1.0]), rate_coef=st.sampled_from([0.0, 0.3]))
+def test_from_STEADY_on_the_law_depends_on_k_only_through_its_state(
+        k, y, r, state, mode, order, use_gamma, rate_coef):
+    # the sweep kernel passes STEADY for every later sample: that must change nothing
+    from mfcontrol.laws.recursive_ip import STEADY, advance
+    params = (mode, 0.1, 1.0, 1e-6, 0.01, order, 2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef,
+              use_gamma, 1 / 2000, 1e-3, 0.9, 0.0)
+    assert advance(float(k), y, r, *state, *params) == advance(STEADY, y, r, *state, *params)

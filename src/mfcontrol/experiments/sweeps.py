@@ -33,18 +33,23 @@ from ..simulate import compiled, simulate
 CHUNK = 4096
 
 
-def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int) -> dict:
+_IDENTITY = ("case", "overrides", "grid", "chunk", "arithmetic")
+
+
+def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int,
+              fast: bool) -> dict:
     return {"case": case, "overrides": overrides,
             "grid": {k: v.tolist() for k, v in grid.axes.items()}, "chunk": chunk,
-            "n_members": grid.n_members, "mfcontrol": __version__}
+            "arithmetic": "fast" if fast else "exact", "n_members": grid.n_members,
+            "mfcontrol": __version__}
 
 
 def _check_folder(out: Path, manifest: dict) -> None:
     path = out / "sweep.json"
     if path.exists():
         old = json.loads(path.read_text())
-        same = {k: old.get(k) for k in ("case", "overrides", "grid", "chunk")} == {
-            k: manifest[k] for k in ("case", "overrides", "grid", "chunk")}
+        old.setdefault("arithmetic", "exact")  # written before there was a fast mode
+        same = {k: old.get(k) for k in _IDENTITY} == {k: manifest[k] for k in _IDENTITY}
         if not same:
             raise ConfigError("--out", str(out), "holds a different sweep (see its sweep.json):"
                               " choose another folder")
@@ -69,7 +74,7 @@ def _chunk_frame(grid_spec: dict, index: int):
     grid = batch.Grid(base=base, axes={k: np.asarray(v) for k, v in grid_spec["grid"].items()})
     start = index * grid_spec["chunk"]
     stop = min(grid.n_members, start + grid_spec["chunk"])
-    return pd.DataFrame(batch.run_range(grid, start, stop))
+    return pd.DataFrame(batch.run_range(grid, start, stop, fast=grid_spec["fast"]))
 
 
 class Progress:
@@ -95,12 +100,14 @@ class Progress:
 
 def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str, np.ndarray],
               out: Path, *, keep: int = 0, chunk: int = CHUNK, dask: str | None = None,
-              progress: Callable[[int], None] | None = None) -> Path:
-    """Run (or resume) a sweep into ``out``; return the path of results.parquet."""
+              progress: Callable[[int], None] | None = None, fast: bool = False) -> Path:
+    """Run (or resume) a sweep into ``out``; return the path of results.parquet.
+    ``fast``: the batch kernel's fast arithmetic (see :func:`mfcontrol.batch.run_range`);
+    a folder holds one kind, and resuming with the other is refused."""
     import pandas as pd
 
     grid = batch.make_grid(cfg, axes)
-    manifest = _manifest(case, overrides, grid, chunk)
+    manifest = _manifest(case, overrides, grid, chunk, fast)
     _check_folder(out, manifest)
     chunk_dir = out / "chunks"
     chunk_dir.mkdir(exist_ok=True)
@@ -109,13 +116,13 @@ def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str,
     done = grid.n_members - sum(b - a for _, a, b in todo)
     if progress:
         progress(done)
-    spec = {"base": cfg.explicit, "grid": manifest["grid"], "chunk": chunk}
+    spec = {"base": cfg.explicit, "grid": manifest["grid"], "chunk": chunk, "fast": fast}
     if dask:
         done = _run_dask(dask, spec, todo, chunk_dir, done, progress)
     else:
         changes = batch._cell_changes(grid) if compiled(cfg) else None
         for i, a, b in todo:
-            frame = pd.DataFrame(batch.run_range(grid, a, b, changes))
+            frame = pd.DataFrame(batch.run_range(grid, a, b, changes, fast=fast))
             _write_atomic(frame, chunk_dir / f"chunk-{i:06d}.parquet")
             done += b - a
             if progress:

@@ -35,6 +35,10 @@ G2 = 1  # gamma_{k-2}
 ALPHA_EXT = 2  # external mode: alpha for the coming sample
 N_STATE = 3
 
+#: the first sample from which gamma_k no longer depends on k itself (only on the
+#: state): a kernel may pass STEADY for every k >= STEADY and compile out the start-up
+STEADY = 3.0
+
 CONSTANT = 0
 VARIATIONAL = 1
 EXTERNAL = 2
@@ -61,7 +65,7 @@ def next_gamma(mode, k, e_dot, g1, g2, inv_alpha, gamma0, rate, eps_m, order, al
     are uniform or predictable, cost nothing in a single run, and are if-converted where a
     loop over members is vectorised."""
     if mode == VARIATIONAL:
-        if k < 3:
+        if k < STEADY:
             return gamma0
         second = g2 if order == 2.0 else g1
         return ((e_dot - eps_m) * rate + 2.0 * g1) - second

@@ -43,6 +43,10 @@ R_PREV = gain.N_STATE + 2
 K = gain.N_STATE + 3
 N_STATE = gain.N_STATE + 4
 
+#: from this sample on :func:`advance` depends on k only through the state: a kernel may
+#: pass STEADY for every k >= STEADY, which compiles out the start-up branches
+STEADY = max(1.0, gain.STEADY)
+
 
 @step_jit
 def reset(CP, CS, j):

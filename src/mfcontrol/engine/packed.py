@@ -1,0 +1,320 @@
+"""The sweep kernel: blocks of members of the buck under the paper's law.
+
+Every per-member quantity lives in one array ``D[row, j]`` (a block of :data:`BLOCK`
+members), so the member loop addresses one block of memory at compile-time offsets: the
+compiler needs no run-time alias checks, and the loop of the scalar step functions
+(``recursive_ip.advance``, ``buck.rk4``, ``kernel.accumulate``/``kernel.fold_metrics``,
+the ones a single run inlines) vectorises over members.
+
+Tiles. The samples run in tiles of :data:`TILE`. The first ``recursive_ip.STEADY``
+samples and any tile in which a member went bad run sample by sample with the divergence
+test of a single run. Every other tile runs the plain loop: the law at
+``k = STEADY`` (the same values from then on, so its start-up branches compile out), plain
+metric sums, and a sticky peak |y| that is NaN once y or u is not finite. At the tile's
+end a member whose peak is over the bound (or NaN) sends the whole block back to the
+tile's snapshot for the sample-by-sample rerun, which finds the exact sample; a member
+that has diverged keeps the metrics it had then. So every member's metrics are those of
+its single run, bit for bit.
+
+Specialisation. A sweep varies a few quantities and shares the rest; a parameter row that
+every member shares can be compiled in as a constant (``constants``), which removes its
+load from every member-sample and lets the compiler fold what depends on it. The
+arithmetic is unchanged: a constant gives the same IEEE result as the value loaded.
+``fast=True`` compiles with LLVM's ``contract``, ``arcp`` and ``nsz`` flags (fused
+multiply-adds, division by a shared value as multiplication by its reciprocal): no longer
+bit-identical to a single run, within about 1e-13 relative of it on the paper's cases.
+NaN and inf keep their IEEE meaning in both modes (the divergence test relies on them).
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
+
+import numba
+import numpy as np
+from numba import njit
+
+from .. import references
+from ..laws import gain, recursive_ip
+from ..plants import buck
+from . import kernel
+
+# packed rows of a member
+P_PP = 0
+P_X = P_PP + buck.N_PARAMS
+P_CP = P_X + buck.N_STATE
+P_CS = P_CP + recursive_ip.N_PARAMS
+P_M = P_CS + recursive_ip.N_STATE
+P_APREV = P_M + kernel.N_METRICS
+P_PEAK = P_APREV + 1  # the largest |y| of the current tile, NaN once y or u is not finite
+P_ROWS = P_PEAK + 1
+#: rows that hold parameters (a sweep may share them and compile them in)
+PARAM_ROWS = tuple(range(P_PP, P_X)) + tuple(range(P_CP, P_CS))
+#: members per packed block (not a power of two times 512 bytes: no 4 KiB set aliasing)
+BLOCK = 120
+#: LLVM flags of the fast mode: no ``nnan``/``ninf`` (the divergence test needs them),
+#: no ``reassoc`` (a reordered sum drifts further from the exact run)
+FAST_FLAGS = ("contract", "arcp", "nsz")
+
+
+def _row(r):
+    """Offset of packed row r in a block: a compile-time constant, so every access is a
+    fixed distance from every other and the compiler needs no alias checks."""
+    return r * BLOCK
+
+
+# offsets of the rows the member loop reads and writes
+_L, _E, _A12, _A21, _A22, _CPL, _OUT = (_row(P_PP + r) for r in (
+    buck.L, buck.E, buck.A12, buck.A21, buck.A22, buck.COUPLING, buck.OUTPUT))
+_I, _V = _row(P_X + buck.I_L), _row(P_X + buck.V_C)
+(_MODE, _INVA, _G0, _GR, _EPS, _ORD, _KP, _HD, _U0, _PS, _PC, _RC, _UG, _OG, _LO, _HI,
+ _AW) = (_row(P_CP + r) for r in (
+    gain.MODE, gain.INV_ALPHA, gain.GAMMA0, gain.GAMMA_RATE, gain.EPS_M, gain.ORDER,
+    recursive_ip.KP, recursive_ip.HD, recursive_ip.U0, recursive_ip.P_SIGN,
+    recursive_ip.P_CURRENT, recursive_ip.RATE_COEF, recursive_ip.USE_GAMMA,
+    recursive_ip.OUT_GAIN, recursive_ip.OUT_MIN, recursive_ip.OUT_MAX, recursive_ip.AW_COEF))
+_UP, _YP, _RP, _G1, _G2 = (_row(P_CS + r) for r in (
+    recursive_ip.U_PREV, recursive_ip.Y_PREV, recursive_ip.R_PREV, gain.G1, gain.G2))
+(_DIV, _TDIV, _NS, _IAE, _ISE, _ITAE, _MXS, _MXF, _MXR, _TV, _GF) = (_row(P_M + r) for r in (
+    kernel.M_DIVERGED, kernel.M_T_DIVERGE, kernel.M_N_SAMPLES, kernel.M_IAE, kernel.M_ISE,
+    kernel.M_ITAE, kernel.M_MAX_E_SETTLED, kernel.M_MAX_E_FINAL, kernel.M_MAX_ABS_R,
+    kernel.M_TV, kernel.M_FINAL_GAMMA))
+_AP, _PEAK = _row(P_APREV), _row(P_PEAK)
+#: samples per tile: the unchecked loop runs a tile, then looks for a member gone bad
+TILE = 256
+
+
+@njit(inline="always", error_model="numpy")
+def _copy_rows(src, src_row, dst, dst_row, n_rows):
+    # element loops: an array assignment would compile numba's shape-mismatch message
+    # machinery, seconds of compilation for every kernel
+    for r in range(n_rows):
+        for j in range(src.shape[1]):
+            dst[dst_row + r, j] = src[src_row + r, j]
+
+
+@lru_cache(maxsize=32)
+def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: bool = False,
+                 fast: bool = False):
+    """The block loop of a sweep, compiled for what its members share.
+
+    Parameters
+    ----------
+    constants : tuple of float, optional
+        One value per packed row (length :data:`P_ROWS`); NaN where the row is read from
+        ``D``. Only :data:`PARAM_ROWS` may be given, and a shared row must hold the same
+        value in every member (a scheduled change to it makes it vary). ``None``: every
+        row is read (the generic kernel, compiled once and cached on disk).
+    reference_shared : bool
+        Every member has member 0's reference: evaluated once per sample.
+    fast : bool
+        Compile with :data:`FAST_FLAGS` instead of exact IEEE arithmetic.
+
+    Returns
+    -------
+    callable
+        ``run(n_steps, h, t_end, D, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S)`` that
+        runs every block ``D[b]`` (shape ``(n_blocks, P_ROWS, BLOCK)``) from sample 0, on
+        all cores, and leaves each member's metrics in its rows ``P_M ..``.
+    """
+    if constants is None:
+        constants = (math.nan,) * P_ROWS
+    if len(constants) != P_ROWS or any(not math.isnan(c) for r, c in enumerate(constants)
+                                       if r not in PARAM_ROWS):
+        raise ValueError("constants: one value per packed row, NaN outside the parameters")
+    VARY = tuple(math.isnan(c) for c in constants)
+    K = tuple(0.0 if math.isnan(c) else float(c) for c in constants)
+    SHARED_REF = bool(reference_shared)
+    # the derived coefficients are recomputed from D only where one of their sources varies
+    PREPARE = any(VARY[P_PP + r] for r in (buck.L, buck.R, buck.C))
+    # each shared parameter a closure constant of its own (cheaper to compile than a tuple)
+    v_OUTPUT, c_OUTPUT = VARY[P_PP + buck.OUTPUT], K[P_PP + buck.OUTPUT]
+    v_MODE, c_MODE = VARY[P_CP + gain.MODE], K[P_CP + gain.MODE]
+    v_INV_ALPHA, c_INV_ALPHA = VARY[P_CP + gain.INV_ALPHA], K[P_CP + gain.INV_ALPHA]
+    v_GAMMA0, c_GAMMA0 = VARY[P_CP + gain.GAMMA0], K[P_CP + gain.GAMMA0]
+    v_GAMMA_RATE, c_GAMMA_RATE = VARY[P_CP + gain.GAMMA_RATE], K[P_CP + gain.GAMMA_RATE]
+    v_EPS_M, c_EPS_M = VARY[P_CP + gain.EPS_M], K[P_CP + gain.EPS_M]
+    v_ORDER, c_ORDER = VARY[P_CP + gain.ORDER], K[P_CP + gain.ORDER]
+    v_KP, c_KP = VARY[P_CP + recursive_ip.KP], K[P_CP + recursive_ip.KP]
+    v_HD, c_HD = VARY[P_CP + recursive_ip.HD], K[P_CP + recursive_ip.HD]
+    v_U0, c_U0 = VARY[P_CP + recursive_ip.U0], K[P_CP + recursive_ip.U0]
+    v_P_SIGN, c_P_SIGN = VARY[P_CP + recursive_ip.P_SIGN], K[P_CP + recursive_ip.P_SIGN]
+    v_P_CURRENT, c_P_CURRENT = VARY[P_CP + recursive_ip.P_CURRENT], K[P_CP + recursive_ip.P_CURRENT]
+    v_RATE_COEF, c_RATE_COEF = VARY[P_CP + recursive_ip.RATE_COEF], K[P_CP + recursive_ip.RATE_COEF]
+    v_USE_GAMMA, c_USE_GAMMA = VARY[P_CP + recursive_ip.USE_GAMMA], K[P_CP + recursive_ip.USE_GAMMA]
+    v_OUT_GAIN, c_OUT_GAIN = VARY[P_CP + recursive_ip.OUT_GAIN], K[P_CP + recursive_ip.OUT_GAIN]
+    v_OUT_MIN, c_OUT_MIN = VARY[P_CP + recursive_ip.OUT_MIN], K[P_CP + recursive_ip.OUT_MIN]
+    v_OUT_MAX, c_OUT_MAX = VARY[P_CP + recursive_ip.OUT_MAX], K[P_CP + recursive_ip.OUT_MAX]
+    v_AW_COEF, c_AW_COEF = VARY[P_CP + recursive_ip.AW_COEF], K[P_CP + recursive_ip.AW_COEF]
+    v_L, c_L = VARY[P_PP + buck.L], K[P_PP + buck.L]
+    v_E, c_E = VARY[P_PP + buck.E], K[P_PP + buck.E]
+    v_A12, c_A12 = VARY[P_PP + buck.A12], K[P_PP + buck.A12]
+    v_A21, c_A21 = VARY[P_PP + buck.A21], K[P_PP + buck.A21]
+    v_A22, c_A22 = VARY[P_PP + buck.A22], K[P_PP + buck.A22]
+    v_COUPLING, c_COUPLING = VARY[P_PP + buck.COUPLING], K[P_PP + buck.COUPLING]
+    flags = set(FAST_FLAGS) if fast else False
+    options = dict(error_model="numpy", fastmath=flags)
+
+    def make_tile(checked):
+        @njit(cache=all(VARY), **options)
+        def tile(D, RP, R, k0, k1, n_steps, h, t_end, settle, final_start, bound):
+            """Samples k0 .. k1-1 of every member of the block: measurement, law (at
+            sample kl), metrics, plant step. ``checked``: the divergence test at every
+            sample (:func:`kernel.fold_metrics`); otherwise the plain sums and a sticky
+            peak |y| (NaN once y or u is not finite) that the tile's end inspects."""
+            r = 0.0
+            for k in range(k0, k1):
+                t = (k * t_end) / n_steps
+                if SHARED_REF:
+                    r = references.value(RP, 0, t)
+                else:
+                    for j in range(BLOCK):
+                        R[j] = references.value(RP, j, t)
+                kl = float(k) if checked else recursive_ip.STEADY
+                for j in range(BLOCK):
+                    if not SHARED_REF:
+                        r = R[j]
+                    i, v = D[_I + j], D[_V + j]
+                    y = buck.measure(i, v, (D[_OUT + j] if v_OUTPUT else c_OUTPUT))
+                    u, a, g, gamma, carried, g1, g2 = recursive_ip.advance(
+                        kl, y, r, D[_UP + j], D[_YP + j], D[_RP + j], D[_G1 + j], D[_G2 + j],
+                        (D[_MODE + j] if v_MODE else c_MODE),
+                        (D[_INVA + j] if v_INV_ALPHA else c_INV_ALPHA),
+                        (D[_G0 + j] if v_GAMMA0 else c_GAMMA0),
+                        (D[_GR + j] if v_GAMMA_RATE else c_GAMMA_RATE),
+                        (D[_EPS + j] if v_EPS_M else c_EPS_M),
+                        (D[_ORD + j] if v_ORDER else c_ORDER),
+                        (D[_KP + j] if v_KP else c_KP),
+                        (D[_HD + j] if v_HD else c_HD),
+                        (D[_U0 + j] if v_U0 else c_U0),
+                        (D[_PS + j] if v_P_SIGN else c_P_SIGN),
+                        (D[_PC + j] if v_P_CURRENT else c_P_CURRENT),
+                        (D[_RC + j] if v_RATE_COEF else c_RATE_COEF),
+                        (D[_UG + j] if v_USE_GAMMA else c_USE_GAMMA),
+                        (D[_OG + j] if v_OUT_GAIN else c_OUT_GAIN),
+                        (D[_LO + j] if v_OUT_MIN else c_OUT_MIN),
+                        (D[_HI + j] if v_OUT_MAX else c_OUT_MAX),
+                        (D[_AW + j] if v_AW_COEF else c_AW_COEF))
+                    D[_UP + j], D[_YP + j], D[_RP + j] = carried, y, r
+                    D[_G1 + j], D[_G2 + j] = g1, g2
+                    if checked:
+                        (alive, D[_TDIV + j], D[_NS + j], D[_IAE + j], D[_ISE + j], D[_ITAE + j],
+                         D[_MXS + j], D[_MXF + j], D[_MXR + j], D[_TV + j],
+                         D[_GF + j]) = kernel.fold_metrics(
+                            1.0 - D[_DIV + j], D[_TDIV + j], D[_NS + j], D[_IAE + j], D[_ISE + j],
+                            D[_ITAE + j], D[_MXS + j], D[_MXF + j], D[_MXR + j], D[_TV + j],
+                            D[_GF + j], k, t, h, y, r, u, a, D[_AP + j], gamma, settle, final_start,
+                            bound)
+                        D[_DIV + j] = 1.0 - alive
+                    else:
+                        (D[_IAE + j], D[_ISE + j], D[_ITAE + j], D[_MXS + j], D[_MXF + j],
+                         D[_MXR + j], D[_TV + j]) = kernel.accumulate(
+                            D[_IAE + j], D[_ISE + j], D[_ITAE + j], D[_MXS + j], D[_MXF + j],
+                            D[_MXR + j], D[_TV + j], k, t, h, y, r, a, D[_AP + j], settle,
+                            final_start)
+                        D[_GF + j] = gamma
+                        ay = abs(y) + (u - u)
+                        peak = D[_PEAK + j]
+                        D[_PEAK + j] = ay if (ay > peak or ay != ay) else peak
+                    D[_AP + j] = a
+                    D[_I + j], D[_V + j] = buck.rk4(
+                        i, v, a,
+                        (D[_L + j] if v_L else c_L),
+                        (D[_E + j] if v_E else c_E),
+                        (D[_A12 + j] if v_A12 else c_A12),
+                        (D[_A21 + j] if v_A21 else c_A21),
+                        (D[_A22 + j] if v_A22 else c_A22),
+                        (D[_CPL + j] if v_COUPLING else c_COUPLING),
+                        h)
+        return tile
+
+    # two compiled loops: sample by sample with the divergence test, and the plain one
+    tile_checked, tile_plain = make_tile(True), make_tile(False)
+
+    @njit(nogil=True, cache=all(VARY), **options)
+    def run_block(n_steps, h, t_end, D2, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
+        D = D2.ravel()
+        R = np.empty(BLOCK)
+        PP = D2[P_PP:P_X]
+        snapshot = np.empty((P_ROWS - P_X, BLOCK))
+        frozen = np.empty((kernel.N_METRICS, BLOCK))
+        dead = np.zeros(BLOCK, dtype=np.bool_)
+        settle, final_start, bound = (S[kernel.S_SETTLE], S[kernel.S_FINAL_START],
+                                      S[kernel.S_DIVERGE_ABOVE])
+        if PREPARE:
+            for j in range(BLOCK):
+                buck.prepare(PP, j)
+        p_ev = 0
+        k0 = n_steps * 0  # an int64 from the start: a literal 0 would compile the tiles twice
+        while k0 < n_steps:
+            if p_ev < ev_steps.size and ev_steps[p_ev] == k0:
+                kernel.apply_events(k0, ev_k, ev_row, ev_add, ev_val, PP, BLOCK)
+                if PREPARE:
+                    for j in range(BLOCK):
+                        buck.prepare(PP, j)
+                p_ev += 1
+            # a tile ends before the next scheduled change, so that a rerun of it sees
+            # the parameters it ran with
+            k1 = min(n_steps, k0 + TILE)
+            if p_ev < ev_steps.size:
+                k1 = min(k1, ev_steps[p_ev])
+            checked = k0 < recursive_ip.STEADY
+            if checked:
+                k1 = min(k1, int(recursive_ip.STEADY))
+            else:
+                _copy_rows(D2, P_X, snapshot, 0, P_ROWS - P_X)
+                for j in range(BLOCK):
+                    D[_PEAK + j] = 0.0
+                tile_plain(D, RP, R, k0, k1, n_steps, h, t_end, settle, final_start, bound)
+                for j in range(BLOCK):
+                    peak = D[_PEAK + j]
+                    if not dead[j] and not (peak <= bound and peak < math.inf):
+                        checked = True
+                if checked:  # some member went bad in this tile: rerun it sample by sample
+                    _copy_rows(snapshot, 0, D2, P_X, P_ROWS - P_X)
+            if checked:
+                tile_checked(D, RP, R, k0, k1, n_steps, h, t_end, settle, final_start, bound)
+                for j in range(BLOCK):
+                    if D[_DIV + j] != 0.0 and not dead[j]:
+                        dead[j] = True
+                        for m in range(kernel.N_METRICS):
+                            frozen[m, j] = D2[P_M + m, j]
+            k0 = k1
+        for j in range(BLOCK):
+            if dead[j]:  # the unchecked tiles after its divergence wrote over its metrics
+                for m in range(kernel.N_METRICS):
+                    D2[P_M + m, j] = frozen[m, j]
+            else:
+                D[_NS + j] = n_steps
+
+    def run(n_steps, h, t_end, D, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
+        def one(b):
+            run_block(n_steps, h, t_end, D[b], RP[b], ev_steps, ev_k[b], ev_row, ev_add,
+                      ev_val[b], S)
+        workers = min(numba.get_num_threads(), D.shape[0])
+        if workers <= 1:
+            for b in range(D.shape[0]):
+                one(b)
+            return
+        # the block loop releases the GIL: plain threads keep every core busy, and
+        # compile in a fraction of the time of a parallel (prange) kernel
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(one, range(D.shape[0])))
+
+    return run
+
+
+def shared_constants(D: np.ndarray, varying: set[int]) -> tuple[float, ...]:
+    """The ``constants`` of :func:`block_kernel` for the members ``D[row, j]`` of a
+    sweep: member 0's value of every parameter row except the rows in ``varying`` (those
+    a swept key or a scheduled change writes) and the coefficients derived from them."""
+    varying = set(varying)
+    if varying & {P_PP + buck.L, P_PP + buck.R, P_PP + buck.C}:
+        varying |= {P_PP + buck.A12, P_PP + buck.A21, P_PP + buck.A22}
+    out = [math.nan] * P_ROWS
+    for r in PARAM_ROWS:
+        if r not in varying:
+            out[r] = float(D[r, 0])
+    return tuple(out)
