@@ -69,6 +69,20 @@ def test_a_different_sweep_into_the_same_folder_is_refused(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1
 
 
+def test_fast_sweep_is_close_to_the_exact_one_and_is_not_mixed_with_it(tmp_path):
+    sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(tmp_path / "exact"))
+    sweep("voltage-stable-standard", *GRID, *FAST, "--fast", "--out", str(tmp_path / "fast"))
+    exact = pd.read_parquet(tmp_path / "exact" / "results.parquet")
+    fast = pd.read_parquet(tmp_path / "fast" / "results.parquet")
+    assert json.loads((tmp_path / "fast" / "sweep.json").read_text())["arithmetic"] == "fast"
+    np.testing.assert_allclose(fast["iae"], exact["iae"], rtol=1e-12)
+    assert fast["stable"].tolist() == exact["stable"].tolist()
+    # resuming a folder with the other arithmetic would mix two kinds of results
+    proc = sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(tmp_path / "exact"),
+                 "--fast", check=False)
+    assert proc.returncode == 2 and "different sweep" in proc.stderr
+
+
 def test_keep_writes_single_run_trajectories(tmp_path):
     sweep("voltage-stable-variational", "--grid", "controller.Gamma=1e-8,1e-6,1e-4", *FAST,
           "--keep", "2", "--out", str(tmp_path / "k"))

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import references
 from .._jit import kernel_jit, step_jit
-from ..laws import recursive_ip
+from ..laws import gain, recursive_ip
 from ..plants import buck
 
 # plant kinds
@@ -151,22 +151,49 @@ def member_plant_step(kind, PP, X, j, a, h):
 @kernel_jit
 def run_single(n_steps, h, t_end, plant_kind, PP, X, law_kind, CP, CS, RP,
                ev_steps, ev_k, ev_row, ev_add, ev_val, S, M, traj):
-    """The sample loop for one member (column 0) with its trajectory
-    ``traj[row, k]``: no member loops, so nothing is spent on loop set-up each sample."""
-    n_x = X.shape[0]
+    """The sample loop for one member (column 0) with its trajectory ``traj[row, k]``.
+
+    The buck under the recursive law (the kinds the compiled path covers), with the plant
+    state, the law's memory and the metrics in local variables for the whole run and
+    written back at the end: each sample's result feeds the next through registers, not
+    through a store and a load, which is what bounds a single run."""
     plant_prepare_all(plant_kind, PP, 1)
     p_ev = 0
+    i, v = X[buck.I_L, 0], X[buck.V_C, 0]
+    u_prev, y_prev, r_prev = (CS[recursive_ip.U_PREV, 0], CS[recursive_ip.Y_PREV, 0],
+                              CS[recursive_ip.R_PREV, 0])
+    g1, g2, k0 = CS[gain.G1, 0], CS[gain.G2, 0], CS[recursive_ip.K, 0]
+    alive, t_div, n_done = 1.0 - M[M_DIVERGED, 0], M[M_T_DIVERGE, 0], M[M_N_SAMPLES, 0]
+    iae, ise, itae = M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0]
+    max_e_s, max_e_f, max_r = M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0]
+    tv, g_final = M[M_TV, 0], M[M_FINAL_GAMMA, 0]
+    settle, final_start, bound = S[S_SETTLE], S[S_FINAL_START], S[S_DIVERGE_ABOVE]
     a_prev = 0.0
+    n_run = 0
     for k in range(n_steps):
         t = (k * t_end) / n_steps
         if p_ev < ev_steps.size and ev_steps[p_ev] == k:
             apply_events(k, ev_k, ev_row, ev_add, ev_val, PP, 1)
             plant_prepare_all(plant_kind, PP, 1)
             p_ev += 1
-        y = member_output(plant_kind, PP, X, 0)
+        y = buck.measure(i, v, PP[buck.OUTPUT, 0])
         r = references.value(RP, 0, t)
-        u, a, g, gamma = member_law(law_kind, CP, CS, 0, y, r)
-        if not member_metrics(M, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
+        u, a, g, gamma, u_prev, g1, g2 = recursive_ip.advance(
+            k0 + k, y, r, u_prev, y_prev, r_prev, g1, g2, CP[gain.MODE, 0],
+            CP[gain.INV_ALPHA, 0], CP[gain.GAMMA0, 0], CP[gain.GAMMA_RATE, 0],
+            CP[gain.EPS_M, 0], CP[gain.ORDER, 0], CP[recursive_ip.KP, 0],
+            CP[recursive_ip.HD, 0], CP[recursive_ip.U0, 0], CP[recursive_ip.P_SIGN, 0],
+            CP[recursive_ip.P_CURRENT, 0], CP[recursive_ip.RATE_COEF, 0],
+            CP[recursive_ip.USE_GAMMA, 0], CP[recursive_ip.OUT_GAIN, 0],
+            CP[recursive_ip.OUT_MIN, 0], CP[recursive_ip.OUT_MAX, 0],
+            CP[recursive_ip.AW_COEF, 0])
+        y_prev, r_prev = y, r
+        n_run = k + 1
+        (alive, t_div, n_done, iae, ise, itae, max_e_s, max_e_f, max_r, tv,
+         g_final) = fold_metrics(alive, t_div, n_done, iae, ise, itae, max_e_s, max_e_f,
+                                 max_r, tv, g_final, k, t, h, y, r, u, a, a_prev, gamma,
+                                 settle, final_start, bound)
+        if alive == 0.0:
             break
         a_prev = a
         traj[T_REF, k] = r
@@ -175,9 +202,18 @@ def run_single(n_steps, h, t_end, plant_kind, PP, X, law_kind, CP, CS, RP,
         traj[T_APPLIED, k] = a
         traj[T_GAMMA, k] = gamma
         traj[T_GAIN, k] = g
-        for s in range(n_x):
-            traj[T_X0 + s, k] = X[s, 0]
-        member_plant_step(plant_kind, PP, X, 0, a, h)
+        traj[T_X0 + buck.I_L, k] = i
+        traj[T_X0 + buck.V_C, k] = v
+        i, v = buck.rk4(i, v, a, PP[buck.L, 0], PP[buck.E, 0], PP[buck.A12, 0],
+                        PP[buck.A21, 0], PP[buck.A22, 0], PP[buck.COUPLING, 0], h)
+    X[buck.I_L, 0], X[buck.V_C, 0] = i, v
+    CS[recursive_ip.U_PREV, 0], CS[recursive_ip.Y_PREV, 0] = u_prev, y_prev
+    CS[recursive_ip.R_PREV, 0], CS[recursive_ip.K, 0] = r_prev, k0 + n_run
+    CS[gain.G1, 0], CS[gain.G2, 0] = g1, g2
+    M[M_DIVERGED, 0], M[M_T_DIVERGE, 0], M[M_N_SAMPLES, 0] = 1.0 - alive, t_div, n_done
+    M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0] = iae, ise, itae
+    M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0] = max_e_s, max_e_f, max_r
+    M[M_TV, 0], M[M_FINAL_GAMMA, 0] = tv, g_final
 
 
 @kernel_jit
