@@ -3,7 +3,8 @@
 ``error_model='numpy'`` lets a division by zero give inf/NaN instead of raising, which
 keeps the kernels branch-free (so they vectorise) and turns a blow-up into data that the
 engine flags. No fastmath: the published results are reproduced bit for bit, and LLVM
-must not fuse multiply-adds or reorder sums behind our back.
+must not fuse multiply-adds or reorder sums behind our back. (The one exception is the
+sweep kernel's opt-in fast mode, :mod:`mfcontrol.engine.packed`, which says so.)
 """
 
 import hashlib
