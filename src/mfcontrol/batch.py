@@ -225,7 +225,7 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
                           np.zeros((packed.P_ROWS - packed.P_APREV, n))])
         varying, ref_varies = _varying(changes, scn)
         if specialise is None:
-            specialise = fast or grid.n_members * scn.n_steps >= SPECIALISE_ABOVE
+            specialise = grid.n_members * scn.n_steps >= SPECIALISE_ABOVE
         constants = packed.shared_constants(rows, varying) if (specialise or fast) else None
         run = packed.block_kernel(constants, not ref_varies, fast)
         D = _blocks(rows, n_blocks)

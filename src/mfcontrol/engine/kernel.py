@@ -128,26 +128,6 @@ def member_metrics(M, S, j, k, t, h, y, r, u, a, a_prev, gamma):
     return alive != 0.0
 
 
-@step_jit
-def member_output(kind, PP, X, j):
-    if kind == BUCK:
-        return buck.output(PP, X, j)
-    return np.nan
-
-
-@step_jit
-def member_law(kind, CP, CS, j, y, r):
-    if kind == RECURSIVE_IP:
-        return recursive_ip.step(CP, CS, j, y, r)
-    return np.nan, np.nan, np.nan, np.nan
-
-
-@step_jit
-def member_plant_step(kind, PP, X, j, a, h):
-    if kind == BUCK:
-        buck.step(PP, X, j, a, h)
-
-
 @kernel_jit
 def run_single(n_steps, h, t_end, plant_kind, PP, X, law_kind, CP, CS, RP,
                ev_steps, ev_k, ev_row, ev_add, ev_val, S, M, traj):
