@@ -6,8 +6,9 @@ Measured in one process, medians of repeated runs after warm-up (compilation):
   and variational law), all cores; simulations per second and ns per scenario-sample, for
   the three kernels: generic (what small sweeps run, cached on disk), specialised (the
   parameters all members share compiled in; exact, bit-identical) and fast (specialised,
-  with fused multiply-adds and hoisted reciprocals: within 1e-12 relative). The one-off
-  compilation of a specialised kernel is printed apart;
+  with fused multiply-adds, hoisted reciprocals and the plant's RK4 step as its linear
+  map: within 1e-12 relative). The one-off compilation of a specialised kernel is
+  printed apart;
 * single: one member through the single-run kernel (engine only);
 * baseline 1: the plain Python loop of the same case (benchmarks/bench_single.py);
 * baseline 2: the same closed loop the way a python-control user writes it: one discrete

@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 
 import mfcontrol
 from mfcontrol import batch
+from mfcontrol.engine import packed
 from mfcontrol.experiments.cases import resolve_case
 
 
@@ -76,3 +77,13 @@ def test_cases_outside_the_kernel_run_through_the_loop():
     cols = batch.run_grid(grid)
     assert cols["stable"].tolist() == [True, True]
     assert cols["iae"][1] == mfcontrol.simulate(grid.config(1)).metrics["iae"]
+
+
+@pytest.mark.parametrize("n", [1, 119, 120, 121, 500])
+def test_blocks_are_aligned_and_padded_with_member_0(n):
+    a = np.arange(3.0 * n).reshape(3, n) + 1.0
+    out = batch._blocks(a, -(-n // packed.BLOCK))
+    assert out.ctypes.data % 64 == 0 and out.flags.c_contiguous
+    flat = out.transpose(1, 0, 2).reshape(3, -1)
+    np.testing.assert_array_equal(flat[:, :n], a)
+    assert (flat[:, n:] == a[:, :1]).all()

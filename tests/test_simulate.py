@@ -67,3 +67,38 @@ def test_toolkit_options_are_validated(overrides, key):
     with pytest.raises(mfcontrol.ConfigError) as err:
         resolve_case("first-order-ip-algebraic", overrides)
     assert err.value.key == key
+
+
+@pytest.mark.parametrize("case", ["voltage-stable-standard", "voltage-stable-variational",
+                                  "power-variational", "voltage-unstable-variational"])
+@pytest.mark.parametrize("fidelity", ["published", "paper"])
+def test_the_fast_single_run_is_within_1e_12_of_the_exact_one(case, fidelity):
+    # the printed equations' second-order gamma integrator is "naturally unstable" (the
+    # paper's words) and amplifies rounding: 1.1e-12 measured on voltage-stable-variational
+    rtol = 1e-12 if fidelity == "published" else 1e-11
+    _, cfg = resolve_case(case, {"fidelity": fidelity})
+    exact, fast = mfcontrol.simulate(cfg), mfcontrol.simulate(cfg, fast=True)
+    assert fast.metrics["n_samples"] == exact.metrics["n_samples"]
+    assert fast.metrics["stable"] == exact.metrics["stable"]
+    for key in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma"):
+        assert fast.metrics[key] == pytest.approx(exact.metrics[key], rel=rtol, abs=0), key
+    for key in ("y", "duty", "gamma"):
+        np.testing.assert_allclose(fast.signals[key], exact.signals[key], rtol=rtol,
+                                   atol=rtol * np.max(np.abs(exact.signals[key])))
+    # another arithmetic, not the exact kernel under another name
+    assert not np.array_equal(fast.signals["y"], exact.signals["y"])
+
+
+def test_the_fast_single_run_finds_the_same_blow_up():
+    _, cfg = resolve_case("voltage-stable-standard", {
+        "sim.t_end": 3e-3, "controller.duty_min": -1e300, "controller.duty_max": 1e300,
+        "sim.diverge_above": 1e6, "controller.kp": -500.0})
+    exact, fast = mfcontrol.simulate(cfg), mfcontrol.simulate(cfg, fast=True)
+    assert exact.metrics["diverged"] and fast.metrics["diverged"]
+    assert fast.metrics["n_samples"] == exact.metrics["n_samples"]
+
+
+def test_only_the_compiled_kernel_has_a_fast_mode():
+    _, cfg = resolve_case("boost-ipd")
+    with pytest.raises(ValueError, match="fast: only the compiled kernel"):
+        mfcontrol.simulate(cfg, fast=True)

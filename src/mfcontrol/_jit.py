@@ -3,8 +3,9 @@
 ``error_model='numpy'`` lets a division by zero give inf/NaN instead of raising, which
 keeps the kernels branch-free (so they vectorise) and turns a blow-up into data that the
 engine flags. No fastmath: the published results are reproduced bit for bit, and LLVM
-must not fuse multiply-adds or reorder sums behind our back. (The one exception is the
-sweep kernel's opt-in fast mode, :mod:`mfcontrol.engine.packed`, which says so.)
+must not fuse multiply-adds or reorder sums behind our back. (The exceptions are the
+opt-in fast modes, ``mfcontrol sweep --fast`` and ``simulate(cfg, fast=True)``, which
+say so.)
 """
 
 import hashlib
@@ -45,6 +46,13 @@ def _drop_stale_cache() -> None:
 
 
 _drop_stale_cache()
+
+#: LLVM flags of the opt-in fast mode (sweeps and single runs): fused multiply-adds,
+#: reciprocals of shared divisors, no signed-zero care. No ``nnan``/``ninf`` (the
+#: divergence test needs NaN and inf), no ``reassoc`` (a reordered sum drifts further).
+FAST_FLAGS = ("contract", "arcp", "nsz")
+#: Kernels of the fast mode: compiled on first use, cached on disk.
+fast_kernel_jit = njit(error_model="numpy", cache=True, fastmath=set(FAST_FLAGS))
 
 #: Small step functions: inlined into every kernel that calls them.
 step_jit = njit(inline="always", error_model="numpy", cache=True)

@@ -176,12 +176,14 @@ def build(configs: Sequence[Config]) -> Scenario:
     )
 
 
-def execute(scn: Scenario, keep: Sequence[int] | None = None):
+def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = False):
     """Run every member from its initial state; return (metrics M, trajectories traj).
 
     ``traj[row, m, k]`` holds the kept members (all by default), NaN after divergence.
-    Each member runs through the single-run kernel (sweeps use :mod:`mfcontrol.batch`).
+    Each member runs through the single-run kernel (sweeps use :mod:`mfcontrol.batch`);
+    ``fast``: through its fast mode (:data:`mfcontrol.engine.kernel.run_single_fast`).
     """
+    run_single = kernel.run_single_fast if fast else kernel.run_single
     n = scn.n_members
     keep_arr = list(range(n)) if keep is None else list(keep)
     n_rows = kernel.T_X0 + scn.X0.shape[0]
@@ -190,7 +192,7 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None):
     kernel.reset_members(scn.law_kind, scn.CP, CS)
     if n == 1 and keep_arr == [0]:  # the common case: the kernel writes the result itself
         traj = np.empty((n_rows, 1, scn.n_steps))
-        kernel.run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
+        run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
                           scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,
                           scn.ev_k, scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M,
                           traj[:, 0, :])
@@ -201,7 +203,7 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None):
     for j in range(n):
         col = slice(j, j + 1)
         Mj = np.zeros((kernel.N_METRICS, 1))
-        kernel.run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind,
+        run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind,
                           scn.PP[:, col].copy(), scn.X0[:, col].copy(), scn.law_kind,
                           scn.CP[:, col].copy(), CS[:, col].copy(), scn.RP[:, col].copy(),
                           scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,

@@ -49,6 +49,53 @@ def test_a_member_dead_early_keeps_its_metrics_through_later_plain_tiles():
         assert _same(cols[name][1], single[name]), name
 
 
+def _blow_ups():
+    # negative gains blow up at times spread over many tiles, under one shared reference
+    base = resolve_case("voltage-stable-standard", {
+        "sim.t_end": 3e-3, "controller.duty_min": -1e300, "controller.duty_max": 1e300,
+        "sim.diverge_above": 1e6})[1]
+    return batch.make_grid(base, {"controller.kp": np.r_[2.0, -np.logspace(0.5, 4.7, 12)]})
+
+
+@pytest.mark.parametrize("specialise", [False, True])
+def test_members_blowing_up_under_a_shared_reference_equal_their_single_runs(specialise):
+    # the shared reference's r_{k-1} and max |r| are per-sample scalars in a plain tile
+    grid = _blow_ups()
+    cols = batch.run_grid(grid, specialise=specialise)
+    assert cols["diverged"].sum() == 12
+    assert len(set(cols["n_samples"][1:] // packed.TILE)) >= 6
+    for m in range(grid.n_members):
+        single = mfcontrol.simulate(grid.config(m)).metrics
+        for name in ALL:
+            assert _same(cols[name][m], single[name]), (m, name, cols[name][m], single[name])
+
+
+def test_fast_arithmetic_finds_the_same_blow_ups():
+    grid = _blow_ups()
+    exact = batch.run_grid(grid)
+    fast = batch.run_grid(grid, fast=True)
+    for name in ("diverged", "n_samples", "stable"):
+        assert fast[name].tolist() == exact[name].tolist(), name
+    # the same sample; its time k t_end / n may differ by an ulp (a hoisted reciprocal)
+    np.testing.assert_allclose(fast["t_diverge"], exact["t_diverge"], rtol=1e-15, atol=0)
+    np.testing.assert_allclose(fast["iae"][0], exact["iae"][0], rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("axes", [
+    {"plant.R": np.array([5.0, 10.0, 20.0])},  # the plant's RK4 map differs per member
+    {"plant.L": np.array([0.8e-3, 1e-3, 1.2e-3]), "plant.E": np.array([18.0, 22.0])},
+    {"reference.slope": np.array([800.0, 1000.0, 1200.0])},  # a reference per member
+])
+def test_fast_arithmetic_is_within_1e_12_when_the_plant_or_reference_varies(axes):
+    base = resolve_case("voltage-stable-variational")[1]
+    grid = batch.make_grid(base, axes)
+    exact = batch.run_grid(grid)
+    fast = batch.run_grid(grid, fast=True)
+    for name in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "max_abs_ref"):
+        np.testing.assert_allclose(fast[name], exact[name], rtol=1e-12, atol=0, err_msg=name)
+    assert fast["stable"].tolist() == exact["stable"].tolist()
+
+
 @pytest.mark.parametrize("case", ["voltage-stable-standard", "voltage-stable-variational",
                                   "power-variational"])
 def test_fast_arithmetic_is_within_1e_12_of_the_exact_runs(case):

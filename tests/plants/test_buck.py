@@ -2,9 +2,12 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.linalg import expm
 
 import mfcontrol
+from mfcontrol.plants import buck
 
 # open loop: u stays at u0 (no P action, 1/alpha negligible), so the duty is constant
 OPEN_LOOP = {"controller.kp": 0.0, "controller.alpha": 1e300, "controller.u0": 1000.0,
@@ -59,3 +62,18 @@ def test_load_change_applies_before_the_first_sample_at_or_after_its_time():
     # states at t_k are still equal (the change acts on the step from t_k to t_k+1)
     np.testing.assert_array_equal(r.states["v_C"][: k + 1], no_change.states["v_C"][: k + 1])
     assert r.states["v_C"][k + 1] != no_change.states["v_C"][k + 1]
+
+
+@settings(max_examples=300, deadline=None)
+@given(L=st.floats(1e-5, 1e-2), C=st.floats(1e-7, 1e-3), R=st.floats(0.1, 100.0),
+       E=st.floats(1.0, 50.0), coupling=st.sampled_from([0.0, 1.0]),
+       h=st.floats(1e-8, 1e-5), i=st.floats(-10.0, 10.0), v=st.floats(-50.0, 50.0),
+       d=st.floats(0.0, 1.0))
+def test_the_linear_map_is_the_same_rk4_step(L, C, R, E, coupling, h, i, v, d):
+    # the fast sweep's plant step: the staged RK4 polynomial evaluated as x+ = F x + g d
+    a12, a21, a22 = -1.0 / L, 1.0 / C, -1.0 / (R * C)
+    staged = buck.rk4(i, v, d, L, E, a12, a21, a22, coupling, h)
+    linear = buck.rk4_linear(i, v, d, *buck.rk4_map(L, E, a12, a21, a22, coupling, h))
+    scale = max(abs(i), abs(v), abs(staged[0]), abs(staged[1]), h * E / L)
+    assert abs(linear[0] - staged[0]) <= 1e-13 * scale
+    assert abs(linear[1] - staged[1]) <= 1e-13 * scale

@@ -91,15 +91,24 @@ def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, mode, inv_alpha, gamma0, ra
 
 
 @step_jit
+def parameters(CP, j):
+    """Member j's parameters, in the order :func:`advance` takes them after its state."""
+    return (CP[gain.MODE, j], CP[gain.INV_ALPHA, j], CP[gain.GAMMA0, j],
+            CP[gain.GAMMA_RATE, j], CP[gain.EPS_M, j], CP[gain.ORDER, j], CP[KP, j],
+            CP[HD, j], CP[U0, j], CP[P_SIGN, j], CP[P_CURRENT, j], CP[RATE_COEF, j],
+            CP[USE_GAMMA, j], CP[OUT_GAIN, j], CP[OUT_MIN, j], CP[OUT_MAX, j], CP[AW_COEF, j])
+
+
+@step_jit
 def step(CP, CS, j, y, r):
     """One sample: measurement y_k and reference r_k in, (u_k, applied, g_k, gamma_k) out."""
     k = CS[K, j]
+    (mode, inv_alpha, gamma0, rate, eps_m, order, kp, hd, u0, p_sign, p_current, rate_coef,
+     use_gamma, out_gain, lo, hi, aw_coef) = parameters(CP, j)
     u, applied, g, gamma, carried, g1, g2 = advance(
         k, y, r, CS[U_PREV, j], CS[Y_PREV, j], CS[R_PREV, j], CS[gain.G1, j], CS[gain.G2, j],
-        CP[gain.MODE, j], CP[gain.INV_ALPHA, j], CP[gain.GAMMA0, j], CP[gain.GAMMA_RATE, j],
-        CP[gain.EPS_M, j], CP[gain.ORDER, j], CP[KP, j], CP[HD, j], CP[U0, j], CP[P_SIGN, j],
-        CP[P_CURRENT, j], CP[RATE_COEF, j], CP[USE_GAMMA, j], CP[OUT_GAIN, j],
-        CP[OUT_MIN, j], CP[OUT_MAX, j], CP[AW_COEF, j])
+        mode, inv_alpha, gamma0, rate, eps_m, order, kp, hd, u0, p_sign, p_current, rate_coef,
+        use_gamma, out_gain, lo, hi, aw_coef)
     CS[U_PREV, j] = carried
     CS[Y_PREV, j] = y
     CS[R_PREV, j] = r
