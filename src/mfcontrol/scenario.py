@@ -193,9 +193,8 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
     if n == 1 and keep_arr == [0]:  # the common case: the kernel writes the result itself
         traj = np.empty((n_rows, 1, scn.n_steps))
         run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
-                          scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,
-                          scn.ev_k, scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M,
-                          traj[:, 0, :])
+                   scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,
+                   scn.ev_k, scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M, traj[:, 0, :])
         traj[:, 0, int(M[kernel.M_N_SAMPLES, 0]):] = np.nan  # never written: diverged
         return M, traj
     traj = np.full((n_rows, len(keep_arr), scn.n_steps), np.nan)
@@ -204,10 +203,10 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
         col = slice(j, j + 1)
         Mj = np.zeros((kernel.N_METRICS, 1))
         run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind,
-                          scn.PP[:, col].copy(), scn.X0[:, col].copy(), scn.law_kind,
-                          scn.CP[:, col].copy(), CS[:, col].copy(), scn.RP[:, col].copy(),
-                          scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,
-                          scn.ev_val[:, col].copy(), scn.S, Mj, one)
+                   scn.PP[:, col].copy(), scn.X0[:, col].copy(), scn.law_kind,
+                   scn.CP[:, col].copy(), CS[:, col].copy(), scn.RP[:, col].copy(),
+                   scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,
+                   scn.ev_val[:, col].copy(), scn.S, Mj, one)
         M[:, j] = Mj[:, 0]
         if j in keep_arr:
             done = int(Mj[kernel.M_N_SAMPLES, 0])

@@ -161,7 +161,8 @@ def _single_loop(fast):
         (mode, inv_alpha, gamma0, rate, eps_m, order, kp, hd, u0, p_sign, p_current,
          rate_coef, use_gamma, out_gain, lo, hi, aw_coef) = recursive_ip.parameters(CP, 0)
         out_sel, ind, e_in, a12, a21, a22, cpl = _plant(PP)
-        f11, f12, f21, f22, gd1, gd2 = _map(PP, h)  # read only in the fast mode
+        # read only in the fast mode
+        f11, f12, f21, f22, gd1, gd2 = buck.rk4_map(ind, e_in, a12, a21, a22, cpl, h)
         for k in range(n_steps):
             t = (k * t_end) / n_steps
             if p_ev < ev_steps.size and ev_steps[p_ev] == k:
@@ -169,7 +170,8 @@ def _single_loop(fast):
                 plant_prepare_all(plant_kind, PP, 1)
                 out_sel, ind, e_in, a12, a21, a22, cpl = _plant(PP)
                 if MATRIX:
-                    f11, f12, f21, f22, gd1, gd2 = _map(PP, h)
+                    f11, f12, f21, f22, gd1, gd2 = buck.rk4_map(ind, e_in, a12, a21, a22,
+                                                                 cpl, h)
                 p_ev += 1
             y = buck.measure(i, v, out_sel)
             r = references.value(RP, 0, t)
@@ -215,11 +217,6 @@ def _plant(PP):
     return (PP[buck.OUTPUT, 0], PP[buck.L, 0], PP[buck.E, 0], PP[buck.A12, 0],
             PP[buck.A21, 0], PP[buck.A22, 0], PP[buck.COUPLING, 0])
 
-
-@step_jit
-def _map(PP, h):
-    return buck.rk4_map(PP[buck.L, 0], PP[buck.E, 0], PP[buck.A12, 0], PP[buck.A21, 0],
-                        PP[buck.A22, 0], PP[buck.COUPLING, 0], h)
 
 
 #: one member with its trajectory, bit for bit the published arithmetic

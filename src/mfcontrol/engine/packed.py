@@ -169,18 +169,23 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     options = dict(error_model="numpy", fastmath=flags)
 
     @njit(inline="always", **options)
+    def plant(D, j):
+        """Member j's (L, E, A12, A21, A22, coupling): the arguments of ``buck.rk4`` and
+        ``buck.rk4_map`` before the state and after it, h."""
+        return ((D[_L + j] if v_L else c_L), (D[_E + j] if v_E else c_E),
+                (D[_A12 + j] if v_A12 else c_A12), (D[_A21 + j] if v_A21 else c_A21),
+                (D[_A22 + j] if v_A22 else c_A22), (D[_CPL + j] if v_COUPLING else c_COUPLING))
+
+    @njit(inline="always", **options)
     def prepare(D, PP, h):
         """The derived plant coefficients of every member after a parameter change."""
         for j in range(BLOCK):
             if PREPARE:
                 buck.prepare(PP, j)
             if MATRIX:
+                ind, e_in, a12, a21, a22, cpl = plant(D, j)
                 (D[_F11 + j], D[_F12 + j], D[_F21 + j], D[_F22 + j], D[_G1D + j],
-                 D[_G2D + j]) = buck.rk4_map(
-                    (D[_L + j] if v_L else c_L), (D[_E + j] if v_E else c_E),
-                    (D[_A12 + j] if v_A12 else c_A12), (D[_A21 + j] if v_A21 else c_A21),
-                    (D[_A22 + j] if v_A22 else c_A22),
-                    (D[_CPL + j] if v_COUPLING else c_COUPLING), h)
+                 D[_G2D + j]) = buck.rk4_map(ind, e_in, a12, a21, a22, cpl, h)
 
     def make_tile(checked):
         # a shared reference in a plain tile: r_{k-1} and max |r| are per-sample scalars,
@@ -263,15 +268,9 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                             i, v, a, D[_F11 + j], D[_F12 + j], D[_F21 + j], D[_F22 + j],
                             D[_G1D + j], D[_G2D + j])
                     else:
-                        D[_I + j], D[_V + j] = buck.rk4(
-                            i, v, a,
-                            (D[_L + j] if v_L else c_L),
-                            (D[_E + j] if v_E else c_E),
-                            (D[_A12 + j] if v_A12 else c_A12),
-                            (D[_A21 + j] if v_A21 else c_A21),
-                            (D[_A22 + j] if v_A22 else c_A22),
-                            (D[_CPL + j] if v_COUPLING else c_COUPLING),
-                            h)
+                        ind, e_in, a12, a21, a22, cpl = plant(D, j)
+                        D[_I + j], D[_V + j] = buck.rk4(i, v, a, ind, e_in, a12, a21, a22,
+                                                        cpl, h)
                 if HOIST:
                     r_prev = r
             if not checked:
@@ -352,7 +351,6 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
         with ThreadPoolExecutor(workers) as pool:
             list(pool.map(one, range(D.shape[0])))
 
-    run.tile_checked, run.tile_plain, run.run_block = tile_checked, tile_plain, run_block
     return run
 
 

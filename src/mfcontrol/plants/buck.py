@@ -96,8 +96,9 @@ def rk4_map(inductance, e_in, a12, a21, a22, coupling, h):
     ``S = I + M/2 (I + M/3 (I + M/4))`` and ``beta = E/L (1, coupling)``.
 
     The same polynomial of ``h A``, evaluated in another order: within a few ulps of
-    :func:`rk4` per step, not bit-identical (a sweep's fast mode uses it; a single run
-    never does). Returns ``(f11, f12, f21, f22, g1, g2)``.
+    :func:`rk4` per step, not bit-identical (only the opt-in fast modes use it: sweeps
+    with ``fast=True`` and ``simulate(cfg, fast=True)``). Returns
+    ``(f11, f12, f21, f22, g1, g2)``.
     """
     m12, m21, m22 = h * a12, h * a21, h * a22  # M = h A, whose (1, 1) entry is 0
     # S by Horner, from the inside: P = I + M/4, then I + M/3 P, then I + M/2 (that)
