@@ -111,27 +111,28 @@ def make_grid(base: Config, axes: Mapping[str, np.ndarray]) -> Grid:
 _ARRAYS = ("PP", "X0", "CP", "RP", "ev_k", "ev_val")
 
 
-def _cell_changes(grid: Grid) -> dict[str, list[tuple[np.ndarray, list]]]:
-    """For each key: per axis value, the (array, flat index, value) cells it changes."""
+def _cell_changes(grid: Grid) -> dict[str, dict[tuple[str, int], np.ndarray]]:
+    """For each key: the (array, row) cells of a one-member scenario its axis writes, each
+    with its value for every axis value (the base value where that value leaves it)."""
     ref = scenario.build([grid.base])
-    out: dict[str, list] = {}
+    out: dict[str, dict] = {}
     owner: dict[tuple[str, int], str] = {}
     for key, values in grid.axes.items():
-        per_value = []
-        for v in values:
+        cells: dict[tuple[str, int], np.ndarray] = {}
+        for vi, v in enumerate(values):
             one = scenario.build([grid.base.with_overrides({key: float(v)})])
-            cells = []
             for name in _ARRAYS:
-                a, b = getattr(ref, name).ravel(), getattr(one, name).ravel()
-                diff = np.flatnonzero(~((a == b) | (np.isnan(a) & np.isnan(b))))
-                for i in diff:
-                    other = owner.setdefault((name, int(i)), key)
+                a, b = getattr(ref, name), getattr(one, name)
+                diff = np.flatnonzero(~((a == b) | (np.isnan(a) & np.isnan(b))).all(axis=1))
+                for row in diff:
+                    other = owner.setdefault((name, int(row)), key)
                     if other != key:
                         raise ConfigError("--grid", key, f"changes the same model quantity as "
                                           f"{other}: sweep one of them")
-                    cells.append((name, int(i), b[i]))
-            per_value.append(cells)
-        out[key] = per_value
+                    if (name, int(row)) not in cells:
+                        cells[name, int(row)] = np.repeat(a[row, 0], values.size)
+                    cells[name, int(row)][vi] = b[row, 0]
+        out[key] = cells
     return out
 
 
@@ -143,19 +144,11 @@ def build_members(grid: Grid, start: int, stop: int,
     scn = scenario.build([grid.base])
     tiled = {name: np.repeat(getattr(scn, name), n, axis=1) for name in _ARRAYS}
     idx = np.unravel_index(np.arange(start, stop), grid.shape)
-    for (key, _), axis_index in zip(grid.axes.items(), idx, strict=True):
-        # one row write per changed cell for all members at once (a loop over values
-        # costs microseconds per member, more than simulating it)
-        used, inverse = np.unique(axis_index, return_inverse=True)
-        cells = {}  # (array, row) -> its value for each used axis value
-        for u, vi in enumerate(used):
-            for name, flat, value in changes[key][vi]:
-                row = flat // getattr(scn, name).shape[1]
-                if (name, row) not in cells:
-                    cells[name, row] = np.repeat(getattr(scn, name)[row, :1], used.size)
-                cells[name, row][u] = value
-        for (name, row), per_value in cells.items():
-            tiled[name][row] = per_value[inverse]
+    for key, axis_index in zip(grid.axes, idx, strict=True):
+        # one row write per changed cell for all members at once (a loop over members or
+        # values costs microseconds per member, more than simulating it)
+        for (name, row), per_value in changes[key].items():
+            tiled[name][row] = per_value[axis_index]
     ev_k = tiled["ev_k"].astype(np.int64)
     steps = np.unique(ev_k[ev_k < scn.n_steps]) if ev_k.size else np.zeros(0, np.int64)
     return scenario.Scenario(
@@ -170,17 +163,10 @@ def _varying(changes: dict, scn: scenario.Scenario) -> tuple[set[int], bool]:
     key or a scheduled change), and whether the reference differs: decided per grid, not
     per chunk, so that every chunk of a sweep runs the same compiled kernel."""
     rows = {packed.P_PP + int(r) for r in scn.ev_row}
-    ref = False
-    for per_value in changes.values():
-        for cells in per_value:
-            for name, flat, _ in cells:  # flat: the row (cells of one-member arrays)
-                if name == "PP":
-                    rows.add(packed.P_PP + flat)
-                elif name == "CP":
-                    rows.add(packed.P_CP + flat)
-                elif name == "RP":
-                    ref = True
-    return rows, ref
+    offset = {"PP": packed.P_PP, "CP": packed.P_CP}
+    cells = [cell for per_key in changes.values() for cell in per_key]
+    rows |= {offset[name] + row for name, row in cells if name in offset}
+    return rows, any(name == "RP" for name, _ in cells)
 
 
 def _blocks(a: np.ndarray, n_blocks: int) -> np.ndarray:
@@ -192,9 +178,12 @@ def _blocks(a: np.ndarray, n_blocks: int) -> np.ndarray:
     buf = np.empty(size + 8, dtype=a.dtype)
     skip = (-buf.ctypes.data % 64) // buf.itemsize
     out = buf[skip:skip + size].reshape(n_blocks, rows, packed.BLOCK)
-    padded = np.repeat(a[:, :1], n_blocks * packed.BLOCK, axis=1)
-    padded[:, :n] = a
-    out[...] = padded.reshape(rows, n_blocks, packed.BLOCK).transpose(1, 0, 2)
+    full = n // packed.BLOCK
+    out[:full] = a[:, :full * packed.BLOCK].reshape(rows, full, packed.BLOCK).transpose(1, 0, 2)
+    if full < n_blocks:
+        rest = n - full * packed.BLOCK
+        out[full, :, :rest] = a[:, full * packed.BLOCK:]
+        out[full, :, rest:] = a[:, :1]
     return out
 
 

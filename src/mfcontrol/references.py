@@ -35,15 +35,30 @@ DURATION = 4
 
 
 @step_jit
-def value(RP, j, t):
-    if RP[KIND, j] == SMOOTH_STEP:
-        d = RP[DURATION, j]
-        x = (t - RP[T0, j]) / d if d > 0.0 else (1.0 if t >= RP[T0, j] else 0.0)
+def parameters(RP, j):
+    """Member j's reference: (kind, and its four parameters in row order)."""
+    return RP[KIND, j], RP[1, j], RP[2, j], RP[3, j], RP[4, j]
+
+
+@step_jit
+def evaluate(kind, p1, p2, p3, p4, t):
+    """r(t) from the parameters of :func:`parameters`: the one place the references are
+    written (a loop that holds them in locals needs no reload at every sample)."""
+    if kind == SMOOTH_STEP:
+        initial, final, t0, duration = p1, p2, p3, p4
+        x = (t - t0) / duration if duration > 0.0 else (1.0 if t >= t0 else 0.0)
         x = min(max(x, 0.0), 1.0)
-        a = RP[INITIAL, j]
-        return a + (RP[FINAL, j] - a) * (1.0 - math.cos(math.pi * x)) / 2.0
-    slope_t = RP[SLOPE, j] * t
-    r = slope_t if slope_t <= RP[LEVEL, j] else RP[LEVEL, j]
-    if t >= RP[T_RAMP2, j]:
-        r = RP[LEVEL, j] + RP[SLOPE2, j] * (t - RP[T_RAMP2, j])
+        return initial + (final - initial) * (1.0 - math.cos(math.pi * x)) / 2.0
+    slope, level, t_ramp2, slope2 = p1, p2, p3, p4
+    slope_t = slope * t
+    r = slope_t if slope_t <= level else level
+    if t >= t_ramp2:
+        r = level + slope2 * (t - t_ramp2)
     return r
+
+
+@step_jit
+def value(RP, j, t):
+    """r(t) of member j."""
+    kind, p1, p2, p3, p4 = parameters(RP, j)
+    return evaluate(kind, p1, p2, p3, p4, t)

@@ -10,6 +10,7 @@ import mfcontrol
 from mfcontrol import batch
 from mfcontrol.engine import packed
 from mfcontrol.experiments.cases import resolve_case
+from mfcontrol.laws import recursive_ip
 
 ALL = ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "max_abs_e_final",
        "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable")
@@ -129,3 +130,38 @@ def test_constants_outside_the_parameters_are_refused():
     bad[packed.P_X] = 1.0  # a state row
     with pytest.raises(ValueError, match="constants"):
         packed.block_kernel(tuple(bad))
+
+
+def _kp_going_bad_at(base, k):
+    """A gain under which u overflows (to inf; |y| stays below 2) at sample k: the
+    divergence sample falls as the gain grows, so a bisection on its exponent finds it."""
+    def bad_sample(x):
+        return mfcontrol.simulate(base.with_overrides({"controller.kp": 10.0 ** x})).metrics[
+            "n_samples"]
+    lo, hi = 305.3, 306.5
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if bad_sample(mid) > k else (lo, mid)
+    assert bad_sample(hi) == k
+    return 10.0 ** hi
+
+
+def test_members_going_bad_on_a_tiles_first_or_last_sample_equal_their_single_runs():
+    # plain tiles start at STEADY + m TILE, and at the settling time's sample. Going bad
+    # on a tile's first sample once left n_samples at its start-up value; u overflowing on
+    # a tile's last sample (y still finite) is seen only in the carried u at the tile's end
+    base = resolve_case("voltage-stable-standard",
+                        {"sim.t_end": 3e-3, "metrics.settle_time": 1.1e-3})[1]
+    t = (np.arange(3000) * 3e-3) / 3000
+    settle = int(np.searchsorted(t, 1.1e-3))
+    edge = int(recursive_ip.STEADY) + 2 * packed.TILE
+    for k in (edge - 1, edge, settle - 1, settle):
+        # alone in its block: a neighbour's rerun of the tile before would mask a miss
+        grid = batch.make_grid(base, {"controller.kp": np.array([2.0, _kp_going_bad_at(base, k)])})
+        for specialise in (False, True):
+            cols = batch.run_grid(grid, specialise=specialise)
+            assert cols["n_samples"].tolist() == [3000, k]
+            single = mfcontrol.simulate(grid.config(1)).metrics
+            for name in ALL:
+                assert _same(cols[name][1], single[name]), (k, name, cols[name][1],
+                                                             single[name])

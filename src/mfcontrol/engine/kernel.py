@@ -73,17 +73,24 @@ def apply_events(k, ev_k, ev_row, ev_add, ev_val, PP, n):
 
 
 @step_jit
+def sums(iae, ise, itae, tv, t, h, e, ae, da):
+    """The running sums after a sample with error e (|e| = ae) at time t and a change
+    da = |a_k - a_{k-1}| of the applied input: the one place their formulas are written
+    (:func:`accumulate` and a sweep's plain tile use it)."""
+    return iae + ae * h, ise + e * e * h, itae + t * ae * h, tv + da
+
+
+@step_jit
 def accumulate(iae, ise, itae, max_e_s, max_e_f, max_r, tv, k, t, h, y, r, a, a_prev,
                settle, final_start):
-    """Sample k folded into the running sums and maxima, from plain floats: the one place
-    the metric formulas are written. The maxima start at 0 and grow by selects on
-    ``|e| * w`` with a window weight w in {0, 1} shared by every member (the same value as
-    a guarded select for finite e), so a loop over members needs no per-member masks."""
+    """Sample k folded into the running sums and maxima, from plain floats. The maxima
+    start at 0 and grow by selects on ``|e| * w`` with a window weight w in {0, 1} shared
+    by every member (the same value as a guarded select for finite e), so a loop over
+    members needs no per-member masks."""
     e = y - r
     ae = abs(e)
-    iae = iae + ae * h
-    ise = ise + e * e * h
-    itae = itae + t * ae * h
+    iae, ise, itae, tv = sums(iae, ise, itae, tv, t, h, e, ae,
+                              abs(a - a_prev) * (1.0 if k > 0 else 0.0))
     # np.fmax, not a select on the running value: a loop over members would turn that
     # select into a masked store, microcoded and about ten times slower on AMD cores. The
     # values are the same (every one >= +0, and a NaN is never folded in: fold_metrics
@@ -91,7 +98,6 @@ def accumulate(iae, ise, itae, max_e_s, max_e_f, max_r, tv, k, t, h, y, r, a, a_
     max_e_s = np.fmax(ae * (1.0 if t >= settle else 0.0), max_e_s)
     max_e_f = np.fmax(ae * (1.0 if t >= final_start else 0.0), max_e_f)
     max_r = np.fmax(abs(r), max_r)
-    tv = tv + abs(a - a_prev) * (1.0 if k > 0 else 0.0)
     return iae, ise, itae, max_e_s, max_e_f, max_r, tv
 
 
@@ -161,6 +167,7 @@ def _single_loop(fast):
         (mode, inv_alpha, gamma0, rate, eps_m, order, kp, hd, u0, p_sign, p_current,
          rate_coef, use_gamma, out_gain, lo, hi, aw_coef) = recursive_ip.parameters(CP, 0)
         out_sel, ind, e_in, a12, a21, a22, cpl = _plant(PP)
+        ref_kind, ref1, ref2, ref3, ref4 = references.parameters(RP, 0)
         # read only in the fast mode
         f11, f12, f21, f22, gd1, gd2 = buck.rk4_map(ind, e_in, a12, a21, a22, cpl, h)
         for k in range(n_steps):
@@ -174,7 +181,7 @@ def _single_loop(fast):
                                                                  cpl, h)
                 p_ev += 1
             y = buck.measure(i, v, out_sel)
-            r = references.value(RP, 0, t)
+            r = references.evaluate(ref_kind, ref1, ref2, ref3, ref4, t)
             u, a, g, gamma, u_prev, g1, g2 = recursive_ip.advance(
                 k0 + k, y, r, u_prev, y_prev, r_prev, g1, g2, mode, inv_alpha, gamma0, rate,
                 eps_m, order, kp, hd, u0, p_sign, p_current, rate_coef, use_gamma, out_gain,

@@ -6,12 +6,15 @@ compiler needs no run-time alias checks, and the loop of the scalar step functio
 (``recursive_ip.advance``, ``buck.rk4``, ``kernel.accumulate``/``kernel.fold_metrics``,
 the ones a single run inlines) vectorises over members.
 
-Tiles. The samples run in tiles of :data:`TILE`. The first ``recursive_ip.STEADY``
-samples and any tile in which a member went bad run sample by sample with the divergence
-test of a single run. Every other tile runs the plain loop: the law at
-``k = STEADY`` (the same values from then on, so its start-up branches compile out), plain
-metric sums, and a count of bad samples (|y| over the bound, or y or u not finite). At
-the tile's end a member with a bad sample sends the whole block back to the tile's
+Tiles. The samples run in tiles of :data:`TILE`, which also end where a metric window
+starts (so that a tile lies wholly inside or outside each window) and before a scheduled
+change. The first ``recursive_ip.STEADY`` samples and any tile in which a member went bad
+run sample by sample with the divergence test of a single run. Every other tile runs the
+plain loop: the law at ``k = STEADY`` (the same values from then on, so its start-up
+branches compile out), plain metric sums, one max |e| for the tile (folded into the
+windows it lies in at its end) and a count of samples with |y| over the bound. A y or u
+that is not finite stays so (NaN and inf absorb), and shows at the tile's end in the sums
+or in the carried u. A member with a bad sample sends the whole block back to the tile's
 snapshot for the sample-by-sample rerun, which finds the exact sample; a member that has
 diverged keeps the metrics it had then. So every member's metrics are those of its single
 run, bit for bit. When every member has the same reference, a plain tile keeps r_{k-1}
@@ -54,8 +57,9 @@ P_CP = P_X + buck.N_STATE
 P_CS = P_CP + recursive_ip.N_PARAMS
 P_M = P_CS + recursive_ip.N_STATE
 P_APREV = P_M + kernel.N_METRICS
-P_BAD = P_APREV + 1  # samples of the current tile with |y| over the bound or y, u not finite
-P_RK = P_BAD + 1  # fast mode: the RK4 step as a linear map (buck.rk4_map), 6 rows
+P_BAD = P_APREV + 1  # samples of the current plain tile with |y| over the bound
+P_MXT = P_BAD + 1  # max |e| over the current plain tile
+P_RK = P_MXT + 1  # fast mode: the RK4 step as a linear map (buck.rk4_map), 6 rows
 P_ROWS = P_RK + 6
 #: rows that hold parameters (a sweep may share them and compile them in)
 PARAM_ROWS = tuple(range(P_PP, P_X)) + tuple(range(P_CP, P_CS))
@@ -87,7 +91,7 @@ _UP, _YP, _RP, _G1, _G2 = (_row(P_CS + r) for r in (
     kernel.M_DIVERGED, kernel.M_T_DIVERGE, kernel.M_N_SAMPLES, kernel.M_IAE, kernel.M_ISE,
     kernel.M_ITAE, kernel.M_MAX_E_SETTLED, kernel.M_MAX_E_FINAL, kernel.M_MAX_ABS_R,
     kernel.M_TV, kernel.M_FINAL_GAMMA))
-_AP, _BAD = _row(P_APREV), _row(P_BAD)
+_AP, _BAD, _MXT = _row(P_APREV), _row(P_BAD), _row(P_MXT)
 _F11, _F12, _F21, _F22, _G1D, _G2D = (_row(P_RK + r) for r in range(6))
 #: samples per tile: the unchecked loop runs a tile, then looks for a member gone bad
 TILE = 256
@@ -165,6 +169,9 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     # four dependent stages, which is what bounds a member loop (its latency, not its
     # arithmetic)
     MATRIX = bool(fast)
+    # the constant gain leaves gamma_k = 1/alpha in G1 and G2 at every k >= STEADY: a
+    # plain tile need not store them
+    CONSTANT_GAIN = not v_MODE and c_MODE == gain.CONSTANT
     flags = set(FAST_FLAGS) if fast else False
     options = dict(error_model="numpy", fastmath=flags)
 
@@ -193,17 +200,17 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
         HOIST = SHARED_REF and not checked
 
         @njit(cache=all(VARY), **options)
-        def tile(D, RP, R, k0, k1, n_steps, h, t_end, settle, final_start, bound):
-            """Samples k0 .. k1-1 of every member of the block: measurement, law (at
-            sample kl), metrics, plant step. ``checked``: the divergence test at every
-            sample (:func:`kernel.fold_metrics`); otherwise the plain sums and a count
-            of bad samples (|y| over the bound, y or u not finite) that the tile's end
-            inspects."""
+        def tile(D, RP, R, T, k0, k1, h, settle, final_start, bound):
+            """Samples k0 .. k1-1 (at times T[k]) of every member of the block:
+            measurement, law (at sample kl), metrics, plant step. ``checked``: the
+            divergence test at every sample (:func:`kernel.fold_metrics`); otherwise the
+            plain sums, the tile's max |e| and a count of samples with |y| over the bound,
+            which the tile's end inspects."""
             r = 0.0
             r_prev = D[_RP]  # shared reference: every member's r_{k-1} is member 0's
             max_r = 0.0
             for k in range(k0, k1):
-                t = (k * t_end) / n_steps
+                t = T[k]
                 if SHARED_REF:
                     r = references.value(RP, 0, t)
                     max_r = np.fmax(abs(r), max_r)
@@ -239,7 +246,8 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                     D[_UP + j], D[_YP + j] = carried, y
                     if not HOIST:
                         D[_RP + j] = r
-                    D[_G1 + j], D[_G2 + j] = g1, g2
+                    if checked or not CONSTANT_GAIN:
+                        D[_G1 + j], D[_G2 + j] = g1, g2
                     if checked:
                         (alive, D[_TDIV + j], D[_NS + j], D[_IAE + j], D[_ISE + j], D[_ITAE + j],
                          D[_MXS + j], D[_MXF + j], D[_MXR + j], D[_TV + j],
@@ -250,18 +258,22 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                             bound)
                         D[_DIV + j] = 1.0 - alive
                     else:
-                        # max |r| unused when hoisted: the compiler drops its arithmetic
-                        (D[_IAE + j], D[_ISE + j], D[_ITAE + j], D[_MXS + j], D[_MXF + j],
-                         mxr, D[_TV + j]) = kernel.accumulate(
-                            D[_IAE + j], D[_ISE + j], D[_ITAE + j], D[_MXS + j], D[_MXF + j],
-                            (0.0 if HOIST else D[_MXR + j]), D[_TV + j], k, t, h, y, r, a,
-                            D[_AP + j], settle, final_start)
+                        # the tile lies wholly inside or outside each metric window
+                        # (run_block splits tiles at their starts): one max |e| for the
+                        # tile, folded into the windows at its end; and k >= STEADY > 0
+                        e = y - r
+                        ae = abs(e)
+                        (D[_IAE + j], D[_ISE + j], D[_ITAE + j], D[_TV + j]) = kernel.sums(
+                            D[_IAE + j], D[_ISE + j], D[_ITAE + j], D[_TV + j], t, h, e, ae,
+                            abs(a - D[_AP + j]))
+                        D[_MXT + j] = np.fmax(ae, D[_MXT + j])
                         if not HOIST:
-                            D[_MXR + j] = mxr
+                            D[_MXR + j] = np.fmax(abs(r), D[_MXR + j])
                         # a count, not a sticky maximum: a select on the stored value
-                        # would become a masked store (see kernel.accumulate)
-                        ay = abs(y) + (u - u)  # NaN when y or u is not finite
-                        D[_BAD + j] += 0.0 if (ay <= bound and ay < math.inf) else 1.0
+                        # would become a masked store (see kernel.accumulate). A y or u
+                        # that is not finite stays so (NaN and inf absorb): the tile's
+                        # end sees it in the sums or in the carried u
+                        D[_BAD + j] += 1.0 if abs(y) > bound else 0.0
                     D[_AP + j] = a
                     if MATRIX:
                         D[_I + j], D[_V + j] = buck.rk4_linear(
@@ -287,7 +299,8 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     tile_checked, tile_plain = make_tile(True), make_tile(False)
 
     @njit(nogil=True, cache=all(VARY), **options)
-    def run_block(n_steps, h, t_end, D2, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
+    def run_block(T, h, k_settle, k_final, D2, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
+        n_steps = T.size
         D = D2.ravel()
         R = np.empty(BLOCK)
         PP = D2[P_PP:P_X]
@@ -305,10 +318,14 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                 prepare(D, PP, h)
                 p_ev += 1
             # a tile ends before the next scheduled change, so that a rerun of it sees
-            # the parameters it ran with
+            # the parameters it ran with, and where a metric window starts
             k1 = min(n_steps, k0 + TILE)
             if p_ev < ev_steps.size:
                 k1 = min(k1, ev_steps[p_ev])
+            if k0 < k_settle:
+                k1 = min(k1, k_settle)
+            if k0 < k_final:
+                k1 = min(k1, k_final)
             checked = k0 < recursive_ip.STEADY
             if checked:
                 k1 = min(k1, int(recursive_ip.STEADY))
@@ -316,14 +333,26 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                 _copy_rows(D2, P_X, snapshot, 0, P_ROWS - P_X)
                 for j in range(BLOCK):
                     D[_BAD + j] = 0.0
-                tile_plain(D, RP, R, k0, k1, n_steps, h, t_end, settle, final_start, bound)
+                    D[_MXT + j] = 0.0
+                tile_plain(D, RP, R, T, k0, k1, h, settle, final_start, bound)
                 for j in range(BLOCK):
-                    if not dead[j] and D[_BAD + j] != 0.0:
+                    # a y that was not finite left the sums so, a u the carried u
+                    if not dead[j] and (D[_BAD + j] != 0.0 or not (
+                            np.isfinite(D[_IAE + j]) and np.isfinite(D[_UP + j]))):
                         checked = True
                 if checked:  # some member went bad in this tile: rerun it sample by sample
                     _copy_rows(snapshot, 0, D2, P_X, P_ROWS - P_X)
+                else:
+                    for j in range(BLOCK):
+                        # the samples done so far: a member that goes bad on the next
+                        # tile's first sample keeps this count
+                        D[_NS + j] = k1
+                        if k0 >= k_settle:
+                            D[_MXS + j] = np.fmax(D[_MXT + j], D[_MXS + j])
+                        if k0 >= k_final:
+                            D[_MXF + j] = np.fmax(D[_MXT + j], D[_MXF + j])
             if checked:
-                tile_checked(D, RP, R, k0, k1, n_steps, h, t_end, settle, final_start, bound)
+                tile_checked(D, RP, R, T, k0, k1, h, settle, final_start, bound)
                 for j in range(BLOCK):
                     if D[_DIV + j] != 0.0 and not dead[j]:
                         dead[j] = True
@@ -338,9 +367,14 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                 D[_NS + j] = n_steps
 
     def run(n_steps, h, t_end, D, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
+        # the sample times once, in exact arithmetic whatever the mode: a tile's window
+        # split and its samples' window weights then agree
+        T = (np.arange(n_steps) * t_end) / n_steps
+        k_settle, k_final = np.searchsorted(T, [S[kernel.S_SETTLE], S[kernel.S_FINAL_START]])
+
         def one(b):
-            run_block(n_steps, h, t_end, D[b], RP[b], ev_steps, ev_k[b], ev_row, ev_add,
-                      ev_val[b], S)
+            run_block(T, h, int(k_settle), int(k_final), D[b], RP[b], ev_steps, ev_k[b], ev_row,
+                      ev_add, ev_val[b], S)
         workers = min(numba.get_num_threads(), D.shape[0])
         if workers <= 1:
             for b in range(D.shape[0]):
