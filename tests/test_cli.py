@@ -470,6 +470,28 @@ def test_run_writes_the_four_files(tmp_path):
     assert not (tmp_path / "results").exists()
 
 
+def test_run_fast_records_its_arithmetic_and_agrees_with_the_exact_run(tmp_path):
+    metrics = {}
+    for mode in ("exact", "fast"):
+        out = tmp_path / mode
+        flags = ("--fast",) if mode == "fast" else ()
+        proc = cli("run", CASE, "--out", str(out), *SHORT, *flags, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr
+        metrics[mode] = json.loads((out / "metrics.json").read_text())
+        assert metrics[mode]["arithmetic"] == mode
+    assert metrics["fast"]["iae"] == pytest.approx(metrics["exact"]["iae"], rel=1e-12)
+    assert metrics["fast"]["iae"] != metrics["exact"]["iae"]
+
+
+def test_run_fast_outside_the_compiled_kernel_is_a_one_line_error(tmp_path):
+    proc = cli("run", "boost-ipd", "--fast", "--out", str(tmp_path / "out"), cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [
+        "mfcontrol: error: --fast = True: only the compiled kernel (the paper's laws on the "
+        "buck, sim.integrator = rk4, no plant.schedule) has a fast mode"]
+    assert not (tmp_path / "out").exists()
+
+
 def test_run_user_case_file(tmp_path):
     text = (CASES_DIR / f"{CASE}.toml").read_text()
     assert "alpha = 10.0" in text

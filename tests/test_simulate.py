@@ -87,6 +87,7 @@ def test_the_fast_single_run_is_within_1e_12_of_the_exact_one(case, fidelity):
                                    atol=rtol * np.max(np.abs(exact.signals[key])))
     # another arithmetic, not the exact kernel under another name
     assert not np.array_equal(fast.signals["y"], exact.signals["y"])
+    assert (exact.arithmetic, fast.arithmetic) == ("exact", "fast")
 
 
 def test_the_fast_single_run_finds_the_same_blow_up():
@@ -100,5 +101,5 @@ def test_the_fast_single_run_finds_the_same_blow_up():
 
 def test_only_the_compiled_kernel_has_a_fast_mode():
     _, cfg = resolve_case("boost-ipd")
-    with pytest.raises(ValueError, match="fast: only the compiled kernel"):
+    with pytest.raises(ValueError, match="fast = True: only the compiled kernel"):
         mfcontrol.simulate(cfg, fast=True)

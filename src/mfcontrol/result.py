@@ -86,6 +86,9 @@ class Result(_Trajectory):
         See :mod:`mfcontrol.metrics`.
     version : str
         mfcontrol version that produced it.
+    arithmetic : str
+        ``"exact"`` (bit for bit the published arithmetic) or ``"fast"`` (the compiled
+        kernel's fast mode, within about 1e-13 relative); in ``metrics.json`` too.
     """
 
     name: str
@@ -96,6 +99,10 @@ class Result(_Trajectory):
     metrics: dict[str, Any]
     version: str
     label: str = field(default="")
+    arithmetic: str = field(default="exact")
+
+    def _metrics_payload(self) -> dict[str, Any]:
+        return {"arithmetic": self.arithmetic, **self.metrics}
 
     def plot(self, path: str | Path | None = None, title: str | None = None):
         """Output and reference on top, duty cycle below (and gamma for adaptive laws).

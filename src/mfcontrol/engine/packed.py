@@ -29,7 +29,7 @@ Fast mode (``fast=True``). LLVM's ``contract``, ``arcp`` and ``nsz`` flags (fuse
 multiply-adds, division by a shared value as multiplication by its reciprocal), and the
 plant stepped by its RK4 step written as the linear map it is (:func:`buck.rk4_map`): one
 fused step instead of four dependent stages. A member loop is bound by that dependency
-chain, not by its arithmetic, so this is what makes fast mode about 2.5x faster. No
+chain, not by its arithmetic, so this is most of what makes fast mode about 3x faster. No
 longer bit-identical to a single run: within about 1e-13 relative of it on the paper's
 cases (tested to 1e-12). NaN and inf keep their IEEE meaning in both modes (the
 divergence test relies on them).

@@ -84,8 +84,9 @@ def run_case(name_or_path: str | Path,
     return run_config(cfg, name)
 
 
-def run_config(cfg: Config, name: str = "") -> Result | SweepResult:
-    """Run a resolved configuration: a sweep when it has ``sweep.key``, else one run."""
+def run_config(cfg: Config, name: str = "", *, fast: bool = False) -> Result | SweepResult:
+    """Run a resolved configuration: a sweep when it has ``sweep.key``, else one run
+    (``fast``: the compiled kernel's fast mode, see :func:`mfcontrol.simulate`)."""
     if cfg["sweep.key"] is not None:
-        return simulate_sweep(cfg, name=name)
-    return simulate(cfg, name=name)
+        return simulate_sweep(cfg, name=name, fast=fast)
+    return simulate(cfg, name=name, fast=fast)
