@@ -58,5 +58,3 @@ fast_kernel_jit = njit(error_model="numpy", cache=True, fastmath=set(FAST_FLAGS)
 step_jit = njit(inline="always", error_model="numpy", cache=True)
 #: Kernels: compiled once, cached on disk next to the package.
 kernel_jit = njit(error_model="numpy", cache=True)
-#: Drivers that spread independent members over all cores (numba prange).
-parallel_jit = njit(error_model="numpy", cache=True, parallel=True)

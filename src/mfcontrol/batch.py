@@ -236,8 +236,8 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         run(scn.n_steps, scn.h, scn.t_end, D, _blocks(scn.RP, n_blocks), scn.ev_steps,
             _blocks(scn.ev_k, n_blocks), scn.ev_row, scn.ev_add, _blocks(scn.ev_val, n_blocks),
             scn.S)
-        M = D.transpose(1, 0, 2).reshape(packed.P_ROWS, -1)[packed.P_M:packed.P_M
-                                                             + kernel.N_METRICS, :n]
+        M = D[:, packed.P_M:packed.P_M + kernel.N_METRICS].transpose(1, 0, 2).reshape(
+            kernel.N_METRICS, -1)[:, :n]
         met = _metrics.table(M, tol)
     else:  # the general loop, one member at a time
         rows = [simulate(grid.config(m)).metrics for m in range(start, stop)]

@@ -359,12 +359,13 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                         for m in range(kernel.N_METRICS):
                             frozen[m, j] = D2[P_M + m, j]
             k0 = k1
+        # a live member's sample count is n_steps now (the last tile set it, plain or
+        # checked); a dead one's metrics were written over by the plain tiles after its
+        # divergence
         for j in range(BLOCK):
-            if dead[j]:  # the unchecked tiles after its divergence wrote over its metrics
+            if dead[j]:
                 for m in range(kernel.N_METRICS):
                     D2[P_M + m, j] = frozen[m, j]
-            else:
-                D[_NS + j] = n_steps
 
     def run(n_steps, h, t_end, D, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
         # the sample times once, in exact arithmetic whatever the mode: a tile's window
