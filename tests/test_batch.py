@@ -77,6 +77,9 @@ def test_cases_outside_the_kernel_run_through_the_loop():
     cols = batch.run_grid(grid)
     assert cols["stable"].tolist() == [True, True]
     assert cols["iae"][1] == mfcontrol.simulate(grid.config(1)).metrics["iae"]
+    # the loop has no fast mode: asking for it is refused, not silently ignored
+    with pytest.raises(mfcontrol.ConfigError, match="fast = True: only the compiled kernel"):
+        batch.run_grid(grid, fast=True)
 
 
 @pytest.mark.parametrize("n", [1, 119, 120, 121, 500])

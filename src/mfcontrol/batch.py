@@ -239,8 +239,8 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         M = D[:, packed.P_M:packed.P_M + kernel.N_METRICS].transpose(1, 0, 2).reshape(
             kernel.N_METRICS, -1)[:, :n]
         met = _metrics.table(M, tol)
-    else:  # the general loop, one member at a time
-        rows = [simulate(grid.config(m)).metrics for m in range(start, stop)]
+    else:  # the general loop, one member at a time (it has no fast mode: refused)
+        rows = [simulate(grid.config(m), fast=fast).metrics for m in range(start, stop)]
         met = {name: np.array([r[name] for r in rows]) for name in METRIC_COLUMNS}
     cols: dict[str, np.ndarray] = {"member": np.arange(start, stop, dtype=np.int64), **values}
     cols.update({name: met[name] for name in METRIC_COLUMNS})

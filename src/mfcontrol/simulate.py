@@ -35,6 +35,14 @@ def compiled(cfg: Config) -> bool:
             and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"])
 
 
+def check_fast(cfg: Config, key: str = "fast") -> None:
+    """Refuse the fast mode (asked for by ``key``) for a configuration outside the
+    compiled kernel, which alone has it."""
+    if not compiled(cfg):
+        raise ConfigError(key, True, "only the compiled kernel (the paper's laws on the "
+                          "buck, sim.integrator = rk4, no plant.schedule) has a fast mode")
+
+
 def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
     """Simulate one resolved configuration and return its full trajectory and metrics.
 
@@ -60,11 +68,9 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
     >>> abs(fast.metrics["iae"] / exact.metrics["iae"] - 1) < 1e-12
     True
     """
+    if fast:
+        check_fast(cfg)
     if not compiled(cfg):
-        if fast:
-            raise ConfigError("fast", True, "only the compiled kernel (the paper's laws on "
-                              "the buck, sim.integrator = rk4, no plant.schedule) has a fast "
-                              "mode")
         return _simulate_loop(cfg, name)
     return simulate_many([cfg], name=name, fast=fast)[0]
 

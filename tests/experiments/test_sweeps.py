@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 import mfcontrol
+from mfcontrol.experiments.cases import resolve_case
 
 GRID = ["--grid", "controller.alpha=logspace(-1,1,4)", "--grid", "plant.dR=0,2.5,5"]
 FAST = ["--set", "sim.t_end=0.002"]
@@ -81,6 +82,25 @@ def test_fast_sweep_is_close_to_the_exact_one_and_is_not_mixed_with_it(tmp_path)
     proc = sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(tmp_path / "exact"),
                  "--fast", check=False)
     assert proc.returncode == 2 and "different sweep" in proc.stderr
+
+
+def test_fast_sweep_keeps_fast_single_run_trajectories(tmp_path):
+    sweep("voltage-stable-standard", "--grid", "controller.kp=1.5,2", *FAST, "--keep", "1",
+          "--fast", "--out", str(tmp_path / "k"))
+    traj = pd.read_csv(tmp_path / "k" / "trajectories" / "member-0.csv")
+    cfg = resolve_case("voltage-stable-standard", {"sim.t_end": 0.002, "controller.kp": 1.5})[1]
+    np.testing.assert_array_equal(traj["y"].to_numpy(),
+                                  mfcontrol.simulate(cfg, fast=True).signals["y"])
+
+
+def test_fast_sweep_outside_the_compiled_kernel_is_refused_before_writing(tmp_path):
+    proc = sweep("boost-ipd", "--grid", "controller.kp=1,2", "--fast",
+                 "--out", str(tmp_path / "s"), check=False)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [
+        "mfcontrol: error: --fast = True: only the compiled kernel (the paper's laws on the "
+        "buck, sim.integrator = rk4, no plant.schedule) has a fast mode"]
+    assert not (tmp_path / "s").exists()
 
 
 def test_keep_writes_single_run_trajectories(tmp_path):
