@@ -199,16 +199,30 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
         return M, traj
     traj = np.full((n_rows, len(keep_arr), scn.n_steps), np.nan)
     one = np.empty((n_rows, scn.n_steps))
+    X = scn.X0.copy()
     for j in range(n):
-        col = slice(j, j + 1)
         Mj = np.zeros((kernel.N_METRICS, 1))
-        run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind,
-                   scn.PP[:, col].copy(), scn.X0[:, col].copy(), scn.law_kind,
-                   scn.CP[:, col].copy(), CS[:, col].copy(), scn.RP[:, col].copy(),
-                   scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,
-                   scn.ev_val[:, col].copy(), scn.S, Mj, one)
+        run_member(scn, j, X, CS, Mj, one, fast=fast)
         M[:, j] = Mj[:, 0]
         if j in keep_arr:
             done = int(Mj[kernel.M_N_SAMPLES, 0])
             traj[:, keep_arr.index(j), :done] = one[:, :done]
     return M, traj
+
+
+def run_member(scn: Scenario, j: int, X: np.ndarray, CS: np.ndarray, M: np.ndarray,
+               traj: np.ndarray, *, n_steps: int | None = None, t_end: float | None = None,
+               fast: bool = False) -> None:
+    """Member j of ``scn`` through the single-run kernel, from the states ``X[:, j]`` and
+    ``CS[:, j]`` (advanced in place), for ``n_steps`` samples over ``t_end`` (the
+    scenario's by default): its metrics into ``M[:, 0]``, its trajectory into
+    ``traj[row, k]``."""
+    run_single = kernel.run_single_fast if fast else kernel.run_single
+    col = slice(j, j + 1)
+    Xj, CSj = X[:, col].copy(), CS[:, col].copy()
+    run_single(scn.n_steps if n_steps is None else n_steps, scn.h,
+               scn.t_end if t_end is None else t_end, scn.plant_kind, scn.PP[:, col].copy(),
+               Xj, scn.law_kind, scn.CP[:, col].copy(), CSj, scn.RP[:, col].copy(),
+               scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,
+               scn.ev_val[:, col].copy(), scn.S, M, traj)
+    X[:, j], CS[:, j] = Xj[:, 0], CSj[:, 0]

@@ -48,14 +48,8 @@ def spectral_radius(cfg: Config, gain: float, R: float, v_ref: float = 2.5) -> f
     CS[recursive_ip.U_PREV] = Z[3]
     CS[recursive_ip.R_PREV] = v_ref
     for j in range(5):  # one sample from each state, through the single-run kernel
-        col = slice(j, j + 1)
-        Xj, CSj = X[:, col].copy(), CS[:, col].copy()
-        kernel.run_single(1, scn.h, scn.h, scn.plant_kind, scn.PP[:, col].copy(), Xj,
-                          scn.law_kind, scn.CP[:, col].copy(), CSj, scn.RP[:, col].copy(),
-                          scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,
-                          scn.ev_val[:, col].copy(), scn.S,
-                          np.zeros((kernel.N_METRICS, 1)), np.empty((kernel.T_X0 + 2, 1)))
-        X[:, j], CS[:, j] = Xj[:, 0], CSj[:, 0]
+        scenario.run_member(scn, j, X, CS, np.zeros((kernel.N_METRICS, 1)),
+                            np.empty((kernel.T_X0 + 2, 1)), n_steps=1, t_end=scn.h)
     Z1 = np.vstack([X, CS[recursive_ip.Y_PREV], CS[recursive_ip.U_PREV]])
     J = (Z1[:, 1:] - Z1[:, :1]) / eps
     return float(np.max(np.abs(np.linalg.eigvals(J))))
