@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.linalg import expm
 
@@ -69,11 +69,18 @@ def test_load_change_applies_before_the_first_sample_at_or_after_its_time():
        E=st.floats(1.0, 50.0), coupling=st.sampled_from([0.0, 1.0]),
        h=st.floats(1e-8, 1e-5), i=st.floats(-10.0, 10.0), v=st.floats(-50.0, 50.0),
        d=st.floats(0.0, 1.0))
+# h |A| = 17, far outside RK4's stability region: the polynomial's terms reach |hA|^4/24
+# ~ 3,500 and cancel, so both evaluations round at that size (found by hypothesis; the
+# bound below once ignored it)
+@example(L=0.0078125, C=1e-07, R=1.0, E=1.0, coupling=0.0, h=1.7005524071754325e-06,
+         i=1.0, v=1.0, d=0.0)
 def test_the_linear_map_is_the_same_rk4_step(L, C, R, E, coupling, h, i, v, d):
     # the fast sweep's plant step: the staged RK4 polynomial evaluated as x+ = F x + g d
     a12, a21, a22 = -1.0 / L, 1.0 / C, -1.0 / (R * C)
     staged = buck.rk4(i, v, d, L, E, a12, a21, a22, coupling, h)
     linear = buck.rk4_linear(i, v, d, *buck.rk4_map(L, E, a12, a21, a22, coupling, h))
-    scale = max(abs(i), abs(v), abs(staged[0]), abs(staged[1]), h * E / L)
+    m = h * max(abs(a12), abs(a21), abs(a22))  # the size of the terms of the polynomial
+    growth = 1 + m + m**2 / 2 + m**3 / 6 + m**4 / 24
+    scale = max(abs(i), abs(v), abs(staged[0]), abs(staged[1]), h * E / L) * growth
     assert abs(linear[0] - staged[0]) <= 1e-13 * scale
     assert abs(linear[1] - staged[1]) <= 1e-13 * scale
