@@ -22,6 +22,7 @@ form, ``x + (f1 + 2 (f2 + f3) + f4) / 6`` with ``f = h * dx/dt``.
 """
 
 from .._jit import step_jit
+from ..numerics import signatures as sig
 
 # parameter rows
 E = 0
@@ -43,11 +44,15 @@ STATE_NAMES = ("i_L", "v_C")
 
 
 @step_jit
+def coefficients(inductance, resistance, capacitance):
+    """The derived coefficients (1/L, 1/C, 1/(R C))."""
+    return 1.0 / inductance, 1.0 / capacitance, 1.0 / (resistance * capacitance)
+
+
+@step_jit
 def prepare(PP, j):
     """Recompute the derived coefficients after any parameter change."""
-    PP[INV_L, j] = 1.0 / PP[L, j]
-    PP[INV_C, j] = 1.0 / PP[C, j]
-    PP[INV_RC, j] = 1.0 / (PP[R, j] * PP[C, j])
+    PP[INV_L, j], PP[INV_C, j], PP[INV_RC, j] = coefficients(PP[L, j], PP[R, j], PP[C, j])
 
 
 @step_jit
@@ -58,7 +63,13 @@ def output(PP, X, j):
 @step_jit
 def _dxdt(PP, j, i, v, dp):
     """(di/dt, dv/dt) at (i, v) with dp = 1 - d."""
-    return (PP[E, j] - dp * v) * PP[INV_L, j], dp * i * PP[INV_C, j] - v * PP[INV_RC, j]
+    return _field(PP[E, j], PP[INV_L, j], PP[INV_C, j], PP[INV_RC, j], i, v, dp)
+
+
+@step_jit
+def _field(e_in, inv_l, inv_c, inv_rc, i, v, dp):
+    """The model's right-hand side from plain floats: the one place it is written."""
+    return (e_in - dp * v) * inv_l, dp * i * inv_c - v * inv_rc
 
 
 @step_jit
@@ -83,3 +94,22 @@ def step(PP, X, j, d, h):
     p4, q4 = h * a4, h * b4
     X[I_L, j] = i + (p1 + 2 * (p2 + p3) + p4) / 6
     X[V_C, j] = v + (q1 + 2 * (q2 + q3) + q4) / 6
+
+
+# the plant as the general engine takes it (mfcontrol.numerics.signatures): p is a column
+# of the rows above
+
+
+@sig.compiled(sig.RHS)
+def rhs(t, x, d, p, dxdt, nx, np_):
+    dxdt[I_L], dxdt[V_C] = _field(p[E], p[INV_L], p[INV_C], p[INV_RC], x[I_L], x[V_C], 1.0 - d)
+
+
+@sig.compiled(sig.OUTPUT)
+def measured(x, p, nx, np_):
+    return x[V_C]
+
+
+@sig.compiled(sig.PREPARE)
+def derive(p, h, nx, np_):
+    p[INV_L], p[INV_C], p[INV_RC] = coefficients(p[L], p[R], p[C])

@@ -17,6 +17,7 @@ Output: ``v`` (voltage control) or ``v * i`` (power control).
 """
 
 from .._jit import step_jit
+from ..numerics import signatures as sig
 
 # parameter rows
 E = 0
@@ -42,11 +43,15 @@ COUPLINGS = {"published": 1.0, "textbook": 0.0}
 
 
 @step_jit
+def coefficients(inductance, resistance, capacitance):
+    """The derived coefficients (A12, A21, A22) = (-1/L, 1/C, -1/(R C))."""
+    return -1.0 / inductance, 1.0 / capacitance, -1.0 / (resistance * capacitance)
+
+
+@step_jit
 def prepare(PP, j):
     """Recompute the derived coefficients after any parameter change."""
-    PP[A12, j] = -1.0 / PP[L, j]
-    PP[A21, j] = 1.0 / PP[C, j]
-    PP[A22, j] = -1.0 / (PP[R, j] * PP[C, j])
+    PP[A12, j], PP[A21, j], PP[A22, j] = coefficients(PP[L, j], PP[R, j], PP[C, j])
 
 
 @step_jit
@@ -126,3 +131,23 @@ def step(PP, X, j, d, h):
     """Advance member j by one RK4 step of size h with duty cycle d held."""
     X[I_L, j], X[V_C, j] = rk4(X[I_L, j], X[V_C, j], d, PP[L, j], PP[E, j], PP[A12, j],
                                PP[A21, j], PP[A22, j], PP[COUPLING, j], h)
+
+
+# the plant as the general engine takes it (mfcontrol.numerics.signatures): p is a column
+# of the rows above
+
+
+@sig.compiled(sig.RHS)
+def rhs(t, x, d, p, dxdt, nx, np_):
+    b = d / p[L] * p[E]
+    dxdt[I_L], dxdt[V_C] = _rhs(p[A12], p[A21], p[A22], x[I_L], x[V_C], b, p[COUPLING] * b)
+
+
+@sig.compiled(sig.OUTPUT)
+def measured(x, p, nx, np_):
+    return measure(x[I_L], x[V_C], p[OUTPUT])
+
+
+@sig.compiled(sig.PREPARE)
+def derive(p, h, nx, np_):
+    p[A12], p[A21], p[A22] = coefficients(p[L], p[R], p[C])

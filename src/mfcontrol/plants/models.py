@@ -33,9 +33,27 @@ from scipy.linalg import expm
 
 from .._jit import kernel_jit
 from ..errors import ConfigError
-from . import boost, buck, first_order
+from ..numerics import signatures as sig
+from . import boost, buck, first_order, lti, ode
 
-__all__ = ["LTI", "ODE", "Boost", "Buck", "FirstOrder", "Plant"]
+__all__ = ["LTI", "ODE", "Boost", "Buck", "FirstOrder", "Plant", "EnginePlant"]
+
+
+class EnginePlant(NamedTuple):
+    """A plant as the compiled engine runs it (:mod:`mfcontrol.engine.compose`)."""
+
+    #: (rhs, output, prepare, advance), compiled with :mod:`mfcontrol.numerics.signatures`
+    functions: tuple[Any, Any, Any, Any]
+    #: the parameter vector (a fresh copy)
+    p: np.ndarray
+    #: the initial state (a fresh copy)
+    x0: np.ndarray
+    #: "rk4", "rk45" or "exact"
+    integrator: str
+    #: (rtol, atol) of "rk45"
+    tol: tuple[float, float]
+    #: parameter names a schedule may change, and their entries in p
+    columns: Mapping[str, int]
 
 # ---------------------------------------------------------------------------------------------
 # compiled wrappers: member 0 of (rows, 1) columns, callable from Python
@@ -252,6 +270,15 @@ class Plant(ABC):
     def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
         raise NotImplementedError  # only reachable where "exact" is allowed and overridden
 
+    def engine(self) -> EnginePlant | None:
+        """The plant as the compiled engine runs it, or None: a subclass written in Python
+        runs through the Python driver (:func:`mfcontrol.loop.simulate_loop` says so)."""
+        return None
+
+    def _engine(self, functions, p: np.ndarray, columns: Mapping[str, int]) -> EnginePlant:
+        return EnginePlant(functions, np.array(p, dtype=np.float64), self.x0, self.integrator,
+                           (self._rtol, self._atol), columns)
+
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
         return f"{type(self).__name__}({args}, integrator={self.integrator!r})"
@@ -320,6 +347,12 @@ class _CompiledPlant(Plant):
         X = self._column(x)
         self._kernels.step(self._PP, X, u, h)
         return X.reshape(-1)
+
+    def engine(self) -> EnginePlant:
+        mod = self._module
+        functions = (mod.rhs, mod.measured, getattr(mod, "derive", sig.no_prepare),
+                     getattr(mod, "advance", sig.no_advance))
+        return self._engine(functions, self._PP[:, 0], mod.PARAM_ROWS)
 
 
 class Buck(_CompiledPlant):
@@ -614,6 +647,11 @@ class LTI(Plant):
     def derivative(self, t: float, x: np.ndarray, u: float) -> np.ndarray:
         return self._A @ np.asarray(x, dtype=np.float64) + self._B * u
 
+    def engine(self) -> EnginePlant:
+        n = self._A.shape[0]
+        return self._engine((lti.rhs, lti.measured, lti.derive, lti.advance),
+                            lti.pack(self._A, self._B, self._C), lti.names(n))
+
     def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
         if self._zoh is None or self._zoh[0] != h:
             n = self._A.shape[0]
@@ -632,10 +670,13 @@ class ODE(Plant):
     Parameters
     ----------
     f : callable
-        ``f(t, x, u, p) -> dx/dt`` (array of shape (n,)); ``t``, ``u`` floats, ``x`` a
-        float64 array, ``p`` the parameter values as a float64 array in the order of
-        ``params``. Plain Python functions work; ``numba.njit`` ones too (arrays, not dicts,
-        is what lets them), and are faster per call.
+        In place, ``f(t, x, u, p, dxdt)``, writing dx/dt into ``dxdt`` (the fast form: no
+        allocation per call), or returning, ``f(t, x, u, p) -> dx/dt`` (an array, list or
+        tuple of n numbers); told apart by the number of parameters. ``t``, ``u`` are
+        floats, ``x`` and ``dxdt`` float64 arrays, ``p`` the parameter values as a float64
+        array in the order of ``params``. The engine compiles f and g with numba (plain
+        Python or ``numba.njit`` functions alike); if numba cannot, the loop runs through
+        the Python driver, much slower, and the result's ``engine`` says ``"python"``.
     g : callable
         ``g(x, p) -> y`` (a float).
     x0 : array_like
@@ -685,8 +726,12 @@ class ODE(Plant):
         if len(names) != n:
             raise ConfigError("state_names", state_names, f"must name the {n} states of x0")
         super().__init__(names, x0, integrator=integrator, rtol=rtol, atol=atol)
+        self._compiled = None
+        #: why the Python driver runs this plant (None while it compiles)
+        self.python_reason: str | None = None
         # one call of each up front: a wrong shape is reported here, not mid-run
-        dx = np.asarray(f(0.0, self.x0, 0.0, self._p), dtype=np.float64)
+        self._inplace = ode.arity(f) == 5
+        dx = self.derivative(0.0, self.x0, 0.0)
         if dx.shape != (n,):
             raise ValueError(f"f(t, x, u, p) returned shape {dx.shape}; x0 has shape ({n},)")
         g(self.x0, self._p)
@@ -694,6 +739,20 @@ class ODE(Plant):
     @property
     def params(self) -> dict[str, float]:
         return dict(zip(self._names, self._p.tolist(), strict=True))
+
+    def engine(self) -> EnginePlant | None:
+        """The compiled plant; None (with the reason in :attr:`python_reason`) when numba
+        cannot compile f or g, and the Python driver runs it."""
+        if self._compiled is None and self.python_reason is None:
+            try:
+                self._compiled = ode.compile_functions(self._f, self._g)
+            except ode.NotCompilable as exc:
+                self.python_reason = f"numba cannot compile f or g: {exc}"
+        if self._compiled is None:
+            return None
+        rhs, output = self._compiled
+        return self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
+                            {name: i for i, name in enumerate(self._names)})
 
     def set_param(self, name: str, value: float) -> None:
         if name not in self._names:
@@ -705,5 +764,9 @@ class ODE(Plant):
         return float(self._g(np.asarray(x, dtype=np.float64), self._p))
 
     def derivative(self, t: float, x: np.ndarray, u: float) -> np.ndarray:
-        return np.asarray(self._f(float(t), np.asarray(x, dtype=np.float64), float(u), self._p),
-                          dtype=np.float64)
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        if self._inplace:
+            out = np.empty(x.size)
+            self._f(float(t), x, float(u), self._p, out)
+            return out
+        return np.asarray(self._f(float(t), x, float(u), self._p), dtype=np.float64)

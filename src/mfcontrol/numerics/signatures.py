@@ -1,0 +1,121 @@
+"""The compiled signatures of a plant's functions, as the engine calls them.
+
+A plant is four functions over plain float64 arrays (``x`` the state, ``p`` the parameter
+vector)::
+
+    rhs(t, x, u, p, dxdt)      dx/dt written into dxdt (in place: no allocation per call)
+    output(x, p) -> y          the measured output
+    prepare(p, h)              derived coefficients, after any parameter change
+    advance(t, x, u, p, h)     an exact step over [t, t + h] with u held (integrator "exact")
+
+The compiled forms are C-callable (``numba.cfunc``) and reach the engine as their
+addresses, which the kernel turns back into functions (:func:`as_rhs` and its siblings).
+So one compiled kernel serves every plant, built-in or yours, and is cached on disk: a new
+plant compiles its own small functions, never the kernel. (numba's own first-class
+function arguments cost 40 to 120 us of dispatch per kernel call, more than a short run;
+an integer address costs nothing.) A C call passes plain values, so each array is a data
+pointer with its size, ``nx`` (state) or ``np`` (parameters); :func:`vector` rebuilds the
+array view. Their signatures, in that order::
+
+    rhs(t, x*, u, p*, dxdt*, nx, np)
+    output(x*, p*, nx, np) -> y
+    prepare(p*, h, nx, np)
+    advance(t, x*, u, p*, h, nx, np)
+"""
+
+import numpy as np
+from numba import carray, cfunc, njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+_ptr = types.CPointer(types.float64)
+_n = types.int64
+
+RHS = types.void(types.float64, _ptr, types.float64, _ptr, _ptr, _n, _n)
+OUTPUT = types.float64(_ptr, _ptr, _n, _n)
+PREPARE = types.void(_ptr, types.float64, _n, _n)
+ADVANCE = types.void(types.float64, _ptr, types.float64, _ptr, types.float64, _n, _n)
+
+RHS_T = types.FunctionType(RHS)
+OUTPUT_T = types.FunctionType(OUTPUT)
+PREPARE_T = types.FunctionType(PREPARE)
+ADVANCE_T = types.FunctionType(ADVANCE)
+
+
+class Lazy:
+    """A C-callable compiled (or loaded from numba's disk cache) on first use, so that
+    importing the package does not load every plant's code."""
+
+    def __init__(self, sig, py_func):
+        self._sig = sig
+        self.py_func = py_func
+        self._compiled = None
+        self.__doc__ = py_func.__doc__
+        self.__name__ = py_func.__name__
+
+    @property
+    def cfunc(self):
+        if self._compiled is None:
+            self._compiled = cfunc(self._sig, error_model="numpy", cache=True)(self.py_func)
+        return self._compiled
+
+    @property
+    def address(self) -> int:
+        """The function's address, for the engine."""
+        return self.cfunc.address
+
+
+def compiled(sig):
+    """Decorator of a library plant function: a C-callable with ``sig``, compiled on first
+    use and cached on disk; the engine takes its ``.address``."""
+    return lambda py_func: Lazy(sig, py_func)
+
+
+def _caster(function_type):
+    @intrinsic
+    def cast(typingctx, address):
+        """The function at ``address`` (an integer), callable in compiled code."""
+        def codegen(context, builder, signature, args):
+            fn = cgutils.create_struct_proxy(function_type)(context, builder)
+            fn.c_addr = builder.inttoptr(args[0], cgutils.voidptr_t)
+            fn.py_addr = cgutils.get_null_value(cgutils.voidptr_t)
+            fn.jit_addr = cgutils.get_null_value(cgutils.voidptr_t)
+            return fn._getvalue()
+
+        return function_type(types.intp), codegen
+
+    return cast
+
+
+as_rhs = _caster(RHS_T)
+as_output = _caster(OUTPUT_T)
+as_prepare = _caster(PREPARE_T)
+as_advance = _caster(ADVANCE_T)
+
+
+@intrinsic
+def pointer(typingctx, arr):
+    """The data pointer of a float64 array, for the calls above."""
+    if not isinstance(arr, types.Array) or arr.dtype != types.float64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return context.make_array(signature.args[0])(context, builder, args[0]).data
+
+    return _ptr(arr), codegen
+
+
+@njit(inline="always")
+def vector(ptr, n):
+    """The array view of n floats at ptr."""
+    return carray(ptr, (n,), np.float64)
+
+
+@compiled(PREPARE)
+def no_prepare(p, h, nx, np_):
+    """For plants with nothing derived from their parameters."""
+
+
+@compiled(ADVANCE)
+def no_advance(t, x, u, p, h, nx, np_):
+    """For plants without an exact step (the engine never calls it for them)."""
