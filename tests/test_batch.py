@@ -71,15 +71,16 @@ def test_every_member_equals_its_single_run(picked, sizes, fidelity, data):
         assert a == b or (np.isnan(a) and np.isnan(b)), name
 
 
-def test_cases_outside_the_kernel_run_through_the_loop():
+def test_cases_outside_the_papers_kernel_run_in_the_general_engine():
     _, base = resolve_case("first-order-ip-algebraic", {"sim.t_end": 0.5})
     grid = batch.make_grid(base, {"controller.kp": np.array([2.0, 5.0])})
     cols = batch.run_grid(grid)
     assert cols["stable"].tolist() == [True, True]
     assert cols["iae"][1] == mfcontrol.simulate(grid.config(1)).metrics["iae"]
-    # the loop has no fast mode: asking for it is refused, not silently ignored
-    with pytest.raises(mfcontrol.ConfigError, match="fast = True: only the compiled kernel"):
-        batch.run_grid(grid, fast=True)
+    # with a fast mode of their own, close to the exact runs and not equal to them
+    fast = batch.run_grid(grid, fast=True)
+    np.testing.assert_allclose(fast["iae"], cols["iae"], rtol=1e-10)
+    assert mfcontrol.simulate(grid.config(1), fast=True).metrics["iae"] == fast["iae"][1]
 
 
 @pytest.mark.parametrize("n", [1, 119, 120, 121, 500])
@@ -90,3 +91,20 @@ def test_blocks_are_aligned_and_padded_with_member_0(n):
     flat = out.transpose(1, 0, 2).reshape(3, -1)
     np.testing.assert_array_equal(flat[:, :n], a)
     assert (flat[:, n:] == a[:, :1]).all()
+
+
+@pytest.mark.parametrize("case, axes", [
+    ("buck-ipi", {"controller.kp": [1e3, 3e3], "plant.dR": [1.0, 5.0]}),
+    ("boost-ipd", {"controller.kd": [0.0, 1e-3], "plant.R": [8.0, 12.0]}),
+    ("first-order-ip-algebraic", {"controller.kp": [-40.0, 5.0], "plant.a": [-1.0, 2.0]}),
+])
+def test_toolkit_grid_members_equal_their_single_runs(case, axes):
+    # the general engine runs the members of a range as one batch
+    t_end = {"buck-ipi": 5e-3, "boost-ipd": 0.02, "first-order-ip-algebraic": 1.0}[case]
+    _, base = resolve_case(case, {"sim.t_end": t_end})
+    grid = batch.make_grid(base, {k: np.array(v) for k, v in axes.items()})
+    cols = batch.run_grid(grid, chunk=3)
+    for m in range(grid.n_members):
+        single = mfcontrol.simulate(grid.config(m)).metrics
+        for key in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "diverged", "n_samples"):
+            assert cols[key][m] == single[key], (m, key)

@@ -483,13 +483,18 @@ def test_run_fast_records_its_arithmetic_and_agrees_with_the_exact_run(tmp_path)
     assert metrics["fast"]["iae"] != metrics["exact"]["iae"]
 
 
-def test_run_fast_outside_the_compiled_kernel_is_a_one_line_error(tmp_path):
+def test_run_fast_on_a_toolkit_case(tmp_path):
     proc = cli("run", "boost-ipd", "--fast", "--out", str(tmp_path / "out"), cwd=tmp_path)
-    assert proc.returncode == 2
-    assert proc.stderr.strip().splitlines() == [
-        "mfcontrol: error: --fast = True: only the compiled kernel (the paper's laws on the "
-        "buck, sim.integrator = rk4, no plant.schedule) has a fast mode"]
-    assert not (tmp_path / "out").exists()
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((tmp_path / "out" / "metrics.json").read_text())["arithmetic"] == "fast"
+
+
+def test_run_a_toolkit_case_that_diverges_at_once(tmp_path):
+    # issue 10: this ended in KeyError: 'gamma'
+    proc = cli("run", "boost-ipd", "--set", "sim.diverge_above=10", "--out",
+               str(tmp_path / "out"), cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((tmp_path / "out" / "metrics.json").read_text())["diverged"] is True
 
 
 def test_run_user_case_file(tmp_path):

@@ -21,9 +21,11 @@ def test_readme_quick_start_commands():
 def test_readme_plant_example_runs(tmp_path, monkeypatch):
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     blocks = text.split("```python\n")[1:]
-    code = next(b.split("```")[0] for b in blocks if "tank = ODE(" in b)
+    code = next(b.split("```")[0] for b in blocks if "plant = ODE(" in b)
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102
-    assert namespace["res"].metrics["stable"]
-    assert (tmp_path / "tank.png").exists()
+    assert namespace["res"].metrics["stable"] and namespace["res"].engine == "compiled"
+    assert (tmp_path / "motor.png").exists()
+    table = namespace["sweep"].to_pandas()
+    assert len(table) == 12 and table["stable"].any()

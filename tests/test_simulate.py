@@ -99,7 +99,24 @@ def test_the_fast_single_run_finds_the_same_blow_up():
     assert fast.metrics["n_samples"] == exact.metrics["n_samples"]
 
 
-def test_only_the_compiled_kernel_has_a_fast_mode():
-    _, cfg = resolve_case("boost-ipd")
-    with pytest.raises(ValueError, match="fast = True: only the compiled kernel"):
-        mfcontrol.simulate(cfg, fast=True)
+@pytest.mark.parametrize("case", ["buck-ipi", "boost-ipd", "first-order-ip-algebraic"])
+def test_every_case_has_a_fast_mode_close_to_its_exact_run(case):
+    _, cfg = resolve_case(case)
+    exact, fast = mfcontrol.simulate(cfg), mfcontrol.simulate(cfg, fast=True)
+    assert (exact.arithmetic, fast.arithmetic) == ("exact", "fast")
+    assert fast.metrics["iae"] == pytest.approx(exact.metrics["iae"], rel=1e-9)
+    np.testing.assert_allclose(fast.signals["y"], exact.signals["y"], rtol=1e-9, atol=1e-9)
+
+
+def test_a_toolkit_case_diverging_at_once_is_a_flagged_result():
+    # issue 10: the general loop ended in KeyError: 'gamma' here
+    r = mfcontrol.run_case("boost-ipd", overrides={"sim.diverge_above": 10})
+    assert r.metrics["diverged"] and not r.metrics["stable"]
+    assert r.time.size == r.metrics["n_samples"]
+
+
+def test_a_non_finite_reference_is_flagged_not_returned_as_non_finite_metrics():
+    # issue 10: came back with iae = inf and diverged = false
+    r = mfcontrol.run_case("buck-ipi", overrides={"reference.slope": -1e308})
+    assert r.metrics["diverged"]
+    assert all(np.isfinite(r.metrics[k]) for k in ("iae", "ise", "itae", "tv_duty"))

@@ -15,12 +15,13 @@ from .errors import CaseError, ConfigError
 from .experiments.cases import names as case_names
 from .experiments.cases import run_case
 from .loop import Change, LoopResult, simulate_loop
+from .loop_sweep import LoopSweepResult, sweep
 from .result import Result, SweepResult
 from .simulate import simulate, simulate_many, simulate_sweep
 
 __all__ = [
     "IP", "IPD", "IPI", "IPID", "IntelligentController", "RecursiveIP",
     "CaseError", "Config", "ConfigError", "Result", "SweepResult", "__version__",
-    "Change", "LoopResult", "simulate_loop",
+    "Change", "LoopResult", "LoopSweepResult", "simulate_loop", "sweep",
     "case_names", "resolve", "run_case", "simulate", "simulate_many", "simulate_sweep",
 ]

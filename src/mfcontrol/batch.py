@@ -6,7 +6,8 @@ A grid is a product of axes, one per swept key (``KEY=SPEC``, SPEC ``a,b,c``,
 each axis value a one-member scenario is built from the configuration with that value
 set, and the array cells it changes are written into the members that have that value.
 So member m computes exactly what ``mfcontrol.simulate`` computes for its configuration.
-Cases the compiled kernel does not cover run member by member through the general loop.
+Cases the paper's kernel does not cover run in batches of the general engine
+(:mod:`mfcontrol.engine.compose`).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from .config import BY_KEY, Config, check_value
 from .engine import kernel, packed
 from .errors import ConfigError
 from .laws import recursive_ip
-from .simulate import compiled, simulate
+from .simulate import compiled, general_metrics
 
 _SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
 METRIC_COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma",
@@ -239,9 +240,9 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         M = D[:, packed.P_M:packed.P_M + kernel.N_METRICS].transpose(1, 0, 2).reshape(
             kernel.N_METRICS, -1)[:, :n]
         met = _metrics.table(M, tol)
-    else:  # the general loop, one member at a time (it has no fast mode: refused)
-        rows = [simulate(grid.config(m), fast=fast).metrics for m in range(start, stop)]
-        met = {name: np.array([r[name] for r in rows]) for name in METRIC_COLUMNS}
+    else:  # the general engine, every member of the range in one batch
+        M = general_metrics([grid.config(m) for m in range(start, stop)], fast=fast)
+        met = _metrics.table(M, tol)
     cols: dict[str, np.ndarray] = {"member": np.arange(start, stop, dtype=np.int64), **values}
     cols.update({name: met[name] for name in METRIC_COLUMNS})
     return cols

@@ -58,12 +58,9 @@ def _cmd_show(args) -> int:
 def _cmd_run(args) -> int:
     from .experiments import cases
     from .result import SweepResult
-    from .simulate import check_fast
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set))
     out = _out_dir(args.out) if args.out else Path("results") / name
-    if args.fast:
-        check_fast(cfg, "--fast")
     out.mkdir(parents=True, exist_ok=True)
     result = cases.run_config(cfg, name, fast=args.fast)
     result.to_csv(out / "trajectory.csv")

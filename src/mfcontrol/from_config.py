@@ -1,9 +1,7 @@
-"""Plant, controller and reference objects built from a resolved configuration, for the
-general loop (:mod:`mfcontrol.loop`): what the compiled kernel does not cover."""
+"""Plant and controller objects, and the schedule, built from a resolved configuration:
+what the general engine (:mod:`mfcontrol.loop`, :mod:`mfcontrol.engine.compose`) runs."""
 
 from __future__ import annotations
-
-import numpy as np
 
 from .config import POSITIONAL, Config
 from .controller import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
@@ -64,14 +62,4 @@ def changes(cfg: Config) -> list[Change]:
                     Change(t, "C", cfg["plant.dC"], add=True)]
     for e in cfg["plant.schedule"]:
         out.append(Change(e["t"], e["name"], e.get("set", e.get("add")), add="add" in e))
-    return out
-
-
-def reference(cfg: Config, t: np.ndarray) -> np.ndarray:
-    """The configured reference at the sample times, by the kernels' own formula."""
-    from .engine import kernel
-    from .scenario import _reference_column
-
-    out = np.empty(t.size)
-    kernel.reference_series(_reference_column(cfg)[:, None].copy(), t, out)
     return out

@@ -1,18 +1,23 @@
-"""A closed loop of any plant object and any live controller, driven sample by sample.
+"""A closed loop of any plant object and any controller: compiled, or in Python.
 
-This is the general simulator: the plant is a :class:`mfcontrol.plants.models.Plant`
-(built-in converters, a first-order plant, an LTI model, python-control systems, or your
-own ODE), the controller one of :mod:`mfcontrol.controller`. Each sample: measure
-``y_k`` (before the plant step), compute ``u_k = controller(y_k, setpoint=r_k)``, apply
-scheduled parameter changes due at ``t_k``, advance the plant over [t_k, t_k + h] with
-``u_k`` held. The compiled engine (:mod:`mfcontrol.engine`) is the fast path for the
-built-in cases; this loop trades speed for generality.
+The plant is a :class:`mfcontrol.plants.models.Plant` (converters, a first-order plant, an
+LTI model, python-control systems, your own ODE), the controller one of
+:mod:`mfcontrol.controller`. Each sample: scheduled parameter changes due at t_k, the
+measurement ``y_k`` (before the plant step), ``u_k`` from the law, the plant advanced
+over [t_k, t_k + h] with ``u_k`` held.
+
+Whenever the plant compiles (every built-in plant, and an ODE whose f and g numba can
+compile) and the controller is one of the library's, the loop runs in the compiled engine
+(:mod:`mfcontrol.engine.compose`), running the same law functions as the live controller:
+bit for bit its outputs. Otherwise (a :class:`Plant` subclass written in Python, a
+controller of your own, an f numba cannot compile, an external gain) it runs through the
+Python driver, one call per sample, and the result's ``engine`` says ``"python"``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,7 +26,9 @@ import numpy as np
 
 from . import metrics as _metrics
 from ._version import __version__
-from .engine import kernel
+from .engine import compose, kernel
+from .errors import ConfigError
+from .laws import intelligent
 from .result import _Trajectory
 
 Reference = float | Callable[[float], float] | Sequence[float] | np.ndarray
@@ -42,7 +49,11 @@ class Change:
 class LoopResult(_Trajectory):
     """A simulated loop: time, signals (``y_ref``, ``y``, ``u`` and the controller's
     components), plant states, metrics (as in :mod:`mfcontrol.metrics`); ``to_pandas``,
-    ``to_csv``, ``metrics_json`` and ``plot`` as for :class:`mfcontrol.Result`."""
+    ``to_csv``, ``metrics_json`` and ``plot`` as for :class:`mfcontrol.Result`.
+
+    ``engine`` is ``"compiled"`` or ``"python"`` (the slow driver; ``engine_note`` says
+    why), ``arithmetic`` ``"exact"`` or ``"fast"``.
+    """
 
     time: np.ndarray
     signals: dict[str, np.ndarray]
@@ -51,6 +62,9 @@ class LoopResult(_Trajectory):
     changes: tuple[Change, ...] = ()
     version: str = __version__
     name: str = field(default="")
+    engine: str = "compiled"
+    engine_note: str = ""
+    arithmetic: str = "exact"
 
     def plot(self, path: str | Path | None = None, title: str | None = None,
              output_label: str = "output y", input_label: str = "control u"):
@@ -71,11 +85,178 @@ def _reference(reference: Reference, t: np.ndarray) -> np.ndarray:
     return arr
 
 
+def _grid(t_end: float, h: float) -> int:
+    if not (h > 0 and math.isfinite(h)):
+        raise ValueError(f"h = {h!r}: must be a finite number > 0")
+    if not (t_end > 0 and math.isfinite(t_end)):
+        raise ValueError(f"t_end = {t_end!r}: must be a finite number > 0")
+    n = round(t_end / h)
+    if n < 2 or abs(n * h - t_end) > 1e-9 * t_end:
+        raise ValueError(f"t_end = {t_end!r}: must be a whole number (>= 2) of h = {h!r}")
+    return n
+
+
+def _as_plant(plant):
+    if type(plant).__module__.startswith("control."):  # a python-control system
+        from .plants.models import LTI
+
+        return LTI.from_control(plant)
+    return plant
+
+
+# ---------------------------------------------------------------------------------------------
+# the controller as the engine runs it
+
+
+@dataclass
+class LawArrays:
+    """A controller's law as engine columns: its parameters, its present memory, and which
+    memory rows and trajectory rows become named signals."""
+
+    kind: int
+    CP: np.ndarray
+    CS: np.ndarray
+    dt: float
+    components: tuple[str, ...]  # CS rows recorded per sample, by signal name
+    rows: tuple[int, ...]
+    named_rows: Mapping[str, int]  # trajectory rows under another signal name
+
+
+def law_arrays(controller) -> LawArrays | None:
+    """The engine's view of ``controller``; None when only the Python driver can run it
+    (not a library controller, manual mode, or an external gain given at every call)."""
+    from .controller import IntelligentController, RecursiveIP
+
+    if not getattr(controller, "auto_mode", False):
+        return None
+    if isinstance(controller, IntelligentController):
+        if controller._external:
+            return None
+        return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
+                         controller.sample_time, ("F_hat", "feedforward", "P", "I", "D"),
+                         (intelligent.C_F, intelligent.C_FF, intelligent.C_P, intelligent.C_I,
+                          intelligent.C_D),
+                         {"unlimited": compose.T_U, "gamma": compose.T_GAMMA})
+    if isinstance(controller, RecursiveIP):
+        return LawArrays(compose.RECURSIVE_IP, controller._CP.copy(), controller._CS.copy(),
+                         1.0, (), (), {"u_raw": compose.T_U, "gain": compose.T_GAIN,
+                                       "gamma": compose.T_GAMMA})
+    return None
+
+
+def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None:
+    """Leave the controller as the Python driver would: its memory and last output."""
+    from .controller import RecursiveIP
+
+    if k_end == 0:
+        return
+    controller._CS[:, 0] = CS[:, 0]
+    controller._last_output = float(traj[compose.T_APPLIED, k_end - 1])
+    controller.setpoint = traj[compose.T_REF, k_end - 1]
+    if isinstance(controller, RecursiveIP):
+        controller._components = {"u_raw": float(traj[compose.T_U, k_end - 1]),
+                                  "gain": float(traj[compose.T_GAIN, k_end - 1]),
+                                  "gamma": float(traj[compose.T_GAMMA, k_end - 1])}
+
+
+def _settings(settle_time: float, t_end: float, final_window: float,
+              diverge_above: float) -> np.ndarray:
+    S = np.zeros(kernel.N_SETTINGS)
+    S[kernel.S_SETTLE] = settle_time
+    S[kernel.S_FINAL_START] = t_end * (1 - final_window)
+    S[kernel.S_DIVERGE_ABOVE] = diverge_above
+    return S
+
+
+def _check_changes(plant, changes: Sequence[Change]) -> None:
+    """Every change names a parameter of the plant and leaves it valid (the plant's own
+    checks, applied in order to the plant and undone)."""
+    original = dict(plant.params)
+    try:
+        for c in changes:
+            if not isinstance(c, Change):
+                raise TypeError(f"changes: {c!r} is not a mfcontrol.Change")
+            if c.name not in original:
+                raise ConfigError(c.name, c.value, "unknown parameter; allowed: "
+                                  + (", ".join(original) or "none"))
+            plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
+    finally:
+        for key in {c.name for c in changes if isinstance(c, Change) and c.name in original}:
+            plant.set_param(key, original[key])
+
+
+def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mapping[str, int],
+                  t_end: float, n: int):
+    """(ev_k, ev_col, ev_add, ev_val) for members that share the list of changed names."""
+    from .scenario import _first_sample_at
+
+    first = list(changes_per_member[0])
+    m = len(changes_per_member)
+    n_ev = len(first)
+    ev_k = np.zeros((n_ev, m), dtype=np.int64)
+    ev_val = np.zeros((n_ev, m))
+    for j, changes in enumerate(changes_per_member):
+        if [(c.name, c.add) for c in changes] != [(c.name, c.add) for c in first]:
+            raise ValueError("members of one run must change the same parameters in order")
+        for e, c in enumerate(changes):
+            ev_k[e, j] = _first_sample_at(c.time, t_end, n)
+            ev_val[e, j] = c.value
+    ev_col = np.array([columns[c.name] for c in first], dtype=np.int64)
+    ev_add = np.array([c.add for c in first], dtype=np.bool_)
+    return ev_k, ev_col, ev_add, ev_val
+
+
+def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
+                changes_per_member: Sequence[Sequence[Change]], *, t_end: float, h: float,
+                S: np.ndarray, fast: bool = False, record: bool = False,
+                RP: np.ndarray | None = None):
+    """Members (engine plants and law arrays of one family) through the compiled engine.
+
+    The reference is ``R[j]`` (``R[0]`` for all when R has one row) or, when R has no
+    rows, the configured reference of each member, ``RP[:, j]`` (see
+    :mod:`mfcontrol.references`).
+
+    Returns (M, traj, CS, comp rows): metrics of every member; with ``record`` (one member)
+    its trajectory ``traj[row, k]``, else an empty array.
+    """
+    n = round(t_end / h)
+    p0, l0 = plants[0], laws[0]
+    for ep, law in zip(plants, laws, strict=True):
+        if ep.functions != p0.functions or ep.integrator != p0.integrator or \
+                ep.p.size != p0.p.size or ep.x0.size != p0.x0.size:
+            raise ValueError("members of one run must share the plant model and integrator")
+        if law.kind != l0.kind or law.CP.shape != l0.CP.shape or law.dt != l0.dt:
+            raise ValueError("members of one run must share the law and its sample time")
+    m = len(plants)
+    X = np.ascontiguousarray(np.stack([ep.x0 for ep in plants]))
+    P = np.ascontiguousarray(np.stack([ep.p for ep in plants]))
+    CP = np.ascontiguousarray(np.hstack([law.CP for law in laws]))
+    rows = max(law.CS.shape[0] for law in laws)
+    CS = np.zeros((rows, m))
+    for j, law in enumerate(laws):
+        CS[:law.CS.shape[0], j] = law.CS[:, 0]
+    events = _event_arrays(changes_per_member, p0.columns, t_end, n)
+    M = np.zeros((kernel.N_METRICS, m))
+    comp_rows = np.array(l0.rows, dtype=np.int64)
+    traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
+    tol = np.array(p0.tol, dtype=np.float64)
+    DT = np.full(m, -1.0)
+    compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
+                l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
+                np.zeros((5, m)) if RP is None else np.ascontiguousarray(RP), events, S, M, tol,
+                DT, traj, comp_rows, fast=fast)
+    return M, traj, CS
+
+
+# ---------------------------------------------------------------------------------------------
+# one run
+
+
 def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float,
                   h: float | None = None, changes: Sequence[Change] = (),
                   settle_time: float = 0.0, final_window: float = 0.2,
                   stable_tol: float = 0.1, diverge_above: float = 1e12,
-                  name: str = "") -> LoopResult:
+                  name: str = "", fast: bool = False) -> LoopResult:
     """Simulate ``controller`` on ``plant`` tracking ``reference`` for ``t_end`` seconds.
 
     Parameters
@@ -85,16 +266,23 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         ``StateSpace`` / ``TransferFunction`` (converted with ``LTI.from_control``).
     controller : callable
         A live controller (``u = controller(y, setpoint=r)``), e.g. :class:`mfcontrol.IP`.
+        The run continues from its present memory and leaves it as a loop of calls would.
     reference : float, callable or array
         Constant, a function of t, or one value per sample.
     t_end, h : float
         Horizon and sample period; ``h`` defaults to the controller's ``sample_time``.
     changes : sequence of Change
         Scheduled plant parameter changes.
+    settle_time, final_window, stable_tol, diverge_above : float
+        Metric settings, as the ``metrics.*`` and ``sim.diverge_above`` options.
+    fast : bool
+        The compiled engine's fast mode (fused multiply-adds, reciprocals): within about
+        1e-12 relative of the default. Refused for a loop the Python driver runs.
 
     Returns
     -------
     LoopResult
+        ``engine`` says whether the compiled engine or the Python driver ran it.
 
     Examples
     --------
@@ -102,68 +290,98 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     >>> from mfcontrol.plants.models import FirstOrder
     >>> ctrl = mfcontrol.IP(alpha=1.0, kp=20.0, sample_time=1e-3)
     >>> res = mfcontrol.simulate_loop(FirstOrder(a=-1.0, b=1.0), ctrl, 1.0, t_end=0.5)
-    >>> bool(res.metrics["stable"]), round(float(res.signals["y"][-1]), 4)
-    (True, 1.0)
+    >>> bool(res.metrics["stable"]), round(float(res.signals["y"][-1]), 4), res.engine
+    (True, 1.0, 'compiled')
     """
-    if type(plant).__module__.startswith("control."):  # a python-control system
-        from .plants.models import LTI
-
-        plant = LTI.from_control(plant)
+    plant = _as_plant(plant)
     h = float(controller.sample_time if h is None else h)
-    if not (h > 0 and math.isfinite(h)):
-        raise ValueError(f"h = {h!r}: must be a finite number > 0")
-    if not (t_end > 0 and math.isfinite(t_end)):
-        raise ValueError(f"t_end = {t_end!r}: must be a finite number > 0")
-    n = round(t_end / h)
-    if n < 2 or abs(n * h - t_end) > 1e-9 * t_end:
-        raise ValueError(f"t_end = {t_end!r}: must be a whole number (>= 2) of h = {h!r}")
-    pending = sorted(changes, key=lambda c: c.time)
-    original = dict(plant.params)
-    try:
-        t, r, y, u, X, comps = _run(plant, controller, reference, pending, t_end, h, n,
-                                    diverge_above)
-    finally:
-        # a schedule acts on this run only: the plant object is left as it was given
-        for key in {c.name for c in changes}:
-            plant.set_param(key, original[key])
-    return _finish(plant, t, r, y, u, X, comps, h, t_end, changes, settle_time,
-                   final_window, stable_tol, diverge_above, name)
-
-
-def _run(plant, controller, reference, pending, t_end, h, n, diverge_above):
+    n = _grid(t_end, h)
+    _check_changes(plant, changes)
     t = (np.arange(n) * t_end) / n
     r = _reference(reference, t)
+    S = _settings(settle_time, t_end, final_window, diverge_above)
+    ep = plant.engine() if hasattr(plant, "engine") else None
+    law = law_arrays(controller)
+    if ep is None or law is None:
+        note = _python_reason(plant, ep, controller)
+        if fast:
+            raise ConfigError("fast", True, f"only the compiled engine has a fast mode; this "
+                              f"loop runs in Python ({note})")
+        return _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol,
+                              name, note)
+    return compiled_run(plant, ep, controller, law, r[None, :], None, changes, t, h, t_end, S,
+                        stable_tol, name, fast)
+
+
+def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, stable_tol, name,
+                 fast) -> LoopResult:
+    """One member through the compiled engine, its trajectory named as a LoopResult; the
+    reference as for :func:`run_members`."""
+    M, traj, CS = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
+                              fast=fast, record=True, RP=RP)
+    met = _metrics.from_kernel(M, 0, stable_tol)
+    k_end = met["n_samples"]
+    _hand_back(controller, CS, traj, k_end)
+    rows = traj[:, :k_end]
+    signals = {"y_ref": rows[compose.T_REF], "y": rows[compose.T_Y],
+               "u": rows[compose.T_APPLIED]}
+    for i, key in enumerate(law.components):
+        signals[key] = rows[compose.T_COMP + i]
+    for key, row in law.named_rows.items():
+        signals[key] = rows[row]
+    x0 = compose.T_COMP + len(law.components)
+    states = {s: rows[x0 + i] for i, s in enumerate(plant.state_names)}
+    return LoopResult(time=t[:k_end], signals=signals, states=states, metrics=met,
+                      changes=tuple(changes), name=name, engine="compiled",
+                      arithmetic="fast" if fast else "exact")
+
+
+def _python_reason(plant, ep, controller) -> str:
+    if ep is None:
+        return getattr(plant, "python_reason", None) or (
+            f"{type(plant).__name__} is a Plant written in Python")
+    if not getattr(controller, "auto_mode", True):
+        return "the controller is in manual mode"
+    if getattr(controller, "_external", False):
+        return "gain='external' takes alpha at every call"
+    return f"{type(controller).__name__} is not a library controller"
+
+
+def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, name,
+                   note) -> LoopResult:
+    """The loop in Python, one plant step and one controller call per sample."""
+    n = t.size
+    pending = sorted(changes, key=lambda c: c.time)
+    original = dict(plant.params)
     x = np.array(plant.x0, dtype=float, copy=True)
     y = np.full(n, np.nan)
     u = np.full(n, np.nan)
     X = np.full((n, x.size), np.nan)
     comps: dict[str, np.ndarray] = {}
     has_components = hasattr(controller, "components")
-    for k in range(n):
-        yk = plant.output(x)
-        if not (math.isfinite(yk) and abs(yk) <= diverge_above):
-            y[k] = yk
-            break
-        uk = controller(yk, setpoint=r[k])
-        y[k], u[k], X[k] = yk, uk, x
-        if has_components:
-            for key, value in controller.components.items():
-                comps.setdefault(key, np.full(n, np.nan))[k] = value
-        while pending and t[k] >= pending[0].time:
-            c = pending.pop(0)
-            plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
-        x = plant.step(t[k], x, uk, h)
-    return t, r, y, u, X, comps
-
-
-def _finish(plant, t, r, y, u, X, comps, h, t_end, changes, settle_time, final_window,
-            stable_tol, diverge_above, name):
-    n = t.size
+    bound = S[kernel.S_DIVERGE_ABOVE]
+    try:
+        for k in range(n):
+            while pending and t[k] >= pending[0].time:
+                c = pending.pop(0)
+                plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
+            yk = plant.output(x)
+            if not (math.isfinite(yk) and abs(yk) <= bound):
+                y[k] = yk
+                break
+            uk = controller(yk, setpoint=r[k])
+            y[k], u[k], X[k] = yk, uk, x
+            if has_components:
+                for key, value in controller.components.items():
+                    if key not in comps:  # allocated once, not at every sample
+                        comps[key] = np.full(n, np.nan)
+                    comps[key][k] = value
+            x = plant.step(t[k], x, uk, h)
+    finally:
+        # a schedule acts on this run only: the plant object is left as it was given
+        for key in {c.name for c in changes}:
+            plant.set_param(key, original[key])
     gamma = comps.get("gamma", np.full(n, np.nan))
-    S = np.zeros(kernel.N_SETTINGS)
-    S[kernel.S_SETTLE] = settle_time
-    S[kernel.S_FINAL_START] = t_end * (1 - final_window)
-    S[kernel.S_DIVERGE_ABOVE] = diverge_above
     M = np.zeros((kernel.N_METRICS, 1))
     kernel.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
     met = _metrics.from_kernel(M, 0, stable_tol)
@@ -172,4 +390,4 @@ def _finish(plant, t, r, y, u, X, comps, h, t_end, changes, settle_time, final_w
                **{key: v[:k_end] for key, v in comps.items()}}
     states = {s: X[:k_end, i] for i, s in enumerate(plant.state_names)}
     return LoopResult(time=t[:k_end], signals=signals, states=states, metrics=met,
-                      changes=tuple(changes), name=name)
+                      changes=tuple(changes), name=name, engine="python", engine_note=note)

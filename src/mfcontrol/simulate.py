@@ -10,7 +10,6 @@ from . import metrics, scenario
 from ._version import __version__
 from .config import Config
 from .engine import kernel
-from .errors import ConfigError
 from .result import Result, SweepResult
 
 
@@ -29,18 +28,11 @@ def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: 
 
 
 def compiled(cfg: Config) -> bool:
-    """Whether the compiled kernel covers this configuration (the paper's laws on the buck
-    with RK4); everything else runs through the general loop with the same laws."""
+    """Whether the paper's tuned kernel covers this configuration (the paper's laws on the
+    buck with RK4); everything else runs in the general engine
+    (:mod:`mfcontrol.engine.compose`) with the same laws."""
     return (cfg["plant.model"] == "buck" and cfg["controller.law"] in ("ip", "variational")
             and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"])
-
-
-def check_fast(cfg: Config, key: str = "fast") -> None:
-    """Refuse the fast mode (asked for by ``key``) for a configuration outside the
-    compiled kernel, which alone has it."""
-    if not compiled(cfg):
-        raise ConfigError(key, True, "only the compiled kernel (the paper's laws on the "
-                          "buck, sim.integrator = rk4, no plant.schedule) has a fast mode")
 
 
 def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
@@ -53,11 +45,10 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
     name : str
         The result's name.
     fast : bool
-        Run the compiled kernel in its fast mode (fused arithmetic, the plant's RK4 step
-        as its linear map): about 2.5x faster, within about 1e-13 relative of the
-        default, which is bit for bit the published arithmetic (``Result.arithmetic``
-        says which). Only configurations the compiled kernel covers (the paper's laws on
-        the buck, RK4) have it; others raise :class:`mfcontrol.errors.ConfigError`.
+        The compiled engine's fast mode (fused multiply-adds, reciprocals; on the paper's
+        buck also the plant's RK4 step as its linear map): within about 1e-12 relative of
+        the default, which is bit for bit the published arithmetic (``Result.arithmetic``
+        says which). Every configuration has it.
 
     Examples
     --------
@@ -68,26 +59,26 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
     >>> abs(fast.metrics["iae"] / exact.metrics["iae"] - 1) < 1e-12
     True
     """
-    if fast:
-        check_fast(cfg)
     if not compiled(cfg):
-        return _simulate_loop(cfg, name)
+        return _simulate_loop(cfg, name, fast)
     return simulate_many([cfg], name=name, fast=fast)[0]
 
 
-def _simulate_loop(cfg: Config, name: str) -> Result:
+def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     from . import from_config
-    from .loop import simulate_loop
+    from .loop import _settings, compiled_run, law_arrays
 
     n = scenario.n_steps(cfg)
-    t = (np.arange(n) * cfg["sim.t_end"]) / n
+    t_end = cfg["sim.t_end"]
+    t = (np.arange(n) * t_end) / n
+    plant = from_config.plant(cfg)
     ctrl = from_config.controller(cfg)
-    res = simulate_loop(
-        from_config.plant(cfg), ctrl, from_config.reference(cfg, t), t_end=cfg["sim.t_end"],
-        h=cfg["sim.h"], changes=from_config.changes(cfg),
-        settle_time=cfg["metrics.settle_time"], final_window=cfg["metrics.final_window"],
-        stable_tol=cfg["metrics.stable_tol"], diverge_above=cfg["sim.diverge_above"],
-        name=name)
+    S = _settings(cfg["metrics.settle_time"], t_end, cfg["metrics.final_window"],
+                  cfg["sim.diverge_above"])
+    # the reference evaluated in the kernel, as a batch of these members evaluates it
+    res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
+                       scenario._reference_column(cfg)[:, None], from_config.changes(cfg), t,
+                       cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast)
     s = res.signals
     recursive = "u_raw" in s
     gamma = s["gamma"]
@@ -95,7 +86,26 @@ def _simulate_loop(cfg: Config, name: str) -> Result:
                "u_raw": s["u_raw"] if recursive else s["unlimited"], "gamma": gamma,
                "gain": s["gain"] if recursive else gamma}
     return Result(name=name, config=cfg, time=res.time, signals=signals, states=res.states,
-                  metrics=res.metrics, version=__version__)
+                  metrics=res.metrics, version=__version__, arithmetic=res.arithmetic)
+
+
+def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray:
+    """The metrics (kernel rows, one column per member) of configurations that share a
+    model, law and time grid, in one batch of the general engine."""
+    from . import from_config
+    from .loop import _settings, law_arrays, run_members
+
+    first = cfgs[0]
+    n = scenario.n_steps(first)
+    plants = [from_config.plant(c).engine() for c in cfgs]
+    laws = [law_arrays(from_config.controller(c)) for c in cfgs]
+    RP = np.column_stack([scenario._reference_column(c) for c in cfgs])
+    S = _settings(first["metrics.settle_time"], first["sim.t_end"],
+                  first["metrics.final_window"], first["sim.diverge_above"])
+    M, _, _ = run_members(plants, laws, np.zeros((0, n)),
+                          [from_config.changes(c) for c in cfgs], t_end=first["sim.t_end"],
+                          h=first["sim.h"], S=S, fast=fast, RP=RP)
+    return M
 
 
 def simulate_many(cfgs: Sequence[Config], name: str = "", *,

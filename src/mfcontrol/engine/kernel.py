@@ -105,9 +105,11 @@ def accumulate(iae, ise, itae, max_e_s, max_e_f, max_r, tv, k, t, h, y, r, a, a_
 def fold_metrics(alive, t_div, n_done, iae, ise, itae, max_e_s, max_e_f, max_r, tv, g_final,
                  k, t, h, y, r, u, a, a_prev, gamma, settle, final_start, bound):
     """Sample k folded into the running metrics with the divergence test: a member whose
-    y or u is not finite, or whose |y| exceeds ``bound``, is marked at this sample
-    (alive = 0) and keeps its metrics as they were from then on."""
-    bad = not (np.isfinite(y) and np.isfinite(u) and abs(y) <= bound)
+    y or u is not finite, whose |y| exceeds ``bound``, or whose error would make a metric
+    non-finite (a non-finite reference, or |e|^2 past the float range) is marked at this
+    sample (alive = 0) and keeps its metrics, all finite, as they were from then on."""
+    e = y - r
+    bad = not (np.isfinite(y) and np.isfinite(u) and abs(y) <= bound and np.isfinite(e * e))
     t_div = t if (alive != 0.0 and bad) else t_div
     alive = 0.0 if bad else alive
     live = alive != 0.0
@@ -195,12 +197,7 @@ def _single_loop(fast):
             if alive == 0.0:
                 break
             a_prev = a
-            traj[T_REF, k] = r
-            traj[T_Y, k] = y
-            traj[T_U, k] = u
-            traj[T_APPLIED, k] = a
-            traj[T_GAMMA, k] = gamma
-            traj[T_GAIN, k] = g
+            record(traj, k, r, y, u, a, gamma, g)
             traj[T_X0 + buck.I_L, k] = i
             traj[T_X0 + buck.V_C, k] = v
             if MATRIX:
@@ -217,6 +214,17 @@ def _single_loop(fast):
         M[M_TV, 0], M[M_FINAL_GAMMA, 0] = tv, g_final
 
     return run_single
+
+
+@step_jit
+def record(traj, k, r, y, u, a, gamma, g):
+    """Sample k's signals into the trajectory rows T_REF .. T_GAIN."""
+    traj[T_REF, k] = r
+    traj[T_Y, k] = y
+    traj[T_U, k] = u
+    traj[T_APPLIED, k] = a
+    traj[T_GAMMA, k] = gamma
+    traj[T_GAIN, k] = g
 
 
 @step_jit
@@ -250,10 +258,3 @@ def trajectory_metrics(t, h, y, r, u, applied, gamma, S, M):
                               gamma[k]):
             break
         a_prev = applied[k]
-
-
-@kernel_jit
-def reference_series(RP, t, out):
-    """The reference of member 0 at every time in t (for loops driven from Python)."""
-    for k in range(t.size):
-        out[k] = references.value(RP, 0, t[k])

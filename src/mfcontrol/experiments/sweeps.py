@@ -28,7 +28,7 @@ from .. import batch
 from .._version import __version__
 from ..config import Config
 from ..errors import ConfigError
-from ..simulate import check_fast, compiled, simulate
+from ..simulate import compiled, simulate
 
 CHUNK = 4096
 
@@ -106,8 +106,6 @@ def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str,
     a folder holds one kind, and resuming with the other is refused."""
     import pandas as pd
 
-    if fast:  # before the folder records a fast sweep that the general loop cannot run
-        check_fast(cfg, "--fast")
     grid = batch.make_grid(cfg, axes)
     manifest = _manifest(case, overrides, grid, chunk, fast)
     _check_folder(out, manifest)

@@ -1,0 +1,62 @@
+"""mfcontrol.sweep: grids over loops built from Python objects."""
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol.plants.models import ODE, FirstOrder
+
+
+def _motor(t, x, u, p, dxdt):
+    dxdt[0] = (p[2] * x[1] - p[1] * x[0] - p[5]) / p[0]
+    dxdt[1] = (u - p[3] * x[1] - p[2] * x[0]) / p[4]
+
+
+def _plant():
+    return ODE(_motor, lambda x, p: x[0], x0=(0.0, 0.0),
+               params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+
+
+def _ctrl(kp=20.0):
+    return mfcontrol.IPI(alpha=50.0, kp=kp, ki=50.0, sample_time=1e-3, output_limits=(-24, 24))
+
+
+def test_members_equal_their_single_runs_bit_for_bit():
+    changes = [mfcontrol.Change(0.5, "tau", 0.05)]
+    grid = {"controller.kp": [5.0, 20.0, 80.0], "plant.J": [3e-4, 8e-4]}
+    sw = mfcontrol.sweep(_plant(), _ctrl(), 60.0, grid=grid, t_end=1.0, changes=changes,
+                         keep=2)
+    df = sw.to_pandas()
+    assert list(df["controller.kp"]) == [5.0, 5.0, 20.0, 20.0, 80.0, 80.0]
+    assert list(df["plant.J"]) == [3e-4, 8e-4] * 3
+    for m, row in df.iterrows():
+        plant = _plant()
+        plant.set_param("J", row["plant.J"])
+        one = mfcontrol.simulate_loop(plant, _ctrl(row["controller.kp"]), 60.0, t_end=1.0,
+                                      changes=changes)
+        for key in ("iae", "ise", "max_abs_e", "tv_duty", "n_samples", "diverged"):
+            assert one.metrics[key] == row[key], (m, key)
+    assert sorted(sw.kept) == [0, 5]
+    assert sw.kept[5].metrics["iae"] == df["iae"][5]
+    assert "6 members" in repr(sw)
+
+
+def test_diverging_members_are_flagged_and_the_rest_run():
+    sw = mfcontrol.sweep(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
+                         sample_time=0.01), 1.0, grid={"controller.kp": [-80.0, 5.0]},
+                         t_end=5.0, diverge_above=1e6)
+    assert list(sw.table["diverged"]) == [True, False]
+    assert np.all(np.isfinite(sw.table["iae"]))
+
+
+@pytest.mark.parametrize("grid, match", [
+    ({"plant.nope": [1.0]}, "unknown plant parameter"),
+    ({"controller.nope": [1.0]}, "numeric controller option"),
+    ({"kp": [1.0]}, "must start with"),
+    ({"controller.kp": []}, "non-empty"),
+    ({"controller.alpha": [-1.0]}, "alpha"),
+])
+def test_bad_grids_name_the_key(grid, match):
+    with pytest.raises(mfcontrol.ConfigError, match=match):
+        mfcontrol.sweep(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
+                        sample_time=0.01), 1.0, grid=grid, t_end=1.0)
