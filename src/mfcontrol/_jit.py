@@ -47,6 +47,18 @@ def _drop_stale_cache() -> None:
 
 _drop_stale_cache()
 
+def stable_identity(dispatcher, *key) -> None:
+    """Let numba's disk cache find a kernel that calls this closure.
+
+    numba keys a cached closure on its cell contents, pickled. A compiled closure in a cell
+    pickles with an identifier drawn at random in each process, so a kernel built from
+    such closures never finds its cached code and recompiles in every process (about 3 s
+    for the sweep kernel). Give the closure an identifier derived from its name and from
+    ``key``, what the factory built it from; call this right after creating it."""
+    text = repr((dispatcher.py_func.__module__, dispatcher.py_func.__qualname__) + key)
+    dispatcher._set_uuid("mfcontrol-" + hashlib.sha256(text.encode()).hexdigest())
+
+
 #: LLVM flags of the opt-in fast mode (sweeps and single runs): fused multiply-adds,
 #: reciprocals of shared divisors, no signed-zero care. No ``nnan``/``ninf`` (the
 #: divergence test needs NaN and inf), no ``reassoc`` (a reordered sum drifts further).

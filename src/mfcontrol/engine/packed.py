@@ -194,6 +194,11 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                 (D[_F11 + j], D[_F12 + j], D[_F21 + j], D[_F22 + j], D[_G1D + j],
                  D[_G2D + j]) = buck.rk4_map(ind, e_in, a12, a21, a22, cpl, h)
 
+    # what the closures below are built from: their identity for numba's disk cache
+    identity = (constants, SHARED_REF, MATRIX)
+    _jit.stable_identity(plant, identity)
+    _jit.stable_identity(prepare, identity)
+
     def make_tile(checked):
         # a shared reference in a plain tile: r_{k-1} and max |r| are per-sample scalars,
         # not rows every member reads and writes
@@ -293,6 +298,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                     # the law leaves gamma_k in G1 at every k >= 1: the final gamma is
                     # read once per tile instead of stored at every sample
                     D[_GF + j] = D[_G1 + j]
+        _jit.stable_identity(tile, identity, checked)
         return tile
 
     # two compiled loops: sample by sample with the divergence test, and the plain one
@@ -338,7 +344,8 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                 for j in range(BLOCK):
                     # a y that was not finite left the sums so, a u the carried u
                     if not dead[j] and (D[_BAD + j] != 0.0 or not (
-                            np.isfinite(D[_IAE + j]) and np.isfinite(D[_UP + j]))):
+                            np.isfinite(D[_IAE + j]) and np.isfinite(D[_ISE + j])
+                            and np.isfinite(D[_UP + j]))):
                         checked = True
                 if checked:  # some member went bad in this tile: rerun it sample by sample
                     _copy_rows(snapshot, 0, D2, P_X, P_ROWS - P_X)
