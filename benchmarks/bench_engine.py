@@ -1,0 +1,155 @@
+"""The general compiled engine: every loop family against the paper's case and python-control.
+
+Measured in one process, as medians of interleaved rounds (a slow spell of a shared
+machine hits every path alike), after a warm-up call (which compiles or loads the kernels
+from numba's disk cache):
+
+1. Per-sample cost of single runs, end to end (``mfcontrol.simulate(cfg)``), of the built-in
+   cases ``buck-ipi``, ``boost-ipd`` and ``first-order-ip-algebraic`` as a ratio to the
+   paper's ``voltage-stable-standard``. Target (issue 10): at most 3x.
+2. A DC motor (J = 5e-4, b = 1e-4, k = 0.05, R = 2, L = 2e-3; load torque 0.05 N m from 5 s)
+   written as a numba ODE in the in-place form, under an i-PI, h = 1 ms, 10 s:
+   a single run (``simulate_loop``) and a 1,024-member sweep (``mfcontrol.sweep``, kp x
+   J) per simulation, against the same loop in python-control (one discrete ``nlsys``
+   holding plant and controller, ``input_output_response``). Targets: 300x and 5,000x.
+3. ``simulate_loop`` linear in the horizon: the time of 200,000 samples over 20 times the
+   time of 10,000 (1.0 is linear).
+
+Timings are printed, never asserted. Run::
+
+    python benchmarks/bench_engine.py [--repeats 7] [--members 1024]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+import mfcontrol
+from bench_batch import median_time  # noqa: I001 (a sibling script: run from anywhere)
+from mfcontrol.experiments.cases import resolve_case
+from mfcontrol.plants.models import ODE
+
+J, B_F, K_T, R_A, L_A = 5e-4, 1e-4, 0.05, 2.0, 2e-3
+H, T_END, T_LOAD, LOAD = 1e-3, 10.0, 5.0, 0.05
+SPEED = 60.0
+
+
+def motor_f(t, x, u, p, dxdt):
+    """DC motor, x = (omega, i), p = (J, b, k, R, L, tau_load); in place."""
+    dxdt[0] = (p[2] * x[1] - p[1] * x[0] - p[5]) / p[0]
+    dxdt[1] = (u - p[3] * x[1] - p[2] * x[0]) / p[4]
+
+
+def motor_g(x, p):
+    return x[0]
+
+
+def motor() -> ODE:
+    return ODE(motor_f, motor_g, x0=(0.0, 0.0),
+               params={"J": J, "b": B_F, "k": K_T, "R": R_A, "L": L_A, "tau": 0.0})
+
+
+def controller(kp: float = 20.0) -> mfcontrol.IPI:
+    return mfcontrol.IPI(alpha=50.0, kp=kp, ki=50.0, sample_time=H, output_limits=(-24, 24))
+
+
+CHANGES = [mfcontrol.Change(T_LOAD, "tau", LOAD)]
+
+
+def python_control_run() -> np.ndarray:
+    """The DC-motor loop in python-control: one discrete nlsys (plant RK4 step in numpy and
+    the live controller's pure step), simulated by ``input_output_response``."""
+    import control
+
+    from mfcontrol.engine import live
+
+    ctrl = controller()
+    CP = ctrl._CP
+    n_cs = ctrl._CS.shape[0]
+    p0 = np.array([J, B_F, K_T, R_A, L_A, 0.0])
+
+    def f(x, u, p):
+        out = np.empty(2)
+        motor_f(0.0, x, u, p, out)
+        return out
+
+    def update(t, z, r, params):
+        x, cs = z[:2], z[2:]
+        p = p0.copy()
+        p[5] = LOAD if t >= T_LOAD else 0.0
+        u, cs_next = live.intelligent_pure(CP, cs, x[0], float(r[0]), H, 1.0)
+        f1 = H * f(x, u, p)
+        f2 = H * f(x + f1 / 2, u, p)
+        f3 = H * f(x + f2 / 2, u, p)
+        f4 = H * f(x + f3, u, p)
+        return np.concatenate([x + (f1 + 2 * (f2 + f3) + f4) / 6, cs_next])
+
+    sys = control.nlsys(update, lambda t, z, r, params: z[:1], inputs=1, outputs=1,
+                        states=2 + n_cs, dt=H)
+    n = round(T_END / H)
+    t = np.arange(n) * H
+    z0 = np.concatenate([np.zeros(2), ctrl._CS[:, 0]])
+    return control.input_output_response(sys, t, np.full(n, SPEED), X0=z0).outputs
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--members", type=int, default=1024)
+    args = ap.parse_args()
+
+    print("1. per-sample cost of single runs, ratio to voltage-stable-standard (target <= 3)")
+    cases = ["voltage-stable-standard", "buck-ipi", "boost-ipd", "first-order-ip-algebraic"]
+    cfgs = {c: resolve_case(c)[1] for c in cases}
+    samples = {c: round(cfg["sim.t_end"] / cfg["sim.h"]) for c, cfg in cfgs.items()}
+    for cfg in cfgs.values():
+        mfcontrol.simulate(cfg)  # warm-up: compile or load
+    per = {c: [] for c in cases}
+    for _ in range(args.repeats):
+        for c in cases:
+            per[c].append(median_time(lambda c=c: mfcontrol.simulate(cfgs[c]), 1) / samples[c])
+    base = statistics.median(per[cases[0]])
+    for c in cases:
+        ns = statistics.median(per[c]) * 1e9
+        print(f"   {c:26s} {samples[c]:7d} samples  {ns:7.1f} ns/sample  "
+              f"ratio {ns / (base * 1e9):5.2f}")
+
+    print("2. DC motor i-PI, numba ODE in place, 10,000 samples")
+    plant = motor()
+    mfcontrol.simulate_loop(plant, controller(), SPEED, t_end=T_END, changes=CHANGES)
+    single = median_time(lambda: mfcontrol.simulate_loop(
+        plant, controller(), SPEED, t_end=T_END, changes=CHANGES), args.repeats)
+    t0 = time.perf_counter()
+    ours = mfcontrol.simulate_loop(plant, controller(), SPEED, t_end=T_END, changes=CHANGES)
+    pc_y = python_control_run()
+    pc = time.perf_counter() - t0 - single
+    agree = float(np.max(np.abs(pc_y.reshape(-1) - ours.signals["y"])))
+    side = int(round(args.members ** 0.5))
+    grid = {"controller.kp": np.linspace(5.0, 40.0, side),
+            "plant.J": np.linspace(3e-4, 8e-4, args.members // side)}
+    mfcontrol.sweep(plant, controller(), SPEED, grid=grid, t_end=T_END, changes=CHANGES)
+    sweep = median_time(lambda: mfcontrol.sweep(plant, controller(), SPEED, grid=grid,
+                                                t_end=T_END, changes=CHANGES), 3)
+    n_members = side * (args.members // side)
+    print(f"   python-control {pc * 1e3:8.1f} ms/run (max |y difference| {agree:.1e})")
+    print(f"   single run     {single * 1e3:8.3f} ms/run   {pc / single:9.0f}x python-control "
+          f"(target 300x)")
+    print(f"   sweep          {sweep / n_members * 1e3:8.4f} ms/sim   "
+          f"{pc / (sweep / n_members):9.0f}x python-control (target 5,000x), "
+          f"{n_members / sweep:,.0f} sims/s")
+
+    print("3. simulate_loop against the horizon (1.0: linear)")
+    short = median_time(lambda: mfcontrol.simulate_loop(
+        plant, controller(), SPEED, t_end=10.0, changes=CHANGES), args.repeats)
+    long = median_time(lambda: mfcontrol.simulate_loop(
+        plant, controller(), SPEED, t_end=200.0, changes=CHANGES), 3)
+    print(f"   10,000 samples {short * 1e3:.2f} ms, 200,000 samples {long * 1e3:.2f} ms: "
+          f"{long / (20 * short):.2f}")
+
+
+if __name__ == "__main__":
+    main()
