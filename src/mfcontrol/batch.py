@@ -21,7 +21,7 @@ import numpy as np
 
 from . import metrics as _metrics
 from . import scenario
-from .config import BY_KEY, Config, check_value
+from .config import BY_KEY, Config, check_axis
 from .engine import kernel, packed
 from .errors import ConfigError
 from .laws import recursive_ip
@@ -102,10 +102,11 @@ class Grid:
 
 
 def make_grid(base: Config, axes: Mapping[str, np.ndarray]) -> Grid:
-    """Validate every axis value against the base configuration (one at a time)."""
+    """Validate every axis value against the base configuration: the option's own check
+    on the whole axis at once, and the checks across options for each value of the keys
+    they involve (:func:`mfcontrol.config.check_axis`)."""
     for key, values in axes.items():
-        for v in values:
-            base.with_overrides({key: float(check_value(key, float(v)))})
+        check_axis(base, key, np.asarray(values, dtype=float))
     return Grid(base=base, axes={k: np.asarray(v, dtype=float) for k, v in axes.items()})
 
 
@@ -120,19 +121,19 @@ def _cell_changes(grid: Grid) -> dict[str, dict[tuple[str, int], np.ndarray]]:
     owner: dict[tuple[str, int], str] = {}
     for key, values in grid.axes.items():
         cells: dict[tuple[str, int], np.ndarray] = {}
-        for vi, v in enumerate(values):
-            one = scenario.build([grid.base.with_overrides({key: float(v)})])
-            for name in _ARRAYS:
-                a, b = getattr(ref, name), getattr(one, name)
-                diff = np.flatnonzero(~((a == b) | (np.isnan(a) & np.isnan(b))).all(axis=1))
-                for row in diff:
-                    other = owner.setdefault((name, int(row)), key)
-                    if other != key:
-                        raise ConfigError("--grid", key, f"changes the same model quantity as "
-                                          f"{other}: sweep one of them")
-                    if (name, int(row)) not in cells:
-                        cells[name, int(row)] = np.repeat(a[row, 0], values.size)
-                    cells[name, int(row)][vi] = b[row, 0]
+        # every value of the axis through the translators at once (one column each)
+        columns = scenario.axis_columns(grid.base, key, values)
+        for name in _ARRAYS:
+            if name not in columns:  # the event samples: no numeric option moves them
+                continue
+            a, b = getattr(ref, name), columns[name]
+            same = (a == b) | (np.isnan(a) & np.isnan(b))
+            for row in np.flatnonzero(~same.all(axis=1)):
+                other = owner.setdefault((name, int(row)), key)
+                if other != key:
+                    raise ConfigError("--grid", key, f"changes the same model quantity as "
+                                      f"{other}: sweep one of them")
+                cells[name, int(row)] = b[row].copy()
         out[key] = cells
     return out
 

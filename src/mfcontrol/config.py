@@ -15,6 +15,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from .errors import ConfigError
 
 FIDELITIES = ("published", "paper")
@@ -332,6 +334,37 @@ def resolve(settings: Mapping[str, Any]) -> Config:
 
 #: most samples one run may have (its trajectory alone would need 9 x 8 bytes a sample)
 MAX_STEPS = 100_000_000
+
+
+#: options whose value the checks across options read (:func:`_check_consistency`)
+_CROSS_KEYS = ("sim.h", "sim.t_end", "controller.duty_min", "controller.duty_max",
+               "plant.R", "plant.C", "plant.dR", "plant.dC", "controller.window")
+
+
+def check_axis(base: Config, key: str, values: Any) -> None:
+    """Validate every value of a swept numeric option against ``base``, as
+    ``base.with_overrides({key: v})`` would for each v, at array speed: the option's
+    own check on the whole axis, the checks across options once per value only for the
+    options they read."""
+    o = BY_KEY.get(key)
+    if o is None:
+        raise unknown_key(key, values)
+    arr = np.asarray(values, dtype=float)
+    ok = np.isfinite(arr)
+    if o.check == "positive":
+        ok &= arr > 0
+    elif o.check == "nonnegative":
+        ok &= arr >= 0
+    elif o.check == "fraction":
+        ok &= (arr > 0) & (arr <= 1)
+    if o.kind != "float" or not ok.all():
+        bad = values if o.kind != "float" else float(arr[np.flatnonzero(~ok)[0]])
+        check_value(key, bad)  # raises with the option's message
+    if key in _CROSS_KEYS:
+        for v in np.unique(arr):
+            _check_consistency({**base.values, key: float(v)})
+    elif key.startswith("sweep."):
+        base.with_overrides({key: float(arr[0])})
 
 
 def _check_consistency(v: dict[str, Any]) -> None:

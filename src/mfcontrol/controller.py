@@ -400,7 +400,7 @@ class RecursiveIP(_Controller):
         params = {"alpha": alpha, "kp": kp, "setpoint": _number("setpoint", setpoint),
                   **controller_keys}
         super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
-        self._CP[:, 0] = _law_column(cfg)
+        self._CP[:, 0] = _law_column(cfg)[:, 0]
         self._reset_state()
 
     def _reset_state(self) -> None:

@@ -66,8 +66,15 @@ def _first_sample_at(t_event: float, t_end: float, n: int) -> int:
     return k
 
 
+def _width(cfg: Config) -> int:
+    """Columns a translator writes: 1, or the length of the one swept key's values when
+    :func:`axis_columns` has put an array of them in the configuration."""
+    return max((np.size(v) for k, v in cfg.values.items()
+                if isinstance(v, np.ndarray)), default=1)
+
+
 def _plant_column(cfg: Config) -> np.ndarray:
-    col = np.zeros(buck.N_PARAMS)
+    col = np.zeros((buck.N_PARAMS, _width(cfg)))
     col[buck.E] = cfg["plant.E"]
     col[buck.L] = cfg["plant.L"]
     col[buck.R] = cfg["plant.R"]
@@ -78,7 +85,7 @@ def _plant_column(cfg: Config) -> np.ndarray:
 
 
 def _law_column(cfg: Config) -> np.ndarray:
-    col = np.zeros(recursive_ip.N_PARAMS)
+    col = np.zeros((recursive_ip.N_PARAMS, _width(cfg)))
     variational = cfg["controller.law"] == "variational"
     col[gain.MODE] = gain.VARIATIONAL if variational else gain.CONSTANT
     col[gain.INV_ALPHA] = 1 / cfg["controller.alpha"]
@@ -110,11 +117,11 @@ def anti_windup_coefficient(cfg: Config) -> float:
     if mode == "clamp":
         return 1.0
     k_aw = cfg["controller.k_aw"]
-    return 1.0 if k_aw is None else min(1.0, k_aw * cfg["sim.h"])
+    return 1.0 if k_aw is None else np.minimum(1.0, k_aw * cfg["sim.h"])
 
 
 def _reference_column(cfg: Config) -> np.ndarray:
-    col = np.zeros(references.N_PARAMS)
+    col = np.zeros((references.N_PARAMS, _width(cfg)))
     col[references.KIND] = references.KINDS[cfg["reference.kind"]]
     if cfg["reference.kind"] == "smooth-step":
         col[references.INITIAL] = cfg["reference.initial"]
@@ -128,6 +135,30 @@ def _reference_column(cfg: Config) -> np.ndarray:
     col[references.T_RAMP2] = math.inf if t2 is None else t2
     col[references.SLOPE2] = cfg["reference.slope2"]
     return col
+
+
+def _state_column(cfg: Config) -> np.ndarray:
+    col = np.zeros((buck.N_STATE, _width(cfg)))
+    col[buck.I_L] = cfg["plant.i0"]
+    col[buck.V_C] = cfg["plant.v0"]
+    return col
+
+
+def axis_columns(base: Config, key: str, values: np.ndarray) -> dict[str, np.ndarray]:
+    """The one-member arrays (``PP``, ``X0``, ``CP``, ``RP``, ``ev_val``) for every value
+    of one swept key at once, one column per value: the same translators as
+    :func:`build`, given an array where they read ``key``. The values must have been
+    validated (:func:`mfcontrol.batch.make_grid`)."""
+    cfg = Config({**base.values, key: np.asarray(values, dtype=float)})
+    n = n_steps(base)
+    m = np.size(values)
+    events = _events(cfg, n)
+    ev_val = np.zeros((len(events), m))
+    for e, ev in enumerate(events):
+        ev_val[e] = ev[3]
+    return {"PP": _plant_column(cfg) * np.ones(m), "X0": _state_column(cfg) * np.ones(m),
+            "CP": _law_column(cfg) * np.ones(m), "RP": _reference_column(cfg) * np.ones(m),
+            "ev_val": ev_val}
 
 
 def _events(cfg: Config, n: int) -> list[tuple[int, int, bool, float]]:
@@ -158,7 +189,7 @@ def build(configs: Sequence[Config]) -> Scenario:
     ev_row = np.array([e[1] for e in events[0]], dtype=np.int64)
     ev_add = np.array([e[2] for e in events[0]], dtype=np.bool_)
     ev_steps = np.unique(ev_k[ev_k < n]) if n_ev else np.zeros(0, dtype=np.int64)
-    X0 = np.array([[c["plant.i0"], c["plant.v0"]] for c in configs]).T.copy()
+    X0 = np.column_stack([_state_column(c) for c in configs])
     S = np.zeros(kernel.N_SETTINGS)
     S[kernel.S_SETTLE] = first["metrics.settle_time"]
     S[kernel.S_FINAL_START] = first["sim.t_end"] * (1 - first["metrics.final_window"])
@@ -166,11 +197,11 @@ def build(configs: Sequence[Config]) -> Scenario:
     return Scenario(
         n_steps=n, h=first["sim.h"], t_end=first["sim.t_end"],
         plant_kind=kernel.BUCK,
-        PP=np.column_stack([_plant_column(c) for c in configs]),
+        PP=np.hstack([_plant_column(c) for c in configs]),
         X0=X0,
         law_kind=kernel.RECURSIVE_IP,
-        CP=np.column_stack([_law_column(c) for c in configs]),
-        RP=np.column_stack([_reference_column(c) for c in configs]),
+        CP=np.hstack([_law_column(c) for c in configs]),
+        RP=np.hstack([_reference_column(c) for c in configs]),
         ev_steps=ev_steps.astype(np.int64), ev_k=ev_k, ev_row=ev_row, ev_add=ev_add,
         ev_val=ev_val, S=S, state_names=buck.STATE_NAMES,
     )

@@ -77,7 +77,7 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
                   cfg["sim.diverge_above"])
     # the reference evaluated in the kernel, as a batch of these members evaluates it
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
-                       scenario._reference_column(cfg)[:, None], from_config.changes(cfg), t,
+                       scenario._reference_column(cfg), from_config.changes(cfg), t,
                        cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast)
     s = res.signals
     recursive = "u_raw" in s
@@ -99,7 +99,7 @@ def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray
     n = scenario.n_steps(first)
     plants = [from_config.plant(c).engine() for c in cfgs]
     laws = [law_arrays(from_config.controller(c)) for c in cfgs]
-    RP = np.column_stack([scenario._reference_column(c) for c in cfgs])
+    RP = np.hstack([scenario._reference_column(c) for c in cfgs])
     S = _settings(first["metrics.settle_time"], first["sim.t_end"],
                   first["metrics.final_window"], first["sim.diverge_above"])
     M, _, _ = run_members(plants, laws, np.zeros((0, n)),
