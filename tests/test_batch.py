@@ -106,7 +106,7 @@ def test_toolkit_grid_members_equal_their_single_runs(case, axes):
     cols = batch.run_grid(grid, chunk=3)
     for m in range(grid.n_members):
         single = mfcontrol.simulate(grid.config(m)).metrics
-        for key in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "diverged", "n_samples"):
+        for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "diverged", "n_samples"):
             assert cols[key][m] == single[key], (m, key)
 
 

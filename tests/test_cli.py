@@ -454,13 +454,13 @@ def test_run_writes_the_four_files(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [
         "config.toml", "figure.png", "metrics.json", "trajectory.csv"]
     header, rows = _read_csv(out / "trajectory.csv")
-    assert header == ["t", "y_ref", "y", "duty", "u_raw", "gamma", "gain", "i_L", "v_C"]
+    assert header == ["t", "y_ref", "y", "u", "u_raw", "gamma", "gain", "i_L", "v_C"]
     assert len(rows) == 1000
     assert all(len(r) == len(header) for r in rows)
     assert float(rows[0][0]) == 0.0
     assert float(rows[-1][0]) == pytest.approx(0.001 - 1e-6)
     metrics = json.loads((out / "metrics.json").read_text())
-    for key in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "stable"):
+    for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "stable"):
         assert key in metrics
     assert metrics["stable"] is True
     assert metrics["case"] == CASE

@@ -122,7 +122,7 @@ def test_recursive_ip_live_equals_the_simulator():
     ctrl = RecursiveIP(alpha=10.0, kp=2.0, law="variational", gamma0=1.0)
     out = [ctrl(y, setpoint=ref) for y, ref in zip(r.signals["y"], r.signals["y_ref"],
                                                   strict=True)]
-    np.testing.assert_array_equal(out, r.signals["duty"])
+    np.testing.assert_array_equal(out, r.signals["u"])
     assert ctrl.components["gamma"] == r.signals["gamma"][-1]
 
 

@@ -34,7 +34,7 @@ def test_members_equal_their_single_runs_bit_for_bit():
         plant.set_param("J", row["plant.J"])
         one = mfcontrol.simulate_loop(plant, _ctrl(row["controller.kp"]), 60.0, t_end=1.0,
                                       changes=changes)
-        for key in ("iae", "ise", "max_abs_e", "tv_duty", "n_samples", "diverged"):
+        for key in ("iae", "ise", "max_abs_e", "tv_u", "n_samples", "diverged"):
             assert one.metrics[key] == row[key], (m, key)
     assert sorted(sw.kept) == [0, 5]
     assert sw.kept[5].metrics["iae"] == df["iae"][5]

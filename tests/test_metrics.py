@@ -16,7 +16,7 @@ def test_metrics_follow_their_definitions(case):
     assert m["ise"] == pytest.approx(np.sum(e**2) * h, rel=1e-12)
     assert m["itae"] == pytest.approx(np.sum(t * np.abs(e)) * h, rel=1e-12)
     assert m["max_abs_e"] == np.max(np.abs(e[t >= 1e-3]))
-    assert m["tv_duty"] == pytest.approx(np.sum(np.abs(np.diff(r.signals["duty"]))), rel=1e-12)
+    assert m["tv_u"] == pytest.approx(np.sum(np.abs(np.diff(r.signals["u"]))), rel=1e-12)
     assert m["final_gamma"] == r.signals["gamma"][-1]
     assert m["max_abs_e_final"] == np.max(np.abs(e[t >= 0.01 * 0.8]))
     assert m["max_abs_ref"] == np.max(np.abs(r.signals["y_ref"]))

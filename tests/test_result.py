@@ -6,7 +6,7 @@ from matplotlib.figure import Figure
 
 import mfcontrol
 
-COLUMNS = ["t", "y_ref", "y", "duty", "u_raw", "gamma", "gain", "i_L", "v_C"]
+COLUMNS = ["t", "y_ref", "y", "u", "u_raw", "gamma", "gain", "i_L", "v_C"]
 
 
 def test_result_carries_config_version_and_frames(tmp_path):
@@ -31,3 +31,27 @@ def test_plots_save_png(tmp_path):
     s.plot(tmp_path / "g.png", kind="gamma")
     s.plot(tmp_path / "e.png", kind="error")
     assert len(s.to_pandas()) == 3 * 1000
+
+
+def test_one_result_type_with_the_same_signal_names_on_every_path():
+    from mfcontrol.plants.models import FirstOrder
+
+    case = mfcontrol.run_case("first-order-ip-algebraic", {"sim.t_end": 0.5})
+    paper = mfcontrol.run_case("voltage-stable-standard", {"sim.t_end": 1e-3})
+    loop = mfcontrol.simulate_loop(FirstOrder(-1.0, 1.0), mfcontrol.IPI(
+        alpha=1.0, kp=5.0, ki=1.0, sample_time=0.01), 1.0, t_end=0.5)
+
+    class Mine:  # a controller of the user's: the Python driver runs it
+        sample_time = 0.01
+
+        def __call__(self, y, setpoint=None):
+            return 5.0 * (setpoint - y)
+
+    python = mfcontrol.simulate_loop(FirstOrder(-1.0, 1.0), Mine(), 1.0, t_end=0.5)
+    for r in (case, paper, loop, python):
+        assert type(r) is mfcontrol.Result
+        assert list(r.signals)[:6] == ["y_ref", "y", "u", "u_raw", "gamma", "gain"]
+    assert python.engine == "python" and np.all(np.isnan(python.signals["gamma"]))
+    assert (case.config is not None, loop.config) == (True, None)
+    assert list(case.to_pandas().columns)[:7] == ["t", "y_ref", "y", "u", "u_raw", "gamma",
+                                                  "gain"]

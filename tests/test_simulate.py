@@ -16,7 +16,7 @@ def test_general_loop_reproduces_the_compiled_kernel_bit_for_bit(case, fidelity)
     assert compiled(cfg)
     kernel = mfcontrol.simulate(cfg)
     loop = _simulate_loop(cfg, "")
-    for key in ("y_ref", "y", "duty", "u_raw", "gamma"):
+    for key in ("y_ref", "y", "u", "u_raw", "gamma"):
         np.testing.assert_array_equal(loop.signals[key], kernel.signals[key])
     np.testing.assert_array_equal(loop.states["v_C"], kernel.states["v_C"])
     assert loop.metrics == kernel.metrics
@@ -28,8 +28,8 @@ def test_toolkit_cases_hold_their_reference(case, max_error):
     r = mfcontrol.run_case(case)
     assert not compiled(r.config)
     assert r.metrics["stable"] and r.metrics["max_abs_e"] < max_error
-    assert np.all((r.signals["duty"] >= r.config["controller.duty_min"])
-                  & (r.signals["duty"] <= r.config["controller.duty_max"]))
+    assert np.all((r.signals["u"] >= r.config["controller.duty_min"])
+                  & (r.signals["u"] <= r.config["controller.duty_max"]))
 
 
 def test_boost_case_settles_after_its_load_step():
@@ -80,9 +80,9 @@ def test_the_fast_single_run_is_within_1e_12_of_the_exact_one(case, fidelity):
     exact, fast = mfcontrol.simulate(cfg), mfcontrol.simulate(cfg, fast=True)
     assert fast.metrics["n_samples"] == exact.metrics["n_samples"]
     assert fast.metrics["stable"] == exact.metrics["stable"]
-    for key in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma"):
+    for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma"):
         assert fast.metrics[key] == pytest.approx(exact.metrics[key], rel=rtol, abs=0), key
-    for key in ("y", "duty", "gamma"):
+    for key in ("y", "u", "gamma"):
         np.testing.assert_allclose(fast.signals[key], exact.signals[key], rtol=rtol,
                                    atol=rtol * np.max(np.abs(exact.signals[key])))
     # another arithmetic, not the exact kernel under another name
@@ -119,4 +119,4 @@ def test_a_non_finite_reference_is_flagged_not_returned_as_non_finite_metrics():
     # issue 10: came back with iae = inf and diverged = false
     r = mfcontrol.run_case("buck-ipi", overrides={"reference.slope": -1e308})
     assert r.metrics["diverged"]
-    assert all(np.isfinite(r.metrics[k]) for k in ("iae", "ise", "itae", "tv_duty"))
+    assert all(np.isfinite(r.metrics[k]) for k in ("iae", "ise", "itae", "tv_u"))

@@ -28,9 +28,7 @@ from .laws import recursive_ip
 from .simulate import compiled, general_metrics
 
 _SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
-METRIC_COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma",
-                  "max_abs_e_final", "max_abs_ref", "diverged", "t_diverge", "n_samples",
-                  "stable")
+METRIC_COLUMNS = _metrics.COLUMNS
 
 
 def parse_spec(key: str, spec: str) -> np.ndarray:

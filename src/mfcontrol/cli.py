@@ -76,7 +76,7 @@ def _cmd_run(args) -> int:
         result.plot(out / "figure.png")
         m = result.metrics
         print(f"{name}: stable = {m['stable']}, IAE = {m['iae']:.4g}, "
-              f"max |e| after settle = {m['max_abs_e']:.4g}, TV(duty) = {m['tv_duty']:.4g}")
+              f"max |e| after settle = {m['max_abs_e']:.4g}, TV(u) = {m['tv_u']:.4g}")
     print(f"wrote {out}/trajectory.csv, metrics.json, config.toml, figure.png")
     return 0
 

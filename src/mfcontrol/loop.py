@@ -18,18 +18,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from . import metrics as _metrics
-from ._version import __version__
 from .engine import compose, kernel
 from .errors import ConfigError
 from .laws import intelligent
-from .result import _Trajectory
+from .result import SIGNALS, Result
 
 Reference = float | Callable[[float], float] | Sequence[float] | np.ndarray
 
@@ -45,33 +43,8 @@ class Change:
     add: bool = False
 
 
-@dataclass
-class LoopResult(_Trajectory):
-    """A simulated loop: time, signals (``y_ref``, ``y``, ``u`` and the controller's
-    components), plant states, metrics (as in :mod:`mfcontrol.metrics`); ``to_pandas``,
-    ``to_csv``, ``metrics_json`` and ``plot`` as for :class:`mfcontrol.Result`.
-
-    ``engine`` is ``"compiled"`` or ``"python"`` (the slow driver; ``engine_note`` says
-    why), ``arithmetic`` ``"exact"`` or ``"fast"``.
-    """
-
-    time: np.ndarray
-    signals: dict[str, np.ndarray]
-    states: dict[str, np.ndarray]
-    metrics: dict[str, Any]
-    changes: tuple[Change, ...] = ()
-    version: str = __version__
-    name: str = field(default="")
-    engine: str = "compiled"
-    engine_note: str = ""
-    arithmetic: str = "exact"
-
-    def plot(self, path: str | Path | None = None, title: str | None = None,
-             output_label: str = "output y", input_label: str = "control u"):
-        from .plotting import plot_loop
-
-        return plot_loop(self, path=path, title=title, output_label=output_label,
-                         input_label=input_label)
+#: the result of :func:`simulate_loop`: :class:`mfcontrol.Result`, the one result type
+LoopResult = Result
 
 
 def _reference(reference: Reference, t: np.ndarray) -> np.ndarray:
@@ -119,7 +92,6 @@ class LawArrays:
     dt: float
     components: tuple[str, ...]  # CS rows recorded per sample, by signal name
     rows: tuple[int, ...]
-    named_rows: Mapping[str, int]  # trajectory rows under another signal name
 
 
 def law_arrays(controller) -> LawArrays | None:
@@ -135,12 +107,10 @@ def law_arrays(controller) -> LawArrays | None:
         return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
                          controller.sample_time, ("F_hat", "feedforward", "P", "I", "D"),
                          (intelligent.C_F, intelligent.C_FF, intelligent.C_P, intelligent.C_I,
-                          intelligent.C_D),
-                         {"unlimited": compose.T_U, "gamma": compose.T_GAMMA})
+                          intelligent.C_D))
     if isinstance(controller, RecursiveIP):
         return LawArrays(compose.RECURSIVE_IP, controller._CP.copy(), controller._CS.copy(),
-                         1.0, (), (), {"u_raw": compose.T_U, "gain": compose.T_GAIN,
-                                       "gamma": compose.T_GAMMA})
+                         1.0, (), ())
     return None
 
 
@@ -256,7 +226,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
                   h: float | None = None, changes: Sequence[Change] = (),
                   settle_time: float = 0.0, final_window: float = 0.2,
                   stable_tol: float = 0.1, diverge_above: float = 1e12,
-                  name: str = "", fast: bool = False) -> LoopResult:
+                  name: str = "", fast: bool = False) -> Result:
     """Simulate ``controller`` on ``plant`` tracking ``reference`` for ``t_end`` seconds.
 
     Parameters
@@ -281,7 +251,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
 
     Returns
     -------
-    LoopResult
+    Result
         ``engine`` says whether the compiled engine or the Python driver ran it.
 
     Examples
@@ -314,8 +284,8 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
 
 
 def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, stable_tol, name,
-                 fast) -> LoopResult:
-    """One member through the compiled engine, its trajectory named as a LoopResult; the
+                 fast) -> Result:
+    """One member through the compiled engine, its trajectory named as a Result; the
     reference as for :func:`run_members`."""
     M, traj, CS = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
                               fast=fast, record=True, RP=RP)
@@ -324,16 +294,15 @@ def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, sta
     _hand_back(controller, CS, traj, k_end)
     rows = traj[:, :k_end]
     signals = {"y_ref": rows[compose.T_REF], "y": rows[compose.T_Y],
-               "u": rows[compose.T_APPLIED]}
+               "u": rows[compose.T_APPLIED], "u_raw": rows[compose.T_U],
+               "gamma": rows[compose.T_GAMMA], "gain": rows[compose.T_GAIN]}
     for i, key in enumerate(law.components):
         signals[key] = rows[compose.T_COMP + i]
-    for key, row in law.named_rows.items():
-        signals[key] = rows[row]
     x0 = compose.T_COMP + len(law.components)
     states = {s: rows[x0 + i] for i, s in enumerate(plant.state_names)}
-    return LoopResult(time=t[:k_end], signals=signals, states=states, metrics=met,
-                      changes=tuple(changes), name=name, engine="compiled",
-                      arithmetic="fast" if fast else "exact")
+    return Result(name=name, time=t[:k_end], signals=signals, states=states, metrics=met,
+                  changes=tuple(changes), engine="compiled",
+                  arithmetic="fast" if fast else "exact")
 
 
 def _python_reason(plant, ep, controller) -> str:
@@ -348,7 +317,7 @@ def _python_reason(plant, ep, controller) -> str:
 
 
 def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, name,
-                   note) -> LoopResult:
+                   note) -> Result:
     """The loop in Python, one plant step and one controller call per sample."""
     n = t.size
     pending = sorted(changes, key=lambda c: c.time)
@@ -386,8 +355,13 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
     kernel.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]
-    signals = {"y_ref": r[:k_end], "y": y[:k_end], "u": u[:k_end],
-               **{key: v[:k_end] for key, v in comps.items()}}
+    # the live controllers' component names, as every result names them
+    comps["u_raw"] = comps.pop("unlimited", comps.get("u_raw", np.full(n, np.nan)))
+    comps.setdefault("gamma", np.full(n, np.nan))
+    comps.setdefault("gain", comps["gamma"])
+    signals = {"y_ref": r, "y": y, "u": u, **{k: comps[k] for k in SIGNALS[3:]},
+               **{k: v for k, v in comps.items() if k not in SIGNALS}}
+    signals = {k: v[:k_end] for k, v in signals.items()}
     states = {s: X[:k_end, i] for i, s in enumerate(plant.state_names)}
-    return LoopResult(time=t[:k_end], signals=signals, states=states, metrics=met,
-                      changes=tuple(changes), name=name, engine="python", engine_note=note)
+    return Result(name=name, time=t[:k_end], signals=signals, states=states, metrics=met,
+                  changes=tuple(changes), engine="python", engine_note=note)

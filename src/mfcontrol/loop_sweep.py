@@ -25,7 +25,6 @@ from ._version import __version__
 from .errors import ConfigError
 from .loop import (
     Change,
-    LoopResult,
     Reference,
     _as_plant,
     _check_changes,
@@ -36,21 +35,17 @@ from .loop import (
     run_members,
     simulate_loop,
 )
-
-#: metric columns of a sweep table, in order
-METRIC_COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma",
-                  "max_abs_e_final", "max_abs_ref", "diverged", "t_diverge", "n_samples",
-                  "stable")
+from .result import Result
 
 
 @dataclass
 class LoopSweepResult:
     """Every member's swept values and metrics (``table``: one column each), and the
-    trajectories of the members kept (``kept``: member index to LoopResult)."""
+    trajectories of the members kept (``kept``: member index to Result)."""
 
     axes: dict[str, np.ndarray]
     table: dict[str, np.ndarray]
-    kept: dict[int, LoopResult] = field(default_factory=dict)
+    kept: dict[int, Result] = field(default_factory=dict)
     arithmetic: str = "exact"
     version: str = __version__
 
@@ -176,7 +171,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     idx = np.array(combos, dtype=np.int64).reshape(len(combos), len(keys))
     for c, k in enumerate(keys):
         table[k] = axes[k][idx[:, c]]
-    table.update({name: met[name] for name in METRIC_COLUMNS})
+    table.update({name: met[name] for name in _metrics.COLUMNS})
     kept = {}
     if keep:
         for m in sorted({int(round(x)) for x in np.linspace(0, len(combos) - 1, keep)}):

@@ -8,7 +8,7 @@ iae                sum |e_k| h
 ise                sum e_k^2 h
 itae               sum t_k |e_k| h
 max_abs_e          max |e_k| over t_k >= metrics.settle_time (1 ms)
-tv_duty            sum |d_k - d_{k-1}|, the total variation of the duty cycle
+tv_u               sum |u_k - u_{k-1}|, the total variation of the applied control
 final_gamma        gamma at the last sample (1/alpha for the standard law)
 diverged           a NaN/inf appeared or |y| exceeded sim.diverge_above
 t_diverge          time of the first such sample (NaN if none)
@@ -36,6 +36,11 @@ STABILITY_RULE = (
 )
 
 
+#: the metric columns of a sweep table, in order
+COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_final",
+           "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable")
+
+
 def is_stable(diverged, max_abs_e_final, max_abs_ref, tol):
     """The stability rule; works on floats and, element-wise, on arrays."""
     return np.logical_and(~np.asarray(diverged, dtype=bool) & np.isfinite(max_abs_e_final),
@@ -50,7 +55,7 @@ def table(M: np.ndarray, tol: float) -> dict[str, np.ndarray]:
         "ise": M[kernel.M_ISE].copy(),
         "itae": M[kernel.M_ITAE].copy(),
         "max_abs_e": M[kernel.M_MAX_E_SETTLED].copy(),
-        "tv_duty": M[kernel.M_TV].copy(),
+        "tv_u": M[kernel.M_TV].copy(),
         "final_gamma": M[kernel.M_FINAL_GAMMA].copy(),
         "diverged": diverged,
         "t_diverge": np.where(diverged, M[kernel.M_T_DIVERGE], math.nan),

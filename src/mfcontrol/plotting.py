@@ -57,7 +57,7 @@ def _tracking_panel(ax, t_ms, y, y_ref, ylabel: str, sym: str) -> None:
 
 def plot_loop(result, path: str | Path | None = None, title: str | None = None,
               output_label: str = "output y", input_label: str = "control u") -> Figure:
-    """A :class:`~mfcontrol.loop.LoopResult`: output and reference on top, control below.
+    """A :class:`~mfcontrol.Result`: output and reference on top, control below.
     Labels should carry units, e.g. ``output_label="speed (rad/s)"``."""
     fig = Figure(figsize=(8, 5.8), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
@@ -92,7 +92,7 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     t = result.time * scale
     _tracking_panel(axes[0], t, result.signals["y"], result.signals["y_ref"],
                     f"{quantity} ${sym}$ ({unit})", sym)
-    axes[1].plot(t, result.signals["duty"], color="tab:green", lw=1.0)
+    axes[1].plot(t, result.signals["u"], color="tab:green", lw=1.0)
     converter = result.config["plant.model"] != "first-order"
     axes[1].set_ylabel("duty cycle $d$ (1)" if converter else "control $u$ (1)")
     if with_gamma:

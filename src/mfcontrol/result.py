@@ -10,10 +10,11 @@ from typing import Any
 
 import numpy as np
 
+from ._version import __version__
 from .config import Config
 
-#: trajectory columns, in file order, with their units for a voltage-controlled buck
-SIGNALS = ("y_ref", "y", "duty", "u_raw", "gamma", "gain")
+#: the signals every run records, in file order (a law's components may follow)
+SIGNALS = ("y_ref", "y", "u", "u_raw", "gamma", "gain")
 
 
 class _Files:
@@ -65,53 +66,71 @@ class _Trajectory(_Files):
 
 @dataclass
 class Result(_Trajectory):
-    """One simulated run.
+    """One simulated run: of a case (``config`` holds its resolved configuration) or of a
+    loop built from Python objects (:func:`mfcontrol.simulate_loop`; ``config`` is None).
 
     Attributes
     ----------
     name : str
-        Case name (or file stem) the run came from.
-    config : Config
-        The fully resolved configuration.
+        Case name (or file stem) the run came from, or the name given.
     time : ndarray
         Sample times t_k (s), up to divergence.
     signals : dict of ndarray
-        ``y_ref`` reference, ``y`` output at t_k before that sample's plant step,
-        ``duty`` applied (clipped) duty cycle, ``u_raw`` unclipped control, ``gamma`` the
-        adaptive gain (1/alpha for the standard law), ``gain`` what multiplied the
-        derivative error when computing u_k.
+        ``y_ref`` reference, ``y`` output at t_k before that sample's plant step, ``u`` the
+        controller's (limited) output, what the plant received (the duty cycle on a
+        converter), ``u_raw`` the law's output before limiting (the recursive law's raw
+        u_k, before its output gain), ``gamma`` the adaptive gain (1/alpha for a constant
+        gain), ``gain`` what multiplied the derivative error; an intelligent controller
+        adds its terms ``F_hat``, ``feedforward``, ``P``, ``I``, ``D``.
     states : dict of ndarray
-        Plant states at t_k (``i_L``, ``v_C`` for the buck).
+        Plant states at t_k (``i_L``, ``v_C`` for the converters).
     metrics : dict
         See :mod:`mfcontrol.metrics`.
     version : str
         mfcontrol version that produced it.
+    config : Config or None
+        The fully resolved configuration of a case run.
     arithmetic : str
-        ``"exact"`` (bit for bit the published arithmetic) or ``"fast"`` (the compiled
-        kernel's fast mode, within about 1e-13 relative); in ``metrics.json`` too.
+        ``"exact"`` (bit for bit the published arithmetic) or ``"fast"`` (the engine's
+        fast mode, within about 1e-12 relative); in ``metrics.json`` too.
+    changes : tuple of Change
+        The scheduled parameter changes of a loop built from objects.
+    engine : str
+        ``"compiled"``, or ``"python"`` when the Python driver ran the loop
+        (``engine_note`` says why).
     """
 
     name: str
-    config: Config
     time: np.ndarray
     signals: dict[str, np.ndarray]
     states: dict[str, np.ndarray]
     metrics: dict[str, Any]
-    version: str
+    version: str = __version__
+    config: Config | None = None
     label: str = field(default="")
     arithmetic: str = field(default="exact")
+    changes: tuple = ()
+    engine: str = "compiled"
+    engine_note: str = ""
 
     def _metrics_payload(self) -> dict[str, Any]:
         return {"arithmetic": self.arithmetic, **self.metrics}
 
-    def plot(self, path: str | Path | None = None, title: str | None = None):
-        """Output and reference on top, duty cycle below (and gamma for adaptive laws).
+    def plot(self, path: str | Path | None = None, title: str | None = None,
+             output_label: str | None = None, input_label: str | None = None):
+        """A case run: the paper's panels (output and reference, duty cycle, and gamma for
+        adaptive laws). A loop built from objects, or labels given: output and reference
+        on top, control below; labels should carry units (``"speed (rad/s)"``).
 
         Returns the matplotlib Figure; saves it as PNG when ``path`` is given.
         """
-        from .plotting import plot_run
+        from .plotting import plot_loop, plot_run
 
-        return plot_run(self, path=path, title=title)
+        if self.config is not None and output_label is None and input_label is None:
+            return plot_run(self, path=path, title=title)
+        return plot_loop(self, path=path, title=title,
+                         output_label=output_label or "output y",
+                         input_label=input_label or "control u")
 
 
 @dataclass

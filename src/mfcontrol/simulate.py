@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
@@ -19,7 +20,7 @@ def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: 
     n = met["n_samples"]
     rows = traj[:, m, :n]
     signals = {
-        "y_ref": rows[kernel.T_REF], "y": rows[kernel.T_Y], "duty": rows[kernel.T_APPLIED],
+        "y_ref": rows[kernel.T_REF], "y": rows[kernel.T_Y], "u": rows[kernel.T_APPLIED],
         "u_raw": rows[kernel.T_U], "gamma": rows[kernel.T_GAMMA], "gain": rows[kernel.T_GAIN],
     }
     states = {s: rows[kernel.T_X0 + i] for i, s in enumerate(scn.state_names)}
@@ -79,14 +80,7 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
                        scenario._reference_column(cfg), from_config.changes(cfg), t,
                        cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast)
-    s = res.signals
-    recursive = "u_raw" in s
-    gamma = s["gamma"]
-    signals = {"y_ref": s["y_ref"], "y": s["y"], "duty": s["u"],
-               "u_raw": s["u_raw"] if recursive else s["unlimited"], "gamma": gamma,
-               "gain": s["gain"] if recursive else gamma}
-    return Result(name=name, config=cfg, time=res.time, signals=signals, states=res.states,
-                  metrics=res.metrics, version=__version__, arithmetic=res.arithmetic)
+    return dataclasses.replace(res, config=cfg, changes=())
 
 
 def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray:

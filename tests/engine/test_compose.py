@@ -191,8 +191,8 @@ def test_divergence_is_flagged_with_finite_metrics(fast):
 
 def test_a_non_finite_reference_is_a_flagged_result():
     res = simulate_loop(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
-                        sample_time=0.01), lambda t: -1e308 * t * 10, t_end=1.0)
-    assert res.metrics["diverged"]
+                        sample_time=0.01), lambda t: -np.inf if t >= 0.5 else 1.0, t_end=1.0)
+    assert res.metrics["diverged"] and res.metrics["t_diverge"] == 0.5
     assert np.isfinite(res.metrics["iae"]) and np.isfinite(res.metrics["ise"])
 
 

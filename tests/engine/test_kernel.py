@@ -25,7 +25,7 @@ def test_packed_batch_members_equal_single_runs_bit_for_bit():
     grid, cols = _batch_metrics(base, "controller.Gamma", [5e-8, 5e-6, 1e-4, 3e-4])
     for m in range(grid.n_members):
         single = mfcontrol.simulate(grid.config(m)).metrics
-        for name in ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "stable"):
+        for name in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "stable"):
             assert cols[name][m] == single[name], (m, name)
 
 
@@ -48,7 +48,7 @@ def test_a_diverging_member_does_not_spoil_the_others():
     assert cols["diverged"].tolist() == [False, True, False, True]
     alone = mfcontrol.simulate(grid.config(0)).metrics
     for m in (0, 2):
-        assert cols["iae"][m] == alone["iae"] and cols["tv_duty"][m] == alone["tv_duty"]
+        assert cols["iae"][m] == alone["iae"] and cols["tv_u"][m] == alone["tv_u"]
     assert all(np.isfinite(cols["t_diverge"][[1, 3]]))
 
 
@@ -77,13 +77,13 @@ def test_duty_always_within_limits_and_outputs_finite(alpha, kp, gamma0, Gamma, 
         "controller.Gamma": Gamma, "controller.eps_M": eps, "plant.dR": dR,
         "controller.duty_min": lo, "controller.duty_max": lo + width,
         "sim.t_end": 1e-3, "sim.diverge_above": 1e300})
-    d = r.signals["duty"]
+    d = r.signals["u"]
     assert np.all((d >= lo) & (d <= lo + width))
     # a clipped duty cycle keeps the passive converter bounded, whatever the law does
     assert np.all(np.isfinite(r.signals["y"]))
     m = r.metrics
-    assert all(np.isfinite(m[k]) for k in ("iae", "ise", "itae", "tv_duty"))
-    assert m["tv_duty"] >= 0 and m["iae"] >= 0
+    assert all(np.isfinite(m[k]) for k in ("iae", "ise", "itae", "tv_u"))
+    assert m["tv_u"] >= 0 and m["iae"] >= 0
 
 
 @settings(max_examples=15, deadline=None)

@@ -10,7 +10,7 @@ def test_voltage_stable_standard_matches_published_data(published_reference):
     ref = published_reference
     assert r.time.size == len(ref) == 10_000
     np.testing.assert_array_equal(r.time, ref["t"].to_numpy())
-    for ours, theirs in (("y_ref", "y_ref"), ("y", "y"), ("duty", "duty"), ("u_raw", "u_raw")):
+    for ours, theirs in (("y_ref", "y_ref"), ("y", "y"), ("u", "duty"), ("u_raw", "u_raw")):
         err = np.max(np.abs(r.signals[ours] - ref[theirs].to_numpy()))
         assert err <= 1e-12, f"{ours}: max abs error {err}"
 

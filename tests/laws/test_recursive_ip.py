@@ -31,8 +31,8 @@ def test_duty_is_the_clipped_scaled_control():
     c = r.config
     d = np.clip(c["controller.output_gain"] * r.signals["u_raw"], c["controller.duty_min"],
                 c["controller.duty_max"])
-    np.testing.assert_array_equal(r.signals["duty"], d)
-    assert r.signals["duty"].max() == c["controller.duty_max"]  # it does saturate
+    np.testing.assert_array_equal(r.signals["u"], d)
+    assert r.signals["u"].max() == c["controller.duty_max"]  # it does saturate
 
 
 @pytest.mark.parametrize("order,lag", [("first-order", 1), ("second-order", 2)])
@@ -75,7 +75,7 @@ def test_gain_alpha_multiplies_the_derivative_error_by_one_over_alpha():
 def test_variational_with_zero_Gamma_is_the_equal_gain_standard_law():
     var = mfcontrol.run_case("voltage-unstable-variational", {"controller.Gamma": 0.0})
     std = mfcontrol.run_case("voltage-unstable-standard", {"controller.alpha": 1.0})
-    for key in ("y", "duty", "u_raw"):
+    for key in ("y", "u", "u_raw"):
         np.testing.assert_array_equal(var.signals[key], std.signals[key])
 
 

@@ -24,7 +24,7 @@ def _exact(coupling, d, t, E=20.0, L=1e-3, R=10.0, C=10e-6):
 @pytest.mark.parametrize("coupling", ["published", "textbook"])
 def test_rk4_matches_the_exact_solution(coupling):
     r = mfcontrol.run_case("voltage-stable-standard", {**OPEN_LOOP, "plant.coupling": coupling})
-    d = r.signals["duty"]
+    d = r.signals["u"]
     assert np.all(d == 0.5)
     x = _exact(coupling, 0.5, r.time)
     scale = np.max(np.abs(x), axis=0)

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 #: Per-member columns of results.parquet that are not swept keys.
-METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_duty", "final_gamma", "max_abs_e_final",
+METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_final",
            "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable", "member")
 
 #: Metrics that stay meaningful for a diverged member (the others stop accumulating at the

@@ -15,7 +15,7 @@ from ..result import Result
 from .cases import resolve_case
 from .stability import growth_rate, spectral_radius
 
-COLUMNS = ("IAE", "ISE", "ITAE", "max |e| after 1 ms", "TV(duty)", "final gamma", "stable")
+COLUMNS = ("IAE", "ISE", "ITAE", "max |e| after 1 ms", "TV(u)", "final gamma", "stable")
 
 FIDELITY_TEXT = {
     "published": "the published code's choices: its input coupling (E d/L added to dv/dt "
@@ -59,7 +59,7 @@ DISAGREEMENTS = (
 
 def _row_values(r: Result) -> list:
     m = r.metrics
-    return [m["iae"], m["ise"], m["itae"], m["max_abs_e"], m["tv_duty"], m["final_gamma"],
+    return [m["iae"], m["ise"], m["itae"], m["max_abs_e"], m["tv_u"], m["final_gamma"],
             "yes" if m["stable"] else "no"]
 
 
@@ -297,7 +297,7 @@ def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None) -
                 if case.endswith("variational"):
                     parts.append(f"![{case} gamma ({fid})]({fid}/{case}-gamma.png)")
                 parts.append(f"\n`{case}`: IAE {_fmt(m['iae'])}, max |e| after 1 ms "
-                             f"{_fmt(m['max_abs_e'])}, TV(duty) {_fmt(m['tv_duty'])}, "
+                             f"{_fmt(m['max_abs_e'])}, TV(u) {_fmt(m['tv_u'])}, "
                              f"stable: {'yes' if m['stable'] else 'no'}.\n")
             var = [c for c in cases if c.endswith("variational")][0]
             unit = "W" if var.startswith("power") else "V"
