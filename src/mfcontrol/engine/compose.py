@@ -83,7 +83,19 @@ def _make_loop(fast):
         own_ref = R.shape[0] > 1
         use_series = R.shape[0] > 0
         rtol, atol = tol[0], tol[1]
+        # each member's law columns and metrics are copied to one contiguous column while it
+        # runs: in place, a member's rows lie a whole row of members apart (measured: a
+        # 1,024-member batch 1.8x slower per sample than a 64-member one)
+        cp = np.empty((CP.shape[0], 1))
+        cs = np.empty((CS.shape[0], 1))
+        mj = np.empty((M.shape[0], 1))
         for j in range(j0, j1):
+            for i in range(CP.shape[0]):
+                cp[i, 0] = CP[i, j]
+            for i in range(CS.shape[0]):
+                cs[i, 0] = CS[i, j]
+            for i in range(M.shape[0]):
+                mj[i, 0] = M[i, j]
             x = X[j]
             p = P[j]
             prepare(sig.pointer(p), h, n_x, n_p)
@@ -112,19 +124,19 @@ def _make_loop(fast):
                 else:
                     r = references.value(RP, j, t)
                 if law_kind == INTELLIGENT:
-                    a = intelligent.step(CP, CS, j, y, r, law_dt)
-                    u = CS[intelligent.C_UNLIM, j]
-                    gamma = CS[gain.G1, j]
+                    a = intelligent.step(cp, cs, 0, y, r, law_dt)
+                    u = cs[intelligent.C_UNLIM, 0]
+                    gamma = cs[gain.G1, 0]
                     g = gamma
                 else:
-                    u, a, g, gamma = recursive_ip.step(CP, CS, j, y, r)
-                if not kernel.member_metrics(M, S, j, k, t, h, y, r, u, a, a_prev, gamma):
+                    u, a, g, gamma = recursive_ip.step(cp, cs, 0, y, r)
+                if not kernel.member_metrics(mj, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
                     break
                 a_prev = a
                 if record and j == j0:
                     kernel.record(traj, k, r, y, u, a, gamma, g)
                     for c in range(comp_rows.size):
-                        traj[T_COMP + c, k] = CS[comp_rows[c], j]
+                        traj[T_COMP + c, k] = cs[comp_rows[c], 0]
                     for i in range(n_x):
                         traj[t_x0 + i, k] = x[i]
                 if integ == RK4:
@@ -134,6 +146,10 @@ def _make_loop(fast):
                 else:
                     advance(t, sig.pointer(x), a, sig.pointer(p), h, n_x, n_p)
             DT[j] = dt_carry
+            for i in range(CS.shape[0]):
+                CS[i, j] = cs[i, 0]
+            for i in range(M.shape[0]):
+                M[i, j] = mj[i, 0]
         return FAST
 
     return member_loop
