@@ -54,7 +54,7 @@ def reference(t: float) -> float:
     return V_START + (V_END - V_START) * (1 - math.cos(math.pi * x)) / 2
 
 
-def main(path: str = "examples/boost_ipd.png") -> mfcontrol.Result:
+def main(path: str = "boost_ipd.png") -> mfcontrol.Result:
     plant = Boost(E=E, L=L, R=R, C=C, x0=(V_START / R, V_START))
     ctrl = mfcontrol.IPD(ALPHA, KP, KD, sample_time=H, output_limits=(0, 0.9))
     res = mfcontrol.simulate_loop(plant, ctrl, reference, t_end=T_END,

@@ -28,7 +28,7 @@ def motor(w, i, v, load, dt, substeps=20):
     return w, i
 
 
-def main(path: str = "examples/live_loop.png"):
+def main(path: str = "live_loop.png"):
     h = 1e-3
     # w' ~ K/(J R) v = 50 v: alpha = 50; kp = 30 1/s sets the error decay. No integral
     # term: F_hat absorbs the load torque, the i-P needs no I action to reject it.

@@ -17,25 +17,23 @@ def _textbook(t, x, d, E=20.0, L=1e-3, R=10.0, C=10e-6):
     return [(E - (1 - d) * v) / L, ((1 - d) * i - v / R) / C]
 
 
-def _columns(x0=(0.0, 0.0), **params):
-    PP = np.zeros((boost.N_PARAMS, 1))
-    for name, value in {**P, **params}.items():
-        PP[boost.PARAM_ROWS[name], 0] = value
-    boost.prepare(PP, 0)
-    return PP, np.array(x0, dtype=float).reshape(boost.N_STATE, 1)
+def _plant(x0=(0.0, 0.0), **params):
+    # the plant object steps with the engine's RK4 on boost.rhs, as a run does
+    return Boost(**{**P, **params}, x0=x0)
 
 
 @pytest.mark.parametrize("d", [0.3, 0.5, 0.7])
 def test_steady_state_is_the_averaged_equilibrium(d):
     # poles: s^2 + s/(RC) + (1-d)^2/(LC) = 0, the slowest -1000/s at d = 0.7, so 40 ms is
     # 40 time constants; h = 20 us is coarse (|lambda h| <= 0.18) but well inside RK4's region
-    PP, X = _columns()
-    for _ in range(2000):
-        boost.step(PP, X, 0, d, 2e-5)
+    plant = _plant()
+    x = plant.x0
+    for k in range(2000):
+        x = plant.step(k * 2e-5, x, d, 2e-5)
     v = P["E"] / (1 - d)
-    assert X[boost.V_C, 0] == pytest.approx(v, rel=1e-9)
-    assert X[boost.I_L, 0] == pytest.approx(v / ((1 - d) * P["R"]), rel=1e-9)
-    assert boost.output(PP, X, 0) == X[boost.V_C, 0]
+    assert x[boost.V_C] == pytest.approx(v, rel=1e-9)
+    assert x[boost.I_L] == pytest.approx(v / ((1 - d) * P["R"]), rel=1e-9)
+    assert plant.output(x) == x[boost.V_C]
 
 
 def test_plant_object_reaches_the_same_equilibrium():
@@ -52,12 +50,13 @@ def test_rk4_matches_a_tight_ode_solve(d):
     t = h * np.arange(n + 1)
     ref = solve_ivp(_textbook, (0.0, t[-1]), [0.0, 0.0], method="DOP853", t_eval=t,
                     args=(d,), rtol=1e-10, atol=1e-12).y
-    PP, X = _columns()
+    plant = _plant()
+    x = plant.x0
     traj = np.empty((2, n + 1))
-    traj[:, 0] = X[:, 0]
+    traj[:, 0] = x
     for k in range(n):
-        boost.step(PP, X, 0, d, h)
-        traj[:, k + 1] = X[:, 0]
+        x = plant.step(k * h, x, d, h)
+        traj[:, k + 1] = x
     scale = np.max(np.abs(ref), axis=1, keepdims=True)
     assert np.max(np.abs(traj - ref) / scale) < 1e-8
 
@@ -68,16 +67,17 @@ def test_rk4_is_fourth_order():
                     rtol=1e-13, atol=1e-12).y[:, -1]
     errs = []
     for n in (20, 40):
-        PP, X = _columns()
-        for _ in range(n):
-            boost.step(PP, X, 0, d, T / n)
-        errs.append(np.max(np.abs(X[:, 0] - ref)))
+        plant = _plant()
+        x = plant.x0
+        for k in range(n):
+            x = plant.step(k * T / n, x, d, T / n)
+        errs.append(np.max(np.abs(x - ref)))
     assert 13 < errs[0] / errs[1] < 19  # 2^4
 
 
 def test_deriv_is_the_textbook_right_hand_side():
-    PP, X = _columns((3.0, 25.0), R=7.0)
-    np.testing.assert_allclose(boost.deriv(PP, X, 0, 0.35),
+    plant = _plant(R=7.0)
+    np.testing.assert_allclose(plant.derivative(0.0, (3.0, 25.0), 0.35),
                                _textbook(0.0, (3.0, 25.0), 0.35, R=7.0), rtol=1e-15)
 
 

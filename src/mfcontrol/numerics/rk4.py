@@ -5,8 +5,11 @@ published code's arithmetic, operation for operation, so that a plant integrated
 reproduces the published trajectories bit for bit.
 """
 
+import numpy as np
+from numba import njit
+
 from .._jit import step_jit
-from .signatures import pointer
+from .signatures import as_rhs, pointer
 
 
 @step_jit
@@ -36,3 +39,9 @@ def step(rhs, t, x, u, p, h, w):
     rhs(t + h, pt, u, pp, p4, n, m)
     for i in range(n):
         x[i] = x[i] + (f1[i] + 2 * (f2[i] + f3[i]) + h * f4[i]) / 6
+
+
+@njit(error_model="numpy", cache=True)
+def step_once(rhs, t, x, u, p, h):
+    """One RK4 step of the compiled rhs at address ``rhs``, in place, from Python."""
+    step(as_rhs(rhs), t, x, u, p, h, np.empty((5, x.size)))

@@ -119,3 +119,30 @@ def no_prepare(p, h, nx, np_):
 @compiled(ADVANCE)
 def no_advance(t, x, u, p, h, nx, np_):
     """For plants without an exact step (the engine never calls it for them)."""
+
+
+# one call of a plant's functions from Python (plant objects, tests): by address, like
+# the engine; rk4 and the exact step are the engine's own
+
+
+@njit(error_model="numpy", cache=True)
+def call_rhs(rhs, t, x, u, p):
+    """dx/dt from the compiled rhs at ``rhs`` (an address)."""
+    out = np.empty(x.size)
+    as_rhs(rhs)(t, pointer(x), u, pointer(p), pointer(out), x.size, p.size)
+    return out
+
+
+@njit(error_model="numpy", cache=True)
+def call_output(output, x, p):
+    return as_output(output)(pointer(x), pointer(p), x.size, p.size)
+
+
+@njit(error_model="numpy", cache=True)
+def call_prepare(prepare, p, h, nx):
+    as_prepare(prepare)(pointer(p), h, nx, p.size)
+
+
+@njit(error_model="numpy", cache=True)
+def call_advance(advance, t, x, u, p, h):
+    as_advance(advance)(t, pointer(x), u, pointer(p), h, x.size, p.size)

@@ -17,8 +17,8 @@ inductor current from the capacitor (``C dv/dt`` drops by ``I dd``), so v dips b
 rises towards its higher equilibrium. The zero moves towards the origin as D grows or R
 drops (heavier load); it bounds the bandwidth a voltage loop can reach.
 
-Between samples d is held and the state advances by one classical RK4 step in increment
-form, ``x + (f1 + 2 (f2 + f3) + f4) / 6`` with ``f = h * dx/dt``.
+Between samples d is held and the engine advances the state with its integrator (the one
+RK4 of :mod:`mfcontrol.numerics.rk4` by default) on :func:`rhs`.
 """
 
 from .._jit import step_jit
@@ -50,50 +50,9 @@ def coefficients(inductance, resistance, capacitance):
 
 
 @step_jit
-def prepare(PP, j):
-    """Recompute the derived coefficients after any parameter change."""
-    PP[INV_L, j], PP[INV_C, j], PP[INV_RC, j] = coefficients(PP[L, j], PP[R, j], PP[C, j])
-
-
-@step_jit
-def output(PP, X, j):
-    return X[V_C, j]
-
-
-@step_jit
-def _dxdt(PP, j, i, v, dp):
-    """(di/dt, dv/dt) at (i, v) with dp = 1 - d."""
-    return _field(PP[E, j], PP[INV_L, j], PP[INV_C, j], PP[INV_RC, j], i, v, dp)
-
-
-@step_jit
 def _field(e_in, inv_l, inv_c, inv_rc, i, v, dp):
     """The model's right-hand side from plain floats: the one place it is written."""
     return (e_in - dp * v) * inv_l, dp * i * inv_c - v * inv_rc
-
-
-@step_jit
-def deriv(PP, X, j, d):
-    """(di/dt, dv/dt) of member j at its current state with duty cycle d."""
-    return _dxdt(PP, j, X[I_L, j], X[V_C, j], 1.0 - d)
-
-
-@step_jit
-def step(PP, X, j, d, h):
-    """Advance member j by one RK4 step of size h with duty cycle d held."""
-    i = X[I_L, j]
-    v = X[V_C, j]
-    dp = 1.0 - d
-    a1, b1 = _dxdt(PP, j, i, v, dp)
-    p1, q1 = h * a1, h * b1
-    a2, b2 = _dxdt(PP, j, i + p1 / 2, v + q1 / 2, dp)
-    p2, q2 = h * a2, h * b2
-    a3, b3 = _dxdt(PP, j, i + p2 / 2, v + q2 / 2, dp)
-    p3, q3 = h * a3, h * b3
-    a4, b4 = _dxdt(PP, j, i + p3, v + q3, dp)
-    p4, q4 = h * a4, h * b4
-    X[I_L, j] = i + (p1 + 2 * (p2 + p3) + p4) / 6
-    X[V_C, j] = v + (q1 + 2 * (q2 + q3) + q4) / 6
 
 
 # the plant as the general engine takes it (mfcontrol.numerics.signatures): p is a column

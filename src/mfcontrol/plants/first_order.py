@@ -4,14 +4,10 @@
 
 Output: ``y``. ``w`` is a parameter, so a schedule can switch the disturbance on or off.
 
-Two steps with the input u held over [t, t + h]:
-
-``step``
-    One classical RK4 step in increment form, ``y + (f1 + 2 (f2 + f3) + f4) / 6`` with
-    ``f = h * dy/dt``, like every other plant (this is what a run integrates).
-``exact_step``
-    The closed form ``y(t + h) = e^{a h} y + (e^{a h} - 1) / a (b u + w)``, which is
-    ``y + h (b u + w)`` for a = 0: the reference the RK4 step is measured against.
+With the input u held over [t, t + h] the engine integrates :func:`rhs` (the one RK4 of
+:mod:`mfcontrol.numerics.rk4` by default), or, with ``integrator = "exact"``, steps by the
+closed form :func:`advance`, ``y(t + h) = e^{a h} y + (e^{a h} - 1) / a (b u + w)``
+(``y + h (b u + w)`` for a = 0), the reference the RK4 step is measured against.
 """
 
 import math
@@ -31,41 +27,6 @@ PARAM_ROWS = {"a": A, "b": B, "w": W}
 Y = 0
 N_STATE = 1
 STATE_NAMES = ("y",)
-
-
-@step_jit
-def prepare(PP, j):
-    """Nothing is derived from the parameters; kept so that every plant has the same API."""
-
-
-@step_jit
-def output(PP, X, j):
-    return X[Y, j]
-
-
-@step_jit
-def deriv(PP, X, j, u):
-    """(dy/dt,) of member j at its current state with input u: a tuple, as for every plant."""
-    return (PP[A, j] * X[Y, j] + (PP[B, j] * u + PP[W, j]),)
-
-
-@step_jit
-def step(PP, X, j, u, h):
-    """Advance member j by one RK4 step of size h with u held."""
-    a = PP[A, j]
-    g = PP[B, j] * u + PP[W, j]
-    y = X[Y, j]
-    f1 = h * (a * y + g)
-    f2 = h * (a * (y + f1 / 2) + g)
-    f3 = h * (a * (y + f2 / 2) + g)
-    f4 = h * (a * (y + f3) + g)
-    X[Y, j] = y + (f1 + 2 * (f2 + f3) + f4) / 6
-
-
-@step_jit
-def exact_step(PP, X, j, u, h):
-    """Advance member j by h along the exact solution with u held."""
-    X[Y, j] = exact(PP[A, j], PP[B, j] * u + PP[W, j], X[Y, j], h)
 
 
 @step_jit

@@ -31,8 +31,8 @@ import numpy.typing as npt
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from .._jit import kernel_jit
 from ..errors import ConfigError
+from ..numerics import rk4
 from ..numerics import signatures as sig
 from . import boost, buck, first_order, lti, ode
 
@@ -54,59 +54,6 @@ class EnginePlant(NamedTuple):
     tol: tuple[float, float]
     #: parameter names a schedule may change, and their entries in p
     columns: Mapping[str, int]
-
-# ---------------------------------------------------------------------------------------------
-# compiled wrappers: member 0 of (rows, 1) columns, callable from Python
-
-
-BUCK, BOOST, FIRST_ORDER = 0, 1, 2
-
-
-@kernel_jit
-def _prepare(kind, PP):
-    if kind == BUCK:
-        buck.prepare(PP, 0)
-    elif kind == BOOST:
-        boost.prepare(PP, 0)
-    else:
-        first_order.prepare(PP, 0)
-
-
-@kernel_jit
-def _output(kind, PP, X):
-    if kind == BUCK:
-        return buck.output(PP, X, 0)
-    if kind == BOOST:
-        return boost.output(PP, X, 0)
-    return first_order.output(PP, X, 0)
-
-
-@kernel_jit
-def _step(kind, PP, X, u, h):
-    if kind == BUCK:
-        buck.step(PP, X, 0, u, h)
-    elif kind == BOOST:
-        boost.step(PP, X, 0, u, h)
-    else:
-        first_order.step(PP, X, 0, u, h)
-
-
-@kernel_jit
-def _deriv(kind, PP, X, u):
-    out = np.empty(X.shape[0])
-    if kind == BUCK:
-        out[buck.I_L], out[buck.V_C] = buck.deriv(PP, X, 0, u)
-    elif kind == BOOST:
-        out[boost.I_L], out[boost.V_C] = boost.deriv(PP, X, 0, u)
-    else:
-        (out[first_order.Y],) = first_order.deriv(PP, X, 0, u)
-    return out
-
-
-@kernel_jit
-def _first_order_exact_step(PP, X, u, h):
-    first_order.exact_step(PP, X, 0, u, h)
-
 
 # ---------------------------------------------------------------------------------------------
 # validation
@@ -284,75 +231,71 @@ class Plant(ABC):
         return f"{type(self).__name__}({args}, integrator={self.integrator!r})"
 
 
-class _Kernels(NamedTuple):
-    """The compiled functions of one plant kind (numba caches kernels that dispatch on an
-    integer, not kernels that take functions as arguments)."""
-
-    kind: int
-
-    def prepare(self, PP):
-        _prepare(self.kind, PP)
-
-    def output(self, PP, X):
-        return _output(self.kind, PP, X)
-
-    def step(self, PP, X, u, h):
-        _step(self.kind, PP, X, u, h)
-
-    def deriv(self, PP, X, u):
-        return _deriv(self.kind, PP, X, u)
-
-
 class _CompiledPlant(Plant):
-    """A plant whose model is a compiled plant module, run on one-member columns."""
+    """A plant whose model is a compiled plant module: its parameter vector and the
+    module's engine functions (``rhs``, ``measured``, ``derive``, ``advance``), the same
+    the engine calls, so a plant object integrates exactly what a run integrates."""
 
     _module: Any
-    _kernels: _Kernels
     _positive: frozenset[str] = frozenset()
 
     def __init__(self, params: Mapping[str, Any], fixed: Mapping[int, float],
                  x0: npt.ArrayLike, **kw: Any):
         mod = self._module
-        self._PP = np.zeros((mod.N_PARAMS, 1))
+        self._p = np.zeros(mod.N_PARAMS)
         for name, value in params.items():
-            self._PP[mod.PARAM_ROWS[name], 0] = _number(name, value, name in self._positive)
+            self._p[mod.PARAM_ROWS[name]] = _number(name, value, name in self._positive)
         for row, value in fixed.items():
-            self._PP[row, 0] = value
-        self._kernels.prepare(self._PP)
+            self._p[row] = value
+        self._derive()
         super().__init__(mod.STATE_NAMES, x0, **kw)
+
+    def _functions(self):
+        mod = self._module
+        return (mod.rhs, mod.measured, getattr(mod, "derive", sig.no_prepare),
+                getattr(mod, "advance", sig.no_advance))
+
+    def _derive(self) -> None:
+        derive = getattr(self._module, "derive", None)
+        if derive is not None:
+            # h: what a plant that discretises would need; these derive from p alone
+            sig.call_prepare(derive.address, self._p, 0.0, self._module.N_STATE)
 
     @property
     def params(self) -> dict[str, float]:
-        return {name: float(self._PP[row, 0]) for name, row in self._module.PARAM_ROWS.items()}
+        return {name: float(self._p[row]) for name, row in self._module.PARAM_ROWS.items()}
 
     def set_param(self, name: str, value: float) -> None:
         rows = self._module.PARAM_ROWS
         if name not in rows:
             raise ConfigError(name, value, "unknown parameter; allowed: " + ", ".join(rows))
-        self._PP[rows[name], 0] = _number(name, value, name in self._positive)
-        self._kernels.prepare(self._PP)
+        self._p[rows[name]] = _number(name, value, name in self._positive)
+        self._derive()
 
-    def _column(self, x: npt.ArrayLike) -> np.ndarray:
-        # always a fresh C-contiguous copy: the compiled step writes into it, and one array
-        # layout means one compiled specialisation
-        return np.array(x, dtype=np.float64).reshape(self._module.N_STATE, 1)
+    def _state(self, x: npt.ArrayLike) -> np.ndarray:
+        # always a fresh C-contiguous copy: the compiled step writes into it
+        return np.array(x, dtype=np.float64).reshape(self._module.N_STATE)
 
     def output(self, x: np.ndarray) -> float:
-        return float(self._kernels.output(self._PP, self._column(x)))
+        return float(sig.call_output(self._module.measured.address, self._state(x), self._p))
 
     def derivative(self, t: float, x: np.ndarray, u: float) -> np.ndarray:
-        return self._kernels.deriv(self._PP, self._column(x), float(u))
+        return sig.call_rhs(self._module.rhs.address, float(t), self._state(x), float(u),
+                            self._p)
 
     def _rk4(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
-        X = self._column(x)
-        self._kernels.step(self._PP, X, u, h)
-        return X.reshape(-1)
+        x = self._state(x)
+        rk4.step_once(self._module.rhs.address, float(t), x, float(u), self._p, float(h))
+        return x
+
+    def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
+        x = self._state(x)
+        sig.call_advance(self._module.advance.address, float(t), x, float(u), self._p,
+                         float(h))
+        return x
 
     def engine(self) -> EnginePlant:
-        mod = self._module
-        functions = (mod.rhs, mod.measured, getattr(mod, "derive", sig.no_prepare),
-                     getattr(mod, "advance", sig.no_advance))
-        return self._engine(functions, self._PP[:, 0], mod.PARAM_ROWS)
+        return self._engine(self._functions(), self._p, self._module.PARAM_ROWS)
 
 
 class Buck(_CompiledPlant):
@@ -370,7 +313,8 @@ class Buck(_CompiledPlant):
     x0 : array_like
         Initial (i_L, v_C).
     integrator : {"rk4", "rk45"}
-        ``"rk4"`` runs the compiled :func:`mfcontrol.plants.buck.step`.
+        ``"rk4"`` is the engine's RK4 (:mod:`mfcontrol.numerics.rk4`) on
+        :func:`mfcontrol.plants.buck.rhs`.
     rtol, atol : float
         Tolerances of ``"rk45"``.
 
@@ -391,7 +335,6 @@ class Buck(_CompiledPlant):
     """
 
     _module = buck
-    _kernels = _Kernels(BUCK)
     _positive = frozenset({"E", "L", "R", "C"})
 
     def __init__(self, E: float = 20.0, L: float = 1e-3, R: float = 10.0, C: float = 10e-6, *,
@@ -420,7 +363,8 @@ class Boost(_CompiledPlant):
     x0 : array_like
         Initial (i_L, v_C).
     integrator : {"rk4", "rk45"}
-        ``"rk4"`` runs the compiled :func:`mfcontrol.plants.boost.step`.
+        ``"rk4"`` is the engine's RK4 (:mod:`mfcontrol.numerics.rk4`) on
+        :func:`mfcontrol.plants.boost.rhs`.
     rtol, atol : float
         Tolerances of ``"rk45"``.
 
@@ -438,7 +382,6 @@ class Boost(_CompiledPlant):
     """
 
     _module = boost
-    _kernels = _Kernels(BOOST)
     _positive = frozenset({"E", "L", "R", "C"})
 
     def __init__(self, E: float = 20.0, L: float = 1e-3, R: float = 10.0, C: float = 10e-6, *,
@@ -474,7 +417,6 @@ class FirstOrder(_CompiledPlant):
     """
 
     _module = first_order
-    _kernels = _Kernels(FIRST_ORDER)
     _integrators = ("rk4", "rk45", "exact")
 
     def __init__(self, a: float, b: float, w: float = 0.0, x0: float = 0.0, *,
@@ -482,10 +424,6 @@ class FirstOrder(_CompiledPlant):
         super().__init__({"a": a, "b": b, "w": w}, {}, x0,
                          integrator=integrator, rtol=rtol, atol=atol)
 
-    def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
-        X = self._column(x)
-        _first_order_exact_step(self._PP, X, u, h)
-        return X.reshape(-1)
 
 
 class LTI(Plant):
