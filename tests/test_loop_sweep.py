@@ -60,3 +60,33 @@ def test_bad_grids_name_the_key(grid, match):
     with pytest.raises(mfcontrol.ConfigError, match=match):
         mfcontrol.sweep(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
                         sample_time=0.01), 1.0, grid=grid, t_end=1.0)
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "exact", "rk45"])
+def test_lti_members_equal_their_single_runs(integrator):
+    from mfcontrol.plants.models import LTI
+
+    def make():
+        return LTI([[0.0, 1.0], [-4.0, -0.6]], [0.0, 2.0], [1.0, 0.0], integrator=integrator)
+
+    ctrl = mfcontrol.IPD(alpha=2.0, kp=4.0, kd=4.0, sample_time=0.01)
+    sw = mfcontrol.sweep(make(), ctrl, 1.0, t_end=3.0,
+                         grid={"plant.A[1,0]": [-4.0, -1.0], "controller.kd": [2.0, 4.0]})
+    for m, row in sw.to_pandas().iterrows():
+        plant = make()
+        plant.set_param("A[1,0]", row["plant.A[1,0]"])
+        one = mfcontrol.simulate_loop(plant, mfcontrol.IPD(alpha=2.0, kp=4.0, kd=row[
+            "controller.kd"], sample_time=0.01), 1.0, t_end=3.0)
+        assert one.engine == "compiled"
+        for key in ("iae", "ise", "max_abs_e", "tv_u", "n_samples"):
+            assert one.metrics[key] == row[key], (m, key)
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"grid": {"controller.kp": ["abc"]}}, "controller.kp"),
+    ({"grid": {"controller.kp": [1.0]}, "keep": -1}, "keep"),
+])
+def test_bad_values_are_one_line_config_errors(kw, match):
+    with pytest.raises(mfcontrol.ConfigError, match=match):
+        mfcontrol.sweep(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
+                        sample_time=0.01), 1.0, t_end=1.0, **kw)

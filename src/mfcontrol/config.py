@@ -133,7 +133,8 @@ OPTIONS: tuple[Option, ...] = (
     # simulation
     _o("sim.h", "float", 1e-6, "sample period and RK4 step (s)", check="positive"),
     _o("sim.integrator", "str", "rk4", "plant integration between samples: one RK4 step "
-       "(published) or adaptive RK45 (scipy solve_ivp, input held)", ("rk4", "rk45")),
+       "(published) or a compiled adaptive Dormand-Prince 5(4) (scipy's RK45 method, input "
+       "held, rtol 1e-9, atol 1e-12)", ("rk4", "rk45")),
     _o("sim.t_end", "float", 0.01, "horizon (s); samples t_k = (k t_end)/N, N = t_end/h",
        check="positive"),
     _o("sim.diverge_above", "float", 1e12, "|y| above this (or any NaN/inf) ends a run as "

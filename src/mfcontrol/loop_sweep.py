@@ -1,14 +1,5 @@
 """Sweeps of a loop built from Python objects: a grid over plant and controller parameters,
-every member in the compiled engine.
-
->>> import numpy as np, mfcontrol
->>> from mfcontrol.plants.models import FirstOrder
->>> sw = mfcontrol.sweep(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
-...                      sample_time=1e-3), 1.0, t_end=2.0,
-...                      grid={"controller.kp": [2.0, 5.0, 10.0], "plant.a": [-1.0, 0.5]})
->>> sw.to_pandas()[["controller.kp", "plant.a", "stable"]].shape
-(6, 3)
-"""
+every member in the compiled engine (:func:`sweep`)."""
 
 from __future__ import annotations
 
@@ -91,7 +82,10 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
                                   + ", ".join(f"controller.{k}" for k in numeric))
         else:
             raise ConfigError(key, values, "must start with 'plant.' or 'controller.'")
-        arr = np.atleast_1d(np.asarray(values, dtype=float))
+        try:
+            arr = np.atleast_1d(np.asarray(values, dtype=float))
+        except (TypeError, ValueError):
+            arr = np.array([np.nan])
         if arr.ndim != 1 or arr.size == 0 or not np.all(np.isfinite(arr)):
             raise ConfigError(key, values, "must be a non-empty list of finite numbers")
         out[key] = arr
@@ -127,7 +121,24 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     LoopSweepResult
         ``to_pandas()`` has one row per member: its swept values and its metrics. Each
         member's metrics are those of its single run, bit for bit.
+
+    Examples
+    --------
+    A first-order plant y' = a y + u under an i-P, for three gains and a stable and an
+    unstable pole:
+
+    >>> import mfcontrol
+    >>> from mfcontrol.plants.models import FirstOrder
+    >>> sw = mfcontrol.sweep(FirstOrder(a=-1.0, b=1.0),
+    ...                      mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-3), 1.0,
+    ...                      grid={"controller.kp": [2.0, 5.0, 10.0], "plant.a": [-1.0, 0.5]},
+    ...                      t_end=2.0)
+    >>> df = sw.to_pandas()
+    >>> len(df), bool(df["stable"].all())
+    (6, True)
     """
+    if not isinstance(keep, int | np.integer) or isinstance(keep, bool) or keep < 0:
+        raise ConfigError("keep", keep, "must be a whole number >= 0")
     plant = _as_plant(plant)
     axes = _axes(grid, plant, controller)
     h = float(controller.sample_time if h is None else h)
