@@ -90,3 +90,21 @@ def test_bad_values_are_one_line_config_errors(kw, match):
     with pytest.raises(mfcontrol.ConfigError, match=match):
         mfcontrol.sweep(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
                         sample_time=0.01), 1.0, t_end=1.0, **kw)
+
+
+def test_alpha_axis_under_the_variational_gain_starts_each_member_from_its_own_gamma():
+    # review: members kept the base controller's gamma0 = 1/alpha
+    make = lambda alpha: mfcontrol.IP(alpha=alpha, kp=5.0, sample_time=1e-3,  # noqa: E731
+                                      gain="variational", Gamma=1e-6)
+    sw = mfcontrol.sweep(FirstOrder(-1.0, 1.0), make(1.0), 1.0, t_end=1.0,
+                         grid={"controller.alpha": [1.0, 4.0]})
+    one = mfcontrol.simulate_loop(FirstOrder(-1.0, 1.0), make(4.0), 1.0, t_end=1.0)
+    assert sw.table["iae"][1] == one.metrics["iae"]
+    assert sw.table["final_gamma"][1] == one.metrics["final_gamma"]
+
+
+def test_the_sample_time_is_not_an_axis():
+    with pytest.raises(mfcontrol.ConfigError, match="controller.sample_time"):
+        mfcontrol.sweep(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
+                        sample_time=0.01), 1.0, t_end=1.0,
+                        grid={"controller.sample_time": [0.01, 0.02]})

@@ -220,7 +220,9 @@ class IntelligentController(_Controller):
             "window": window, "anti_windup": anti_windup,
             "k_aw": None if k_aw is None else _number("k_aw", k_aw, nonneg=True),
             "gain": gain,
-            "gamma0": _number("gamma0", 1 / alpha if gamma0 is None else gamma0),
+            # None (1/alpha) stays None: a controller rebuilt with another alpha (a sweep,
+            # from_snapshot) starts from its own 1/alpha
+            "gamma0": _number("gamma0", gamma0, allow_none=True),
             "Gamma": _number("Gamma", Gamma), "eps_M": _number("eps_M", eps_M),
             "integrator": integrator, "setpoint": _number("setpoint", setpoint),
             "starting_output": _number("starting_output", starting_output),
@@ -230,7 +232,7 @@ class IntelligentController(_Controller):
         cp = self._CP[:, 0]
         cp[gain_law.MODE] = gain_law.MODES[gain]
         cp[gain_law.INV_ALPHA] = 1 / alpha
-        cp[gain_law.GAMMA0] = params["gamma0"]
+        cp[gain_law.GAMMA0] = 1 / alpha if params["gamma0"] is None else params["gamma0"]
         cp[gain_law.GAMMA_RATE] = params["Gamma"]
         cp[gain_law.EPS_M] = params["eps_M"]
         cp[gain_law.ORDER] = 2.0 if integrator == "second-order" else 1.0

@@ -63,3 +63,17 @@ def changes(cfg: Config) -> list[Change]:
     for e in cfg["plant.schedule"]:
         out.append(Change(e["t"], e["name"], e.get("set", e.get("add")), add="add" in e))
     return out
+
+
+def plant_and_changes(cfg: Config):
+    """The plant and its schedule, the schedule checked against the plant's own rules
+    (a value that would make a parameter invalid is refused here, at the edge)."""
+    from .errors import ConfigError
+    from .loop import _check_changes
+
+    p, ch = plant(cfg), changes(cfg)
+    try:
+        _check_changes(p, ch)
+    except ConfigError as exc:
+        raise ConfigError("plant.schedule", f"{exc.key} = {exc.value!r}", exc.allowed) from None
+    return p, ch

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from . import metrics as _metrics
+from . import references
 from .engine import compose, kernel
 from .errors import ConfigError
 from .laws import intelligent
@@ -59,13 +60,17 @@ def _reference(reference: Reference, t: np.ndarray) -> np.ndarray:
 
 
 def _grid(t_end: float, h: float) -> int:
+    from .config import MAX_STEPS
+
     if not (h > 0 and math.isfinite(h)):
-        raise ValueError(f"h = {h!r}: must be a finite number > 0")
+        raise ConfigError("h", h, "must be a finite number > 0")
     if not (t_end > 0 and math.isfinite(t_end)):
-        raise ValueError(f"t_end = {t_end!r}: must be a finite number > 0")
+        raise ConfigError("t_end", t_end, "must be a finite number > 0")
+    if not t_end / h <= MAX_STEPS:
+        raise ConfigError("t_end", t_end, f"must be at most {MAX_STEPS:,} steps of h = {h!r}")
     n = round(t_end / h)
     if n < 2 or abs(n * h - t_end) > 1e-9 * t_end:
-        raise ValueError(f"t_end = {t_end!r}: must be a whole number (>= 2) of h = {h!r}")
+        raise ConfigError("t_end", t_end, f"must be a whole number (>= 2) of h = {h!r}")
     return n
 
 
@@ -130,12 +135,19 @@ def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None
 
 
 def _settings(settle_time: float, t_end: float, final_window: float,
-              diverge_above: float) -> np.ndarray:
-    S = np.zeros(kernel.N_SETTINGS)
-    S[kernel.S_SETTLE] = settle_time
-    S[kernel.S_FINAL_START] = t_end * (1 - final_window)
-    S[kernel.S_DIVERGE_ABOVE] = diverge_above
-    return S
+              diverge_above: float, stable_tol: float = 0.1) -> np.ndarray:
+    """The kernels' metric settings, each checked as its option is (one-line errors)."""
+    from .config import check_value
+
+    for name, key, value in (("settle_time", "metrics.settle_time", settle_time),
+                             ("final_window", "metrics.final_window", final_window),
+                             ("stable_tol", "metrics.stable_tol", stable_tol),
+                             ("diverge_above", "sim.diverge_above", diverge_above)):
+        try:
+            check_value(key, value)
+        except ConfigError as exc:
+            raise ConfigError(name, value, exc.allowed) from None
+    return kernel.settings(settle_time, t_end * (1 - final_window), diverge_above)
 
 
 def _check_changes(plant, changes: Sequence[Change]) -> None:
@@ -146,6 +158,8 @@ def _check_changes(plant, changes: Sequence[Change]) -> None:
         for c in changes:
             if not isinstance(c, Change):
                 raise TypeError(f"changes: {c!r} is not a mfcontrol.Change")
+            if not (isinstance(c.time, int | float) and math.isfinite(c.time)):
+                raise ConfigError("Change.time", c.time, "must be a finite number (s)")
             if c.name not in original:
                 raise ConfigError(c.name, c.value, "unknown parameter; allowed: "
                                   + (", ".join(original) or "none"))
@@ -213,7 +227,8 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     DT = np.full(m, -1.0)
     compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
                 l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
-                np.zeros((5, m)) if RP is None else np.ascontiguousarray(RP), events, S, M, tol,
+                np.zeros((references.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP),
+                events, S, M, tol,
                 DT, traj, comp_rows, fast=fast)
     return M, traj, CS
 
@@ -269,7 +284,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     _check_changes(plant, changes)
     t = (np.arange(n) * t_end) / n
     r = _reference(reference, t)
-    S = _settings(settle_time, t_end, final_window, diverge_above)
+    S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
     ep = plant.engine() if hasattr(plant, "engine") else None
     law = law_arrays(controller)
     if ep is None or law is None:
@@ -319,8 +334,11 @@ def _python_reason(plant, ep, controller) -> str:
 def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, name,
                    note) -> Result:
     """The loop in Python, one plant step and one controller call per sample."""
+    from .scenario import _first_sample_at
+
     n = t.size
-    pending = sorted(changes, key=lambda c: c.time)
+    # each change at its sample, in list order: the engine's rule
+    due = [_first_sample_at(c.time, t_end, n) for c in changes]
     original = dict(plant.params)
     x = np.array(plant.x0, dtype=float, copy=True)
     y = np.full(n, np.nan)
@@ -331,9 +349,9 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
     bound = S[kernel.S_DIVERGE_ABOVE]
     try:
         for k in range(n):
-            while pending and t[k] >= pending[0].time:
-                c = pending.pop(0)
-                plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
+            for c, k_c in zip(changes, due, strict=True):
+                if k_c == k:
+                    plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
             yk = plant.output(x)
             if not (math.isfinite(yk) and abs(yk) <= bound):
                 y[k] = yk

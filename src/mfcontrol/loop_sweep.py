@@ -75,8 +75,9 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
                 raise ConfigError(key, values, "unknown plant parameter; allowed: "
                                   + ", ".join(f"plant.{k}" for k in plant.params))
         elif where == "controller":
-            numeric = [k for k, v in params.items()
-                       if isinstance(v, int | float) and not isinstance(v, bool)]
+            # sample_time sets the time grid, which every member shares
+            numeric = [k for k, v in params.items() if k != "sample_time"
+                       and isinstance(v, int | float) and not isinstance(v, bool)]
             if name not in numeric:
                 raise ConfigError(key, values, "not a numeric controller option; allowed: "
                                   + ", ".join(f"controller.{k}" for k in numeric))
@@ -146,7 +147,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     _check_changes(plant, changes)
     t = (np.arange(n) * t_end) / n
     R = _reference(reference, t)[None, :]
-    S = _settings(settle_time, t_end, final_window, diverge_above)
+    S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
     base_ep = plant.engine() if hasattr(plant, "engine") else None
     if base_ep is None or law_arrays(controller) is None:
         raise ConfigError("plant", type(plant).__name__, "a sweep runs in the compiled "
@@ -165,6 +166,8 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
             values = {k: float(axes[k][i]) for k, i in zip(keys, combo, strict=True)}
             for k in plant_keys:  # the plant's own checks (positivity, ...)
                 plant.set_param(k.partition(".")[2], values[k])
+            if plant_keys:  # and the schedule on this member's parameters
+                _check_changes(plant, changes)
             ep = plant.engine() if plant_keys else base_ep
             plants.append(ep)
             ckey = tuple(values[k] for k in ctrl_keys)

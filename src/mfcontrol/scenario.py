@@ -190,10 +190,9 @@ def build(configs: Sequence[Config]) -> Scenario:
     ev_add = np.array([e[2] for e in events[0]], dtype=np.bool_)
     ev_steps = np.unique(ev_k[ev_k < n]) if n_ev else np.zeros(0, dtype=np.int64)
     X0 = np.column_stack([_state_column(c) for c in configs])
-    S = np.zeros(kernel.N_SETTINGS)
-    S[kernel.S_SETTLE] = first["metrics.settle_time"]
-    S[kernel.S_FINAL_START] = first["sim.t_end"] * (1 - first["metrics.final_window"])
-    S[kernel.S_DIVERGE_ABOVE] = first["sim.diverge_above"]
+    S = kernel.settings(first["metrics.settle_time"],
+                        first["sim.t_end"] * (1 - first["metrics.final_window"]),
+                        first["sim.diverge_above"])
     return Scenario(
         n_steps=n, h=first["sim.h"], t_end=first["sim.t_end"],
         plant_kind=kernel.BUCK,

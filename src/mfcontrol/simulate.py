@@ -72,13 +72,13 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     n = scenario.n_steps(cfg)
     t_end = cfg["sim.t_end"]
     t = (np.arange(n) * t_end) / n
-    plant = from_config.plant(cfg)
+    plant, changes = from_config.plant_and_changes(cfg)
     ctrl = from_config.controller(cfg)
     S = _settings(cfg["metrics.settle_time"], t_end, cfg["metrics.final_window"],
                   cfg["sim.diverge_above"])
     # the reference evaluated in the kernel, as a batch of these members evaluates it
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
-                       scenario._reference_column(cfg), from_config.changes(cfg), t,
+                       scenario._reference_column(cfg), changes, t,
                        cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast)
     return dataclasses.replace(res, config=cfg, changes=())
 
@@ -91,13 +91,14 @@ def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray
 
     first = cfgs[0]
     n = scenario.n_steps(first)
-    plants = [from_config.plant(c).engine() for c in cfgs]
+    members = [from_config.plant_and_changes(c) for c in cfgs]
+    plants = [p.engine() for p, _ in members]
     laws = [law_arrays(from_config.controller(c)) for c in cfgs]
     RP = np.hstack([scenario._reference_column(c) for c in cfgs])
     S = _settings(first["metrics.settle_time"], first["sim.t_end"],
                   first["metrics.final_window"], first["sim.diverge_above"])
     M, _, _ = run_members(plants, laws, np.zeros((0, n)),
-                          [from_config.changes(c) for c in cfgs], t_end=first["sim.t_end"],
+                          [ch for _, ch in members], t_end=first["sim.t_end"],
                           h=first["sim.h"], S=S, fast=fast, RP=RP)
     return M
 

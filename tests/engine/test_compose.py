@@ -202,3 +202,75 @@ def test_fast_mode_is_close_to_exact():
     fa = simulate_loop(args[0], CONTROLLERS["IPID-algebraic"](0.01), 1.0, t_end=3.0,
                        fast=True)
     np.testing.assert_allclose(fa.signals["y"], ex.signals["y"], rtol=1e-10, atol=1e-12)
+
+
+def test_after_divergence_the_controller_holds_its_last_good_sample():
+    # review: the law used to run on the diverging sample before the run was flagged
+    def run(ctrl):
+        return simulate_loop(FirstOrder(a=-1.0, b=1.0), ctrl, 1.0, t_end=5.0,
+                             diverge_above=1e6)
+    a = mfcontrol.IP(alpha=1.0, kp=-50.0, sample_time=0.01)
+    b = mfcontrol.IP(alpha=1.0, kp=-50.0, sample_time=0.01)
+    ra, rb = run(a), run(_Opaque(b))
+    assert ra.metrics == rb.metrics and ra.metrics["diverged"]
+    assert a.snapshot() == b.snapshot()
+
+
+def test_dp45_does_not_fail_on_a_sliver_step_late_in_a_run():
+    # review: the minimum-step floor was applied to the step clipped to the sample's end
+    from numba import njit
+
+    from mfcontrol.numerics import dopri45
+    from mfcontrol.numerics import signatures as sig
+
+    @njit
+    def one(addr, t, x, p, h, dt):
+        w = np.empty((dopri45.N_WORK, x.size))
+        return dopri45.integrate(sig.as_rhs(addr), t, x, 0.0, p, h, 1e-9, 1e-12, dt, w)
+
+    from mfcontrol.plants import first_order
+    x = np.array([1.0])
+    one(first_order.rhs.address, 1000.0, x, np.array([-1e-9, 1.0, 0.0]), 1e-3, 1e-3 - 5e-12)
+    assert np.isfinite(x[0]) and abs(x[0] - np.exp(-1e-12)) < 1e-12
+
+
+def test_same_sample_changes_apply_in_list_order_on_both_paths():
+    # review: the Python driver sorted by time, the engine kept the list order
+    changes = [Change(0.0155, "w", 2.0), Change(0.0152, "w", -1.0)]
+    fast = simulate_loop(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
+                         sample_time=0.01), 1.0, t_end=0.5, changes=changes)
+    slow = simulate_loop(FirstOrder(-1.0, 1.0), _Opaque(mfcontrol.IP(
+        alpha=1.0, kp=5.0, sample_time=0.01)), 1.0, t_end=0.5, changes=changes)
+    np.testing.assert_array_equal(fast.signals["y"], slow.signals["y"])
+
+
+@pytest.mark.parametrize("kw, key", [
+    ({"changes": [Change(float("nan"), "w", 1.0)]}, "Change.time"),
+    ({"final_window": 0.0}, "final_window"),
+    ({"diverge_above": float("nan")}, "diverge_above"),
+    ({"h": -1.0}, "h"),
+])
+def test_bad_loop_settings_are_one_line_config_errors(kw, key):
+    with pytest.raises(mfcontrol.ConfigError, match=key):
+        simulate_loop(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
+                      sample_time=0.01), 1.0, t_end=1.0, **kw)
+
+
+def test_an_in_place_f_must_write_every_entry():
+    def f(t, x, u, p, dxdt):
+        dxdt[0] = -x[0] + u
+
+    with pytest.raises(ValueError, match=r"dxdt\[1\] unwritten"):
+        ODE(f, lambda x, p: x[0], x0=(0.0, 0.0))
+
+
+def test_a_schedule_that_breaks_the_plant_is_refused_for_a_case():
+    # review: the config path stopped checking scheduled values against the plant
+    from mfcontrol.experiments.cases import resolve_case
+
+    _, cfg = resolve_case("first-order-ip-algebraic")
+    _, bad = resolve_case("buck-ipi", {"plant.schedule": [{"t": 2e-3, "name": "L",
+                                                           "set": -1e-3}]})
+    with pytest.raises(mfcontrol.ConfigError, match="plant.schedule"):
+        mfcontrol.simulate(bad)
+    assert mfcontrol.simulate(cfg).metrics["stable"]

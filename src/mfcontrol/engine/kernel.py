@@ -45,6 +45,15 @@ S_FINAL_START = 1
 S_DIVERGE_ABOVE = 2
 N_SETTINGS = 3
 
+def settings(settle_time: float, final_start: float, diverge_above: float) -> np.ndarray:
+    """The metric settings vector S of the kernels."""
+    S = np.zeros(N_SETTINGS)
+    S[S_SETTLE] = settle_time
+    S[S_FINAL_START] = final_start
+    S[S_DIVERGE_ABOVE] = diverge_above
+    return S
+
+
 # trajectory rows; plant states follow from T_X0 on
 T_REF = 0
 T_Y = 1
@@ -102,14 +111,21 @@ def accumulate(iae, ise, itae, max_e_s, max_e_f, max_r, tv, k, t, h, y, r, a, a_
 
 
 @step_jit
+def measurement_ok(y, r, bound):
+    """y_k is finite and within the bound, and the error's metrics stay finite: the
+    divergence test on the measurement (a law runs only on a sample that passes it)."""
+    e = y - r
+    return np.isfinite(y) and abs(y) <= bound and np.isfinite(e * e)
+
+
+@step_jit
 def fold_metrics(alive, t_div, n_done, iae, ise, itae, max_e_s, max_e_f, max_r, tv, g_final,
                  k, t, h, y, r, u, a, a_prev, gamma, settle, final_start, bound):
     """Sample k folded into the running metrics with the divergence test: a member whose
     y or u is not finite, whose |y| exceeds ``bound``, or whose error would make a metric
     non-finite (a non-finite reference, or |e|^2 past the float range) is marked at this
     sample (alive = 0) and keeps its metrics, all finite, as they were from then on."""
-    e = y - r
-    bad = not (np.isfinite(y) and np.isfinite(u) and abs(y) <= bound and np.isfinite(e * e))
+    bad = not (measurement_ok(y, r, bound) and np.isfinite(u))
     t_div = t if (alive != 0.0 and bad) else t_div
     alive = 0.0 if bad else alive
     live = alive != 0.0

@@ -33,7 +33,7 @@ from ..simulate import compiled, simulate
 CHUNK = 4096
 
 
-_IDENTITY = ("case", "overrides", "grid", "chunk", "arithmetic")
+_IDENTITY = ("case", "overrides", "grid", "chunk", "arithmetic", "columns")
 
 
 def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int,
@@ -41,7 +41,9 @@ def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int
     return {"case": case, "overrides": overrides,
             "grid": {k: v.tolist() for k, v in grid.axes.items()}, "chunk": chunk,
             "arithmetic": "fast" if fast else "exact", "n_members": grid.n_members,
-            "mfcontrol": __version__}
+            # the metric columns: a folder written with other ones (tv_duty, before it was
+            # tv_u) is not resumed into a mixed table
+            "columns": list(batch.METRIC_COLUMNS), "mfcontrol": __version__}
 
 
 def _check_folder(out: Path, manifest: dict) -> None:

@@ -52,7 +52,9 @@ def integrate(rhs, t, x, u, p, h, rtol, atol, dt, w):
         last = t + dt >= t_end
         if last:
             dt = t_end - t
-        if not (dt > 1e-14 * max(abs(t), h)) or not math.isfinite(dt):
+        # the floor applies to the step the rule asks for; the last one, clipped to the
+        # sample's end, may be as short as it needs (scipy checks before clipping too)
+        if not (tried > 1e-14 * max(abs(t), h)) or not math.isfinite(tried):
             for i in range(n):
                 x[i] = math.nan
             return dt

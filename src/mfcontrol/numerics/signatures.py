@@ -95,8 +95,9 @@ as_advance = _caster(ADVANCE_T)
 
 @intrinsic
 def pointer(typingctx, arr):
-    """The data pointer of a float64 array, for the calls above."""
-    if not isinstance(arr, types.Array) or arr.dtype != types.float64:
+    """The data pointer of a contiguous float64 array, for the calls above (a strided view
+    would hand the callee the wrong elements: it does not type)."""
+    if not isinstance(arr, types.Array) or arr.dtype != types.float64 or arr.layout != "C":
         return None
 
     def codegen(context, builder, signature, args):

@@ -672,6 +672,10 @@ class ODE(Plant):
         dx = self.derivative(0.0, self.x0, 0.0)
         if dx.shape != (n,):
             raise ValueError(f"f(t, x, u, p) returned shape {dx.shape}; x0 has shape ({n},)")
+        if self._inplace and np.isnan(dx).any():
+            i = int(np.flatnonzero(np.isnan(dx))[0])
+            raise ValueError(f"f(t, x, u, p, dxdt) left dxdt[{i}] unwritten (NaN) at t = 0, "
+                             "x = x0, u = 0: write every entry")
         g(self.x0, self._p)
 
     @property
@@ -704,7 +708,7 @@ class ODE(Plant):
     def derivative(self, t: float, x: np.ndarray, u: float) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64)
         if self._inplace:
-            out = np.empty(x.size)
+            out = np.full(x.size, np.nan)  # an entry f leaves unwritten shows as NaN
             self._f(float(t), x, float(u), self._p, out)
             return out
         return np.asarray(self._f(float(t), x, float(u), self._p), dtype=np.float64)
