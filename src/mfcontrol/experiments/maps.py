@@ -26,12 +26,13 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
+from .. import metrics as _metrics
+
 if TYPE_CHECKING:
     import pandas as pd
 
 #: Per-member columns of results.parquet that are not swept keys.
-METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_final",
-           "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable", "member")
+METRICS = (*_metrics.COLUMNS, "member")
 
 #: Metrics that stay meaningful for a diverged member (the others stop accumulating at the
 #: divergence, so they are hidden for diverged members).
