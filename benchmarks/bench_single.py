@@ -130,7 +130,7 @@ def check_baseline(result: mfcontrol.Result) -> float:
     """Largest absolute difference between the baseline and ``result``; exit if too big."""
     ys, duties, us = python_baseline()
     worst = 0.0
-    for name, ours in (("y", ys), ("duty", duties), ("u_raw", us)):
+    for name, ours in (("y", ys), ("u", duties), ("u_raw", us)):
         theirs = np.asarray(result.signals[name])
         if theirs.shape != (len(ours),):
             sys.exit(f"baseline check failed: {name} has {theirs.shape} samples from "
