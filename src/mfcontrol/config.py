@@ -186,10 +186,21 @@ def _as_float(v: Any) -> float:
         return math.inf
 
 
+def _within(o: Option, v):
+    """Whether v (a float, or element-wise an array of them) is in the option's range."""
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(v)
+        if o.check == "positive":
+            ok = ok & (v > 0)
+        elif o.check == "nonnegative":
+            ok = ok & (v >= 0)
+        elif o.check == "fraction":
+            ok = ok & (v > 0) & (v <= 1)
+    return ok
+
+
 def _check_number(o: Option, v: float) -> bool:
-    if not math.isfinite(v):
-        return False
-    return {"positive": v > 0, "nonnegative": v >= 0, "fraction": 0 < v <= 1, "": True}[o.check]
+    return bool(_within(o, v))
 
 
 def check_value(key: str, value: Any) -> Any:
@@ -351,13 +362,7 @@ def check_axis(base: Config, key: str, values: Any) -> None:
     if o is None:
         raise unknown_key(key, values)
     arr = np.asarray(values, dtype=float)
-    ok = np.isfinite(arr)
-    if o.check == "positive":
-        ok &= arr > 0
-    elif o.check == "nonnegative":
-        ok &= arr >= 0
-    elif o.check == "fraction":
-        ok &= (arr > 0) & (arr <= 1)
+    ok = _within(o, arr)
     if o.kind != "float" or not ok.all():
         bad = values if o.kind != "float" else float(arr[np.flatnonzero(~ok)[0]])
         check_value(key, bad)  # raises with the option's message

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -150,11 +151,23 @@ def _settings(settle_time: float, t_end: float, final_window: float,
     return kernel.settings(settle_time, t_end * (1 - final_window), diverge_above)
 
 
+@contextmanager
+def restored(plant):
+    """Within the block, change the plant's parameters at will; afterwards they are as
+    they were (a schedule, a sweep member, a check acts on one run only)."""
+    original = dict(plant.params)
+    try:
+        yield original
+    finally:
+        for key, value in original.items():
+            if plant.params[key] != value:
+                plant.set_param(key, value)
+
+
 def _check_changes(plant, changes: Sequence[Change]) -> None:
     """Every change names a parameter of the plant and leaves it valid (the plant's own
     checks, applied in order to the plant and undone)."""
-    original = dict(plant.params)
-    try:
+    with restored(plant) as original:
         for c in changes:
             if not isinstance(c, Change):
                 raise TypeError(f"changes: {c!r} is not a mfcontrol.Change")
@@ -164,9 +177,6 @@ def _check_changes(plant, changes: Sequence[Change]) -> None:
                 raise ConfigError(c.name, c.value, "unknown parameter; allowed: "
                                   + (", ".join(original) or "none"))
             plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
-    finally:
-        for key in {c.name for c in changes if isinstance(c, Change) and c.name in original}:
-            plant.set_param(key, original[key])
 
 
 def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mapping[str, int],
@@ -339,7 +349,6 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
     n = t.size
     # each change at its sample, in list order: the engine's rule
     due = [_first_sample_at(c.time, t_end, n) for c in changes]
-    original = dict(plant.params)
     x = np.array(plant.x0, dtype=float, copy=True)
     y = np.full(n, np.nan)
     u = np.full(n, np.nan)
@@ -347,7 +356,7 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
     comps: dict[str, np.ndarray] = {}
     has_components = hasattr(controller, "components")
     bound = S[kernel.S_DIVERGE_ABOVE]
-    try:
+    with restored(plant):  # a schedule acts on this run only
         for k in range(n):
             for c, k_c in zip(changes, due, strict=True):
                 if k_c == k:
@@ -364,10 +373,6 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
                         comps[key] = np.full(n, np.nan)
                     comps[key][k] = value
             x = plant.step(t[k], x, uk, h)
-    finally:
-        # a schedule acts on this run only: the plant object is left as it was given
-        for key in {c.name for c in changes}:
-            plant.set_param(key, original[key])
     gamma = comps.get("gamma", np.full(n, np.nan))
     M = np.zeros((kernel.N_METRICS, 1))
     kernel.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)

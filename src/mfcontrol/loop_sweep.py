@@ -23,6 +23,7 @@ from .loop import (
     _reference,
     _settings,
     law_arrays,
+    restored,
     run_members,
     simulate_loop,
 )
@@ -158,10 +159,9 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     plant_keys = [k for k in keys if k.startswith("plant.")]
     ctrl_keys = [k for k in keys if k.startswith("controller.")]
     params = dict(controller._params)
-    original = dict(plant.params)
     laws: dict[tuple, Any] = {}
     plants, member_laws = [], []
-    try:
+    with restored(plant):  # each member's values set in turn, the plant left as given
         for combo in combos:
             values = {k: float(axes[k][i]) for k, i in zip(keys, combo, strict=True)}
             for k in plant_keys:  # the plant's own checks (positivity, ...)
@@ -174,10 +174,6 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
             if ckey not in laws:
                 laws[ckey] = _controller(controller, params, ctrl_keys, values)
             member_laws.append(law_arrays(laws[ckey]))
-    finally:
-        for k in plant_keys:
-            name = k.partition(".")[2]
-            plant.set_param(name, original[name])
     M, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
                           t_end=t_end, h=h, S=S, fast=fast)
     met = _metrics.table(M, stable_tol)
@@ -190,18 +186,14 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     if keep:
         for m in sorted({int(round(x)) for x in np.linspace(0, len(combos) - 1, keep)}):
             values = {k: float(table[k][m]) for k in keys}
-            for k in plant_keys:
-                plant.set_param(k.partition(".")[2], values[k])
-            try:
+            with restored(plant):
+                for k in plant_keys:
+                    plant.set_param(k.partition(".")[2], values[k])
                 kept[m] = simulate_loop(
                     plant, _controller(controller, params, ctrl_keys, values), reference,
                     t_end=t_end, h=h, changes=changes, settle_time=settle_time,
                     final_window=final_window, stable_tol=stable_tol,
                     diverge_above=diverge_above, name=f"member {m}", fast=fast)
-            finally:
-                for k in plant_keys:
-                    name = k.partition(".")[2]
-                    plant.set_param(name, original[name])
     return LoopSweepResult(axes=axes, table=table, kept=kept,
                            arithmetic="fast" if fast else "exact")
 
