@@ -317,14 +317,7 @@ def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, sta
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]
     _hand_back(controller, CS, traj, k_end)
-    rows = traj[:, :k_end]
-    signals = {"y_ref": rows[compose.T_REF], "y": rows[compose.T_Y],
-               "u": rows[compose.T_APPLIED], "u_raw": rows[compose.T_U],
-               "gamma": rows[compose.T_GAMMA], "gain": rows[compose.T_GAIN]}
-    for i, key in enumerate(law.components):
-        signals[key] = rows[compose.T_COMP + i]
-    x0 = compose.T_COMP + len(law.components)
-    states = {s: rows[x0 + i] for i, s in enumerate(plant.state_names)}
+    signals, states = kernel.named_rows(traj[:, :k_end], law.components, plant.state_names)
     return Result(name=name, time=t[:k_end], signals=signals, states=states, metrics=met,
                   changes=tuple(changes), engine="compiled",
                   arithmetic="fast" if fast else "exact")

@@ -18,12 +18,7 @@ def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: 
             fast: bool = False) -> Result:
     met = metrics.from_kernel(M, j, cfg["metrics.stable_tol"])
     n = met["n_samples"]
-    rows = traj[:, m, :n]
-    signals = {
-        "y_ref": rows[kernel.T_REF], "y": rows[kernel.T_Y], "u": rows[kernel.T_APPLIED],
-        "u_raw": rows[kernel.T_U], "gamma": rows[kernel.T_GAMMA], "gain": rows[kernel.T_GAIN],
-    }
-    states = {s: rows[kernel.T_X0 + i] for i, s in enumerate(scn.state_names)}
+    signals, states = kernel.named_rows(traj[:, m, :n], (), scn.state_names)
     return Result(name=name, config=cfg, time=scn.time()[:n], signals=signals, states=states,
                   metrics=met, version=__version__, arithmetic="fast" if fast else "exact")
 

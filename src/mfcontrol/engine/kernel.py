@@ -232,6 +232,18 @@ def _single_loop(fast):
     return run_single
 
 
+def named_rows(rows, components=(), state_names=()):
+    """(signals, states) of recorded trajectory rows: the signals every run records (rows
+    T_REF .. T_GAIN), a law's components after them, then the plant states; the one place
+    a trajectory's rows get their names."""
+    signals = {"y_ref": rows[T_REF], "y": rows[T_Y], "u": rows[T_APPLIED], "u_raw": rows[T_U],
+               "gamma": rows[T_GAMMA], "gain": rows[T_GAIN]}
+    for i, key in enumerate(components):
+        signals[key] = rows[T_X0 + i]
+    x0 = T_X0 + len(components)
+    return signals, {s: rows[x0 + i] for i, s in enumerate(state_names)}
+
+
 @step_jit
 def record(traj, k, r, y, u, a, gamma, g):
     """Sample k's signals into the trajectory rows T_REF .. T_GAIN."""
