@@ -127,12 +127,12 @@ def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None
     if k_end == 0:
         return
     controller._CS[:, 0] = CS[:, 0]
-    controller._last_output = float(traj[compose.T_APPLIED, k_end - 1])
-    controller.setpoint = traj[compose.T_REF, k_end - 1]
+    controller._last_output = float(traj[kernel.T_APPLIED, k_end - 1])
+    controller.setpoint = float(traj[kernel.T_REF, k_end - 1])
     if isinstance(controller, RecursiveIP):
-        controller._components = {"u_raw": float(traj[compose.T_U, k_end - 1]),
-                                  "gain": float(traj[compose.T_GAIN, k_end - 1]),
-                                  "gamma": float(traj[compose.T_GAMMA, k_end - 1])}
+        controller._components = {"u_raw": float(traj[kernel.T_U, k_end - 1]),
+                                  "gain": float(traj[kernel.T_GAIN, k_end - 1]),
+                                  "gamma": float(traj[kernel.T_GAMMA, k_end - 1])}
 
 
 def _settings(settle_time: float, t_end: float, final_window: float,
@@ -210,8 +210,8 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     rows, the configured reference of each member, ``RP[:, j]`` (see
     :mod:`mfcontrol.references`).
 
-    Returns (M, traj, CS, comp rows): metrics of every member; with ``record`` (one member)
-    its trajectory ``traj[row, k]``, else an empty array.
+    Returns (M, traj, CS): metrics of every member; with ``record`` (one member) its
+    trajectory ``traj[row, k]``, else an empty array; the law memory of every member.
     """
     n = round(t_end / h)
     p0, l0 = plants[0], laws[0]
@@ -241,6 +241,18 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 events, S, M, tol,
                 DT, traj, comp_rows, fast=fast)
     return M, traj, CS
+
+
+def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_window,
+           stable_tol, diverge_above):
+    """What a run of objects starts from, checked: (plant, h, t, r, S)."""
+    plant = _as_plant(plant)
+    h = float(controller.sample_time if h is None else h)
+    n = _grid(t_end, h)
+    _check_changes(plant, changes)
+    t = (np.arange(n) * t_end) / n
+    S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
+    return plant, h, t, _reference(reference, t), S
 
 
 # ---------------------------------------------------------------------------------------------
@@ -288,13 +300,8 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     >>> bool(res.metrics["stable"]), round(float(res.signals["y"][-1]), 4), res.engine
     (True, 1.0, 'compiled')
     """
-    plant = _as_plant(plant)
-    h = float(controller.sample_time if h is None else h)
-    n = _grid(t_end, h)
-    _check_changes(plant, changes)
-    t = (np.arange(n) * t_end) / n
-    r = _reference(reference, t)
-    S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
+    plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
+                               final_window, stable_tol, diverge_above)
     ep = plant.engine() if hasattr(plant, "engine") else None
     law = law_arrays(controller)
     if ep is None or law is None:

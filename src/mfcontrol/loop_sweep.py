@@ -17,11 +17,8 @@ from .errors import ConfigError
 from .loop import (
     Change,
     Reference,
-    _as_plant,
     _check_changes,
-    _grid,
-    _reference,
-    _settings,
+    _setup,
     law_arrays,
     restored,
     run_members,
@@ -141,14 +138,10 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     """
     if not isinstance(keep, int | np.integer) or isinstance(keep, bool) or keep < 0:
         raise ConfigError("keep", keep, "must be a whole number >= 0")
-    plant = _as_plant(plant)
+    plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
+                               final_window, stable_tol, diverge_above)
     axes = _axes(grid, plant, controller)
-    h = float(controller.sample_time if h is None else h)
-    n = _grid(t_end, h)
-    _check_changes(plant, changes)
-    t = (np.arange(n) * t_end) / n
-    R = _reference(reference, t)[None, :]
-    S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
+    R = r[None, :]
     base_ep = plant.engine() if hasattr(plant, "engine") else None
     if base_ep is None or law_arrays(controller) is None:
         raise ConfigError("plant", type(plant).__name__, "a sweep runs in the compiled "

@@ -47,8 +47,6 @@ EXACT = 2
 INTEGRATORS = {"rk4": RK4, "rk45": DP45, "exact": EXACT}
 
 # trajectory rows; the law's component rows follow from T_COMP on, then the plant states
-T_REF, T_Y, T_U, T_APPLIED, T_GAMMA, T_GAIN = (kernel.T_REF, kernel.T_Y, kernel.T_U,
-                                                kernel.T_APPLIED, kernel.T_GAMMA, kernel.T_GAIN)
 T_COMP = kernel.T_X0
 
 
@@ -67,8 +65,8 @@ def _make_loop(fast):
         ``references.value(RP, j, t)``; event e sets (or adds, ``ev_add[e]``) ``ev_val[e, j]``
         to ``P[j, ev_col[e]]`` at sample ``ev_k[e, j]``; ``M[:, j]`` the metrics;
         ``DT[j]`` the adaptive integrator's carried step. When ``traj`` has n_steps columns,
-        member j0's trajectory is recorded there (rows as :data:`T_REF` .. :data:`T_COMP`,
-        the CS rows ``comp_rows``, then the states).
+        member j0's trajectory is recorded there (rows as ``kernel.T_REF`` .. ``T_GAIN``,
+        the CS rows ``comp_rows`` from :data:`T_COMP` on, then the states).
         """
         rhs = sig.as_rhs(rhs)
         output = sig.as_output(output)
@@ -102,8 +100,7 @@ def _make_loop(fast):
             prepare(sig.pointer(p), h, n_x, n_p)
             next_ev = n_steps
             for e in range(n_ev):
-                if ev_k[e, j] >= 0:
-                    next_ev = min(next_ev, ev_k[e, j])
+                next_ev = min(next_ev, ev_k[e, j])
             a_prev = 0.0
             dt_carry = DT[j]
             ref_row = j if own_ref else 0
@@ -175,7 +172,7 @@ SIGNATURE = types.boolean(
 @lru_cache(maxsize=2)
 def member_kernel(fast: bool = False):
     """The compiled member loop (exact IEEE arithmetic, or the fast mode's flags); loaded
-    from numba's disk cache after the first compilation, which takes about 10 s."""
+    from numba's disk cache after the first compilation, which takes about 15 s."""
     options = dict(error_model="numpy", cache=True, nogil=True)
     if fast:
         options["fastmath"] = set(_jit.FAST_FLAGS)
