@@ -30,8 +30,8 @@ import numpy as np
 
 import mfcontrol
 from bench_batch import median_time  # noqa: I001 (a sibling script: run from anywhere)
+from mfcontrol.api.plants import ODE
 from mfcontrol.experiments.cases import resolve_case
-from mfcontrol.plants.models import ODE
 
 J, B_F, K_T, R_A, L_A = 5e-4, 1e-4, 0.05, 2.0, 2e-3
 H, T_END, T_LOAD, LOAD = 1e-3, 10.0, 5.0, 0.05

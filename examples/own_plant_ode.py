@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 import mfcontrol
-from mfcontrol.plants.models import ODE
+from mfcontrol.api.plants import ODE
 
 AREA, ORIFICE, G = 0.5, 0.01, 9.81
 

@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from mfcontrol.config import options_markdown
+from mfcontrol.config.options import options_markdown
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -9,19 +9,21 @@ Quick use::
 """
 
 from ._version import __version__
+from .api.controllers import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
+from .api.loop import Change, LoopResult, simulate_loop
+from .api.plants import LTI, ODE, Boost, Buck, FirstOrder, Plant
+from .api.result import Result, SweepResult
+from .api.simulate import simulate, simulate_many, simulate_sweep
+from .api.sweep import LoopSweepResult, sweep
 from .config import Config, resolve
-from .controller import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
 from .errors import CaseError, ConfigError
 from .experiments.cases import names as case_names
 from .experiments.cases import run_case
-from .loop import Change, LoopResult, simulate_loop
-from .loop_sweep import LoopSweepResult, sweep
-from .result import Result, SweepResult
-from .simulate import simulate, simulate_many, simulate_sweep
 
 __all__ = [
     "IP", "IPD", "IPI", "IPID", "IntelligentController", "RecursiveIP",
     "CaseError", "Config", "ConfigError", "Result", "SweepResult", "__version__",
+    "Plant", "Buck", "Boost", "FirstOrder", "LTI", "ODE",
     "Change", "LoopResult", "LoopSweepResult", "simulate_loop", "sweep",
     "case_names", "resolve", "run_case", "simulate", "simulate_many", "simulate_sweep",
 ]

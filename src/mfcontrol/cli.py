@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from ._version import __version__
-from .config import parse_assignment
+from .config.toml import parse_assignment
 from .errors import CaseError, ConfigError
 
 EXIT_USAGE = 2
@@ -56,8 +56,8 @@ def _cmd_show(args) -> int:
 
 
 def _cmd_run(args) -> int:
+    from .api.result import SweepResult
     from .experiments import cases
-    from .result import SweepResult
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set))
     out = _out_dir(args.out) if args.out else Path("results") / name
@@ -82,7 +82,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_sweep(args) -> int:
-    from .batch import parse_grid
+    from .api.batch import parse_grid
     from .experiments import cases
     from .experiments.sweeps import Progress, run_sweep
 

@@ -5,7 +5,7 @@ import pytest
 
 import mfcontrol
 from mfcontrol import Change, simulate_loop
-from mfcontrol.plants.models import LTI, ODE, Boost, Buck, FirstOrder
+from mfcontrol.api.plants import LTI, ODE, Boost, Buck, FirstOrder
 
 
 class _Opaque:
@@ -154,7 +154,7 @@ def test_lti_exact_step_follows_a_scheduled_change_and_matches_python_control():
 
 
 def test_rk45_in_the_engine_agrees_with_scipy_in_the_python_driver():
-    class PyFirstOrder(mfcontrol.plants.models.Plant):
+    class PyFirstOrder(mfcontrol.api.plants.Plant):
         def __init__(self):
             super().__init__(("y",), (0.0,), integrator="rk45", rtol=1e-10, atol=1e-12)
 

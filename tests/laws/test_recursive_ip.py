@@ -123,4 +123,4 @@ def test_from_STEADY_on_the_law_depends_on_k_only_through_its_state(
     from mfcontrol.laws.recursive_ip import STEADY, advance
     params = (mode, 0.1, 1.0, 1e-6, 0.01, order, 2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef,
               use_gamma, 1 / 2000, 1e-3, 0.9, 0.0)
-    assert advance(float(k), y, r, *state, *params) == advance(STEADY, y, r, *state, *params)
+    assert advance(float(k), y, r, *state, params) == advance(STEADY, y, r, *state, params)

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from mfcontrol.api.plants import Boost
 from mfcontrol.plants import boost
-from mfcontrol.plants.models import Boost
 
 P = {"E": 20.0, "L": 1e-3, "R": 10.0, "C": 10e-6}
 

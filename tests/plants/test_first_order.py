@@ -4,8 +4,8 @@ import math
 
 import pytest
 
+from mfcontrol.api.plants import FirstOrder
 from mfcontrol.plants import first_order as fo
-from mfcontrol.plants.models import FirstOrder
 
 # the plant object steps with the engine's functions: the one RK4 on fo.rhs, or fo.advance
 RK4, EXACT = "rk4", "exact"

@@ -4,7 +4,7 @@ Each sample k (t_k = (k t_end) / N, the single run's formula): scheduled paramet
 due at k (then the plant's ``prepare``), the measurement y_k = output(x_k) before the plant
 step, the reference r_k, the law (:func:`mfcontrol.laws.intelligent.step` or
 :func:`mfcontrol.laws.recursive_ip.step`, the functions the live controllers call), the
-metrics fold of every kernel (:func:`mfcontrol.engine.kernel.fold_metrics`, with its
+metrics fold of every kernel (:func:`mfcontrol.engine.metrics.fold_metrics`, with its
 divergence test), then the plant advanced over [t_k, t_k + h] with the applied input held:
 by the one RK4 (:mod:`mfcontrol.numerics.rk4`), the one Dormand-Prince 5(4)
 (:mod:`mfcontrol.numerics.dopri45`) or the plant's exact step.
@@ -17,7 +17,7 @@ rows of the plant arrays) run one after another, each a single run; :func:`run` 
 them over threads (the kernel releases the GIL).
 
 The paper's buck under the recursive law keeps its own tuned kernels
-(:mod:`mfcontrol.engine.kernel`, :mod:`mfcontrol.engine.packed`): state in registers and
+(:mod:`mfcontrol.engine.paper_single`, :mod:`mfcontrol.engine.paper_sweep`): state in registers and
 members vectorised. Both fold the metrics with the same function, step the law with the
 same function and integrate the buck with the same arithmetic.
 """
@@ -31,14 +31,15 @@ from functools import lru_cache
 import numpy as np
 from numba import njit, types
 
-from .. import _jit, references
-from ..laws import gain, intelligent, recursive_ip
-from ..numerics import dopri45, rk4
+from .. import _jit
+from ..laws import intelligent, recursive_ip, reference, variational_gain
+from ..numerics import dopri45, grid, rk4
 from ..numerics import signatures as sig
-from . import kernel
+from . import metrics as engine_metrics
+from . import paper_single, trajectory
 
 # law kinds
-RECURSIVE_IP = kernel.RECURSIVE_IP
+RECURSIVE_IP = paper_single.RECURSIVE_IP
 INTELLIGENT = 1
 # integrators
 RK4 = 0
@@ -47,7 +48,7 @@ EXACT = 2
 INTEGRATORS = {"rk4": RK4, "rk45": DP45, "exact": EXACT}
 
 # trajectory rows; the law's component rows follow from T_COMP on, then the plant states
-T_COMP = kernel.T_X0
+T_COMP = trajectory.T_X0
 
 
 def _make_loop(fast):
@@ -62,10 +63,10 @@ def _make_loop(fast):
 
         ``X[j]``/``P[j]``: plant state/parameters of member j; ``CP[:, j]``/``CS[:, j]``:
         law parameters/state; ``R[j or 0, k]`` the reference when R has rows, else
-        ``references.value(RP, j, t)``; event e sets (or adds, ``ev_add[e]``) ``ev_val[e, j]``
+        ``reference.value(RP, j, t)``; event e sets (or adds, ``ev_add[e]``) ``ev_val[e, j]``
         to ``P[j, ev_col[e]]`` at sample ``ev_k[e, j]``; ``M[:, j]`` the metrics;
         ``DT[j]`` the adaptive integrator's carried step. When ``traj`` has n_steps columns,
-        member j0's trajectory is recorded there (rows as ``kernel.T_REF`` .. ``T_GAIN``,
+        member j0's trajectory is recorded there (rows as ``trajectory.T_REF`` .. ``T_GAIN``,
         the CS rows ``comp_rows`` from :data:`T_COMP` on, then the states).
         """
         rhs = sig.as_rhs(rhs)
@@ -81,7 +82,7 @@ def _make_loop(fast):
         own_ref = R.shape[0] > 1
         use_series = R.shape[0] > 0
         rtol, atol = tol[0], tol[1]
-        bound = S[kernel.S_DIVERGE_ABOVE]
+        bound = S[engine_metrics.S_DIVERGE_ABOVE]
         # each member's law columns and metrics are copied to one contiguous column while it
         # runs: in place, a member's rows lie a whole row of members apart (measured: a
         # 1,024-member batch 1.8x slower per sample than a 64-member one)
@@ -105,7 +106,7 @@ def _make_loop(fast):
             dt_carry = DT[j]
             ref_row = j if own_ref else 0
             for k in range(n_steps):
-                t = (k * t_end) / n_steps
+                t = grid.time(k, t_end, n_steps)
                 if k == next_ev:
                     next_ev = n_steps
                     for e in range(n_ev):
@@ -120,24 +121,24 @@ def _make_loop(fast):
                 if use_series:
                     r = R[ref_row, k]
                 else:
-                    r = references.value(RP, j, t)
-                if not kernel.measurement_ok(y, r, bound):
+                    r = reference.value(RP, j, t)
+                if not engine_metrics.measurement_ok(y, r, bound):
                     # flagged before the law runs: the controller's memory ends at the last
                     # good sample, as a loop of live calls would leave it
-                    kernel.member_metrics(mj, S, 0, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
+                    engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
                     break
                 if law_kind == INTELLIGENT:
                     a = intelligent.step(cp, cs, 0, y, r, law_dt)
                     u = cs[intelligent.C_UNLIM, 0]
-                    gamma = cs[gain.G1, 0]
+                    gamma = cs[variational_gain.G1, 0]
                     g = gamma
                 else:
                     u, a, g, gamma = recursive_ip.step(cp, cs, 0, y, r)
-                if not kernel.member_metrics(mj, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
+                if not engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
                     break
                 a_prev = a
                 if record and j == j0:
-                    kernel.record(traj, k, r, y, u, a, gamma, g)
+                    trajectory.record(traj, k, r, y, u, a, gamma, g)
                     for c in range(comp_rows.size):
                         traj[T_COMP + c, k] = cs[comp_rows[c], 0]
                     for i in range(n_x):

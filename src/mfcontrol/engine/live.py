@@ -7,7 +7,7 @@ costs little more than numba's own dispatch.
 import numpy as np
 
 from .._jit import kernel_jit
-from ..laws import gain, intelligent, recursive_ip
+from ..laws import intelligent, recursive_ip, variational_gain
 
 
 @kernel_jit
@@ -18,8 +18,9 @@ def intelligent_step(CP, CS, backup, y, r, dt, alpha):
     n = CS.shape[0]
     for i in range(n):
         backup[i] = CS[i, 0]
-    if CP[gain.MODE, 0] == gain.EXTERNAL:  # read in that mode only: the state stays the engine's
-        CS[gain.ALPHA_EXT, 0] = alpha
+    # read in that mode only: the state stays the engine's
+    if CP[variational_gain.MODE, 0] == variational_gain.EXTERNAL:
+        CS[variational_gain.ALPHA_EXT, 0] = alpha
     u = intelligent.step(CP, CS, 0, y, r, dt)
     if not np.isfinite(u):
         for i in range(n):
@@ -57,8 +58,8 @@ def recursive_reset(CP, CS):
 def intelligent_pure(CP, state, y, r, dt, alpha):
     """The step as a pure function of (state, inputs): (u, next state); ``state`` unchanged."""
     CS = state.copy().reshape((state.size, 1))
-    if CP[gain.MODE, 0] == gain.EXTERNAL:
-        CS[gain.ALPHA_EXT, 0] = alpha
+    if CP[variational_gain.MODE, 0] == variational_gain.EXTERNAL:
+        CS[variational_gain.ALPHA_EXT, 0] = alpha
     u = intelligent.step(CP, CS, 0, y, r, dt)
     return u, CS[:, 0]
 

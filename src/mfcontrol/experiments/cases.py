@@ -7,10 +7,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..config import Config, flatten, resolve
+from ..api.result import Result, SweepResult
+from ..api.simulate import simulate, simulate_sweep
+from ..config import Config, resolve
+from ..config.toml import flatten
 from ..errors import CaseError
-from ..result import Result, SweepResult
-from ..simulate import simulate, simulate_sweep
 
 CASES_DIR = Path(__file__).parent / "cases"
 

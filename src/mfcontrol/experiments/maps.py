@@ -8,7 +8,7 @@ the rows into a grid ``metric(x, y)`` and draws it with ``pcolormesh`` on the ce
 diverged: their metrics only cover the samples before divergence, so a member that blew up
 early would otherwise look like the best one.
 
-Uses matplotlib's object API (no pyplot), like :mod:`mfcontrol.plotting`.
+Uses matplotlib's object API (no pyplot), like :mod:`mfcontrol.api.plotting`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
-from .. import metrics as _metrics
+from ..api import metrics as _metrics
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -17,8 +17,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from ..plotting import plot_gamma, plot_long_horizon, plot_run, plot_sweep
-from ..result import Result, SweepResult
+from ..api.plotting import plot_gamma, plot_long_horizon, plot_run, plot_sweep
+from ..api.result import Result, SweepResult
 from . import maps, report
 from .cases import run_case
 
@@ -39,7 +39,7 @@ def run_map(case: str, fidelity: str):
     """All members of a map case's grid, as a DataFrame."""
     import pandas as pd
 
-    from .. import batch
+    from ..api import batch
     from .cases import resolve_case
 
     _, cfg = resolve_case(case, {"fidelity": fidelity})

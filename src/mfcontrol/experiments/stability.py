@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import scenario
+from ..api import scenario
 from ..config import Config
-from ..engine import kernel
+from ..engine import metrics, paper_single, trajectory
 from ..laws import recursive_ip
 from ..plants import buck
 
@@ -42,14 +42,14 @@ def spectral_radius(cfg: Config, gain: float, R: float, v_ref: float = 2.5) -> f
         Z[c, c + 1] += eps[c]
     X = Z[:2].copy()
     CS = np.zeros((recursive_ip.N_STATE, 5))
-    kernel.reset_members(scn.law_kind, scn.CP, CS)
+    paper_single.reset_members(scn.law_kind, scn.CP, CS)
     CS[recursive_ip.K] = 1.0
     CS[recursive_ip.Y_PREV] = Z[2]
     CS[recursive_ip.U_PREV] = Z[3]
     CS[recursive_ip.R_PREV] = v_ref
     for j in range(5):  # one sample from each state, through the single-run kernel
-        scenario.run_member(scn, j, X, CS, np.zeros((kernel.N_METRICS, 1)),
-                            np.empty((kernel.T_X0 + 2, 1)), n_steps=1, t_end=scn.h)
+        scenario.run_member(scn, j, X, CS, np.zeros((metrics.N_METRICS, 1)),
+                            np.empty((trajectory.T_X0 + 2, 1)), n_steps=1, t_end=scn.h)
     Z1 = np.vstack([X, CS[recursive_ip.Y_PREV], CS[recursive_ip.U_PREV]])
     J = (Z1[:, 1:] - Z1[:, :1]) / eps
     return float(np.max(np.abs(np.linalg.eigvals(J))))

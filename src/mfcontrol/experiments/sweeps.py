@@ -24,11 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import batch
 from .._version import __version__
+from ..api import batch
+from ..api.simulate import compiled, simulate
 from ..config import Config
 from ..errors import ConfigError
-from ..simulate import compiled, simulate
 
 CHUNK = 4096
 
@@ -104,7 +104,7 @@ def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str,
               out: Path, *, keep: int = 0, chunk: int = CHUNK, dask: str | None = None,
               progress: Callable[[int], None] | None = None, fast: bool = False) -> Path:
     """Run (or resume) a sweep into ``out``; return the path of results.parquet.
-    ``fast``: the batch kernel's fast arithmetic (see :func:`mfcontrol.batch.run_range`);
+    ``fast``: the batch kernel's fast arithmetic (see :func:`mfcontrol.api.batch.run_range`);
     a folder holds one kind, and resuming with the other is refused."""
     import pandas as pd
 

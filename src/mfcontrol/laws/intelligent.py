@@ -5,7 +5,7 @@ Ultra-local model of order n = 1 or 2, ``y^(n) = F + alpha u``, error ``e = y - 
     u = -(F_hat - y*^(n) + K_P e + K_I int(e) + K_D e') / alpha
 
 i-P has K_I = K_D = 0, i-PI adds the integral, i-PD (n = 2) the derivative, i-PID all
-three. ``1/alpha`` is the gain gamma of :mod:`mfcontrol.laws.gain` (constant, the
+three. ``1/alpha`` is the gain gamma of :mod:`mfcontrol.laws.variational_gain` (constant, the
 variational update of the paper driven by the error derivative, or supplied by the caller).
 
 F_hat, selectable:
@@ -31,21 +31,21 @@ Until n samples have been seen no derivative exists: the output holds ``u_init``
 import math
 
 from .._jit import step_jit
-from . import estimators, gain
+from . import estimators, variational_gain
 
 # parameter rows (after the gain adaptation rows)
-N_ORDER = gain.N_PARAMS + 0  # ultra-local model order n (1 or 2)
-KP = gain.N_PARAMS + 1
-KI = gain.N_PARAMS + 2
-KD = gain.N_PARAMS + 3
-EST = gain.N_PARAMS + 4  # 0 backward difference, 1 algebraic
-M_WIN = gain.N_PARAMS + 5  # algebraic window, samples
-OUT_MIN = gain.N_PARAMS + 6
-OUT_MAX = gain.N_PARAMS + 7
-AW = gain.N_PARAMS + 8  # 0 none, 1 clamp, 2 back-calculation
-K_AW = gain.N_PARAMS + 9
-U_INIT = gain.N_PARAMS + 10
-N_PARAMS = gain.N_PARAMS + 11
+N_ORDER = variational_gain.N_PARAMS + 0  # ultra-local model order n (1 or 2)
+KP = variational_gain.N_PARAMS + 1
+KI = variational_gain.N_PARAMS + 2
+KD = variational_gain.N_PARAMS + 3
+EST = variational_gain.N_PARAMS + 4  # 0 backward difference, 1 algebraic
+M_WIN = variational_gain.N_PARAMS + 5  # algebraic window, samples
+OUT_MIN = variational_gain.N_PARAMS + 6
+OUT_MAX = variational_gain.N_PARAMS + 7
+AW = variational_gain.N_PARAMS + 8  # 0 none, 1 clamp, 2 back-calculation
+K_AW = variational_gain.N_PARAMS + 9
+U_INIT = variational_gain.N_PARAMS + 10
+N_PARAMS = variational_gain.N_PARAMS + 11
 
 BACKWARD = 0.0
 ALGEBRAIC = 1.0
@@ -56,22 +56,22 @@ AW_BACK = 2.0
 ANTI_WINDUP = {"none": AW_NONE, "clamp": AW_CLAMP, "back-calculation": AW_BACK}
 
 # state rows (after the gain adaptation rows)
-K = gain.N_STATE + 0
-Y1 = gain.N_STATE + 1  # y_{k-1}
-Y2 = gain.N_STATE + 2  # y_{k-2}
-R1 = gain.N_STATE + 3
-R2 = gain.N_STATE + 4
-U1 = gain.N_STATE + 5  # applied u_{k-1}
-INTEG = gain.N_STATE + 6  # integral of e
-E1 = gain.N_STATE + 7
+K = variational_gain.N_STATE + 0
+Y1 = variational_gain.N_STATE + 1  # y_{k-1}
+Y2 = variational_gain.N_STATE + 2  # y_{k-2}
+R1 = variational_gain.N_STATE + 3
+R2 = variational_gain.N_STATE + 4
+U1 = variational_gain.N_STATE + 5  # applied u_{k-1}
+INTEG = variational_gain.N_STATE + 6  # integral of e
+E1 = variational_gain.N_STATE + 7
 # the last sample's terms, for inspection
-C_F = gain.N_STATE + 8
-C_FF = gain.N_STATE + 9  # feed-forward y*^(n)
-C_P = gain.N_STATE + 10
-C_I = gain.N_STATE + 11
-C_D = gain.N_STATE + 12
-C_UNLIM = gain.N_STATE + 13
-EST_BASE = gain.N_STATE + 14
+C_F = variational_gain.N_STATE + 8
+C_FF = variational_gain.N_STATE + 9  # feed-forward y*^(n)
+C_P = variational_gain.N_STATE + 10
+C_I = variational_gain.N_STATE + 11
+C_D = variational_gain.N_STATE + 12
+C_UNLIM = variational_gain.N_STATE + 13
+EST_BASE = variational_gain.N_STATE + 14
 
 
 def n_state(M: int) -> int:
@@ -81,7 +81,7 @@ def n_state(M: int) -> int:
 
 @step_jit
 def reset(CP, CS, j):
-    gain.reset(CP, CS, j)
+    variational_gain.reset(CP, CS, j)
     for row in range(K, EST_BASE):
         CS[row, j] = 0.0
     CS[U1, j] = CP[U_INIT, j]
@@ -113,7 +113,7 @@ def step(CP, CS, j, y, r, dt):
     else:
         yd = (y - CS[Y1, j]) / dt
         rd = (r - CS[R1, j]) / dt
-        gamma, _ = gain.update(CP, CS, j, k, yd - rd)
+        gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
         alpha = 1.0 / gamma
         if n == 2.0:
             yn = (y - 2.0 * CS[Y1, j] + CS[Y2, j]) / (dt * dt)

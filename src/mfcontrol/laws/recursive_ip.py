@@ -5,7 +5,7 @@ For k >= 1, with ``e_dot_k = (y_k - y_{k-1})/hd - (r_k - r_{k-1})/hd``::
     u_k = (u_{k-1} - g_k * e_dot_k) + s * (Kp * (r_k - y_p))  [+ c * ((gamma_k - gamma_{k-1}) / hd)]
 
 * ``g_k`` is gamma_k (``gain = gamma``) or 1/alpha (``gain = alpha``, eq. 33 literally);
-  gamma_k comes from :mod:`mfcontrol.laws.gain`.
+  gamma_k comes from :mod:`mfcontrol.laws.variational_gain`.
 * ``y_p`` is y_{k-1} (published) or y_k (as printed); ``s`` is +1 for Kp (r - y)
   (published) or -1 for Kp (y - r) (as printed, positive feedback for Kp > 0).
 * the bracketed rate term is the K_gamma dgamma/dt term of eq. (33), ``c = +K_gamma``
@@ -19,38 +19,44 @@ recursion to the limit, 0 < c < 1 is back-calculation (c = k_aw h).
 The operation order follows the published code so that results match it bit for bit.
 """
 
-from .._jit import step_jit
-from . import gain
+from numba.np.unsafe.ndarray import to_fixed_tuple
 
-# parameter rows (after the gain adaptation rows)
-KP = gain.N_PARAMS + 0
-HD = gain.N_PARAMS + 1
-U0 = gain.N_PARAMS + 2
-P_SIGN = gain.N_PARAMS + 3
-P_CURRENT = gain.N_PARAMS + 4
-RATE_COEF = gain.N_PARAMS + 5
-USE_GAMMA = gain.N_PARAMS + 6
-OUT_GAIN = gain.N_PARAMS + 7
-OUT_MIN = gain.N_PARAMS + 8
-OUT_MAX = gain.N_PARAMS + 9
-AW_COEF = gain.N_PARAMS + 10  # 0 published (winds up), 1 clamp, k_aw h back-calculation
-N_PARAMS = gain.N_PARAMS + 11
+from .._jit import step_jit
+from . import variational_gain as vg
+
+# The law's parameters: the gain adaptation's rows, then these. The row constants are the
+# one declaration: the parameter tuple (:func:`parameters`), the engines' readers and the
+# sweep kernel's specialisation (:mod:`mfcontrol.engine.paper_sweep`) all follow from
+# them, so adding a parameter is a row here, a read in :func:`advance`, and the line of
+# the translator (:func:`mfcontrol.api.params.recursive_law_column`) that fills it.
+KP = vg.N_PARAMS + 0
+HD = vg.N_PARAMS + 1
+U0 = vg.N_PARAMS + 2
+P_SIGN = vg.N_PARAMS + 3
+P_CURRENT = vg.N_PARAMS + 4
+RATE_COEF = vg.N_PARAMS + 5
+USE_GAMMA = vg.N_PARAMS + 6
+OUT_GAIN = vg.N_PARAMS + 7
+OUT_MIN = vg.N_PARAMS + 8
+OUT_MAX = vg.N_PARAMS + 9
+AW_COEF = vg.N_PARAMS + 10  # 0 published (winds up), 1 clamp, k_aw h back-calculation
+N_PARAMS = vg.N_PARAMS + 11
 
 # state rows (after the gain adaptation rows)
-U_PREV = gain.N_STATE + 0
-Y_PREV = gain.N_STATE + 1
-R_PREV = gain.N_STATE + 2
-K = gain.N_STATE + 3
-N_STATE = gain.N_STATE + 4
+U_PREV = vg.N_STATE + 0
+Y_PREV = vg.N_STATE + 1
+R_PREV = vg.N_STATE + 2
+K = vg.N_STATE + 3
+N_STATE = vg.N_STATE + 4
 
 #: from this sample on :func:`advance` depends on k only through the state: a kernel may
 #: pass STEADY for every k >= STEADY, which compiles out the start-up branches
-STEADY = max(1.0, gain.STEADY)
+STEADY = max(1.0, vg.STEADY)
 
 
 @step_jit
 def reset(CP, CS, j):
-    gain.reset(CP, CS, j)
+    vg.reset(CP, CS, j)
     CS[U_PREV, j] = 0.0
     CS[Y_PREV, j] = 0.0
     CS[R_PREV, j] = 0.0
@@ -64,25 +70,31 @@ def clip(x, lo, hi):
 
 
 @step_jit
-def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, mode, inv_alpha, gamma0, rate, eps_m,
-            order, kp, hd, u0, p_sign, p_current, rate_coef, use_gamma, out_gain, lo, hi,
-            aw_coef):
+def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, P):
     """One sample from plain floats: the one place the law is written.
 
-    Returns (u_k, applied_k, gain_k, gamma_k, u carried to the next sample, gamma for
-    G1, gamma for G2). Sample 0 gives u_0 and the initial gamma.
+    ``P`` holds the member's parameters, rows 0 .. N_PARAMS-1 of its column in row order
+    (:func:`parameters`); a tuple, so that a sweep kernel may put compile-time constants
+    in it. Returns (u_k, applied_k, gain_k, gamma_k, u carried to the next sample, gamma
+    for G1, gamma for G2). Sample 0 gives u_0 and the initial gamma.
     """
+    mode, inv_alpha, gamma0 = P[vg.MODE], P[vg.INV_ALPHA], P[vg.GAMMA0]
+    out_gain, lo, hi, aw_coef = P[OUT_GAIN], P[OUT_MIN], P[OUT_MAX], P[AW_COEF]
     if k == 0.0:  # the same sample for every member: a uniform, predictable branch
-        g0 = gamma0 if mode == gain.VARIATIONAL else inv_alpha
+        g0 = gamma0 if mode == vg.VARIATIONAL else inv_alpha
+        u0 = P[U0]
         applied = clip(out_gain * u0, lo, hi)
         carried = u0 if aw_coef == 0.0 else u0 + aw_coef * (applied / out_gain - u0)
         return u0, applied, g0, g0, carried, g1, g2
+    hd = P[HD]
     e_dot = (y - y_prev) / hd - (r - r_prev) / hd
     # the recursive law has no external gain: alpha_ext is never read
-    gamma = gain.next_gamma(mode, k, e_dot, g1, g2, inv_alpha, gamma0, rate, eps_m, order, 1.0)
-    g = gamma if use_gamma != 0.0 else inv_alpha
-    y_p = y if p_current != 0.0 else y_prev
-    u = (u_prev - g * e_dot) + p_sign * (kp * (r - y_p))
+    gamma = vg.next_gamma(mode, k, e_dot, g1, g2, inv_alpha, gamma0, P[vg.GAMMA_RATE],
+                          P[vg.EPS_M], P[vg.ORDER], 1.0)
+    g = gamma if P[USE_GAMMA] != 0.0 else inv_alpha
+    y_p = y if P[P_CURRENT] != 0.0 else y_prev
+    u = (u_prev - g * e_dot) + P[P_SIGN] * (P[KP] * (r - y_p))
+    rate_coef = P[RATE_COEF]
     if rate_coef != 0.0:
         u = u + rate_coef * ((gamma - g1) / hd)
     applied = clip(out_gain * u, lo, hi)
@@ -92,27 +104,21 @@ def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, mode, inv_alpha, gamma0, ra
 
 @step_jit
 def parameters(CP, j):
-    """Member j's parameters, in the order :func:`advance` takes them after its state."""
-    return (CP[gain.MODE, j], CP[gain.INV_ALPHA, j], CP[gain.GAMMA0, j],
-            CP[gain.GAMMA_RATE, j], CP[gain.EPS_M, j], CP[gain.ORDER, j], CP[KP, j],
-            CP[HD, j], CP[U0, j], CP[P_SIGN, j], CP[P_CURRENT, j], CP[RATE_COEF, j],
-            CP[USE_GAMMA, j], CP[OUT_GAIN, j], CP[OUT_MIN, j], CP[OUT_MAX, j], CP[AW_COEF, j])
+    """Member j's parameter tuple, as :func:`advance` takes it."""
+    return to_fixed_tuple(CP[:, j], N_PARAMS)
 
 
 @step_jit
 def step(CP, CS, j, y, r):
     """One sample: measurement y_k and reference r_k in, (u_k, applied, g_k, gamma_k) out."""
     k = CS[K, j]
-    (mode, inv_alpha, gamma0, rate, eps_m, order, kp, hd, u0, p_sign, p_current, rate_coef,
-     use_gamma, out_gain, lo, hi, aw_coef) = parameters(CP, j)
     u, applied, g, gamma, carried, g1, g2 = advance(
-        k, y, r, CS[U_PREV, j], CS[Y_PREV, j], CS[R_PREV, j], CS[gain.G1, j], CS[gain.G2, j],
-        mode, inv_alpha, gamma0, rate, eps_m, order, kp, hd, u0, p_sign, p_current, rate_coef,
-        use_gamma, out_gain, lo, hi, aw_coef)
+        k, y, r, CS[U_PREV, j], CS[Y_PREV, j], CS[R_PREV, j], CS[vg.G1, j], CS[vg.G2, j],
+        parameters(CP, j))
     CS[U_PREV, j] = carried
     CS[Y_PREV, j] = y
     CS[R_PREV, j] = r
-    CS[gain.G1, j] = g1
-    CS[gain.G2, j] = g2
+    CS[vg.G1, j] = g1
+    CS[vg.G2, j] = g2
     CS[K, j] = k + 1.0
     return u, applied, g, gamma

@@ -1,0 +1,1 @@
+"""Controllers and plants as objects, configuration to arrays, runs, sweeps, results, figures."""

@@ -1,0 +1,273 @@
+"""Sweeps at scale: every member of a parameter grid over one case, in chunks, on all cores.
+
+A grid is a product of axes, one per swept key (``KEY=SPEC``, SPEC ``a,b,c``,
+``linspace(a,b,n)`` or ``logspace(a,b,n)``). Member m has the m-th combination in C order
+(the last key varies fastest). Members are built by the same code as a single run: for
+each axis value a one-member scenario is built from the configuration with that value
+set, and the array cells it changes are written into the members that have that value.
+So member m computes exactly what ``mfcontrol.simulate`` computes for its configuration.
+Cases the paper's kernel does not cover run in batches of the general engine
+(:mod:`mfcontrol.engine.compose`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config.options import BY_KEY
+from ..config.resolve import Config, check_axis
+from ..engine import metrics as engine_metrics
+from ..engine import paper_single, paper_sweep
+from ..errors import ConfigError
+from ..laws import recursive_ip
+from . import metrics as _metrics
+from . import scenario
+from .simulate import compiled, general_metrics
+
+_SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
+METRIC_COLUMNS = _metrics.COLUMNS
+
+
+def parse_spec(key: str, spec: str) -> np.ndarray:
+    """Values of one axis from ``a,b,c``, ``linspace(a,b,n)`` or ``logspace(a,b,n)``
+    (logspace takes decimal exponents, as numpy's)."""
+    allowed = "must be a,b,c or linspace(a,b,n) or logspace(a,b,n) with numbers a, b, n"
+    m = _SPEC.match(spec)
+    try:
+        if m:
+            a, b, n = float(m[2]), float(m[3]), int(m[4])
+            if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
+                raise ValueError
+            values = (np.linspace if m[1] == "linspace" else np.logspace)(a, b, n)
+        else:
+            values = np.array([float(x) for x in spec.split(",")])
+    except ValueError:
+        raise ConfigError(key, spec, allowed) from None
+    if values.size == 0:
+        raise ConfigError(key, spec, allowed)
+    return values
+
+
+def parse_grid(items: list[str] | Mapping[str, str]) -> dict[str, np.ndarray]:
+    """``["KEY=SPEC", ...]`` (or a mapping) to axes; each key once, each a numeric option."""
+    pairs = items.items() if isinstance(items, Mapping) else [
+        tuple(s.split("=", 1)) if "=" in s else (s, None) for s in items]
+    grid: dict[str, np.ndarray] = {}
+    for key, spec in pairs:
+        key = key.strip()
+        if spec is None:
+            raise ConfigError("--grid", key, "expected KEY=SPEC")
+        o = BY_KEY.get(key)
+        if o is None or o.kind != "float" or key.startswith("sweep.") or key in (
+                "sim.h", "sim.t_end"):
+            raise ConfigError("--grid", key, "must name a numeric option that keeps the time "
+                              "grid (not sim.h, sim.t_end or sweep.*)")
+        if key.startswith("metrics.") or key == "sim.diverge_above":
+            raise ConfigError("--grid", key, "is a setting shared by all members of a sweep; "
+                              "set it with --set")
+        if key in grid:
+            raise ConfigError("--grid", key, "is given twice")
+        grid[key] = parse_spec(key, str(spec))
+    if not grid:
+        raise ConfigError("--grid", "", "give at least one KEY=SPEC")
+    return grid
+
+
+@dataclass
+class Grid:
+    base: Config
+    axes: dict[str, np.ndarray]
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(v.size for v in self.axes.values())
+
+    @property
+    def n_members(self) -> int:
+        return math.prod(self.shape)
+
+    def values(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Each swept key's value for members start .. stop-1."""
+        idx = np.unravel_index(np.arange(start, stop), self.shape)
+        return {k: v[i] for (k, v), i in zip(self.axes.items(), idx, strict=True)}
+
+    def config(self, member: int) -> Config:
+        return self.base.with_overrides({k: float(v[0]) for k, v in
+                                         self.values(member, member + 1).items()})
+
+
+def make_grid(base: Config, axes: Mapping[str, np.ndarray]) -> Grid:
+    """Validate every axis value against the base configuration: the option's own check
+    on the whole axis at once, and the checks across options for each value of the keys
+    they involve (:func:`mfcontrol.config.resolve.check_axis`)."""
+    for key, values in axes.items():
+        check_axis(base, key, np.asarray(values, dtype=float))
+    return Grid(base=base, axes={k: np.asarray(v, dtype=float) for k, v in axes.items()})
+
+
+_ARRAYS = ("PP", "X0", "CP", "RP", "ev_k", "ev_val")
+
+
+def _cell_changes(grid: Grid) -> dict[str, dict[tuple[str, int], np.ndarray]]:
+    """For each key: the (array, row) cells of a one-member scenario its axis writes, each
+    with its value for every axis value (the base value where that value leaves it)."""
+    ref = scenario.build([grid.base])
+    out: dict[str, dict] = {}
+    owner: dict[tuple[str, int], str] = {}
+    for key, values in grid.axes.items():
+        cells: dict[tuple[str, int], np.ndarray] = {}
+        # every value of the axis through the translators at once (one column each)
+        columns = scenario.axis_columns(grid.base, key, values)
+        for name in _ARRAYS:
+            if name not in columns:  # the event samples: no numeric option moves them
+                continue
+            a, b = getattr(ref, name), columns[name]
+            same = (a == b) | (np.isnan(a) & np.isnan(b))
+            for row in np.flatnonzero(~same.all(axis=1)):
+                other = owner.setdefault((name, int(row)), key)
+                if other != key:
+                    raise ConfigError("--grid", key, f"changes the same model quantity as "
+                                      f"{other}: sweep one of them")
+                cells[name, int(row)] = b[row].copy()
+        out[key] = cells
+    return out
+
+
+def build_members(grid: Grid, start: int, stop: int,
+                  changes: dict | None = None) -> scenario.Scenario:
+    """The scenario of members start .. stop-1 of a compiled grid."""
+    changes = _cell_changes(grid) if changes is None else changes
+    n = stop - start
+    scn = scenario.build([grid.base])
+    tiled = {name: np.repeat(getattr(scn, name), n, axis=1) for name in _ARRAYS}
+    idx = np.unravel_index(np.arange(start, stop), grid.shape)
+    for key, axis_index in zip(grid.axes, idx, strict=True):
+        # one row write per changed cell for all members at once (a loop over members or
+        # values costs microseconds per member, more than simulating it)
+        for (name, row), per_value in changes[key].items():
+            tiled[name][row] = per_value[axis_index]
+    ev_k = tiled["ev_k"].astype(np.int64)
+    steps = np.unique(ev_k[ev_k < scn.n_steps]) if ev_k.size else np.zeros(0, np.int64)
+    return scenario.Scenario(
+        n_steps=scn.n_steps, h=scn.h, t_end=scn.t_end, plant_kind=scn.plant_kind,
+        PP=tiled["PP"], X0=tiled["X0"], law_kind=scn.law_kind, CP=tiled["CP"], RP=tiled["RP"],
+        ev_steps=steps.astype(np.int64), ev_k=ev_k, ev_row=scn.ev_row, ev_add=scn.ev_add,
+        ev_val=tiled["ev_val"], S=scn.S, state_names=scn.state_names)
+
+
+def _varying(changes: dict, scn: scenario.Scenario) -> tuple[set[int], bool]:
+    """The packed rows that differ between members of the whole grid (written by a swept
+    key or a scheduled change), and whether the reference differs: decided per grid, not
+    per chunk, so that every chunk of a sweep runs the same compiled kernel."""
+    rows = {paper_sweep.P_PP + int(r) for r in scn.ev_row}
+    offset = {"PP": paper_sweep.P_PP, "CP": paper_sweep.P_CP}
+    cells = [cell for per_key in changes.values() for cell in per_key]
+    rows |= {offset[name] + row for name, row in cells if name in offset}
+    return rows, any(name == "RP" for name, _ in cells)
+
+
+def _blocks(a: np.ndarray, n_blocks: int) -> np.ndarray:
+    """(rows, n) -> (n_blocks, rows, BLOCK), the last block padded with copies of member 0,
+    in memory aligned to 64 bytes: the kernels' vector loads of a row then never straddle
+    a cache line (unaligned, the fast kernel runs about 40% slower)."""
+    rows, n = a.shape
+    size = n_blocks * rows * paper_sweep.BLOCK
+    buf = np.empty(size + 8, dtype=a.dtype)
+    skip = (-buf.ctypes.data % 64) // buf.itemsize
+    out = buf[skip:skip + size].reshape(n_blocks, rows, paper_sweep.BLOCK)
+    full = n // paper_sweep.BLOCK
+    block = paper_sweep.BLOCK
+    out[:full] = a[:, :full * block].reshape(rows, full, block).transpose(1, 0, 2)
+    if full < n_blocks:
+        rest = n - full * paper_sweep.BLOCK
+        out[full, :, :rest] = a[:, full * paper_sweep.BLOCK:]
+        out[full, :, rest:] = a[:, :1]
+    return out
+
+
+#: scenario-samples of a grid from which the compiled path specialises its kernel by
+#: default: compiling one takes about 4 s and saves about 1 ns per scenario-sample
+SPECIALISE_ABOVE = 4e9
+
+
+def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
+              fast: bool = False, specialise: bool | None = None) -> dict[str, np.ndarray]:
+    """Metrics of members start .. stop-1, as columns (swept keys first).
+
+    Parameters
+    ----------
+    grid : Grid
+        The sweep.
+    start, stop : int
+        The members to run.
+    changes : dict, optional
+        ``_cell_changes(grid)``, when the caller runs several ranges of one grid.
+    fast : bool
+        The fast mode (fused multiply-adds, reciprocals of shared divisors, the plant's
+        RK4 step as its linear map; about 3x faster): members agree with their single
+        runs to about 1e-13 relative instead of bit for bit.
+        Implies ``specialise``.
+    specialise : bool, optional
+        Compile a kernel with the parameters every member of the grid shares built in
+        (see :func:`mfcontrol.engine.paper_sweep.block_kernel`); None: for grids of more than
+        :data:`SPECIALISE_ABOVE` scenario-samples, and with ``fast``. Exact results are
+        the same either way.
+    """
+    values = grid.values(start, stop)
+    tol = grid.base["metrics.stable_tol"]
+    if compiled(grid.base):
+        changes = _cell_changes(grid) if changes is None else changes
+        scn = build_members(grid, start, stop, changes)
+        n = stop - start
+        n_blocks = -(-n // paper_sweep.BLOCK)
+        CS = np.zeros((recursive_ip.N_STATE, n))
+        paper_single.reset_members(scn.law_kind, scn.CP, CS)
+        paper_single.plant_prepare_all(scn.plant_kind, scn.PP, n)
+        rows = np.vstack([scn.PP, scn.X0, scn.CP, CS, np.zeros((engine_metrics.N_METRICS, n)),
+                          np.zeros((paper_sweep.P_ROWS - paper_sweep.P_APREV, n))])
+        varying, ref_varies = _varying(changes, scn)
+        if specialise is None:
+            specialise = grid.n_members * scn.n_steps >= SPECIALISE_ABOVE
+        constants = paper_sweep.shared_constants(rows, varying) if (specialise or fast) else None
+        run = paper_sweep.block_kernel(constants, not ref_varies, fast)
+        D = _blocks(rows, n_blocks)
+        run(scn.n_steps, scn.h, scn.t_end, D, _blocks(scn.RP, n_blocks), scn.ev_steps,
+            _blocks(scn.ev_k, n_blocks), scn.ev_row, scn.ev_add, _blocks(scn.ev_val, n_blocks),
+            scn.S)
+        first = paper_sweep.P_M
+        M = D[:, first:first + engine_metrics.N_METRICS].transpose(1, 0, 2).reshape(
+            engine_metrics.N_METRICS, -1)[:, :n]
+        met = _metrics.table(M, tol)
+    else:  # the general engine, every member of the range in one batch
+        M = general_metrics([grid.config(m) for m in range(start, stop)], fast=fast)
+        met = _metrics.table(M, tol)
+    cols: dict[str, np.ndarray] = {"member": np.arange(start, stop, dtype=np.int64), **values}
+    cols.update({name: met[name] for name in METRIC_COLUMNS})
+    return cols
+
+
+def chunks(n_members: int, size: int) -> Iterator[tuple[int, int, int]]:
+    """(index, start, stop) of consecutive chunks."""
+    for i, start in enumerate(range(0, n_members, size)):
+        yield i, start, min(n_members, start + size)
+
+
+def run_grid(grid: Grid, chunk: int = 4096,
+             progress: Callable[[int, int], None] | None = None, *, fast: bool = False,
+             specialise: bool | None = None) -> dict[str, np.ndarray]:
+    """Every member's metrics, in memory (the CLI writes chunks to disk instead);
+    ``fast`` and ``specialise`` as in :func:`run_range`."""
+    changes = _cell_changes(grid) if compiled(grid.base) else None
+    parts = []
+    done = 0
+    for _, a, b in chunks(grid.n_members, chunk):
+        parts.append(run_range(grid, a, b, changes, fast=fast, specialise=specialise))
+        done += b - a
+        if progress:
+            progress(done, grid.n_members)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

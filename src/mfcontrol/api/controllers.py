@@ -1,0 +1,434 @@
+"""Controllers for a user's own sampling loop, shaped like simple-pid.
+
+>>> import mfcontrol
+>>> ctrl = mfcontrol.IP(alpha=2.0, kp=5.0, sample_time=0.01, output_limits=(-10, 10))
+>>> u = ctrl(0.0, setpoint=1.0)      # first sample: no derivative yet, holds the start
+>>> u = ctrl(0.02, setpoint=1.0)
+>>> sorted(ctrl.components)
+['F_hat', 'I', 'D', 'P', 'feedforward', 'unlimited']
+
+Each call runs the same compiled law as the simulators (:mod:`mfcontrol.laws`). A NaN or
+infinite measurement never reaches the law: the controller returns its last output and
+counts the event in ``nan_count`` (so does a finite measurement that would overflow the
+law). ``snapshot()`` returns plain data (JSON and pickle
+safe); ``restore()`` makes a controller continue bit for bit from it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .._version import __version__
+from ..engine import live
+from ..laws import intelligent, recursive_ip
+from ..laws import variational_gain as gain_law
+
+_INF = math.inf
+
+
+def _number(name: str, value: Any, *, positive: bool = False, nonneg: bool = False,
+            allow_none: bool = False) -> float | None:
+    if value is None and allow_none:
+        return None
+    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
+    if ok:
+        value = float(value)
+        ok = math.isfinite(value) and (not positive or value > 0) and (not nonneg or value >= 0)
+    if not ok:
+        what = "> 0" if positive else (">= 0" if nonneg else "")
+        raise ValueError(f"{name} = {value!r}: must be a finite number {what}".rstrip())
+    return value
+
+
+def _choice(name: str, value: Any, allowed) -> Any:
+    if value not in allowed:
+        raise ValueError(f"{name} = {value!r}: must be one of {', '.join(map(str, allowed))}")
+    return value
+
+
+def _limits(value: Any) -> tuple[float | None, float | None]:
+    try:
+        lo, hi = value
+    except (TypeError, ValueError):
+        raise ValueError(f"output_limits = {value!r}: must be a pair (low, high), "
+                         "None for no limit") from None
+    lo = _number("output_limits[0]", lo, allow_none=True)
+    hi = _number("output_limits[1]", hi, allow_none=True)
+    if lo is not None and hi is not None and lo > hi:
+        raise ValueError(f"output_limits = {value!r}: low must not exceed high")
+    return lo, hi
+
+
+class _Controller:
+    """What every live controller shares: call protocol, NaN guard, modes, snapshots."""
+
+    def __init__(self, params: dict[str, Any], n_cp: int, n_cs: int):
+        self._params = params
+        self._CP = np.zeros((n_cp, 1))
+        self._CS = np.zeros((n_cs, 1))
+        self._backup = np.zeros(n_cs)
+        self.nan_count = 0
+        self.auto_mode = True
+        self.setpoint = float(params.get("setpoint", 0.0))
+        self._last_output = 0.0
+
+    # subclasses fill the parameter column and define _step / _reset_state
+    def _reset_state(self) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Forget all history (derivatives, integral, estimator window, adapted gain)."""
+        self._reset_state()
+        self.nan_count = 0
+
+    @property
+    def last_output(self) -> float:
+        return self._last_output
+
+    def set_auto_mode(self, enabled: bool, last_output: float | None = None) -> None:
+        """Switch between automatic and manual. Turning automatic on restarts the law from
+        ``last_output`` (the output applied in manual), so the output does not jump."""
+        if enabled and not self.auto_mode:
+            start = self._last_output if last_output is None else _number(
+                "last_output", last_output)
+            self._bumpless_start(start)
+        elif not enabled and last_output is not None:
+            self._last_output = _number("last_output", last_output)
+        self.auto_mode = bool(enabled)
+
+    def _measurement_ok(self, y: float, setpoint: float | None) -> bool:
+        """Take the setpoint; False when the law must not run (manual mode, or a NaN/inf
+        measurement, which is counted): the caller then returns the last output."""
+        if setpoint is not None:
+            self.setpoint = setpoint
+        if not self.auto_mode:
+            return False
+        if not math.isfinite(y):
+            self.nan_count += 1
+            return False
+        return True
+
+    def snapshot(self) -> dict[str, Any]:
+        """Everything needed to continue bit for bit, as plain data."""
+        return {
+            "controller": type(self).__name__, "mfcontrol": __version__,
+            "params": dict(self._params), "state": self._CS[:, 0].tolist(),
+            "last_output": self._last_output, "nan_count": self.nan_count,
+            "auto_mode": self.auto_mode, "setpoint": self.setpoint,
+        }
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        """Continue from a snapshot taken of a controller with the same parameters."""
+        if snap.get("controller") != type(self).__name__:
+            raise ValueError(f"snapshot is of a {snap.get('controller')!r} controller, "
+                             f"not {type(self).__name__!r}")
+        if dict(snap["params"]) != self._params:
+            raise ValueError("snapshot parameters differ from this controller's: build it "
+                             f"with {type(self).__name__}.from_snapshot(snap) instead")
+        state = np.asarray(snap["state"], dtype=float)
+        if state.shape != (self._CS.shape[0],):
+            raise ValueError(f"snapshot state has {state.size} values, expected "
+                             f"{self._CS.shape[0]}")
+        self._CS[:, 0] = state
+        self._last_output = float(snap["last_output"])
+        self.nan_count = int(snap["nan_count"])
+        self.auto_mode = bool(snap["auto_mode"])
+        self.setpoint = float(snap["setpoint"])
+
+    @classmethod
+    def from_snapshot(cls, snap: dict[str, Any]):
+        ctrl = cls(**snap["params"])
+        ctrl.restore(snap)
+        return ctrl
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self._params.items())
+        return f"{type(self).__name__}({args})"
+
+
+class IntelligentController(_Controller):
+    """Positional intelligent controller of order n: i-P, i-PI, i-PD or i-PID.
+
+    ``u = -(F_hat - y*^(n) + kp e + ki int(e) + kd e') / alpha`` with ``e = y - y*``
+    (see :mod:`mfcontrol.laws.intelligent`).
+
+    Parameters
+    ----------
+    alpha : float
+        Key gain of the ultra-local model ``y^(n) = F + alpha u`` (> 0; with
+        ``gain="variational"`` its initial value is 1/gamma0).
+    kp, ki, kd : float
+        Proportional, integral and derivative gains on the error.
+    sample_time : float
+        Nominal sample period (s); a call may pass another ``dt``.
+    order : {1, 2}
+        Order n of the ultra-local model.
+    output_limits : (low, high)
+        Output limits, None for none.
+    estimator : {"backward-difference", "algebraic"}
+        How F is estimated; ``window`` (samples, even for order 2) for the algebraic one.
+    anti_windup : {"clamp", "back-calculation", "none"}
+        Integral anti-windup when the output is limited; ``k_aw`` is the back-calculation
+        gain (1/s), by default 1/sample_time: the integral sheds the whole excess of the
+        unlimited output over the limit at each sample.
+    gain : {"constant", "variational", "external"}
+        Gain adaptation: constant alpha, the paper's variational update (``gamma0``,
+        ``Gamma``, ``eps_M``, ``integrator``), or alpha passed to every call.
+    setpoint, starting_output : float
+        Initial setpoint and the output held until the first derivative exists.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPID(alpha=1.0, kp=4.0, ki=1.0, kd=2.0, sample_time=0.01)
+    >>> [round(ctrl(y, setpoint=1.0), 3) for y in (0.0, 0.0, 0.01)]
+    [0.0, 0.0, 6.0]
+    """
+
+    def __init__(self, alpha: float, kp: float = 0.0, ki: float = 0.0, kd: float = 0.0, *,
+                 sample_time: float, order: int = 1,
+                 output_limits: tuple[float | None, float | None] = (None, None),
+                 estimator: str = "backward-difference", window: int | None = None,
+                 anti_windup: str = "clamp", k_aw: float | None = None,
+                 gain: str = "constant",
+                 gamma0: float | None = None, Gamma: float = 5e-8, eps_M: float = 0.1,
+                 integrator: str = "first-order", setpoint: float = 0.0,
+                 starting_output: float = 0.0):
+        alpha = _number("alpha", alpha, positive=True)
+        _choice("order", order, (1, 2))
+        _choice("estimator", estimator, tuple(intelligent.ESTIMATORS))
+        _choice("anti_windup", anti_windup, tuple(intelligent.ANTI_WINDUP))
+        _choice("gain", gain, tuple(gain_law.MODES))
+        _choice("integrator", integrator, ("first-order", "second-order"))
+        lo, hi = _limits(output_limits)
+        if estimator == "algebraic":
+            if not isinstance(window, int) or isinstance(window, bool) or window < 2:
+                raise ValueError(f"window = {window!r}: must be a whole number of samples "
+                                 ">= 2 for the algebraic estimator")
+            if order == 2 and window % 2:
+                raise ValueError(f"window = {window!r}: must be even for order 2 (Simpson)")
+        elif window is not None:
+            raise ValueError(f"window = {window!r}: only the algebraic estimator has one")
+        params = {
+            "alpha": alpha, "kp": _number("kp", kp), "ki": _number("ki", ki),
+            "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
+                                                            positive=True),
+            "order": order, "output_limits": [lo, hi], "estimator": estimator,
+            "window": window, "anti_windup": anti_windup,
+            "k_aw": None if k_aw is None else _number("k_aw", k_aw, nonneg=True),
+            "gain": gain,
+            # None (1/alpha) stays None: a controller rebuilt with another alpha (a sweep,
+            # from_snapshot) starts from its own 1/alpha
+            "gamma0": _number("gamma0", gamma0, allow_none=True),
+            "Gamma": _number("Gamma", Gamma), "eps_M": _number("eps_M", eps_M),
+            "integrator": integrator, "setpoint": _number("setpoint", setpoint),
+            "starting_output": _number("starting_output", starting_output),
+        }
+        m = window if estimator == "algebraic" else 0
+        super().__init__(params, intelligent.N_PARAMS, intelligent.n_state(m))
+        cp = self._CP[:, 0]
+        cp[gain_law.MODE] = gain_law.MODES[gain]
+        cp[gain_law.INV_ALPHA] = 1 / alpha
+        cp[gain_law.GAMMA0] = 1 / alpha if params["gamma0"] is None else params["gamma0"]
+        cp[gain_law.GAMMA_RATE] = params["Gamma"]
+        cp[gain_law.EPS_M] = params["eps_M"]
+        cp[gain_law.ORDER] = 2.0 if integrator == "second-order" else 1.0
+        cp[intelligent.N_ORDER] = order
+        cp[intelligent.KP] = params["kp"]
+        cp[intelligent.KI] = params["ki"]
+        cp[intelligent.KD] = params["kd"]
+        cp[intelligent.EST] = intelligent.ESTIMATORS[estimator]
+        cp[intelligent.M_WIN] = m
+        cp[intelligent.OUT_MIN] = -_INF if lo is None else lo
+        cp[intelligent.OUT_MAX] = _INF if hi is None else hi
+        cp[intelligent.AW] = intelligent.ANTI_WINDUP[anti_windup]
+        # default: remove the whole excess over the limit each sample (tracking)
+        cp[intelligent.K_AW] = 1 / params["sample_time"] if k_aw is None else params["k_aw"]
+        cp[intelligent.U_INIT] = min(max(params["starting_output"], cp[intelligent.OUT_MIN]),
+                                     cp[intelligent.OUT_MAX])
+        self._dt = params["sample_time"]
+        self._external = gain == "external"
+        self._check_law(params)  # drops the terms this law does not have from _params
+        self._reset_state()
+
+    def _check_law(self, params: dict[str, Any]) -> None:
+        """Subclasses restrict which terms exist."""
+
+    def _reset_state(self) -> None:
+        live.intelligent_reset(self._CP, self._CS)
+        self._last_output = float(self._CP[intelligent.U_INIT, 0])
+
+    def _bumpless_start(self, start: float) -> None:
+        lo, hi = self._CP[intelligent.OUT_MIN, 0], self._CP[intelligent.OUT_MAX, 0]
+        self._reset_state()
+        start = min(max(start, lo), hi)
+        self._CS[intelligent.U1, 0] = start
+        self._last_output = start
+
+    @property
+    def sample_time(self) -> float:
+        return self._dt
+
+    @property
+    def output_limits(self) -> tuple[float | None, float | None]:
+        lo, hi = self._params["output_limits"]
+        return lo, hi
+
+    def __call__(self, y: float, setpoint: float | None = None, dt: float | None = None,
+                 alpha: float | None = None) -> float:
+        """One sample: the measurement in, the (limited) control out."""
+        if not self._measurement_ok(y, setpoint):
+            return self._last_output
+        if self._external:
+            if alpha is None or not (alpha > 0 and math.isfinite(alpha)):
+                raise ValueError(f"alpha = {alpha!r}: gain='external' needs a finite alpha > 0 "
+                                 "at every call")
+        u = live.intelligent_step(self._CP, self._CS, self._backup, float(y),
+                                  float(self.setpoint), self._dt if dt is None else float(dt),
+                                  1.0 if alpha is None else float(alpha))
+        if u != u:  # the law overflowed: state untouched, hold the output
+            self.nan_count += 1
+            return self._last_output
+        self._last_output = u
+        return u
+
+    @property
+    def components(self) -> dict[str, float]:
+        """The terms of the last output: F_hat, feed-forward y*^(n), P, I, D (as they enter
+        the bracket), the output before limiting, and gamma = 1/alpha used."""
+        s = self._CS[:, 0]
+        return {"F_hat": float(s[intelligent.C_F]), "feedforward": float(s[intelligent.C_FF]),
+                "P": float(s[intelligent.C_P]), "I": float(s[intelligent.C_I]),
+                "D": float(s[intelligent.C_D]), "unlimited": float(s[intelligent.C_UNLIM]),
+                "gamma": float(s[gain_law.G1])}
+
+    @property
+    def gamma(self) -> float:
+        """The gain 1/alpha used at the last sample."""
+        return float(self._CS[gain_law.G1, 0])
+
+
+class IP(IntelligentController):
+    """Intelligent proportional controller (i-P), ``u = -(F_hat - y*' + kp e)/alpha``.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IP(alpha=1.0, kp=10.0, sample_time=0.01, output_limits=(-5, 5))
+    >>> y, out = 0.0, []
+    >>> for _ in range(3):
+    ...     u = ctrl(y, setpoint=1.0)
+    ...     y += 0.01 * (-y + u)             # the plant y' = -y + u, Euler
+    ...     out.append(round(u, 3))
+    >>> out
+    [0.0, 5.0, 5.0]
+    """
+
+    _drop = ("ki", "kd")
+
+    def __init__(self, alpha: float, kp: float, **options: Any):
+        super().__init__(alpha, kp, 0.0, 0.0, **options)
+
+    def _check_law(self, params):
+        for key in self._drop:
+            params.pop(key)
+
+
+class IPI(IP):
+    """Intelligent PI controller: the i-P plus ``ki`` times the integral of the error."""
+
+    _drop = ("kd",)
+
+    def __init__(self, alpha: float, kp: float, ki: float, **options: Any):
+        IntelligentController.__init__(self, alpha, kp, ki, 0.0, **options)
+
+
+class IPD(IP):
+    """Intelligent PD controller, ultra-local model of order 2 by default."""
+
+    _drop = ("ki",)
+
+    def __init__(self, alpha: float, kp: float, kd: float, *, order: int = 2, **options: Any):
+        IntelligentController.__init__(self, alpha, kp, 0.0, kd, order=order, **options)
+
+
+class IPID(IP):
+    """Intelligent PID controller, ultra-local model of order 2 by default."""
+
+    _drop = ()
+
+    def __init__(self, alpha: float, kp: float, ki: float, kd: float, *, order: int = 2,
+                 **options: Any):
+        IntelligentController.__init__(self, alpha, kp, ki, kd, order=order, **options)
+
+
+class RecursiveIP(_Controller):
+    """The paper's recursive i-P (eq. 8) or its variational form (eq. 33), live.
+
+    Takes the configuration keys of ``[controller]`` in a case file (see the README's
+    option table), e.g. ``RecursiveIP(alpha=10, kp=2, law="variational", gamma0=1)``.
+    Returns the applied output ``clip(output_gain * u_k)``; the raw u_k, the gain and gamma
+    are in :attr:`components`. Samples are taken to be equally spaced (the law's
+    derivative scale is ``deriv_scale``, not the sample time).
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.RecursiveIP(alpha=10.0, kp=2.0)
+    >>> ctrl(0.0, setpoint=0.0), ctrl(2.0e-5, setpoint=1e-3)
+    (0.001, 0.001)
+    >>> round(ctrl.components["u_raw"], 6)
+    1.09998
+    """
+
+    def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
+                 **controller_keys: Any):
+        from ..config import resolve
+        from ..errors import ConfigError
+        from .params import recursive_law_column
+
+        keys = {"controller.alpha": alpha, "controller.kp": kp}
+        for name, value in controller_keys.items():
+            keys[f"controller.{name}"] = value
+        try:
+            cfg = resolve(keys)
+        except ConfigError as exc:
+            if exc.key.startswith("controller.") and "unknown key" in str(exc):
+                raise TypeError(f"RecursiveIP() got an unexpected keyword argument "
+                                f"{exc.key.removeprefix('controller.')!r}") from None
+            raise ValueError(str(exc).removeprefix("controller.")) from None
+        params = {"alpha": alpha, "kp": kp, "setpoint": _number("setpoint", setpoint),
+                  **controller_keys}
+        super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
+        self._CP[:, 0] = recursive_law_column(cfg)[:, 0]
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        live.recursive_reset(self._CP, self._CS)
+        self._last_output = 0.0
+        self._components = {"u_raw": math.nan, "gain": math.nan, "gamma": math.nan}
+
+    def _bumpless_start(self, start: float) -> None:
+        self._reset_state()
+        # continue from the raw control that produced the manual output
+        self._CP[recursive_ip.U0, 0] = start / self._CP[recursive_ip.OUT_GAIN, 0]
+        self._last_output = start
+
+    def __call__(self, y: float, setpoint: float | None = None) -> float:
+        if not self._measurement_ok(y, setpoint):
+            return self._last_output
+        u, applied, g, gamma = live.recursive_step(self._CP, self._CS, self._backup,
+                                                   float(y), float(self.setpoint))
+        if applied != applied:
+            self.nan_count += 1
+            return self._last_output
+        self._components = {"u_raw": u, "gain": g, "gamma": gamma}
+        self._last_output = applied
+        return applied
+
+    @property
+    def components(self) -> dict[str, float]:
+        return dict(self._components)

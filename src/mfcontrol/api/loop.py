@@ -1,0 +1,372 @@
+"""A closed loop of any plant object and any controller: compiled, or in Python.
+
+The plant is a :class:`mfcontrol.api.plants.Plant` (converters, a first-order plant, an
+LTI model, python-control systems, your own ODE), the controller one of
+:mod:`mfcontrol.api.controllers`. Each sample: scheduled parameter changes due at t_k, the
+measurement ``y_k`` (before the plant step), ``u_k`` from the law, the plant advanced
+over [t_k, t_k + h] with ``u_k`` held.
+
+Whenever the plant compiles (every built-in plant, and an ODE whose f and g numba can
+compile) and the controller is one of the library's, the loop runs in the compiled engine
+(:mod:`mfcontrol.engine.compose`), running the same law functions as the live controller:
+bit for bit its outputs. Otherwise (a :class:`Plant` subclass written in Python, a
+controller of your own, an f numba cannot compile, an external gain) it runs through the
+Python driver, one call per sample, and the result's ``engine`` says ``"python"``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..engine import compose, trajectory
+from ..engine import metrics as engine_metrics
+from ..errors import ConfigError
+from ..laws import intelligent, reference
+from ..numerics import grid
+from . import metrics as _metrics
+from .result import SIGNALS, Result
+
+Reference = float | Callable[[float], float] | Sequence[float] | np.ndarray
+
+
+@dataclass(frozen=True)
+class Change:
+    """At the first sample with t_k >= ``time``, set plant parameter ``name`` to ``value``
+    (or add ``value`` to it when ``add`` is true)."""
+
+    time: float
+    name: str
+    value: float
+    add: bool = False
+
+
+#: the result of :func:`simulate_loop`: :class:`mfcontrol.Result`, the one result type
+LoopResult = Result
+
+
+def _reference(reference: Reference, t: np.ndarray) -> np.ndarray:
+    if callable(reference):
+        return np.array([float(reference(tk)) for tk in t])
+    arr = np.asarray(reference, dtype=float)
+    if arr.ndim == 0:
+        return np.full(t.size, float(arr))
+    if arr.shape != t.shape:
+        raise ValueError(f"reference has {arr.size} samples, the time grid {t.size}")
+    return arr
+
+
+def _as_plant(plant):
+    if type(plant).__module__.startswith("control."):  # a python-control system
+        from .plants import LTI
+
+        return LTI.from_control(plant)
+    return plant
+
+
+# ---------------------------------------------------------------------------------------------
+# the controller as the engine runs it
+
+
+@dataclass
+class LawArrays:
+    """A controller's law as engine columns: its parameters, its present memory, and which
+    memory rows and trajectory rows become named signals."""
+
+    kind: int
+    CP: np.ndarray
+    CS: np.ndarray
+    dt: float
+    components: tuple[str, ...]  # CS rows recorded per sample, by signal name
+    rows: tuple[int, ...]
+
+
+def law_arrays(controller) -> LawArrays | None:
+    """The engine's view of ``controller``; None when only the Python driver can run it
+    (not a library controller, manual mode, or an external gain given at every call)."""
+    from .controllers import IntelligentController, RecursiveIP
+
+    if not getattr(controller, "auto_mode", False):
+        return None
+    if isinstance(controller, IntelligentController):
+        if controller._external:
+            return None
+        return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
+                         controller.sample_time, ("F_hat", "feedforward", "P", "I", "D"),
+                         (intelligent.C_F, intelligent.C_FF, intelligent.C_P, intelligent.C_I,
+                          intelligent.C_D))
+    if isinstance(controller, RecursiveIP):
+        return LawArrays(compose.RECURSIVE_IP, controller._CP.copy(), controller._CS.copy(),
+                         1.0, (), ())
+    return None
+
+
+def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None:
+    """Leave the controller as the Python driver would: its memory and last output."""
+    from .controllers import RecursiveIP
+
+    if k_end == 0:
+        return
+    controller._CS[:, 0] = CS[:, 0]
+    controller._last_output = float(traj[trajectory.T_APPLIED, k_end - 1])
+    controller.setpoint = float(traj[trajectory.T_REF, k_end - 1])
+    if isinstance(controller, RecursiveIP):
+        controller._components = {"u_raw": float(traj[trajectory.T_U, k_end - 1]),
+                                  "gain": float(traj[trajectory.T_GAIN, k_end - 1]),
+                                  "gamma": float(traj[trajectory.T_GAMMA, k_end - 1])}
+
+
+def _settings(settle_time: float, t_end: float, final_window: float,
+              diverge_above: float, stable_tol: float = 0.1) -> np.ndarray:
+    """The kernels' metric settings, each checked as its option is (one-line errors)."""
+    from ..config.resolve import check_value
+
+    for name, key, value in (("settle_time", "metrics.settle_time", settle_time),
+                             ("final_window", "metrics.final_window", final_window),
+                             ("stable_tol", "metrics.stable_tol", stable_tol),
+                             ("diverge_above", "sim.diverge_above", diverge_above)):
+        try:
+            check_value(key, value)
+        except ConfigError as exc:
+            raise ConfigError(name, value, exc.allowed) from None
+    return engine_metrics.settings(settle_time, t_end * (1 - final_window), diverge_above)
+
+
+@contextmanager
+def restored(plant):
+    """Within the block, change the plant's parameters at will; afterwards they are as
+    they were (a schedule, a sweep member, a check acts on one run only)."""
+    original = dict(plant.params)
+    try:
+        yield original
+    finally:
+        for key, value in original.items():
+            if plant.params[key] != value:
+                plant.set_param(key, value)
+
+
+def _check_changes(plant, changes: Sequence[Change]) -> None:
+    """Every change names a parameter of the plant and leaves it valid (the plant's own
+    checks, applied in order to the plant and undone)."""
+    with restored(plant) as original:
+        for c in changes:
+            if not isinstance(c, Change):
+                raise TypeError(f"changes: {c!r} is not a mfcontrol.Change")
+            if not (isinstance(c.time, int | float) and math.isfinite(c.time)):
+                raise ConfigError("Change.time", c.time, "must be a finite number (s)")
+            if c.name not in original:
+                raise ConfigError(c.name, c.value, "unknown parameter; allowed: "
+                                  + (", ".join(original) or "none"))
+            plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
+
+
+def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mapping[str, int],
+                  t_end: float, n: int):
+    """(ev_k, ev_col, ev_add, ev_val) for members that share the list of changed names."""
+    first = list(changes_per_member[0])
+    m = len(changes_per_member)
+    n_ev = len(first)
+    ev_k = np.zeros((n_ev, m), dtype=np.int64)
+    ev_val = np.zeros((n_ev, m))
+    for j, changes in enumerate(changes_per_member):
+        if [(c.name, c.add) for c in changes] != [(c.name, c.add) for c in first]:
+            raise ValueError("members of one run must change the same parameters in order")
+        for e, c in enumerate(changes):
+            ev_k[e, j] = grid.first_sample_at(c.time, t_end, n)
+            ev_val[e, j] = c.value
+    ev_col = np.array([columns[c.name] for c in first], dtype=np.int64)
+    ev_add = np.array([c.add for c in first], dtype=np.bool_)
+    return ev_k, ev_col, ev_add, ev_val
+
+
+def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
+                changes_per_member: Sequence[Sequence[Change]], *, t_end: float, h: float,
+                S: np.ndarray, fast: bool = False, record: bool = False,
+                RP: np.ndarray | None = None):
+    """Members (engine plants and law arrays of one family) through the compiled engine.
+
+    The reference is ``R[j]`` (``R[0]`` for all when R has one row) or, when R has no
+    rows, the configured reference of each member, ``RP[:, j]`` (see
+    :mod:`mfcontrol.laws.reference`).
+
+    Returns (M, traj, CS): metrics of every member; with ``record`` (one member) its
+    trajectory ``traj[row, k]``, else an empty array; the law memory of every member.
+    """
+    n = round(t_end / h)
+    p0, l0 = plants[0], laws[0]
+    for ep, law in zip(plants, laws, strict=True):
+        if ep.functions != p0.functions or ep.integrator != p0.integrator or \
+                ep.p.size != p0.p.size or ep.x0.size != p0.x0.size:
+            raise ValueError("members of one run must share the plant model and integrator")
+        if law.kind != l0.kind or law.CP.shape != l0.CP.shape or law.dt != l0.dt:
+            raise ValueError("members of one run must share the law and its sample time")
+    m = len(plants)
+    X = np.ascontiguousarray(np.stack([ep.x0 for ep in plants]))
+    P = np.ascontiguousarray(np.stack([ep.p for ep in plants]))
+    CP = np.ascontiguousarray(np.hstack([law.CP for law in laws]))
+    rows = max(law.CS.shape[0] for law in laws)
+    CS = np.zeros((rows, m))
+    for j, law in enumerate(laws):
+        CS[:law.CS.shape[0], j] = law.CS[:, 0]
+    events = _event_arrays(changes_per_member, p0.columns, t_end, n)
+    M = np.zeros((engine_metrics.N_METRICS, m))
+    comp_rows = np.array(l0.rows, dtype=np.int64)
+    traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
+    tol = np.array(p0.tol, dtype=np.float64)
+    DT = np.full(m, -1.0)
+    compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
+                l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
+                np.zeros((reference.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP),
+                events, S, M, tol,
+                DT, traj, comp_rows, fast=fast)
+    return M, traj, CS
+
+
+def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_window,
+           stable_tol, diverge_above):
+    """What a run of objects starts from, checked: (plant, h, t, r, S)."""
+    plant = _as_plant(plant)
+    h = float(controller.sample_time if h is None else h)
+    n = grid.n_samples(t_end, h)
+    _check_changes(plant, changes)
+    t = grid.times(n, t_end)
+    S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
+    return plant, h, t, _reference(reference, t), S
+
+
+# ---------------------------------------------------------------------------------------------
+# one run
+
+
+def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float,
+                  h: float | None = None, changes: Sequence[Change] = (),
+                  settle_time: float = 0.0, final_window: float = 0.2,
+                  stable_tol: float = 0.1, diverge_above: float = 1e12,
+                  name: str = "", fast: bool = False) -> Result:
+    """Simulate ``controller`` on ``plant`` tracking ``reference`` for ``t_end`` seconds.
+
+    Parameters
+    ----------
+    plant : Plant or control.LTI
+        Any :class:`mfcontrol.api.plants.Plant`, or a continuous-time python-control
+        ``StateSpace`` / ``TransferFunction`` (converted with ``LTI.from_control``).
+    controller : callable
+        A live controller (``u = controller(y, setpoint=r)``), e.g. :class:`mfcontrol.IP`.
+        The run continues from its present memory and leaves it as a loop of calls would.
+    reference : float, callable or array
+        Constant, a function of t, or one value per sample.
+    t_end, h : float
+        Horizon and sample period; ``h`` defaults to the controller's ``sample_time``.
+    changes : sequence of Change
+        Scheduled plant parameter changes.
+    settle_time, final_window, stable_tol, diverge_above : float
+        Metric settings, as the ``metrics.*`` and ``sim.diverge_above`` options.
+    fast : bool
+        The compiled engine's fast mode (fused multiply-adds, reciprocals): within about
+        1e-12 relative of the default. Refused for a loop the Python driver runs.
+
+    Returns
+    -------
+    Result
+        ``engine`` says whether the compiled engine or the Python driver ran it.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> from mfcontrol import FirstOrder
+    >>> ctrl = mfcontrol.IP(alpha=1.0, kp=20.0, sample_time=1e-3)
+    >>> res = mfcontrol.simulate_loop(FirstOrder(a=-1.0, b=1.0), ctrl, 1.0, t_end=0.5)
+    >>> bool(res.metrics["stable"]), round(float(res.signals["y"][-1]), 4), res.engine
+    (True, 1.0, 'compiled')
+    """
+    plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
+                               final_window, stable_tol, diverge_above)
+    ep = plant.engine() if hasattr(plant, "engine") else None
+    law = law_arrays(controller)
+    if ep is None or law is None:
+        note = _python_reason(plant, ep, controller)
+        if fast:
+            raise ConfigError("fast", True, f"only the compiled engine has a fast mode; this "
+                              f"loop runs in Python ({note})")
+        return _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol,
+                              name, note)
+    return compiled_run(plant, ep, controller, law, r[None, :], None, changes, t, h, t_end, S,
+                        stable_tol, name, fast)
+
+
+def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, stable_tol, name,
+                 fast) -> Result:
+    """One member through the compiled engine, its trajectory named as a Result; the
+    reference as for :func:`run_members`."""
+    M, traj, CS = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
+                              fast=fast, record=True, RP=RP)
+    met = _metrics.from_kernel(M, 0, stable_tol)
+    k_end = met["n_samples"]
+    _hand_back(controller, CS, traj, k_end)
+    signals, states = trajectory.named_rows(traj[:, :k_end], law.components, plant.state_names)
+    return Result(name=name, time=t[:k_end], signals=signals, states=states, metrics=met,
+                  changes=tuple(changes), engine="compiled",
+                  arithmetic="fast" if fast else "exact")
+
+
+def _python_reason(plant, ep, controller) -> str:
+    if ep is None:
+        return getattr(plant, "python_reason", None) or (
+            f"{type(plant).__name__} is a Plant written in Python")
+    if not getattr(controller, "auto_mode", True):
+        return "the controller is in manual mode"
+    if getattr(controller, "_external", False):
+        return "gain='external' takes alpha at every call"
+    return f"{type(controller).__name__} is not a library controller"
+
+
+def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, name,
+                   note) -> Result:
+    """The loop in Python, one plant step and one controller call per sample."""
+    n = t.size
+    # each change at its sample, in list order: the engine's rule
+    due = [grid.first_sample_at(c.time, t_end, n) for c in changes]
+    x = np.array(plant.x0, dtype=float, copy=True)
+    y = np.full(n, np.nan)
+    u = np.full(n, np.nan)
+    X = np.full((n, x.size), np.nan)
+    comps: dict[str, np.ndarray] = {}
+    has_components = hasattr(controller, "components")
+    bound = S[engine_metrics.S_DIVERGE_ABOVE]
+    with restored(plant):  # a schedule acts on this run only
+        for k in range(n):
+            for c, k_c in zip(changes, due, strict=True):
+                if k_c == k:
+                    plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
+            yk = plant.output(x)
+            if not (math.isfinite(yk) and abs(yk) <= bound):
+                y[k] = yk
+                break
+            uk = controller(yk, setpoint=r[k])
+            y[k], u[k], X[k] = yk, uk, x
+            if has_components:
+                for key, value in controller.components.items():
+                    if key not in comps:  # allocated once, not at every sample
+                        comps[key] = np.full(n, np.nan)
+                    comps[key][k] = value
+            x = plant.step(t[k], x, uk, h)
+    gamma = comps.get("gamma", np.full(n, np.nan))
+    M = np.zeros((engine_metrics.N_METRICS, 1))
+    engine_metrics.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
+    met = _metrics.from_kernel(M, 0, stable_tol)
+    k_end = met["n_samples"]
+    # the live controllers' component names, as every result names them
+    comps["u_raw"] = comps.pop("unlimited", comps.get("u_raw", np.full(n, np.nan)))
+    comps.setdefault("gamma", np.full(n, np.nan))
+    comps.setdefault("gain", comps["gamma"])
+    signals = {"y_ref": r, "y": y, "u": u, **{k: comps[k] for k in SIGNALS[3:]},
+               **{k: v for k, v in comps.items() if k not in SIGNALS}}
+    signals = {k: v[:k_end] for k, v in signals.items()}
+    states = {s: X[:k_end, i] for i, s in enumerate(plant.state_names)}
+    return Result(name=name, time=t[:k_end], signals=signals, states=states, metrics=met,
+                  changes=tuple(changes), engine="python", engine_note=note)

@@ -1,0 +1,180 @@
+"""The one translator from a resolved configuration to what the engines run.
+
+* parameter columns of the paper's kernels (:func:`buck_column`,
+  :func:`recursive_law_column`, :func:`reference_column`, :func:`buck_state_column`): one
+  column per member, or one column per value of a swept key given as an array;
+* plant and controller objects and the schedule (:func:`plant`, :func:`controller`,
+  :func:`changes`), what the general engine (:mod:`mfcontrol.api.loop`) runs. A positional
+  law's constructor fills its own parameter column (:mod:`mfcontrol.laws.intelligent`),
+  the live :class:`~mfcontrol.api.controllers.RecursiveIP` calls
+  :func:`recursive_law_column`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..config import Config
+from ..config.options import POSITIONAL
+from ..laws import recursive_ip, reference, variational_gain
+from ..plants import buck
+from .controllers import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
+from .loop import Change
+
+
+def plant(cfg: Config):
+    from .plants import Boost, Buck, FirstOrder
+
+    model, integ = cfg["plant.model"], cfg["sim.integrator"]
+    if model == "first-order":
+        return FirstOrder(cfg["plant.a"], cfg["plant.b"], cfg["plant.w"],
+                          x0=cfg["plant.y0"], integrator=integ)
+    x0 = (cfg["plant.i0"], cfg["plant.v0"])
+    electrical = {k: cfg[f"plant.{k}"] for k in ("E", "L", "R", "C")}
+    if model == "boost":
+        return Boost(**electrical, x0=x0, integrator=integ)
+    return Buck(**electrical, coupling=cfg["plant.coupling"], output=cfg["plant.output"],
+                x0=x0, integrator=integ)
+
+
+def controller(cfg: Config) -> IntelligentController | RecursiveIP:
+    law = cfg["controller.law"]
+    limits = (cfg["controller.duty_min"], cfg["controller.duty_max"])
+    if law not in POSITIONAL:
+        keys = ("law", "gamma0", "Gamma", "eps_M", "k_gamma", "integrator", "rate_term",
+                "rate_sign", "gain", "deriv_scale", "output_gain", "duty_min", "duty_max",
+                "p_sample", "p_error", "u0", "anti_windup", "k_aw")
+        return RecursiveIP(cfg["controller.alpha"], cfg["controller.kp"],
+                           **{k: cfg[f"controller.{k}"] for k in keys})
+    options = {
+        "sample_time": cfg["sim.h"], "order": cfg["controller.order"],
+        "output_limits": limits, "estimator": cfg["controller.estimator"],
+        "window": cfg["controller.window"] if cfg["controller.estimator"] == "algebraic"
+        else None,
+        "anti_windup": ("clamp" if cfg["controller.anti_windup"] == "auto"
+                        else cfg["controller.anti_windup"]),
+        "k_aw": cfg["controller.k_aw"], "gain": cfg["controller.adapt"],
+        "gamma0": cfg["controller.gamma0"], "Gamma": cfg["controller.Gamma"],
+        "eps_M": cfg["controller.eps_M"], "integrator": cfg["controller.integrator"],
+    }
+    a, kp, ki, kd = (cfg[f"controller.{k}"] for k in ("alpha", "kp", "ki", "kd"))
+    if law == "i-P":
+        return IP(a, kp, **options)
+    if law == "i-PI":
+        return IPI(a, kp, ki, **options)
+    if law == "i-PD":
+        return IPD(a, kp, kd, **options)
+    return IPID(a, kp, ki, kd, **options)
+
+
+def changes(cfg: Config) -> list[Change]:
+    """The converters' load changes (R += dR, C += dC) and the general schedule."""
+    out = []
+    if cfg["plant.model"] in ("buck", "boost"):
+        for t in cfg["plant.change_times"]:
+            out += [Change(t, "R", cfg["plant.dR"], add=True),
+                    Change(t, "C", cfg["plant.dC"], add=True)]
+    for e in cfg["plant.schedule"]:
+        out.append(Change(e["t"], e["name"], e.get("set", e.get("add")), add="add" in e))
+    return out
+
+
+def plant_and_changes(cfg: Config):
+    """The plant and its schedule, the schedule checked against the plant's own rules
+    (a value that would make a parameter invalid is refused here, at the edge)."""
+    from ..errors import ConfigError
+    from .loop import _check_changes
+
+    p, ch = plant(cfg), changes(cfg)
+    try:
+        _check_changes(p, ch)
+    except ConfigError as exc:
+        raise ConfigError("plant.schedule", f"{exc.key} = {exc.value!r}", exc.allowed) from None
+    return p, ch
+
+
+def _width(cfg: Config) -> int:
+    """Columns a translator writes: 1, or the length of the one swept key's values when
+    :func:`axis_columns` has put an array of them in the configuration."""
+    return max((np.size(v) for k, v in cfg.values.items()
+                if isinstance(v, np.ndarray)), default=1)
+
+
+def buck_column(cfg: Config) -> np.ndarray:
+    """The buck's parameter column (rows of :mod:`mfcontrol.plants.buck`)."""
+    col = np.zeros((buck.N_PARAMS, _width(cfg)))
+    col[buck.E] = cfg["plant.E"]
+    col[buck.L] = cfg["plant.L"]
+    col[buck.R] = cfg["plant.R"]
+    col[buck.C] = cfg["plant.C"]
+    col[buck.COUPLING] = buck.COUPLINGS[cfg["plant.coupling"]]
+    col[buck.OUTPUT] = buck.OUTPUTS[cfg["plant.output"]]
+    return col
+
+
+def recursive_law_column(cfg: Config) -> np.ndarray:
+    """The recursive law's parameter column (rows of :mod:`mfcontrol.laws.recursive_ip`):
+    the one translator of its options, for cases, sweeps and the live
+    :class:`~mfcontrol.api.controllers.RecursiveIP` alike."""
+    col = np.zeros((recursive_ip.N_PARAMS, _width(cfg)))
+    variational = cfg["controller.law"] == "variational"
+    col[variational_gain.MODE] = (variational_gain.VARIATIONAL if variational
+                                  else variational_gain.CONSTANT)
+    col[variational_gain.INV_ALPHA] = 1 / cfg["controller.alpha"]
+    col[variational_gain.GAMMA0] = cfg["controller.gamma0"]
+    col[variational_gain.GAMMA_RATE] = cfg["controller.Gamma"]
+    col[variational_gain.EPS_M] = cfg["controller.eps_M"]
+    col[variational_gain.ORDER] = 2.0 if cfg["controller.integrator"] == "second-order" else 1.0
+    col[recursive_ip.KP] = cfg["controller.kp"]
+    col[recursive_ip.HD] = cfg["controller.deriv_scale"]
+    col[recursive_ip.U0] = cfg["controller.u0"]
+    col[recursive_ip.P_SIGN] = 1.0 if cfg["controller.p_error"] == "r-y" else -1.0
+    col[recursive_ip.P_CURRENT] = 1.0 if cfg["controller.p_sample"] == "current" else 0.0
+    if variational and cfg["controller.rate_term"]:
+        sign = 1.0 if cfg["controller.rate_sign"] == "plus" else -1.0
+        col[recursive_ip.RATE_COEF] = sign * cfg["controller.k_gamma"]
+    col[recursive_ip.USE_GAMMA] = 1.0 if cfg["controller.gain"] == "gamma" else 0.0
+    col[recursive_ip.OUT_GAIN] = cfg["controller.output_gain"]
+    col[recursive_ip.OUT_MIN] = cfg["controller.duty_min"]
+    col[recursive_ip.OUT_MAX] = cfg["controller.duty_max"]
+    col[recursive_ip.AW_COEF] = anti_windup_coefficient(cfg)
+    return col
+
+
+def anti_windup_coefficient(cfg: Config) -> float:
+    """Share of the excess over the limit that the recursive law sheds each sample."""
+    mode = cfg["controller.anti_windup"]
+    if mode in ("auto", "none"):
+        return 0.0
+    if mode == "clamp":
+        return 1.0
+    k_aw = cfg["controller.k_aw"]
+    return 1.0 if k_aw is None else np.minimum(1.0, k_aw * cfg["sim.h"])
+
+
+def reference_column(cfg: Config) -> np.ndarray:
+    """The reference's parameter column (rows of :mod:`mfcontrol.laws.reference`)."""
+    col = np.zeros((reference.N_PARAMS, _width(cfg)))
+    col[reference.KIND] = reference.KINDS[cfg["reference.kind"]]
+    if cfg["reference.kind"] == "smooth-step":
+        col[reference.INITIAL] = cfg["reference.initial"]
+        col[reference.FINAL] = cfg["reference.final"]
+        col[reference.T0] = cfg["reference.t0"]
+        col[reference.DURATION] = cfg["reference.duration"]
+        return col
+    col[reference.SLOPE] = cfg["reference.slope"]
+    col[reference.LEVEL] = cfg["reference.level"]
+    t2 = cfg["reference.t_ramp2"]
+    col[reference.T_RAMP2] = math.inf if t2 is None else t2
+    col[reference.SLOPE2] = cfg["reference.slope2"]
+    return col
+
+
+def buck_state_column(cfg: Config) -> np.ndarray:
+    """The buck's initial state column."""
+    col = np.zeros((buck.N_STATE, _width(cfg)))
+    col[buck.I_L] = cfg["plant.i0"]
+    col[buck.V_C] = cfg["plant.v0"]
+    return col

@@ -1,0 +1,181 @@
+"""Run results: time, signals, plant states, metrics, the resolved configuration, version."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._version import __version__
+from ..config import Config
+
+#: the signals every run records, in file order (a law's components may follow)
+SIGNALS = ("y_ref", "y", "u", "u_raw", "gamma", "gain")
+
+
+class _Files:
+    """What every result type writes: the trajectory as CSV and the metrics as JSON."""
+
+    name: str
+    version: str
+
+    def to_pandas(self):  # pragma: no cover - every result type defines it
+        raise NotImplementedError
+
+    def _metrics_payload(self) -> dict[str, Any]:  # pragma: no cover
+        raise NotImplementedError
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write the trajectory; floats keep all 17 significant digits."""
+        path = Path(path)
+        self.to_pandas().to_csv(path, index=False, float_format="%.17g")
+        return path
+
+    def metrics_json(self) -> str:
+        """Metrics as JSON, with the case name and the mfcontrol version (NaN as null)."""
+        payload = {"case": self.name, "mfcontrol": self.version, **self._metrics_payload()}
+        return json.dumps(_jsonable(payload), indent=2)
+
+
+class _Trajectory(_Files):
+    """A single trajectory: time, signals (y_ref, y, ...) and plant states."""
+
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    states: dict[str, np.ndarray]
+    metrics: dict[str, Any]
+
+    @property
+    def error(self) -> np.ndarray:
+        """Tracking error y - y*."""
+        return self.signals["y"] - self.signals["y_ref"]
+
+    def to_pandas(self):
+        """Trajectory as a DataFrame: t, then the signals, then the plant states."""
+        import pandas as pd
+
+        return pd.DataFrame({"t": self.time, **self.signals, **self.states})
+
+    def _metrics_payload(self) -> dict[str, Any]:
+        return dict(self.metrics)
+
+
+@dataclass
+class Result(_Trajectory):
+    """One simulated run: of a case (``config`` holds its resolved configuration) or of a
+    loop built from Python objects (:func:`mfcontrol.simulate_loop`; ``config`` is None).
+
+    Attributes
+    ----------
+    name : str
+        Case name (or file stem) the run came from, or the name given.
+    time : ndarray
+        Sample times t_k (s), up to divergence.
+    signals : dict of ndarray
+        ``y_ref`` reference, ``y`` output at t_k before that sample's plant step, ``u`` the
+        controller's (limited) output, what the plant received (the duty cycle on a
+        converter), ``u_raw`` the law's output before limiting (the recursive law's raw
+        u_k, before its output gain), ``gamma`` the adaptive gain (1/alpha for a constant
+        gain), ``gain`` what multiplied the derivative error; an intelligent controller
+        adds its terms ``F_hat``, ``feedforward``, ``P``, ``I``, ``D``.
+    states : dict of ndarray
+        Plant states at t_k (``i_L``, ``v_C`` for the converters).
+    metrics : dict
+        See :mod:`mfcontrol.api.metrics`.
+    version : str
+        mfcontrol version that produced it.
+    config : Config or None
+        The fully resolved configuration of a case run.
+    arithmetic : str
+        ``"exact"`` (bit for bit the published arithmetic) or ``"fast"`` (the engine's
+        fast mode, within about 1e-12 relative); in ``metrics.json`` too.
+    changes : tuple of Change
+        The scheduled parameter changes of a loop built from objects.
+    engine : str
+        ``"compiled"``, or ``"python"`` when the Python driver ran the loop
+        (``engine_note`` says why).
+    """
+
+    name: str
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    states: dict[str, np.ndarray]
+    metrics: dict[str, Any]
+    version: str = __version__
+    config: Config | None = None
+    label: str = field(default="")
+    arithmetic: str = field(default="exact")
+    changes: tuple = ()
+    engine: str = "compiled"
+    engine_note: str = ""
+
+    def _metrics_payload(self) -> dict[str, Any]:
+        return {"arithmetic": self.arithmetic, **self.metrics}
+
+    def plot(self, path: str | Path | None = None, title: str | None = None,
+             output_label: str | None = None, input_label: str | None = None):
+        """A case run: the paper's panels (output and reference, duty cycle, and gamma for
+        adaptive laws). A loop built from objects, or labels given: output and reference
+        on top, control below; labels should carry units (``"speed (rad/s)"``).
+
+        Returns the matplotlib Figure; saves it as PNG when ``path`` is given.
+        """
+        from .plotting import plot_loop, plot_run
+
+        if self.config is not None and output_label is None and input_label is None:
+            return plot_run(self, path=path, title=title)
+        return plot_loop(self, path=path, title=title,
+                         output_label=output_label or "output y",
+                         input_label=input_label or "control u")
+
+
+@dataclass
+class SweepResult(_Files):
+    """Members of a sweep case, each run on the same, freshly reset scenario."""
+
+    name: str
+    config: Config
+    key: str
+    values: list[float]
+    members: list[Result]
+    version: str
+
+    @property
+    def metrics(self) -> list[dict[str, Any]]:
+        return [{self.key: v, **m.metrics} for v, m in zip(self.values, self.members, strict=True)]
+
+    def to_pandas(self):
+        """All members' trajectories, long format, with a column naming the swept value."""
+        import pandas as pd
+
+        frames = []
+        for v, m in zip(self.values, self.members, strict=True):
+            df = m.to_pandas()
+            df.insert(0, self.key, v)
+            frames.append(df)
+        return pd.concat(frames, ignore_index=True)
+
+    def _metrics_payload(self) -> dict[str, Any]:
+        return {"sweep": self.key, "members": self.metrics}
+
+    def plot(self, path: str | Path | None = None, kind: str = "gamma"):
+        """``kind='gamma'``: gamma(t) per member; ``kind='error'``: |y - y*| (log axis)."""
+        from .plotting import plot_sweep
+
+        return plot_sweep(self, kind=kind, path=path)
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {k: _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj

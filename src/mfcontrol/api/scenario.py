@@ -1,0 +1,169 @@
+"""From resolved configurations to the engine's arrays, and back to named results.
+
+A *scenario* is the set of float64 arrays the kernel runs: one column per member. Members
+of one scenario share the plant model, the law, the time grid and the number of scheduled
+changes; every numeric parameter may differ between them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import Config
+from ..engine import metrics, paper_single, trajectory
+from ..laws import recursive_ip
+from ..numerics import grid
+from ..plants import buck
+from . import params
+
+
+@dataclass
+class Scenario:
+    n_steps: int
+    h: float
+    t_end: float
+    plant_kind: int
+    PP: np.ndarray
+    X0: np.ndarray
+    law_kind: int
+    CP: np.ndarray
+    RP: np.ndarray
+    ev_steps: np.ndarray
+    ev_k: np.ndarray
+    ev_row: np.ndarray
+    ev_add: np.ndarray
+    ev_val: np.ndarray
+    S: np.ndarray
+    state_names: tuple[str, ...]
+
+    @property
+    def n_members(self) -> int:
+        return self.X0.shape[1]
+
+    def time(self) -> np.ndarray:
+        """Sample times t_k = (k t_end) / N, computed exactly as the kernel does."""
+        return grid.times(self.n_steps, self.t_end)
+
+
+def n_steps(cfg: Config) -> int:
+    """Samples in a configuration's run (validated when it was resolved)."""
+    return round(cfg["sim.t_end"] / cfg["sim.h"])
+
+
+def axis_columns(base: Config, key: str, values: np.ndarray) -> dict[str, np.ndarray]:
+    """The one-member arrays (``PP``, ``X0``, ``CP``, ``RP``, ``ev_val``) for every value
+    of one swept key at once, one column per value: the same translators as
+    :func:`build`, given an array where they read ``key``. The values must have been
+    validated (:func:`mfcontrol.api.batch.make_grid`)."""
+    cfg = Config({**base.values, key: np.asarray(values, dtype=float)})
+    n = n_steps(base)
+    m = np.size(values)
+    events = _events(cfg, n)
+    ev_val = np.zeros((len(events), m))
+    for e, ev in enumerate(events):
+        ev_val[e] = ev[3]
+    ones = np.ones(m)
+    return {"PP": params.buck_column(cfg) * ones, "X0": params.buck_state_column(cfg) * ones,
+            "CP": params.recursive_law_column(cfg) * ones,
+            "RP": params.reference_column(cfg) * ones,
+            "ev_val": ev_val}
+
+
+def _events(cfg: Config, n: int) -> list[tuple[int, int, bool, float]]:
+    """(sample, parameter row, additive?, value) for every scheduled change, in order."""
+    out = []
+    for t_change in cfg["plant.change_times"]:
+        k = grid.first_sample_at(t_change, cfg["sim.t_end"], n)
+        out.append((k, buck.R, True, cfg["plant.dR"]))
+        out.append((k, buck.C, True, cfg["plant.dC"]))
+    return out
+
+
+def build(configs: Sequence[Config]) -> Scenario:
+    """Stack the members' configurations into one scenario."""
+    first = configs[0]
+    n = n_steps(first)
+    for c in configs[1:]:
+        for key in ("plant.model", "controller.law", "sim.h", "sim.t_end"):
+            if c[key] != first[key]:
+                raise ValueError(f"members of one scenario must share {key}")
+        if len(c["plant.change_times"]) != len(first["plant.change_times"]):
+            raise ValueError("members of one scenario must share the number of load changes")
+    events = [_events(c, n) for c in configs]
+    n_ev = len(events[0])
+    ev_k = np.array([[ev[e][0] for ev in events] for e in range(n_ev)], dtype=np.int64)
+    ev_k = ev_k.reshape(n_ev, len(configs))
+    ev_val = np.array([[ev[e][3] for ev in events] for e in range(n_ev)]).reshape(ev_k.shape)
+    ev_row = np.array([e[1] for e in events[0]], dtype=np.int64)
+    ev_add = np.array([e[2] for e in events[0]], dtype=np.bool_)
+    ev_steps = np.unique(ev_k[ev_k < n]) if n_ev else np.zeros(0, dtype=np.int64)
+    X0 = np.column_stack([params.buck_state_column(c) for c in configs])
+    S = metrics.settings(first["metrics.settle_time"],
+                        first["sim.t_end"] * (1 - first["metrics.final_window"]),
+                        first["sim.diverge_above"])
+    return Scenario(
+        n_steps=n, h=first["sim.h"], t_end=first["sim.t_end"],
+        plant_kind=paper_single.BUCK,
+        PP=np.hstack([params.buck_column(c) for c in configs]),
+        X0=X0,
+        law_kind=paper_single.RECURSIVE_IP,
+        CP=np.hstack([params.recursive_law_column(c) for c in configs]),
+        RP=np.hstack([params.reference_column(c) for c in configs]),
+        ev_steps=ev_steps.astype(np.int64), ev_k=ev_k, ev_row=ev_row, ev_add=ev_add,
+        ev_val=ev_val, S=S, state_names=buck.STATE_NAMES,
+    )
+
+
+def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = False):
+    """Run every member from its initial state; return (metrics M, trajectories traj).
+
+    ``traj[row, m, k]`` holds the kept members (all by default), NaN after divergence.
+    Each member runs through the single-run kernel (sweeps use :mod:`mfcontrol.api.batch`);
+    ``fast``: through its fast mode (:data:`mfcontrol.engine.paper_single.run_single_fast`).
+    """
+    run_single = paper_single.run_single_fast if fast else paper_single.run_single
+    n = scn.n_members
+    keep_arr = list(range(n)) if keep is None else list(keep)
+    n_rows = trajectory.T_X0 + scn.X0.shape[0]
+    M = np.zeros((metrics.N_METRICS, n))
+    CS = np.zeros((recursive_ip.N_STATE, n))
+    paper_single.reset_members(scn.law_kind, scn.CP, CS)
+    if n == 1 and keep_arr == [0]:  # the common case: the kernel writes the result itself
+        traj = np.empty((n_rows, 1, scn.n_steps))
+        run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
+                   scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,
+                   scn.ev_k, scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M, traj[:, 0, :])
+        traj[:, 0, int(M[metrics.M_N_SAMPLES, 0]):] = np.nan  # never written: diverged
+        return M, traj
+    traj = np.full((n_rows, len(keep_arr), scn.n_steps), np.nan)
+    one = np.empty((n_rows, scn.n_steps))
+    X = scn.X0.copy()
+    for j in range(n):
+        Mj = np.zeros((metrics.N_METRICS, 1))
+        run_member(scn, j, X, CS, Mj, one, fast=fast)
+        M[:, j] = Mj[:, 0]
+        if j in keep_arr:
+            done = int(Mj[metrics.M_N_SAMPLES, 0])
+            traj[:, keep_arr.index(j), :done] = one[:, :done]
+    return M, traj
+
+
+def run_member(scn: Scenario, j: int, X: np.ndarray, CS: np.ndarray, M: np.ndarray,
+               traj: np.ndarray, *, n_steps: int | None = None, t_end: float | None = None,
+               fast: bool = False) -> None:
+    """Member j of ``scn`` through the single-run kernel, from the states ``X[:, j]`` and
+    ``CS[:, j]`` (advanced in place), for ``n_steps`` samples over ``t_end`` (the
+    scenario's by default): its metrics into ``M[:, 0]``, its trajectory into
+    ``traj[row, k]``."""
+    run_single = paper_single.run_single_fast if fast else paper_single.run_single
+    col = slice(j, j + 1)
+    Xj, CSj = X[:, col].copy(), CS[:, col].copy()
+    run_single(scn.n_steps if n_steps is None else n_steps, scn.h,
+               scn.t_end if t_end is None else t_end, scn.plant_kind, scn.PP[:, col].copy(),
+               Xj, scn.law_kind, scn.CP[:, col].copy(), CSj, scn.RP[:, col].copy(),
+               scn.ev_steps, scn.ev_k[:, col].copy(), scn.ev_row, scn.ev_add,
+               scn.ev_val[:, col].copy(), scn.S, M, traj)
+    X[:, j], CS[:, j] = Xj[:, 0], CSj[:, 0]

@@ -1,0 +1,9 @@
+"""Configuration: the options (declared once), their validation, and TOML in and out.
+
+How a TOML key reaches the kernel: :mod:`.options` declares it, :mod:`.resolve` checks
+it, :mod:`mfcontrol.api.params` turns the resolved configuration into the engine's arrays.
+"""
+
+from .resolve import Config, resolve
+
+__all__ = ["Config", "resolve"]

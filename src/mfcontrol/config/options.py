@@ -1,0 +1,190 @@
+"""Every configuration option, declared once: key, kind, default, check, meaning and the
+fidelity preset it belongs to. Validation (:mod:`.resolve`), the README's option table
+(:func:`options_markdown`) and ``mfcontrol show`` read this one table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from .toml import toml_value
+
+FIDELITIES = ("published", "paper")
+
+
+@dataclass(frozen=True)
+class Option:
+    key: str
+    kind: str  # "float", "str", "bool", "floats"
+    default: Any
+    doc: str
+    choices: tuple[str, ...] = ()
+    check: str = ""  # "positive", "nonnegative", "fraction", "" (any finite)
+    preset: Mapping[str, Any] = field(default_factory=dict)
+
+
+def _o(key, kind, default, doc, choices=(), check="", preset=None) -> Option:
+    return Option(key, kind, default, doc, tuple(choices), check, preset or {})
+
+
+OPTIONS: tuple[Option, ...] = (
+    _o("description", "str", "", "one line describing the case"),
+    _o("fidelity", "str", "published", "preset for the options below that differ between the "
+       "published code and the printed equations", FIDELITIES),
+    # plant
+    _o("plant.model", "str", "buck", "plant model: averaged buck or boost converter, or "
+       "y' = a y + b u + w", ("buck", "boost", "first-order")),
+    _o("plant.output", "str", "voltage", "converters' measured output: v_C, or v_C * i_L "
+       "(buck)", ("voltage", "power")),
+    _o("plant.coupling", "str", None, "buck input coupling: the published code adds E d/L to "
+       "dv/dt as well", ("published", "textbook"),
+       preset={"published": "published", "paper": "textbook"}),
+    _o("plant.E", "float", 20.0, "input voltage (V)", check="positive"),
+    _o("plant.L", "float", 1e-3, "inductance (H)", check="positive"),
+    _o("plant.R", "float", 10.0, "load resistance (ohm)", check="positive"),
+    _o("plant.C", "float", 10e-6, "capacitance (F)", check="positive"),
+    _o("plant.dR", "float", 1.0, "resistance added at each load change (ohm)"),
+    _o("plant.dC", "float", 1e-9, "capacitance added at each load change (F)"),
+    _o("plant.change_times", "floats", [4e-3, 6e-3], "load change times (s): applied at the "
+       "first sample t_k >= each time, before that sample's plant step", check="nonnegative"),
+    _o("plant.i0", "float", 0.0, "initial inductor current (A)"),
+    _o("plant.v0", "float", 0.0, "initial capacitor voltage (V)"),
+    _o("plant.a", "float", -1.0, "first-order: pole a (1/s)"),
+    _o("plant.b", "float", 1.0, "first-order: input gain b"),
+    _o("plant.w", "float", 0.0, "first-order: disturbance w"),
+    _o("plant.y0", "float", 0.0, "first-order: initial output"),
+    _o("plant.schedule", "events", [], "parameter changes: a list of {t = time (s), name = "
+       "parameter, set = value} or {..., add = delta}, applied at the first t_k >= t"),
+    # reference
+    _o("reference.kind", "str", "ramp-hold-ramp", "ramp-hold-ramp: min(slope t, level), "
+       "then level + slope2 (t - t_ramp2) from t_ramp2 on; smooth-step: from initial to "
+       "final along a half cosine over [t0, t0 + duration]",
+       ("ramp-hold-ramp", "smooth-step")),
+    _o("reference.slope", "float", 1000.0, "first slope (output unit/s)"),
+    _o("reference.level", "float", 2.5, "hold level (output unit)"),
+    _o("reference.t_ramp2", "float", None, "start of the second ramp (s); absent: none",
+       check="nonnegative"),
+    _o("reference.slope2", "float", 0.0, "second slope (output unit/s)"),
+    _o("reference.initial", "float", 0.0, "smooth-step: value before t0"),
+    _o("reference.final", "float", 1.0, "smooth-step: value after t0 + duration"),
+    _o("reference.t0", "float", 0.0, "smooth-step: start (s)", check="nonnegative"),
+    _o("reference.duration", "float", 0.0, "smooth-step: length (s); 0 for a plain step",
+       check="nonnegative"),
+    # controller
+    _o("controller.law", "str", "ip", "ip: the paper's recursive i-P (eq. 8); variational: "
+       "with the symplectic gamma update (eq. 33); i-P, i-PI, i-PD, i-PID: positional "
+       "intelligent controllers", ("ip", "variational", "i-P", "i-PI", "i-PD", "i-PID")),
+    _o("controller.alpha", "float", 10.0, "key gain alpha of the ultra-local model",
+       check="positive"),
+    _o("controller.kp", "float", 2.0, "proportional gain K_P"),
+    _o("controller.ki", "float", 0.0, "i-PI, i-PID: integral gain K_I"),
+    _o("controller.kd", "float", 0.0, "i-PD, i-PID: derivative gain K_D"),
+    _o("controller.order", "int", 1, "positional laws: order n of y^(n) = F + alpha u",
+       ("1", "2")),
+    _o("controller.estimator", "str", "backward-difference", "positional laws: estimator of "
+       "F", ("backward-difference", "algebraic")),
+    _o("controller.window", "int", 20, "algebraic estimator: window M (samples; even for "
+       "n = 2)", check="positive"),
+    _o("controller.anti_windup", "str", "auto", "when the output is limited: the recursive "
+       "laws' u (clamp: carry the limited value; back-calculation: a share k_aw h of the "
+       "excess), the positional laws' integral; auto = none for the recursive laws (as "
+       "published), clamp for the positional ones",
+       ("auto", "clamp", "back-calculation", "none")),
+    _o("controller.k_aw", "float", None, "back-calculation gain (1/s); absent: 1/sim.h",
+       check="positive"),
+    _o("controller.adapt", "str", "constant", "positional laws: gain adaptation (variational "
+       "uses gamma0, Gamma, eps_M, integrator)", ("constant", "variational")),
+    _o("controller.gamma0", "float", 1.0, "variational: initial gamma"),
+    _o("controller.Gamma", "float", 5e-8, "variational: integrator gain Gamma (the paper "
+       "states 5e-8; code v1.0.1 uses h^2/K_gamma = 1e-12 for single runs)"),
+    _o("controller.eps_M", "float", 0.1, "variational: bound eps_M on |F_k - F_{k-1}|"),
+    _o("controller.k_gamma", "float", 1.0, "variational: coupling K_gamma of the rate term"),
+    _o("controller.integrator", "str", None, "variational: gamma integrator order",
+       ("first-order", "second-order"),
+       preset={"published": "first-order", "paper": "second-order"}),
+    _o("controller.rate_term", "bool", None, "variational: add K_gamma dgamma/dt to u "
+       "(always 0 in the published code)", preset={"published": False, "paper": True}),
+    _o("controller.rate_sign", "str", "plus", "sign of the rate term: plus as printed, minus "
+       "as the published code writes it", ("plus", "minus")),
+    _o("controller.gain", "str", None, "what multiplies the derivative error: gamma_k, or "
+       "1/alpha (eq. 33 taken literally)", ("gamma", "alpha"),
+       preset={"published": "gamma", "paper": "gamma"}),
+    _o("controller.deriv_scale", "float", 1e-3, "divisor of the backward differences "
+       "(published 1e-3; the paper writes h)", check="positive"),
+    _o("controller.output_gain", "float", 1 / 2000, "duty = clip(output_gain * u)",
+       check="positive"),
+    _o("controller.duty_min", "float", 1e-3, "lower output (duty) limit"),
+    _o("controller.duty_max", "float", 0.9, "upper output (duty) limit"),
+    _o("controller.p_sample", "str", "previous", "measurement in the P term: y_{k-1} "
+       "(published) or y_k (printed)", ("previous", "current")),
+    _o("controller.p_error", "str", "r-y", "P term error: Kp (r - y) (published) or "
+       "Kp (y - r) (printed; positive feedback for Kp > 0)", ("r-y", "y-r")),
+    _o("controller.u0", "float", 1.0, "initial control u_0"),
+    # simulation
+    _o("sim.h", "float", 1e-6, "sample period and RK4 step (s)", check="positive"),
+    _o("sim.integrator", "str", "rk4", "plant integration between samples: one RK4 step "
+       "(published) or a compiled adaptive Dormand-Prince 5(4) (scipy's RK45 method, input "
+       "held, rtol 1e-9, atol 1e-12)", ("rk4", "rk45")),
+    _o("sim.t_end", "float", 0.01, "horizon (s); samples t_k = (k t_end)/N, N = t_end/h",
+       check="positive"),
+    _o("sim.diverge_above", "float", 1e12, "|y| above this (or any NaN/inf) ends a run as "
+       "diverged", check="positive"),
+    # metrics
+    _o("metrics.settle_time", "float", 1e-3, "max |e| is taken over t >= this (s)",
+       check="nonnegative"),
+    _o("metrics.final_window", "float", 0.2, "stability window: the last fraction of the "
+       "horizon", check="fraction"),
+    _o("metrics.stable_tol", "float", 0.1, "stable if max |e| over the window <= this "
+       "times max |y*|", check="positive"),
+    # sweeps
+    _o("sweep.key", "str", None, "sweep cases: the option every member varies"),
+    _o("sweep.values", "floats", None, "sweep cases: its values, one member each"),
+    _o("sweep.grid", "strs", None, "map cases: the grid `mfcontrol sweep` runs when given no "
+       "--grid, as [\"KEY=SPEC\", ...]"),
+)
+
+
+BY_KEY: dict[str, Option] = {o.key: o for o in OPTIONS}
+
+
+def allowed(o: Option) -> str:
+    if o.choices:
+        return "must be one of " + ", ".join(o.choices)
+    return {
+        "float": {"positive": "must be a finite number > 0",
+                  "nonnegative": "must be a finite number >= 0",
+                  "fraction": "must be a number in (0, 1]",
+                  "": "must be a finite number"}[o.check],
+        "floats": "must be a list of finite numbers" + (" >= 0" if o.check else ""),
+        "int": "must be a whole number" + (" > 0" if o.check else ""),
+        "strs": "must be a list of strings",
+        "events": "must be a list of tables {t = time >= 0, name = parameter, set = value} "
+                  "or {t, name, add = delta}",
+        "bool": "must be true or false",
+        "str": "must be a string",
+    }[o.kind]
+
+
+#: parameters a schedule may change, per plant model
+PLANT_PARAMETERS = {"buck": ("E", "L", "R", "C"), "boost": ("E", "L", "R", "C"),
+                    "first-order": ("a", "b", "w")}
+
+
+#: the positional intelligent laws (the others are the paper's recursive law)
+POSITIONAL = ("i-P", "i-PI", "i-PD", "i-PID")
+
+
+def options_markdown() -> str:
+    """The option table of the README, generated from :data:`OPTIONS`."""
+    def default(o: Option) -> str:
+        if o.preset:
+            return " / ".join(f"{f}: `{toml_value(v)}`" for f, v in o.preset.items())
+        return "none" if o.default is None else f"`{toml_value(o.default)}`"
+
+    rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
+    for o in OPTIONS:
+        what = allowed(o).removeprefix("must be ").replace("|", "\\|")
+        rows.append(f"| `{o.key}` | {default(o)} | {what} | {o.doc.replace('|', '/')} |")
+    return "\n".join(rows)

@@ -1,0 +1,232 @@
+"""Resolve and validate a configuration, once, at the edge.
+
+A configuration is a flat mapping of dotted keys (``controller.alpha``) to values. It is
+resolved in this order: option defaults, then the fidelity preset for the keys it governs,
+then the case file, then explicit overrides; explicit keys always beat the preset. Every
+error names the key, the value and what is allowed; kernels assume valid input.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..numerics import grid
+from .options import BY_KEY, OPTIONS, PLANT_PARAMETERS, POSITIONAL, Option, allowed
+from .toml import to_toml
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _as_float(v: Any) -> float:
+    """float(v), with integers beyond the float range read as infinite (then rejected)."""
+    try:
+        return float(v)
+    except OverflowError:
+        return math.inf
+
+
+def _within(o: Option, v):
+    """Whether v (a float, or element-wise an array of them) is in the option's range."""
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(v)
+        if o.check == "positive":
+            ok = ok & (v > 0)
+        elif o.check == "nonnegative":
+            ok = ok & (v >= 0)
+        elif o.check == "fraction":
+            ok = ok & (v > 0) & (v <= 1)
+    return ok
+
+
+def _check_number(o: Option, v: float) -> bool:
+    return bool(_within(o, v))
+
+
+def check_value(key: str, value: Any) -> Any:
+    """Return ``value`` converted to the option's type, or raise ConfigError."""
+    o = BY_KEY.get(key)
+    if o is None:
+        raise unknown_key(key, value)
+    if o.kind == "float":
+        if not _is_number(value) or not _check_number(o, _as_float(value)):
+            raise ConfigError(key, value, allowed(o))
+        return float(value)
+    if o.kind == "floats":
+        if (not isinstance(value, list | tuple)
+                or not all(_is_number(x) and _check_number(o, _as_float(x)) for x in value)):
+            raise ConfigError(key, value, allowed(o))
+        return [float(x) for x in value]
+    if o.kind == "strs":
+        if not isinstance(value, list | tuple) or not all(isinstance(x, str) for x in value):
+            raise ConfigError(key, value, allowed(o))
+        return list(value)
+    if o.kind == "int":
+        if (not isinstance(value, int) or isinstance(value, bool)
+                or (o.check and value <= 0) or (o.choices and str(value) not in o.choices)):
+            raise ConfigError(key, value, allowed(o))
+        return value
+    if o.kind == "events":
+        if not isinstance(value, list | tuple) or not all(_is_event(e) for e in value):
+            raise ConfigError(key, value, allowed(o))
+        return [dict(e) for e in value]
+    if o.kind == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(key, value, allowed(o))
+        return value
+    if not isinstance(value, str) or (o.choices and value not in o.choices):
+        raise ConfigError(key, value, allowed(o))
+    return value
+
+
+def _is_event(e: Any) -> bool:
+    if not isinstance(e, Mapping) or set(e) not in ({"t", "name", "set"}, {"t", "name", "add"}):
+        return False
+    t = e["t"]
+    v = e["set"] if "set" in e else e["add"]
+    return (_is_number(t) and math.isfinite(_as_float(t)) and t >= 0
+            and isinstance(e["name"], str) and _is_number(v) and math.isfinite(_as_float(v)))
+
+
+def unknown_key(key: str, value: Any) -> ConfigError:
+    close = difflib.get_close_matches(key, BY_KEY, n=1)
+    hint = f"did you mean {close[0]}?" if close else "see `mfcontrol show` for the known keys"
+    return ConfigError(key, value, f"unknown key; {hint}")
+
+
+@dataclass(frozen=True)
+class Config(Mapping[str, Any]):
+    """A resolved, validated configuration (read-only mapping of dotted keys)."""
+
+    values: Mapping[str, Any]
+
+    def __getitem__(self, key: str) -> Any:
+        return self.values[key]
+
+    def __iter__(self):
+        return iter(self.values)
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def with_overrides(self, overrides: Mapping[str, Any]) -> Config:
+        """A new resolved configuration with these keys set (fidelity presets re-applied
+        to keys that were never set explicitly)."""
+        return resolve({**self.explicit, **dict(overrides)})
+
+    @property
+    def explicit(self) -> dict[str, Any]:
+        return dict(self.values.get("_explicit", {}))
+
+    def public(self) -> dict[str, Any]:
+        return {k: v for k, v in self.values.items() if not k.startswith("_")}
+
+    def nested(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, v in self.public().items():
+            if v is None:
+                continue
+            *heads, last = key.split(".")
+            d = out
+            for hkey in heads:
+                d = d.setdefault(hkey, {})
+            d[last] = v
+        return out
+
+    def to_toml(self) -> str:
+        return to_toml(self.nested())
+
+
+def resolve(settings: Mapping[str, Any]) -> Config:
+    """Validate ``settings`` (dotted keys) and fill every other option. A value of None
+    unsets the key (its default or fidelity preset applies)."""
+    for key, value in settings.items():
+        if key not in BY_KEY:
+            raise unknown_key(key, value)
+    explicit = {key: check_value(key, v) for key, v in settings.items() if v is not None}
+    fidelity = explicit.get("fidelity", BY_KEY["fidelity"].default)
+    values: dict[str, Any] = {}
+    for o in OPTIONS:
+        if o.key in explicit:
+            values[o.key] = explicit[o.key]
+        elif o.preset:
+            values[o.key] = o.preset[fidelity]
+        else:
+            values[o.key] = o.default
+    _check_consistency(values)
+    values["_explicit"] = explicit
+    return Config(values)
+
+
+#: options whose value the checks across options read (:func:`_check_consistency`)
+_CROSS_KEYS = ("sim.h", "sim.t_end", "controller.duty_min", "controller.duty_max",
+               "plant.R", "plant.C", "plant.dR", "plant.dC", "controller.window")
+
+
+def check_axis(base: Config, key: str, values: Any) -> None:
+    """Validate every value of a swept numeric option against ``base``, as
+    ``base.with_overrides({key: v})`` would for each v, at array speed: the option's
+    own check on the whole axis, the checks across options once per value only for the
+    options they read."""
+    o = BY_KEY.get(key)
+    if o is None:
+        raise unknown_key(key, values)
+    arr = np.asarray(values, dtype=float)
+    ok = _within(o, arr)
+    if o.kind != "float" or not ok.all():
+        bad = values if o.kind != "float" else float(arr[np.flatnonzero(~ok)[0]])
+        check_value(key, bad)  # raises with the option's message
+    if key in _CROSS_KEYS:
+        for v in np.unique(arr):
+            _check_consistency({**base.values, key: float(v)})
+    elif key.startswith("sweep."):
+        base.with_overrides({key: float(arr[0])})
+
+
+def _check_consistency(v: dict[str, Any]) -> None:
+    grid.n_samples(v["sim.t_end"], v["sim.h"], "sim.t_end", "sim.h")
+    if v["controller.duty_min"] > v["controller.duty_max"]:
+        raise ConfigError("controller.duty_min", v["controller.duty_min"],
+                          f"must not exceed controller.duty_max = {v['controller.duty_max']!r}")
+    n_changes = len(v["plant.change_times"])
+    for name, delta in (("R", v["plant.dR"]), ("C", v["plant.dC"])):
+        lowest = min(v[f"plant.{name}"], v[f"plant.{name}"] + n_changes * delta)
+        if lowest <= 0:
+            raise ConfigError(f"plant.d{name}", delta,
+                              f"must keep plant.{name} > 0 after {n_changes} load changes")
+    names = PLANT_PARAMETERS[v["plant.model"]]
+    for e in v["plant.schedule"]:
+        if e["name"] not in names:
+            raise ConfigError("plant.schedule", e, f"name must be a parameter of the "
+                              f"{v['plant.model']} plant: {', '.join(names)}")
+    if (v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
+            and v["controller.order"] == 2 and v["controller.window"] % 2):
+        raise ConfigError("controller.window", v["controller.window"],
+                          "must be even for order 2 (Simpson's rule)")
+    if v["controller.law"] in ("ip", "variational") and v["plant.model"] == "first-order":
+        raise ConfigError("controller.law", v["controller.law"], "the paper's recursive law "
+                          "drives a converter's duty cycle: use i-P .. i-PID for first-order")
+    if (v["sweep.key"] is None) != (v["sweep.values"] is None):
+        raise ConfigError("sweep.values", v["sweep.values"],
+                          "sweep.key and sweep.values go together")
+    if v["sweep.key"] is not None:
+        o = BY_KEY.get(v["sweep.key"])
+        if (o is None or o.kind != "float" or o.key.startswith("sweep.")
+                or o.key in _GRID_KEYS):
+            raise ConfigError("sweep.key", v["sweep.key"], "must name a numeric option that "
+                              "keeps the time grid (not sim.h or sim.t_end)")
+        for x in v["sweep.values"]:
+            check_value(o.key, x)
+            _check_consistency({**v, o.key: x, "sweep.key": None, "sweep.values": None})
+
+
+#: options every member of one scenario shares: they set the time grid
+_GRID_KEYS = ("sim.h", "sim.t_end")

@@ -1,0 +1,58 @@
+"""The time grid: N samples t_k = (k t_end) / N over [0, t_end), N = t_end / h.
+
+Every run, every kernel and every schedule uses these few lines: the sample times are
+computed as ``(k * t_end) / N`` (not ``k * h``) so that the last sample is exact and a
+change scheduled at a time lands on the same sample in every driver.
+"""
+
+import math
+
+import numpy as np
+
+from .._jit import step_jit
+from ..errors import ConfigError
+
+#: most samples one run may have (its trajectory alone would need 9 x 8 bytes a sample)
+MAX_STEPS = 100_000_000
+
+
+def n_samples(t_end: float, h: float, t_end_key: str = "t_end", h_key: str = "h") -> int:
+    """N = t_end / h, checked: both finite and > 0, N a whole number >= 2, at most
+    :data:`MAX_STEPS`. Errors name ``t_end_key`` / ``h_key``."""
+    if not (h > 0 and math.isfinite(h)):
+        raise ConfigError(h_key, h, "must be a finite number > 0")
+    if not (t_end > 0 and math.isfinite(t_end)):
+        raise ConfigError(t_end_key, t_end, "must be a finite number > 0")
+    n = t_end / h
+    if not n <= MAX_STEPS:  # also catches an overflow to inf
+        raise ConfigError(t_end_key, t_end, f"must be at most {MAX_STEPS:,} steps of "
+                          f"{h_key} = {h!r}")
+    if abs(n - round(n)) > 1e-9 * n or round(n) < 2:
+        raise ConfigError(t_end_key, t_end, f"must be a whole number (>= 2) of {h_key} = "
+                          f"{h!r} steps")
+    return round(n)
+
+
+def times(n: int, t_end: float) -> np.ndarray:
+    """The sample times t_k = (k t_end) / n, exactly as every kernel computes them."""
+    return (np.arange(n) * t_end) / n
+
+
+@step_jit
+def time(k, t_end, n):
+    """t_k inside a kernel: the same expression as :func:`times`."""
+    return (k * t_end) / n
+
+
+def first_sample_at(t_event: float, t_end: float, n: int) -> int:
+    """First k with t_k >= t_event (n if never), t_k evaluated in float64 exactly as the
+    kernels do: a guess from the real quotient, then corrected."""
+    def t(k: int) -> float:
+        return (k * t_end) / n
+
+    k = min(max(math.ceil(t_event * n / t_end), 0), n)
+    while k > 0 and t(k - 1) >= t_event:
+        k -= 1
+    while k < n and t(k) < t_event:
+        k += 1
+    return k

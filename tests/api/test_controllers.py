@@ -1,0 +1,207 @@
+"""The live controllers: closed-form behaviour, invariants and the API contract."""
+
+import json
+import math
+import pickle
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mfcontrol
+from mfcontrol import IP, IPD, IPI, IPID, RecursiveIP
+
+
+def _integrator_loop(ctrl, n, h, alpha, w, r=1.0, y0=0.0):
+    """Plant y' = w + alpha u (F = w constant), integrated exactly with u held."""
+    y, ys, us = y0, [], []
+    for _ in range(n):
+        u = ctrl(y, setpoint=r)
+        ys.append(y)
+        us.append(u)
+        y = y + h * (w + alpha * u)
+    return np.array(ys), np.array(us)
+
+
+def test_ip_error_decays_as_exp_minus_kp_t():
+    # With F constant, the backward difference gives F exactly from the second sample on,
+    # so the loop is e_{k+1} = (1 - kp h) e_k: the Euler image of e' = -kp e.
+    h, kp, alpha, w = 1e-4, 5.0, 2.0, 3.0
+    ctrl = IP(alpha=alpha, kp=kp, sample_time=h)
+    y, _ = _integrator_loop(ctrl, 20_000, h, alpha, w)
+    e = y - 1.0
+    k0 = 3
+    k = np.arange(k0, e.size)
+    np.testing.assert_allclose(e[k], e[k0] * (1 - kp * h) ** (k - k0), rtol=1e-9)
+    t = k * h
+    continuous = e[k0] * np.exp(-kp * (t - t[0]))
+    # (1 - kp h)^n vs exp(-kp n h): relative gap ~ kp^2 h t / 2
+    assert np.max(np.abs(e[k] - continuous)) <= 2 * kp**2 * h * t[-1] * abs(e[k0])
+    assert ctrl.components["F_hat"] == pytest.approx(w, rel=1e-9)
+
+
+def test_ip_with_algebraic_estimator_tracks_a_first_order_plant():
+    from mfcontrol.api.plants import FirstOrder
+
+    ctrl = IP(alpha=1.0, kp=10.0, sample_time=1e-3, estimator="algebraic", window=20)
+    res = mfcontrol.simulate_loop(FirstOrder(a=-2.0, b=1.0, w=0.5), ctrl, 1.0, t_end=2.0)
+    assert res.metrics["stable"]
+    assert abs(res.error[-1]) < 1e-3
+
+
+@pytest.mark.parametrize("cls,args", [(IP, (1.0, 2.0)), (IPI, (1.0, 2.0, 0.5)),
+                                      (IPD, (1.0, 2.0, 0.5)), (IPID, (1.0, 2.0, 0.5, 0.1))])
+def test_unknown_keywords_raise_type_error(cls, args):
+    with pytest.raises(TypeError):
+        cls(*args, sample_time=0.01, sampletime=0.01)
+
+
+@pytest.mark.parametrize("kwargs,needle", [
+    ({"alpha": -1.0}, "alpha = -1.0"), ({"alpha": float("nan")}, "alpha = nan"),
+    ({"sample_time": 0.0}, "sample_time = 0.0"), ({"output_limits": (2, 1)}, "output_limits"),
+    ({"estimator": "magic"}, "estimator = 'magic'"), ({"order": 3}, "order = 3"),
+    ({"estimator": "algebraic", "window": 1}, "window = 1"),
+    ({"anti_windup": "sometimes"}, "anti_windup"), ({"kp": "fast"}, "kp = 'fast'")])
+def test_invalid_values_raise_value_error_naming_them(kwargs, needle):
+    args = {"alpha": 1.0, "kp": 1.0, "sample_time": 0.01, **kwargs}
+    with pytest.raises(ValueError, match=needle.replace("(", r"\(").replace(")", r"\)")):
+        IP(**args)
+
+
+def test_nan_measurement_holds_the_output_and_is_counted():
+    ctrl = IP(alpha=1.0, kp=2.0, sample_time=0.01)
+    for y in (0.0, 0.1, 0.2):
+        u = ctrl(y, setpoint=1.0)
+    before = ctrl.snapshot()
+    assert ctrl(float("nan")) == u and ctrl(float("inf")) == u
+    assert ctrl.nan_count == 2
+    after = ctrl.snapshot()
+    assert after["state"] == before["state"]
+
+
+def test_components_add_up_to_the_output():
+    ctrl = IPID(alpha=2.0, kp=3.0, ki=1.0, kd=0.5, sample_time=0.01)
+    for y in (0.0, 0.1, 0.25, 0.3, 0.32):
+        u = ctrl(y, setpoint=1.0)
+    c = ctrl.components
+    bracket = c["F_hat"] - c["feedforward"] + c["P"] + c["I"] + c["D"]
+    assert u == pytest.approx(-bracket / 2.0, rel=1e-12)
+
+
+def test_external_gain_uses_the_alpha_given_at_each_call():
+    a = IP(alpha=1.0, kp=2.0, sample_time=0.01, gain="external")
+    b = IP(alpha=4.0, kp=2.0, sample_time=0.01)
+    for y in (0.0, 0.1, 0.3, 0.4):
+        assert a(y, setpoint=1.0, alpha=4.0) == b(y, setpoint=1.0)
+    with pytest.raises(ValueError, match="alpha"):
+        a(0.5, setpoint=1.0)
+
+
+def test_variational_gain_adapts():
+    ctrl = IP(alpha=1.0, kp=2.0, sample_time=0.01, gain="variational", gamma0=1.0,
+              Gamma=1e-3, eps_M=0.1)
+    for y in np.linspace(0, 1, 20):
+        ctrl(float(y), setpoint=1.0)
+    assert ctrl.gamma != 1.0
+
+
+def test_bumpless_transfer_from_manual():
+    ctrl = IPI(alpha=1.0, kp=2.0, ki=1.0, sample_time=0.01, output_limits=(-10, 10))
+    for y in (0.0, 0.1, 0.2):
+        ctrl(y, setpoint=1.0)
+    ctrl.set_auto_mode(False, last_output=3.5)
+    assert ctrl(0.3) == 3.5  # manual: the output stays where the operator put it
+    ctrl.set_auto_mode(True)
+    outs = [ctrl(0.3 + 1e-4 * i, setpoint=0.3 + 1e-4 * i) for i in range(4)]
+    assert outs[0] == 3.5 and abs(outs[-1] - 3.5) < 0.1  # continues from it, no jump
+
+
+def test_recursive_ip_live_equals_the_simulator():
+    r = mfcontrol.run_case("voltage-stable-variational", {"sim.t_end": 2e-3})
+    ctrl = RecursiveIP(alpha=10.0, kp=2.0, law="variational", gamma0=1.0)
+    out = [ctrl(y, setpoint=ref) for y, ref in zip(r.signals["y"], r.signals["y_ref"],
+                                                  strict=True)]
+    np.testing.assert_array_equal(out, r.signals["u"])
+    assert ctrl.components["gamma"] == r.signals["gamma"][-1]
+
+
+def test_recursive_ip_rejects_unknown_and_invalid_keys():
+    with pytest.raises(TypeError, match="gamma_0"):
+        RecursiveIP(alpha=10.0, kp=2.0, gamma_0=1.0)
+    with pytest.raises(ValueError, match="alpha = -1"):
+        RecursiveIP(alpha=-1.0, kp=2.0)
+
+
+# ---- properties ----------------------------------------------------------------------
+
+measurements = st.floats(allow_nan=True, allow_infinity=True, width=64)
+finite_measurements = st.floats(-1e3, 1e3)
+
+
+def _controller(kind, lo, width, aw, h):
+    common = {"sample_time": h, "output_limits": (lo, lo + width), "anti_windup": aw}
+    return {"ip": lambda: IP(1.5, 3.0, **common),
+            "ipi": lambda: IPI(1.5, 3.0, 2.0, **common),
+            "ipd": lambda: IPD(1.5, 3.0, 0.2, **common),
+            "ipid": lambda: IPID(1.5, 3.0, 2.0, 0.2, **common),
+            "alg": lambda: IPI(1.5, 3.0, 2.0, estimator="algebraic", window=4, **common)}[kind]()
+
+
+kinds = st.sampled_from(["ip", "ipi", "ipd", "ipid", "alg"])
+aws = st.sampled_from(["clamp", "back-calculation", "none"])
+
+
+@settings(max_examples=60, deadline=None)
+@given(kind=kinds, aw=aws, lo=st.floats(-100, 100), width=st.floats(0, 50),
+       ys=st.lists(measurements, max_size=60), h=st.floats(1e-5, 1.0))
+def test_output_within_limits_and_never_nan(kind, aw, lo, width, ys, h):
+    ctrl = _controller(kind, lo, width, aw, h)
+    for y in ys:
+        u = ctrl(y, setpoint=1.0)
+        assert math.isfinite(u)
+        assert lo <= u <= lo + width
+
+
+@settings(max_examples=40, deadline=None)
+@given(kind=kinds, aw=aws, ys=st.lists(finite_measurements, min_size=2, max_size=40),
+       cut=st.integers(0, 40))
+def test_restore_then_continue_is_identical(kind, aw, ys, cut):
+    cut = min(cut, len(ys))
+    a = _controller(kind, -20.0, 40.0, aw, 0.01)
+    for y in ys[:cut]:
+        a(y, setpoint=0.5)
+    snap = a.snapshot()
+    b = type(a).from_snapshot(json.loads(json.dumps(snap)))
+    c = pickle.loads(pickle.dumps(a))
+    rest = [a(y, setpoint=0.5) for y in ys[cut:]]
+    assert [b(y, setpoint=0.5) for y in ys[cut:]] == rest
+    assert [c(y, setpoint=0.5) for y in ys[cut:]] == rest
+
+
+@settings(max_examples=30, deadline=None)
+@given(aw=st.sampled_from(["clamp", "back-calculation"]), sat=st.integers(20, 300),
+       ki=st.floats(0.5, 20.0))
+def test_anti_windup_recovers_within_a_bounded_number_of_samples(aw, sat, ki):
+    # A load disturbance w = -3 on y' = -y + u + w pins the output at its upper limit for
+    # `sat` samples (setpoint held). Once it is gone, the loop without integral action
+    # leaves the limit after some samples; with anti-windup the i-PI must follow within a
+    # few samples of it, however long the saturation lasted. Without, it lags far behind.
+    h = 0.01
+
+    def recovery(ki_, anti_windup):
+        ctrl = IPI(1.0, 2.0, ki_, sample_time=h, output_limits=(-1.0, 1.0),
+                   anti_windup=anti_windup)
+        y = 0.0
+        for k in range(sat + 2000):
+            w = -3.0 if k < sat else 0.0
+            u = ctrl(y, setpoint=0.5)
+            y += h * (-y + u + w)
+            if k >= sat and u < 1.0:
+                return k - sat
+        return 2000
+
+    reference = recovery(0.0, aw)
+    assert recovery(ki, aw) <= reference + 5
+    if sat >= 100 and ki >= 2.0:
+        assert recovery(ki, "none") > reference + 20

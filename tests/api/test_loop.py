@@ -1,0 +1,70 @@
+"""The general closed loop with plant objects."""
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol import Change, simulate_loop
+from mfcontrol.api.plants import LTI, FirstOrder
+
+control = pytest.importorskip("control")
+
+
+def test_scheduled_change_acts_and_the_plant_is_left_as_given():
+    plant = FirstOrder(a=-1.0, b=1.0, w=0.0)
+    ctrl = mfcontrol.IP(alpha=1.0, kp=10.0, sample_time=1e-3)
+    res = simulate_loop(plant, ctrl, 1.0, t_end=1.0,
+                        changes=[Change(0.5, "w", 2.0), Change(0.7, "w", -1.0, add=True)])
+    assert plant.params["w"] == 0.0
+    F = res.signals["F_hat"]
+    t = res.time
+    assert abs(F[(t > 0.45) & (t < 0.5)].mean() - (-1.0)) < 0.05   # F = a y + w, y ~ 1
+    assert abs(F[(t > 0.65) & (t < 0.7)].mean() - 1.0) < 0.05
+    assert abs(F[t > 0.9].mean() - 0.0) < 0.05
+    assert res.metrics["stable"]
+
+
+def test_python_control_transfer_function_as_plant():
+    plant = LTI.from_control(control.tf([2.0], [1.0, 3.0]))     # 2 / (s + 3)
+    res = simulate_loop(plant, mfcontrol.IP(alpha=2.0, kp=8.0, sample_time=1e-3), 0.5,
+                        t_end=1.5)
+    # F = -3 y is estimated one sample late; the error still decays as exp(-kp t)
+    t = res.time
+    late = t > 0.2
+    expected = 0.5 * np.exp(-8.0 * t[late])
+    np.testing.assert_allclose(-res.error[late], expected, rtol=0.02)
+
+
+def test_python_control_system_passed_directly():
+    sys = control.tf([2.0], [1.0, 3.0])
+    a = simulate_loop(sys, mfcontrol.IP(alpha=2.0, kp=8.0, sample_time=1e-3), 0.5, t_end=0.2)
+    b = simulate_loop(LTI.from_control(sys), mfcontrol.IP(alpha=2.0, kp=8.0, sample_time=1e-3),
+                      0.5, t_end=0.2)
+    np.testing.assert_array_equal(a.signals["y"], b.signals["y"])
+
+
+def test_rk45_and_rk4_agree():
+    a = simulate_loop(FirstOrder(-1.0, 1.0, integrator="rk45"),
+                      mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2), 1.0, t_end=1.0)
+    b = simulate_loop(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2),
+                      1.0, t_end=1.0)
+    np.testing.assert_allclose(a.signals["y"], b.signals["y"], atol=1e-8)
+
+
+def test_divergence_is_a_flagged_result():
+    # kp < 0: the error obeys e' = +50 e and grows without bound
+    res = simulate_loop(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=-50.0,
+                        sample_time=0.01), 1.0, t_end=5.0, diverge_above=1e6)
+    assert res.metrics["diverged"] and not res.metrics["stable"]
+    assert res.time.size == res.metrics["n_samples"] < 500
+    assert np.all(np.abs(res.signals["y"]) <= 1e6)
+
+
+def test_reference_as_function_and_array():
+    h, n = 1e-3, 500
+    t = (np.arange(n) * (n * h)) / n  # the loop's grid: t_k = (k t_end) / N
+    f = simulate_loop(FirstOrder(-1.0, 1.0), mfcontrol.IP(1.0, 10.0, sample_time=h),
+                      lambda tk: np.sin(2 * tk), t_end=n * h)
+    a = simulate_loop(FirstOrder(-1.0, 1.0), mfcontrol.IP(1.0, 10.0, sample_time=h),
+                      np.sin(2 * t), t_end=n * h)
+    np.testing.assert_array_equal(f.signals["y"], a.signals["y"])

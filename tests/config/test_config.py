@@ -1,0 +1,611 @@
+"""Configuration rules at the Python level: ``mfcontrol.resolve`` and ``mfcontrol.run_case``.
+
+Bad input raises ``ConfigError`` (or ``CaseError`` for a case that cannot be loaded) whose
+``key``/``value``/``allowed`` name the key, the offending value and what is allowed, and
+whose one-line message says all three.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol import CaseError, Config, ConfigError, Result, SweepResult, resolve, run_case
+from mfcontrol.config.options import BY_KEY, OPTIONS
+from mfcontrol.config.toml import flatten, parse_assignment
+from mfcontrol.experiments.cases import CASES_DIR, resolve_case
+
+FLOAT_KEYS = [o.key for o in OPTIONS if o.kind == "float"]
+POSITIVE_KEYS = [o.key for o in OPTIONS if o.check == "positive" and o.kind == "float"]
+PRESET_KEYS = ("plant.coupling", "controller.integrator", "controller.rate_term",
+               "controller.gain")
+PRESETS = {
+    "published": {"plant.coupling": "published", "controller.integrator": "first-order",
+                  "controller.rate_term": False, "controller.gain": "gamma"},
+    "paper": {"plant.coupling": "textbook", "controller.integrator": "second-order",
+              "controller.rate_term": True, "controller.gain": "gamma"},
+}
+SHORT = {"sim.t_end": 1e-3}
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    return type(a) is type(b) and a == b
+
+
+def check_error(exc: ConfigError, key: str, value=None, *phrases: str) -> str:
+    """The error names ``key`` (and ``value`` unless None) and what is allowed, on one line."""
+    assert isinstance(exc, ConfigError)
+    assert isinstance(exc, ValueError)
+    assert exc.key == key
+    if value is not None:
+        assert _same(exc.value, value), (exc.value, value)
+    msg = str(exc)
+    assert "\n" not in msg
+    assert msg == f"{key} = {exc.value!r}: {exc.allowed}"
+    assert exc.allowed
+    for phrase in phrases:
+        assert phrase in msg, (phrase, msg)
+    return msg
+
+
+def rejects(settings: Mapping, key: str, value=None, *phrases: str) -> ConfigError:
+    with pytest.raises(ConfigError) as info:
+        resolve(settings)
+    check_error(info.value, key, value, *phrases)
+    return info.value
+
+
+# ---------------------------------------------------------------------------------------
+# resolving
+# ---------------------------------------------------------------------------------------
+
+
+def test_defaults():
+    cfg = resolve({})
+    assert isinstance(cfg, Config)
+    assert isinstance(cfg, Mapping)
+    assert set(cfg.public()) == set(BY_KEY)
+    for o in OPTIONS:
+        expected = o.preset["published"] if o.preset else o.default
+        assert cfg[o.key] == expected, o.key
+    assert cfg.explicit == {}
+
+
+def test_the_options_the_requirement_names_must_be_positive():
+    for key in ("sim.h", "plant.L", "plant.C", "plant.R", "controller.alpha", "sim.t_end"):
+        assert key in POSITIVE_KEYS
+
+
+def test_explicit_values_are_kept_and_converted():
+    cfg = resolve({"controller.alpha": 5, "plant.change_times": (1e-3, 2), "sim.h": 1e-6,
+                   "description": "x"})
+    assert cfg["controller.alpha"] == 5.0 and isinstance(cfg["controller.alpha"], float)
+    assert cfg["plant.change_times"] == [1e-3, 2.0]
+    assert all(isinstance(x, float) for x in cfg["plant.change_times"])
+    assert cfg.explicit == {"controller.alpha": 5.0, "plant.change_times": [1e-3, 2.0],
+                            "sim.h": 1e-6, "description": "x"}
+
+
+def test_numpy_floats_are_numbers():
+    cfg = resolve({"controller.alpha": np.float64(4.0)})
+    assert cfg["controller.alpha"] == 4.0
+    rejects({"controller.alpha": np.float64("nan")}, "controller.alpha")
+
+
+def test_config_error_fields_and_message():
+    exc = ConfigError("a.b", 3, "must be x")
+    assert (exc.key, exc.value, exc.allowed) == ("a.b", 3, "must be x")
+    assert str(exc) == "a.b = 3: must be x"
+    assert issubclass(ConfigError, ValueError)
+    assert issubclass(CaseError, ValueError)
+    assert mfcontrol.ConfigError is ConfigError and mfcontrol.CaseError is CaseError
+
+
+# ---------------------------------------------------------------------------------------
+# unknown keys, malformed values, choices
+# ---------------------------------------------------------------------------------------
+
+
+def test_unknown_key_suggests_the_close_one():
+    exc = rejects({"controller.alpah": 3}, "controller.alpah", 3, "unknown key",
+                  "did you mean controller.alpha?")
+    assert "controller.alpah = 3" in str(exc)
+
+
+def test_unknown_key_without_a_close_match():
+    rejects({"bogus": 1.0}, "bogus", 1.0, "unknown key")
+
+
+def test_unknown_key_is_reported_even_when_its_value_is_none():
+    rejects({"controller.alpah": None}, "controller.alpah", None, "unknown key")
+
+
+def test_unknown_key_through_run_case():
+    with pytest.raises(ConfigError) as info:
+        run_case("voltage-stable-standard", overrides={"plant.RR": 3.0})
+    check_error(info.value, "plant.RR", 3.0, "unknown key", "did you mean plant.R?")
+
+
+MALFORMED = [
+    ("controller.alpha", "abc", "must be a finite number > 0"),
+    ("controller.alpha", "10", "must be a finite number > 0"),
+    ("controller.alpha", [1.0], "must be a finite number > 0"),
+    ("controller.alpha", {"x": 1.0}, "must be a finite number > 0"),
+    ("controller.kp", "1,5", "must be a finite number"),
+    ("sim.h", True, "must be a finite number > 0"),
+    ("controller.kp", False, "must be a finite number"),
+    ("controller.rate_term", "yes", "must be true or false"),
+    ("controller.rate_term", 1, "must be true or false"),
+    ("plant.change_times", 0.004, "must be a list of finite numbers >= 0"),
+    ("plant.change_times", ["a"], "must be a list of finite numbers >= 0"),
+    ("plant.change_times", [True], "must be a list of finite numbers >= 0"),
+    ("plant.change_times", "0.004", "must be a list of finite numbers >= 0"),
+    ("description", 3, "must be a string"),
+    ("sweep.key", 3.0, "must be a string"),
+    ("fidelity", "wrong", "must be one of published, paper"),
+    ("fidelity", "Paper", "must be one of published, paper"),
+    ("controller.law", "pid", "must be one of ip, variational, i-P, i-PI, i-PD, i-PID"),
+    ("plant.output", "current", "must be one of voltage, power"),
+    ("plant.coupling", "loose", "must be one of published, textbook"),
+    ("controller.integrator", "third-order", "must be one of first-order, second-order"),
+    ("controller.gain", "beta", "must be one of gamma, alpha"),
+    ("controller.rate_sign", "+", "must be one of plus, minus"),
+    ("controller.p_sample", "next", "must be one of previous, current"),
+    ("controller.p_error", "r+y", "must be one of r-y, y-r"),
+    ("plant.model", "tank", "must be one of buck, boost, first-order"),
+    ("reference.kind", "step", "must be one of ramp-hold-ramp, smooth-step"),
+    ("metrics.final_window", 1.5, "must be a number in (0, 1]"),
+    ("metrics.final_window", 0.0, "must be a number in (0, 1]"),
+    ("metrics.settle_time", -1.0, "must be a finite number >= 0"),
+    ("reference.t_ramp2", -1e-3, "must be a finite number >= 0"),
+    ("plant.change_times", [4e-3, -1e-3], "must be a list of finite numbers >= 0"),
+]
+
+
+@pytest.mark.parametrize(("key", "value", "allowed"), MALFORMED,
+                         ids=[f"{k}={v!r}" for k, v, _ in MALFORMED])
+def test_malformed_value(key, value, allowed):
+    exc = rejects({key: value}, key, value, allowed)
+    assert exc.allowed == allowed
+
+
+def test_every_choice_is_accepted():
+    for o in OPTIONS:
+        for choice in o.choices:
+            value = int(choice) if o.kind == "int" else choice
+            # a first-order plant only takes the positional laws
+            extra = {"controller.law": "i-P"} if value == "first-order" else {}
+            assert resolve({o.key: value, **extra})[o.key] == value
+
+
+# ---------------------------------------------------------------------------------------
+# non-positive, NaN, inf
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [0, -3, 2.5, "20", True])
+def test_whole_number_options(value):
+    rejects({"controller.window": value}, "controller.window", value,
+            "must be a whole number > 0")
+
+
+@pytest.mark.parametrize("value", [0, 0.0, -0.0, -1, -1e-300, -5.0])
+@pytest.mark.parametrize("key", POSITIVE_KEYS)
+def test_non_positive(key, value):
+    rejects({key: value}, key, value, "must be a finite number > 0")
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+@pytest.mark.parametrize("key", FLOAT_KEYS)
+def test_nan_and_inf_in_every_number(key, value):
+    msg = str(rejects({key: value}, key, value, "finite" if key != "metrics.final_window"
+                      else "must be a number in (0, 1]"))
+    assert repr(value) in msg
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_nan_and_inf_in_lists(value):
+    rejects({"plant.change_times": [4e-3, value]}, "plant.change_times", [4e-3, value],
+            "must be a list of finite numbers >= 0")
+    rejects({"sweep.key": "controller.Gamma", "sweep.values": [1e-8, value]}, "sweep.values",
+            [1e-8, value], "must be a list of finite numbers")
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf])
+def test_nan_and_inf_through_run_case(value):
+    with pytest.raises(ConfigError) as info:
+        run_case("voltage-stable-standard", overrides={"controller.kp": value})
+    check_error(info.value, "controller.kp", value, "must be a finite number")
+
+
+def test_huge_integer_is_rejected_not_an_overflow():
+    # regression: float(10**400) raised OverflowError out of check_value
+    rejects({"controller.alpha": 10**400}, "controller.alpha", 10**400,
+            "must be a finite number > 0")
+    rejects({"plant.change_times": [10**400]}, "plant.change_times", [10**400])
+
+
+@pytest.mark.parametrize(("text", "key", "value"), [
+    ("[controller]\nalpha = nan\n", "controller.alpha", math.nan),
+    ("[plant]\nE = inf\n", "plant.E", math.inf),
+    ("[controller]\nkp = -inf\n", "controller.kp", -math.inf),
+    ("[reference]\nt_ramp2 = nan\n", "reference.t_ramp2", math.nan),
+    ("[plant]\nchange_times = [4e-3, nan]\n", "plant.change_times", [4e-3, math.nan]),
+    ('[sweep]\nkey = "plant.dR"\nvalues = [1.0, inf]\n', "sweep.values", [1.0, math.inf]),
+    ("[sim]\nh = 0.0\n", "sim.h", 0.0),
+    ("[plant]\nL = -1.0\n", "plant.L", -1.0),
+], ids=["nan", "inf", "-inf", "nan-optional", "nan-in-list", "inf-in-sweep", "zero-h",
+        "negative-L"])
+def test_bad_numbers_in_a_case_file(tmp_path, text, key, value):
+    path = tmp_path / "case.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as info:
+        resolve_case(path)
+    check_error(info.value, key, value)
+    with pytest.raises(ConfigError) as info:
+        run_case(str(path))
+    check_error(info.value, key, value)
+
+
+# ---------------------------------------------------------------------------------------
+# rules between keys
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("t_end", "h"), [
+    (0.0010005, 1e-6), (1e-3, 3e-4), (1e-6, 1e-6), (1e-6, 2e-6), (0.01, 0.004),
+    (1e308, 1e-6), (0.01, 5e-324),
+], ids=["fraction-of-a-step", "3.33-steps", "one-step", "half-a-step", "2.5-steps",
+        "t_end/h-overflows", "h-denormal"])
+def test_t_end_must_be_a_whole_number_of_steps(t_end, h):
+    rejects({"sim.t_end": t_end, "sim.h": h}, "sim.t_end", t_end, "sim.h")
+
+
+def test_t_end_not_whole_message():
+    exc = rejects({"sim.t_end": 0.0010005}, "sim.t_end", 0.0010005)
+    assert "must be a whole number (>= 2) of sim.h = 1e-06 steps" in str(exc)
+
+
+@pytest.mark.parametrize(("t_end", "h", "n"), [
+    (1e-3, 1e-6, 1000), (1.5e-3, 1e-6, 1500), (2e-6, 1e-6, 2), (0.01, 1e-6, 10000),
+    (0.3, 0.1, 3),
+])
+def test_whole_number_of_steps_allowing_rounding(t_end, h, n):
+    from mfcontrol.api.scenario import n_steps
+
+    cfg = resolve({"sim.t_end": t_end, "sim.h": h})
+    assert n_steps(cfg) == n
+
+
+def test_duty_min_above_duty_max():
+    exc = rejects({"controller.duty_min": 0.95}, "controller.duty_min", 0.95)
+    assert "must not exceed controller.duty_max = 0.9" in str(exc)
+    rejects({"controller.duty_max": 5e-4}, "controller.duty_min", 1e-3, "duty_max = 0.0005")
+    rejects({"controller.duty_min": 0.5, "controller.duty_max": 0.4}, "controller.duty_min",
+            0.5)
+    cfg = resolve({"controller.duty_min": 0.5, "controller.duty_max": 0.5})
+    assert cfg["controller.duty_min"] == cfg["controller.duty_max"] == 0.5
+
+
+@pytest.mark.parametrize(("settings", "key"), [
+    ({"plant.dR": -5.0}, "plant.dR"),  # 10 - 2*5 = 0
+    ({"plant.dR": -6}, "plant.dR"),
+    ({"plant.dR": -10.0, "plant.change_times": [4e-3]}, "plant.dR"),
+    ({"plant.R": 1.0, "plant.dR": -0.5}, "plant.dR"),
+    ({"plant.dR": -2.0, "plant.change_times": [1e-3, 2e-3, 3e-3, 4e-3, 5e-3]}, "plant.dR"),
+    ({"plant.dC": -5e-6}, "plant.dC"),
+])
+def test_load_change_that_makes_r_or_c_non_positive(settings, key):
+    exc = rejects(settings, key, float(settings[key]))
+    name = key[-1]
+    n = len(settings.get("plant.change_times", [4e-3, 6e-3]))
+    assert f"must keep plant.{name} > 0 after {n} load changes" in str(exc)
+
+
+@pytest.mark.parametrize("settings", [
+    {"plant.dR": -4.9},
+    {"plant.dR": -9.9, "plant.change_times": [4e-3]},
+    {"plant.dR": -100.0, "plant.change_times": []},
+    {"plant.dR": 1e6},
+    {"plant.dC": -4e-6},
+])
+def test_load_change_that_keeps_r_and_c_positive(settings):
+    resolve(settings)
+
+
+def test_dR_through_run_case():
+    with pytest.raises(ConfigError) as info:
+        run_case("voltage-unstable-standard", overrides={"plant.R": 10.0, "plant.dR": -5.0})
+    check_error(info.value, "plant.dR", -5.0, "plant.R > 0")
+
+
+# ---------------------------------------------------------------------------------------
+# None unsets a key
+# ---------------------------------------------------------------------------------------
+
+
+def test_none_unsets_a_key():
+    cfg = resolve({"controller.alpha": None, "controller.kp": 3.0})
+    assert cfg["controller.alpha"] == BY_KEY["controller.alpha"].default
+    assert cfg.explicit == {"controller.kp": 3.0}
+
+
+def test_none_unsets_a_case_value():
+    _, cfg = resolve_case("voltage-unstable-standard")
+    assert cfg["plant.dR"] == 5.0
+    _, cfg = resolve_case("voltage-unstable-standard", {"plant.dR": None})
+    assert cfg["plant.dR"] == BY_KEY["plant.dR"].default
+    assert "plant.dR" not in cfg.explicit
+
+
+def test_none_unsets_with_overrides():
+    cfg = resolve({"controller.alpha": 3.0, "fidelity": "paper"})
+    back = cfg.with_overrides({"controller.alpha": None})
+    assert back["controller.alpha"] == 10.0
+    assert back["fidelity"] == "paper"
+    assert cfg["controller.alpha"] == 3.0  # the original is unchanged
+
+
+def test_none_on_a_preset_key_gives_the_preset_back():
+    cfg = resolve({"fidelity": "paper", "plant.coupling": None})
+    assert cfg["plant.coupling"] == "textbook"
+
+
+def test_none_unsets_the_sweep_of_a_sweep_case():
+    result = run_case("sweep-Gamma", {"sweep.key": None, "sweep.values": None, **SHORT})
+    assert isinstance(result, Result)
+    swept = run_case("sweep-epsM", SHORT)
+    assert isinstance(swept, SweepResult)
+    assert swept.values == [1e-5, 0.1, 1e3]
+
+
+# ---------------------------------------------------------------------------------------
+# fidelity presets
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fidelity", ["published", "paper"])
+def test_fidelity_preset(fidelity):
+    cfg = resolve({"fidelity": fidelity})
+    assert {k: cfg[k] for k in PRESET_KEYS} == PRESETS[fidelity]
+    assert cfg.explicit == {"fidelity": fidelity}
+    # the preset governs exactly these keys
+    assert {o.key for o in OPTIONS if o.preset} == set(PRESET_KEYS)
+
+
+def test_published_is_the_default_fidelity():
+    cfg = resolve({})
+    assert cfg["fidelity"] == "published"
+    assert {k: cfg[k] for k in PRESET_KEYS} == PRESETS["published"]
+
+
+@pytest.mark.parametrize("fidelity", ["published", "paper"])
+@pytest.mark.parametrize("key", PRESET_KEYS)
+def test_explicit_key_beats_the_preset(fidelity, key):
+    other = {"plant.coupling": {"published": "textbook", "paper": "published"},
+             "controller.integrator": {"published": "second-order", "paper": "first-order"},
+             "controller.rate_term": {"published": True, "paper": False},
+             "controller.gain": {"published": "alpha", "paper": "alpha"}}[key][fidelity]
+    cfg = resolve({"fidelity": fidelity, key: other})
+    assert cfg[key] == other
+    for k in PRESET_KEYS:
+        if k != key:
+            assert cfg[k] == PRESETS[fidelity][k]
+    # the order of the keys does not matter
+    assert resolve({key: other, "fidelity": fidelity})[key] == other
+
+
+def test_case_file_values_beat_the_preset_and_overrides_beat_the_case(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text('fidelity = "paper"\n[plant]\ncoupling = "published"\n'
+                    '[controller]\nalpha = 4.0\n')
+    _, cfg = resolve_case(path)
+    assert cfg["plant.coupling"] == "published"
+    assert cfg["controller.integrator"] == "second-order"
+    _, cfg = resolve_case(path, {"fidelity": "published", "controller.alpha": 6.0})
+    assert cfg["plant.coupling"] == "published"
+    assert cfg["controller.integrator"] == "first-order"
+    assert cfg["controller.alpha"] == 6.0
+
+
+def test_with_overrides_reapplies_the_preset_to_keys_never_set():
+    cfg = resolve({"fidelity": "published", "controller.integrator": "first-order"})
+    paper = cfg.with_overrides({"fidelity": "paper"})
+    assert paper["controller.integrator"] == "first-order"  # explicit, kept
+    assert paper["plant.coupling"] == "textbook"
+    assert paper["controller.rate_term"] is True
+
+
+def test_run_case_applies_the_fidelity():
+    r = run_case("voltage-stable-variational", {"fidelity": "paper", **SHORT})
+    assert {k: r.config[k] for k in PRESET_KEYS} == PRESETS["paper"]
+
+
+# ---------------------------------------------------------------------------------------
+# sweeps
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("key", [
+    "controller.law", "description", "fidelity", "controller.rate_term", "plant.change_times",
+    "sweep.values", "sweep.key", "nope", "controller.alpah", "sim.h", "sim.t_end",
+])
+def test_sweep_key_must_name_a_numeric_option(key):
+    exc = rejects({"sweep.key": key, "sweep.values": [1.0]}, "sweep.key", key)
+    assert "must name a numeric option" in str(exc)
+
+
+@pytest.mark.parametrize("key", ["controller.Gamma", "controller.eps_M", "plant.dR",
+                                 "controller.alpha", "plant.E", "controller.kp"])
+def test_sweep_key_numeric_option_accepted(key):
+    cfg = resolve({"sweep.key": key, "sweep.values": [1.0, 2.0]})
+    assert cfg["sweep.key"] == key
+    assert cfg["sweep.values"] == [1.0, 2.0]
+
+
+def test_sweep_values_obey_the_swept_option():
+    rejects({"sweep.key": "controller.alpha", "sweep.values": [1.0, 0.0]}, "controller.alpha",
+            0.0, "must be a finite number > 0")
+    rejects({"sweep.key": "metrics.final_window", "sweep.values": [2.0]},
+            "metrics.final_window", 2.0)
+
+
+def test_sweep_key_and_values_go_together():
+    rejects({"sweep.key": "controller.Gamma"}, "sweep.values", None, "go together")
+    rejects({"sweep.values": [1.0]}, "sweep.values", [1.0], "go together")
+
+
+def test_sweep_member_that_breaks_a_rule_between_keys_is_rejected_at_run():
+    with pytest.raises(ConfigError) as info:
+        run_case("voltage-stable-standard",
+                 {"sweep.key": "plant.dR", "sweep.values": [-20.0], **SHORT})
+    check_error(info.value, "plant.dR", -20.0, "plant.R > 0")
+
+
+# ---------------------------------------------------------------------------------------
+# key=value from the command line
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("text", "key", "value"), [
+    ("controller.alpha=5", "controller.alpha", 5),
+    ("controller.alpha = 5.5", "controller.alpha", 5.5),
+    ("plant.dR=-1e-3", "plant.dR", -1e-3),
+    ("controller.rate_term=true", "controller.rate_term", True),
+    ("plant.change_times=[1e-3, 2e-3]", "plant.change_times", [1e-3, 2e-3]),
+    ("fidelity=paper", "fidelity", "paper"),
+    ('fidelity="paper"', "fidelity", "paper"),
+    ("description=a b=c", "description", "a b=c"),
+    ("controller.alpha=abc", "controller.alpha", "abc"),
+    ("controller.alpha=", "controller.alpha", ""),
+    ("controller.kp=nan", "controller.kp", math.nan),
+    ("plant.E=inf", "plant.E", math.inf),
+    ("plant.E=-inf", "plant.E", -math.inf),
+])
+def test_parse_assignment(text, key, value):
+    k, v = parse_assignment(text)
+    assert k == key
+    assert _same(v, value), (v, value)
+
+
+@pytest.mark.parametrize("text", ["controller.alpha", "=3", " = 3", ""])
+def test_parse_assignment_needs_key_and_equals(text):
+    with pytest.raises(ConfigError) as info:
+        parse_assignment(text)
+    assert "expected key=value" in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------------------------------
+# cases, files, TOML
+# ---------------------------------------------------------------------------------------
+
+
+def test_unknown_case():
+    with pytest.raises(CaseError) as info:
+        run_case("nope")
+    msg = str(info.value)
+    assert "'nope'" in msg and "\n" not in msg
+    for name in mfcontrol.case_names():
+        assert name in msg
+
+
+def test_missing_case_file(tmp_path):
+    for path in (tmp_path / "nope.toml", str(tmp_path / "nope.toml"), tmp_path):
+        with pytest.raises(CaseError, match="not found"):
+            run_case(path)
+
+
+@pytest.mark.parametrize("text", [
+    b"[plant\nE = 3.0\n", b"[controller]\nalpha =\n", b"[plant]\nE = 1.0\nE = 2.0\n",
+    b'description = "open\n', b"alpha = 1.0.0\n",
+], ids=["unclosed-table", "no-value", "duplicate", "unterminated-string", "bad-number"])
+def test_malformed_toml(tmp_path, text):
+    path = tmp_path / "bad.toml"
+    path.write_bytes(text)
+    with pytest.raises(CaseError) as info:
+        run_case(path)
+    msg = str(info.value)
+    assert "bad.toml" in msg and "is not valid TOML" in msg and "\n" not in msg
+
+
+def test_case_file_not_utf8(tmp_path):
+    path = tmp_path / "bin.toml"
+    path.write_bytes(b"\xff\xfe[plant]\n")
+    with pytest.raises(CaseError, match="cannot be read"):
+        resolve_case(path)
+
+
+def test_flatten():
+    assert flatten({"a": 1, "b": {"c": 2, "d": {"e": 3}}}) == {"a": 1, "b.c": 2, "b.d.e": 3}
+
+
+CASE_NAMES = sorted(p.stem for p in CASES_DIR.glob("*.toml"))
+
+
+def test_builtin_cases():
+    assert CASE_NAMES == sorted(mfcontrol.case_names())
+    assert len(CASE_NAMES) == 14  # the paper's eight, three toolkit cases, three maps
+
+
+@pytest.mark.parametrize("fidelity", ["published", "paper"])
+@pytest.mark.parametrize("name", CASE_NAMES)
+def test_to_toml_round_trip(tmp_path, name, fidelity):
+    _, cfg = resolve_case(name, {"fidelity": fidelity})
+    text = cfg.to_toml()
+    again = resolve(flatten(tomllib.loads(text)))
+    assert again.public() == cfg.public()
+    assert again.to_toml() == text
+    path = tmp_path / "x.toml"
+    path.write_text(text)
+    assert resolve_case(path)[1].to_toml() == text
+
+
+@pytest.mark.parametrize("description", ["two\nlines", "bell\x07", "del\x7f"])
+def test_to_toml_round_trip_of_control_characters(description):
+    cfg = resolve({"description": description})
+    again = resolve(flatten(tomllib.loads(cfg.to_toml())))
+    assert again["description"] == description
+
+
+def test_to_toml_round_trip_of_quotes_and_backslashes():
+    description = 'say "hi" \\ back\tslash, unicode: \u03b3'
+    cfg = resolve({"description": description})
+    again = resolve(flatten(tomllib.loads(cfg.to_toml())))
+    assert again["description"] == description
+
+
+# ---------------------------------------------------------------------------------------
+# run_case happy paths
+# ---------------------------------------------------------------------------------------
+
+
+def test_run_case_builtin():
+    r = run_case("voltage-stable-standard", overrides=SHORT)
+    assert isinstance(r, Result)
+    assert r.metrics["stable"] is True
+    assert 0.5 < float(r.signals["y"][-1]) < 1.0  # tracking the 1000 V/s ramp (0.999 at t_end)
+    assert len(r.time) == 1000
+    assert r.config["sim.t_end"] == 1e-3
+    assert r.name == "voltage-stable-standard"
+
+
+def test_run_case_user_file_with_overrides(tmp_path):
+    text = (CASES_DIR / "voltage-stable-standard.toml").read_text()
+    path = tmp_path / "mine.toml"
+    path.write_text(text.replace("alpha = 10.0", "alpha = 5.0"))
+    r = run_case(path, SHORT)
+    assert r.name == "mine"
+    assert r.config["controller.alpha"] == 5.0
+    assert r.metrics["final_gamma"] == pytest.approx(0.2)
+    r = run_case(str(path), {"controller.alpha": 4.0, **SHORT})
+    assert r.config["controller.alpha"] == 4.0
