@@ -152,21 +152,26 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     plant_keys = [k for k in keys if k.startswith("plant.")]
     ctrl_keys = [k for k in keys if k.startswith("controller.")]
     params = dict(controller._params)
+    # one engine plant per distinct plant setting and one law per distinct controller
+    # setting: a grid of n x m values builds n + m of them, not n m
+    engines: dict[tuple, Any] = {}
     laws: dict[tuple, Any] = {}
     plants, member_laws = [], []
     with restored(plant):  # each member's values set in turn, the plant left as given
         for combo in combos:
             values = {k: float(axes[k][i]) for k, i in zip(keys, combo, strict=True)}
-            for k in plant_keys:  # the plant's own checks (positivity, ...)
-                plant.set_param(k.partition(".")[2], values[k])
-            if plant_keys:  # and the schedule on this member's parameters
-                _check_changes(plant, changes)
-            ep = plant.engine() if plant_keys else base_ep
-            plants.append(ep)
+            pkey = tuple(values[k] for k in plant_keys)
+            if pkey not in engines:
+                for k in plant_keys:  # the plant's own checks (positivity, ...)
+                    plant.set_param(k.partition(".")[2], values[k])
+                if plant_keys:  # and the schedule on this member's parameters
+                    _check_changes(plant, changes)
+                engines[pkey] = plant.engine() if plant_keys else base_ep
+            plants.append(engines[pkey])
             ckey = tuple(values[k] for k in ctrl_keys)
             if ckey not in laws:
-                laws[ckey] = _controller(controller, params, ctrl_keys, values)
-            member_laws.append(law_arrays(laws[ckey]))
+                laws[ckey] = law_arrays(_controller(controller, params, ctrl_keys, values))
+            member_laws.append(laws[ckey])
     M, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
                           t_end=t_end, h=h, S=S, fast=fast)
     met = _metrics.table(M, stable_tol)
