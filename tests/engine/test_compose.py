@@ -15,9 +15,10 @@ class _Opaque:
     def __init__(self, ctrl):
         self.ctrl = ctrl
         self.sample_time = getattr(ctrl, "sample_time", None)
+        self._external = getattr(ctrl, "_external", False)
 
-    def __call__(self, y, setpoint=None):
-        return self.ctrl(y, setpoint=setpoint)
+    def __call__(self, y, setpoint=None, **alpha):
+        return self.ctrl(y, setpoint=setpoint, **alpha)
 
     @property
     def components(self):
@@ -57,6 +58,42 @@ def test_compiled_loop_equals_the_live_controller_in_a_python_loop(plant, law):
     for key in ("y", "u", "F_hat", "P", "I", "D", "gamma"):
         np.testing.assert_array_equal(fast.signals[key], slow.signals[key], err_msg=key)
     assert fast.metrics == slow.metrics
+
+
+@pytest.mark.parametrize("alpha", [2.0, lambda t: 1.0 + 0.5 * np.sin(3 * t),
+                                   np.linspace(0.5, 3.0, 300)])
+def test_external_gain_runs_compiled_and_equals_live_calls_given_alpha(alpha):
+    h, n = 0.01, 300
+    make = lambda: mfcontrol.IPI(alpha=1.0, kp=6.0, ki=3.0, sample_time=h,  # noqa: E731
+                                 output_limits=(-3, 3), gain="external")
+    fast = simulate_loop(FirstOrder(a=-1.0, b=1.0), make(), 1.0, t_end=n * h, alpha=alpha)
+    slow = simulate_loop(FirstOrder(a=-1.0, b=1.0), _Opaque(make()), 1.0, t_end=n * h,
+                         alpha=alpha)
+    assert (fast.engine, slow.engine) == ("compiled", "python")
+    for key in ("y", "u", "F_hat", "P", "I", "gamma"):
+        np.testing.assert_array_equal(fast.signals[key], slow.signals[key], err_msg=key)
+    # gamma is 1/alpha of each sample once the law runs
+    a = np.broadcast_to(alpha(fast.time) if callable(alpha) else alpha, fast.time.shape)
+    np.testing.assert_array_equal(fast.signals["gamma"][1:], 1.0 / a[1:])
+    sw = mfcontrol.sweep(FirstOrder(a=-1.0, b=1.0), make(), 1.0, t_end=n * h, alpha=alpha,
+                         grid={"controller.kp": [6.0, 9.0]})
+    assert sw.to_pandas()["iae"].iloc[0] == fast.metrics["iae"]
+
+
+def test_alpha_is_checked_against_the_controller():
+    h = 0.01
+    ext = lambda: mfcontrol.IP(alpha=1.0, kp=6.0, sample_time=h, gain="external")  # noqa: E731
+    with pytest.raises(mfcontrol.ConfigError, match="alpha.*gain='external' needs alpha"):
+        simulate_loop(FirstOrder(a=-1.0, b=1.0), ext(), 1.0, t_end=1.0)
+    with pytest.raises(mfcontrol.ConfigError, match="only for a controller"):
+        simulate_loop(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=6.0,
+                                                               sample_time=h), 1.0,
+                      t_end=1.0, alpha=2.0)
+    with pytest.raises(mfcontrol.ConfigError, match=r"finite and > 0.*t = 0.5"):
+        simulate_loop(FirstOrder(a=-1.0, b=1.0), ext(), 1.0, t_end=1.0,
+                      alpha=lambda t: 1.0 if t < 0.5 else 0.0)
+    with pytest.raises(mfcontrol.ConfigError, match="one value per sample"):
+        simulate_loop(FirstOrder(a=-1.0, b=1.0), ext(), 1.0, t_end=1.0, alpha=[1.0, 2.0])
 
 
 def test_recursive_law_in_the_engine_equals_its_live_form():

@@ -10,7 +10,7 @@ Whenever the plant compiles (every built-in plant, and an ODE whose f and g numb
 compile) and the controller is one of the library's, the loop runs in the compiled engine
 (:mod:`mfcontrol.engine.compose`), running the same law functions as the live controller:
 bit for bit its outputs. Otherwise (a :class:`Plant` subclass written in Python, a
-controller of your own, an f numba cannot compile, an external gain) it runs through the
+controller of your own, an f numba cannot compile) it runs through the
 Python driver, one call per sample, and the result's ``engine`` says ``"python"``.
 """
 
@@ -88,14 +88,12 @@ class LawArrays:
 
 def law_arrays(controller) -> LawArrays | None:
     """The engine's view of ``controller``; None when only the Python driver can run it
-    (not a library controller, manual mode, or an external gain given at every call)."""
+    (not a library controller, or in manual mode)."""
     from .controllers import IntelligentController, RecursiveIP
 
     if not getattr(controller, "auto_mode", False):
         return None
     if isinstance(controller, IntelligentController):
-        if controller._external:
-            return None
         return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
                          controller.sample_time, ("F_hat", "feedforward", "P", "I", "D"),
                          (intelligent.C_F, intelligent.C_FF, intelligent.C_P, intelligent.C_I,
@@ -187,12 +185,13 @@ def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mappi
 def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 changes_per_member: Sequence[Sequence[Change]], *, t_end: float, h: float,
                 S: np.ndarray, fast: bool = False, record: bool = False,
-                RP: np.ndarray | None = None):
+                RP: np.ndarray | None = None, AL: np.ndarray | None = None):
     """Members (engine plants and law arrays of one family) through the compiled engine.
 
     The reference is ``R[j]`` (``R[0]`` for all when R has one row) or, when R has no
     rows, the configured reference of each member, ``RP[:, j]`` (see
-    :mod:`mfcontrol.laws.reference`).
+    :mod:`mfcontrol.laws.reference`). ``AL`` (one row, or one per member): the alpha of
+    an external gain at every sample.
 
     Returns (M, traj, CS): metrics of every member; with ``record`` (one member) its
     trajectory ``traj[row, k]``, else an empty array; the law memory of every member.
@@ -222,6 +221,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
                 l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
                 np.zeros((reference.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP),
+                np.zeros((0, n)) if AL is None else np.ascontiguousarray(AL, dtype=np.float64),
                 events, S, M, tol,
                 DT, traj, comp_rows, fast=fast)
     return M, traj, CS
@@ -239,6 +239,31 @@ def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_w
     return plant, h, t, _reference(reference, t), S
 
 
+def _alpha(controller, alpha, t: np.ndarray) -> np.ndarray | None:
+    """The alpha of every sample for a controller with an external gain (None for any
+    other controller), checked: finite and > 0 everywhere."""
+    external = getattr(controller, "_external", False)
+    if alpha is None:
+        if external:
+            raise ConfigError("alpha", None, "gain='external' needs alpha: a number, a "
+                              "function of t or one value per sample")
+        return None
+    if not external:
+        raise ConfigError("alpha", alpha, "only for a controller with gain='external' "
+                          "(the others set their own gain)")
+    try:
+        arr = _reference(alpha, t)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError("alpha", alpha, f"a number, a function of t or one value per "
+                          f"sample ({exc})") from None
+    bad = ~(np.isfinite(arr) & (arr > 0))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise ConfigError("alpha", float(arr[k]), f"must be finite and > 0 at every sample "
+                          f"(t = {float(t[k])!r})")
+    return arr
+
+
 # ---------------------------------------------------------------------------------------------
 # one run
 
@@ -247,7 +272,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
                   h: float | None = None, changes: Sequence[Change] = (),
                   settle_time: float = 0.0, final_window: float = 0.2,
                   stable_tol: float = 0.1, diverge_above: float = 1e12,
-                  name: str = "", fast: bool = False) -> Result:
+                  name: str = "", fast: bool = False, alpha: Reference | None = None) -> Result:
     """Simulate ``controller`` on ``plant`` tracking ``reference`` for ``t_end`` seconds.
 
     Parameters
@@ -269,6 +294,10 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     fast : bool
         The compiled engine's fast mode (fused multiply-adds, reciprocals): within about
         1e-12 relative of the default. Refused for a loop the Python driver runs.
+    alpha : float, callable or array, optional
+        For a controller with ``gain="external"`` (and only for one): the alpha it is
+        given at every sample, as a loop of live calls passes ``alpha=``; constant, a
+        function of t, or one value per sample, each finite and > 0.
 
     Returns
     -------
@@ -286,6 +315,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     """
     plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
                                final_window, stable_tol, diverge_above)
+    al = _alpha(controller, alpha, t)
     ep = plant.engine() if hasattr(plant, "engine") else None
     law = law_arrays(controller)
     if ep is None or law is None:
@@ -294,17 +324,17 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
             raise ConfigError("fast", True, f"only the compiled engine has a fast mode; this "
                               f"loop runs in Python ({note})")
         return _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol,
-                              name, note)
+                              name, note, al)
     return compiled_run(plant, ep, controller, law, r[None, :], None, changes, t, h, t_end, S,
-                        stable_tol, name, fast)
+                        stable_tol, name, fast, None if al is None else al[None, :])
 
 
 def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, stable_tol, name,
-                 fast) -> Result:
+                 fast, AL=None) -> Result:
     """One member through the compiled engine, its trajectory named as a Result; the
     reference as for :func:`run_members`."""
     M, traj, CS = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
-                              fast=fast, record=True, RP=RP)
+                              fast=fast, record=True, RP=RP, AL=AL)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]
     _hand_back(controller, CS, traj, k_end)
@@ -320,13 +350,11 @@ def _python_reason(plant, ep, controller) -> str:
             f"{type(plant).__name__} is a Plant written in Python")
     if not getattr(controller, "auto_mode", True):
         return "the controller is in manual mode"
-    if getattr(controller, "_external", False):
-        return "gain='external' takes alpha at every call"
     return f"{type(controller).__name__} is not a library controller"
 
 
 def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, name,
-                   note) -> Result:
+                   note, al=None) -> Result:
     """The loop in Python, one plant step and one controller call per sample."""
     n = t.size
     # each change at its sample, in list order: the engine's rule
@@ -347,7 +375,8 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
             if not (math.isfinite(yk) and abs(yk) <= bound):
                 y[k] = yk
                 break
-            uk = controller(yk, setpoint=r[k])
+            uk = (controller(yk, setpoint=r[k]) if al is None
+                  else controller(yk, setpoint=r[k], alpha=float(al[k])))
             y[k], u[k], X[k] = yk, uk, x
             if has_components:
                 for key, value in controller.components.items():

@@ -17,6 +17,7 @@ from . import metrics as _metrics
 from .loop import (
     Change,
     Reference,
+    _alpha,
     _check_changes,
     _setup,
     law_arrays,
@@ -95,13 +96,13 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
           grid: Mapping[str, Sequence[float]], t_end: float, h: float | None = None,
           changes: Sequence[Change] = (), fast: bool = False, keep: int = 0,
           settle_time: float = 0.0, final_window: float = 0.2, stable_tol: float = 0.1,
-          diverge_above: float = 1e12) -> LoopSweepResult:
+          diverge_above: float = 1e12, alpha: Reference | None = None) -> LoopSweepResult:
     """Run ``controller`` on ``plant`` for every combination of the grid's values.
 
     Parameters
     ----------
     plant, controller, reference, t_end, h, changes, settle_time, final_window,
-    stable_tol, diverge_above
+    stable_tol, diverge_above, alpha
         As for :func:`mfcontrol.simulate_loop`. Every member starts from the plant's
         ``x0`` and from a fresh controller (a controller's present memory is not used).
     grid : mapping
@@ -142,6 +143,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                                final_window, stable_tol, diverge_above)
     axes = _axes(grid, plant, controller)
     R = r[None, :]
+    al = _alpha(controller, alpha, t)
     base_ep = plant.engine() if hasattr(plant, "engine") else None
     if base_ep is None or law_arrays(controller) is None:
         raise ConfigError("plant", type(plant).__name__, "a sweep runs in the compiled "
@@ -173,7 +175,8 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                 laws[ckey] = law_arrays(_controller(controller, params, ctrl_keys, values))
             member_laws.append(laws[ckey])
     M, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
-                          t_end=t_end, h=h, S=S, fast=fast)
+                          t_end=t_end, h=h, S=S, fast=fast,
+                          AL=None if al is None else al[None, :])
     met = _metrics.table(M, stable_tol)
     table: dict[str, np.ndarray] = {"member": np.arange(len(combos), dtype=np.int64)}
     idx = np.array(combos, dtype=np.int64).reshape(len(combos), len(keys))
@@ -191,7 +194,8 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                     plant, _controller(controller, params, ctrl_keys, values), reference,
                     t_end=t_end, h=h, changes=changes, settle_time=settle_time,
                     final_window=final_window, stable_tol=stable_tol,
-                    diverge_above=diverge_above, name=f"member {m}", fast=fast)
+                    diverge_above=diverge_above, name=f"member {m}", fast=fast,
+                    alpha=alpha)
     return LoopSweepResult(axes=axes, table=table, kept=kept,
                            arithmetic="fast" if fast else "exact")
 

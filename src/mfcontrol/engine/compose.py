@@ -57,14 +57,16 @@ def _make_loop(fast):
     FAST = fast
 
     def member_loop(law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt,
-                    X, P, CP, CS, R, RP, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT, j0, j1,
+                    X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT, j0, j1,
                     traj, comp_rows):
         """Members j0 .. j1-1 from their present state, for n_steps samples.
 
         ``X[j]``/``P[j]``: plant state/parameters of member j; ``CP[:, j]``/``CS[:, j]``:
         law parameters/state; ``R[j or 0, k]`` the reference when R has rows, else
-        ``reference.value(RP, j, t)``; event e sets (or adds, ``ev_add[e]``) ``ev_val[e, j]``
-        to ``P[j, ev_col[e]]`` at sample ``ev_k[e, j]``; ``M[:, j]`` the metrics;
+        ``reference.value(RP, j, t)``; ``AL[j or 0, k]``, when AL has rows, the alpha of an
+        external gain (written to the law's ``ALPHA_EXT`` row before it runs); event e sets
+        (or adds, ``ev_add[e]``) ``ev_val[e, j]`` to ``P[j, ev_col[e]]`` at sample
+        ``ev_k[e, j]``; ``M[:, j]`` the metrics;
         ``DT[j]`` the adaptive integrator's carried step. When ``traj`` has n_steps columns,
         member j0's trajectory is recorded there (rows as ``trajectory.T_REF`` .. ``T_GAIN``,
         the CS rows ``comp_rows`` from :data:`T_COMP` on, then the states).
@@ -81,6 +83,8 @@ def _make_loop(fast):
         t_x0 = T_COMP + comp_rows.size
         own_ref = R.shape[0] > 1
         use_series = R.shape[0] > 0
+        own_alpha = AL.shape[0] > 1
+        external = AL.shape[0] > 0
         rtol, atol = tol[0], tol[1]
         bound = S[engine_metrics.S_DIVERGE_ABOVE]
         # each member's law columns and metrics are copied to one contiguous column while it
@@ -128,6 +132,8 @@ def _make_loop(fast):
                     engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
                     break
                 if law_kind == INTELLIGENT:
+                    if external:  # as the live controller writes it (engine.live)
+                        cs[variational_gain.ALPHA_EXT, 0] = AL[j if own_alpha else 0, k]
                     a = intelligent.step(cp, cs, 0, y, r, law_dt)
                     u = cs[intelligent.C_UNLIM, 0]
                     gamma = cs[variational_gain.G1, 0]
@@ -166,7 +172,7 @@ _i1 = types.int64[::1]
 SIGNATURE = types.boolean(
     types.int64, types.int64, types.intp, types.intp, types.intp, types.intp,
     types.int64, types.float64, types.float64, types.float64,
-    _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v,
+    _m, _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v,
     types.int64, types.int64, _m, _i1)
 
 
@@ -190,7 +196,7 @@ def threads_for(n_members: int, n_samples: int) -> int:
     return min(len(os.sched_getaffinity(0)), n_members)  # the cores this process may use
 
 
-def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP,
+def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL,
         events, S, M, tol, DT, traj, comp_rows, *, fast=False, threads=None):
     """Run every member (all columns) through the member loop; arrays in place.
 
@@ -202,7 +208,7 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
     ev_k, ev_col, ev_add, ev_val = events
     m = X.shape[0]
     args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X, P,
-            CP, CS, R, RP, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
+            CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
     n_threads = threads_for(m, n_steps) if threads is None else threads
     if n_threads <= 1 or traj.shape[1] == n_steps:
         fn(*args, 0, m, traj, comp_rows)
