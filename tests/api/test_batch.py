@@ -151,3 +151,21 @@ def test_a_large_single_axis_sets_up_at_array_speed():
     finally:
         mfcontrol.config.resolve = original
     assert len(calls) <= 2
+
+
+def test_an_integer_option_is_a_grid_axis_and_members_equal_single_runs():
+    # the algebraic estimator's window M, swept: each member runs with int M, as its own
+    # configuration would (a float M was refused with a message that showed the array)
+    _, base = resolve_case("first-order-ip-algebraic", {"sim.t_end": 0.5})
+    axes = batch.parse_grid(["controller.window=4,10,30", "controller.kp=2,8"])
+    grid = batch.make_grid(base, axes)
+    cols = batch.run_grid(grid)
+    assert list(cols["controller.window"]) == [4, 4, 10, 10, 30, 30]
+    for m in range(grid.n_members):
+        cfg = grid.config(m)
+        assert isinstance(cfg["controller.window"], int)
+        single = mfcontrol.simulate(cfg).metrics
+        for key in ("iae", "ise", "tv_u", "diverged", "n_samples"):
+            assert cols[key][m] == single[key], (m, key)
+    with pytest.raises(mfcontrol.ConfigError, match="controller.window = 4.5: must be a whole"):
+        batch.make_grid(base, {"controller.window": np.array([4.0, 4.5])})

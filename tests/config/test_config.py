@@ -609,3 +609,35 @@ def test_run_case_user_file_with_overrides(tmp_path):
     assert r.metrics["final_gamma"] == pytest.approx(0.2)
     r = run_case(str(path), {"controller.alpha": 4.0, **SHORT})
     assert r.config["controller.alpha"] == 4.0
+
+
+@pytest.mark.parametrize("case", ["voltage-stable-standard", "buck-ipi",
+                                  "first-order-ip-algebraic", "first-order-order2"])
+def test_check_axis_refuses_exactly_what_with_overrides_refuses(case):
+    # check_axis runs the checks across options only when they read the swept key: for
+    # every numeric option and values that break them (an odd window, duty_min over
+    # duty_max, R driven negative by the load changes, a grid that is not whole), it
+    # must agree with building each member's configuration
+    from mfcontrol.config.resolve import axis_value, check_axis
+    from mfcontrol.experiments.cases import resolve_case
+
+    _, base = (resolve_case("first-order-ip-algebraic", {"controller.order": 2})
+               if case == "first-order-order2" else resolve_case(case))
+    for o in OPTIONS:
+        if o.kind not in ("float", "int") or o.key.startswith("sweep."):
+            continue
+        v0 = base[o.key] if base[o.key] is not None else 1.0
+        for values in ([v0, 2 * v0 + 1], [v0, -3 * v0 - 1], [v0, v0 + 0.5, 1e9], [11.0],
+                       [v0, 2 * v0]):
+            refused = False
+            for v in values:
+                try:
+                    base.with_overrides({o.key: axis_value(o.key, v)})
+                except ConfigError:
+                    refused = True
+            try:
+                check_axis(base, o.key, values)
+                axis_refused = False
+            except ConfigError:
+                axis_refused = True
+            assert axis_refused == refused, (o.key, values)

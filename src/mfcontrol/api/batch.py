@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config.options import BY_KEY
-from ..config.resolve import Config, check_axis
+from ..config.resolve import Config, axis_value, check_axis
 from ..engine import metrics as engine_metrics
 from ..engine import paper_single, paper_sweep
 from ..errors import ConfigError
@@ -63,7 +63,7 @@ def parse_grid(items: list[str] | Mapping[str, str]) -> dict[str, np.ndarray]:
         if spec is None:
             raise ConfigError("--grid", key, "expected KEY=SPEC")
         o = BY_KEY.get(key)
-        if o is None or o.kind != "float" or key.startswith("sweep.") or key in (
+        if o is None or o.kind not in ("float", "int") or key.startswith("sweep.") or key in (
                 "sim.h", "sim.t_end"):
             raise ConfigError("--grid", key, "must name a numeric option that keeps the time "
                               "grid (not sim.h, sim.t_end or sweep.*)")
@@ -97,7 +97,7 @@ class Grid:
         return {k: v[i] for (k, v), i in zip(self.axes.items(), idx, strict=True)}
 
     def config(self, member: int) -> Config:
-        return self.base.with_overrides({k: float(v[0]) for k, v in
+        return self.base.with_overrides({k: axis_value(k, v[0]) for k, v in
                                          self.values(member, member + 1).items()})
 
 

@@ -166,29 +166,52 @@ def resolve(settings: Mapping[str, Any]) -> Config:
     return Config(values)
 
 
-#: options whose value the checks across options read (:func:`_check_consistency`)
-_CROSS_KEYS = ("sim.h", "sim.t_end", "controller.duty_min", "controller.duty_max",
-               "plant.R", "plant.C", "plant.dR", "plant.dC", "controller.window")
+def axis_value(key: str, v: float) -> float | int:
+    """One value of a swept axis (a float) as the option takes it: a whole number for an
+    integer option (else the float, which its check refuses)."""
+    if BY_KEY[key].kind == "int" and math.isfinite(v) and float(v).is_integer():
+        return int(v)
+    return float(v)
+
+
+class _Reads(dict):
+    """A configuration that notes which keys are read."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.read: set[str] = set()
+
+    def __getitem__(self, key):
+        self.read.add(key)
+        return super().__getitem__(key)
 
 
 def check_axis(base: Config, key: str, values: Any) -> None:
     """Validate every value of a swept numeric option against ``base``, as
     ``base.with_overrides({key: v})`` would for each v, at array speed: the option's
-    own check on the whole axis, the checks across options once per value only for the
-    options they read."""
+    own check on the whole axis, the checks across options once per value only when
+    they read the option (with the base and the first value: a check that never reads
+    it cannot depend on it)."""
     o = BY_KEY.get(key)
     if o is None:
         raise unknown_key(key, values)
     arr = np.asarray(values, dtype=float)
-    ok = _within(o, arr)
-    if o.kind != "float" or not ok.all():
-        bad = values if o.kind != "float" else float(arr[np.flatnonzero(~ok)[0]])
-        check_value(key, bad)  # raises with the option's message
-    if key in _CROSS_KEYS:
+    if o.kind == "int":  # few values: each through the option's own check
         for v in np.unique(arr):
-            _check_consistency({**base.values, key: float(v)})
-    elif key.startswith("sweep."):
+            check_value(key, axis_value(key, v))
+    elif o.kind != "float":
+        check_value(key, values)  # raises with the option's message
+    ok = _within(o, arr)
+    if not ok.all():
+        check_value(key, float(arr[np.flatnonzero(~ok)[0]]))  # raises
+    if key.startswith("sweep."):
         base.with_overrides({key: float(arr[0])})
+        return
+    first = _Reads({**base.values, key: axis_value(key, arr[0])})
+    _check_consistency(first)
+    if key in first.read:
+        for v in np.unique(arr):
+            _check_consistency({**base.values, key: axis_value(key, v)})
 
 
 def _check_consistency(v: dict[str, Any]) -> None:
