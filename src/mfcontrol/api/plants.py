@@ -195,10 +195,10 @@ class Plant(ABC):
 
         x = np.asarray(x, dtype=np.float64)
         f1 = h * f(t, x)
-        f2 = h * f(t + h / 2, x + f1 / 2)
-        f3 = h * f(t + h / 2, x + f2 / 2)
-        f4 = h * f(t + h, x + f3)
-        return x + (f1 + 2 * (f2 + f3) + f4) / 6
+        f2 = h * f(t + h / 2, rk4.half(x, f1))
+        f3 = h * f(t + h / 2, rk4.half(x, f2))
+        f4 = h * f(t + h, rk4.whole(x, f3))
+        return rk4.combine(x, f1, f2, f3, f4)
 
     def _rk45(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
         x = np.array(x, dtype=np.float64)

@@ -3,6 +3,12 @@
 In increment form, ``x + (f1 + 2 (f2 + f3) + f4) / 6`` with ``f = h * dx/dt``: the
 published code's arithmetic, operation for operation, so that a plant integrated here
 reproduces the published trajectories bit for bit.
+
+The scheme's arithmetic is written once, in :func:`half`, :func:`whole` and
+:func:`combine`, on floats or arrays alike. :func:`step` applies it to a compiled plant
+(the engine); the paper's buck kernel (:func:`mfcontrol.plants.buck.rk4`, its state in
+registers) and a plant written in Python (:meth:`mfcontrol.api.plants.Plant.step`) call
+the same three functions.
 """
 
 import numpy as np
@@ -10,6 +16,24 @@ from numba import njit
 
 from .._jit import step_jit
 from .signatures import as_rhs, pointer
+
+
+@step_jit
+def half(x, f):
+    """The trial state of the second and third stages: x + f / 2."""
+    return x + f / 2
+
+
+@step_jit
+def whole(x, f):
+    """The trial state of the fourth stage: x + f."""
+    return x + f
+
+
+@step_jit
+def combine(x, f1, f2, f3, f4):
+    """The step's result from the four stage increments f = h dx/dt."""
+    return x + (f1 + 2 * (f2 + f3) + f4) / 6
 
 
 @step_jit
@@ -27,18 +51,18 @@ def step(rhs, t, x, u, p, h, w):
     rhs(t, xp, u, pp, p1, n, m)
     for i in range(n):
         f1[i] = h * f1[i]
-        xt[i] = x[i] + f1[i] / 2
+        xt[i] = half(x[i], f1[i])
     rhs(t + h / 2, pt, u, pp, p2, n, m)
     for i in range(n):
         f2[i] = h * f2[i]
-        xt[i] = x[i] + f2[i] / 2
+        xt[i] = half(x[i], f2[i])
     rhs(t + h / 2, pt, u, pp, p3, n, m)
     for i in range(n):
         f3[i] = h * f3[i]
-        xt[i] = x[i] + f3[i]
+        xt[i] = whole(x[i], f3[i])
     rhs(t + h, pt, u, pp, p4, n, m)
     for i in range(n):
-        x[i] = x[i] + (f1[i] + 2 * (f2[i] + f3[i]) + h * f4[i]) / 6
+        x[i] = combine(x[i], f1[i], f2[i], f3[i], h * f4[i])
 
 
 @njit(error_model="numpy", cache=True)

@@ -18,6 +18,7 @@ Output: ``v`` (voltage control) or ``v * i`` (power control).
 
 from .._jit import step_jit
 from ..numerics import signatures as sig
+from ..numerics.rk4 import combine, half, whole
 
 # parameter rows
 E = 0
@@ -80,18 +81,19 @@ def deriv(PP, X, j, d):
 
 @step_jit
 def rk4(i, v, d, inductance, e_in, a12, a21, a22, coupling, h):
-    """One RK4 step from plain floats: the one place the buck's integration is written."""
+    """One RK4 step from plain floats (the arithmetic of :mod:`mfcontrol.numerics.rk4`),
+    the buck's state in registers: the paper's kernels call this."""
     b = d / inductance * e_in
     cb = coupling * b
     p1, q1 = _rhs(a12, a21, a22, i, v, b, cb)
     p1, q1 = h * p1, h * q1
-    p2, q2 = _rhs(a12, a21, a22, i + p1 / 2, v + q1 / 2, b, cb)
+    p2, q2 = _rhs(a12, a21, a22, half(i, p1), half(v, q1), b, cb)
     p2, q2 = h * p2, h * q2
-    p3, q3 = _rhs(a12, a21, a22, i + p2 / 2, v + q2 / 2, b, cb)
+    p3, q3 = _rhs(a12, a21, a22, half(i, p2), half(v, q2), b, cb)
     p3, q3 = h * p3, h * q3
-    p4, q4 = _rhs(a12, a21, a22, i + p3, v + q3, b, cb)
+    p4, q4 = _rhs(a12, a21, a22, whole(i, p3), whole(v, q3), b, cb)
     p4, q4 = h * p4, h * q4
-    return i + (p1 + 2 * (p2 + p3) + p4) / 6, v + (q1 + 2 * (q2 + q3) + q4) / 6
+    return combine(i, p1, p2, p3, p4), combine(v, q1, q2, q3, q4)
 
 
 @step_jit
