@@ -5,7 +5,7 @@
 >>> u = ctrl(0.0, setpoint=1.0)      # first sample: no derivative yet, holds the start
 >>> u = ctrl(0.02, setpoint=1.0)
 >>> sorted(ctrl.components)
-['F_hat', 'I', 'D', 'P', 'feedforward', 'unlimited']
+['D', 'F_hat', 'I', 'P', 'feedforward', 'gamma', 'unlimited']
 
 Each call runs the same compiled law as the simulators (:mod:`mfcontrol.laws`). A NaN or
 infinite measurement never reaches the law: the controller returns its last output and
@@ -184,8 +184,15 @@ class IntelligentController(_Controller):
     --------
     >>> import mfcontrol
     >>> ctrl = mfcontrol.IPID(alpha=1.0, kp=4.0, ki=1.0, kd=2.0, sample_time=0.01)
-    >>> [round(ctrl(y, setpoint=1.0), 3) for y in (0.0, 0.0, 0.01)]
-    [0.0, 0.0, 6.0]
+    >>> [round(ctrl(y, setpoint=1.0), 4) for y in (0.0, 0.0, 0.01)]
+    [0.0, 0.0, -98.0301]
+
+    Order 2 (the i-PID's default) holds the start for two samples; at the third,
+    F_hat = y'' - alpha u = 0.01 / 0.01**2 = 100, P = 4 (-0.99), I = 1 (-0.99 * 0.01),
+    D = 2 (0.01 / 0.01), and u = -(100 - 3.96 - 0.0099 + 2) / 1:
+
+    >>> {k: round(v, 4) for k, v in ctrl.components.items() if k in ("F_hat", "P", "I", "D")}
+    {'F_hat': 100.0, 'P': -3.96, 'I': -0.0099, 'D': 2.0}
     """
 
     def __init__(self, alpha: float, kp: float = 0.0, ki: float = 0.0, kd: float = 0.0, *,
@@ -380,8 +387,8 @@ class RecursiveIP(_Controller):
     >>> ctrl = mfcontrol.RecursiveIP(alpha=10.0, kp=2.0)
     >>> ctrl(0.0, setpoint=0.0), ctrl(2.0e-5, setpoint=1e-3)
     (0.001, 0.001)
-    >>> round(ctrl.components["u_raw"], 6)
-    1.09998
+    >>> round(ctrl.components["u_raw"], 6)  # 1 - 0.1 (0.02 - 1) + 2 (1e-3 - 0), published
+    1.1
     """
 
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
