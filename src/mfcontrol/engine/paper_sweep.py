@@ -76,8 +76,6 @@ def _row(r):
 
 
 # offsets of the rows the member loop reads and writes
-_L, _E, _A12, _A21, _A22, _CPL, _OUT = (_row(P_PP + r) for r in (
-    buck.L, buck.E, buck.A12, buck.A21, buck.A22, buck.COUPLING, buck.OUTPUT))
 _I, _V = _row(P_X + buck.I_L), _row(P_X + buck.V_C)
 _UP, _YP, _RP, _G1, _G2 = (_row(P_CS + r) for r in (
     recursive_ip.U_PREV, recursive_ip.Y_PREV, recursive_ip.R_PREV, variational_gain.G1,
@@ -101,20 +99,21 @@ def _copy_rows(src, src_row, dst, dst_row, n_rows):
             dst[dst_row + r, j] = src[src_row + r, j]
 
 
-def _law_reader(VARY, K, options):
-    """``law(D, j)``: member j's parameter tuple of :func:`recursive_ip.advance`, with a
-    shared row as the compile-time constant it holds. Generated from the law's rows, so
-    that a parameter added to the law reaches the sweep kernel without an edit here."""
+def _reader(name, rows, VARY, K, options):
+    """``name(D, j)``: member j's values of the packed ``rows``, as a tuple, a shared row
+    as the compile-time constant it holds. Generated from the rows a law or plant
+    function declares (``recursive_ip``'s parameter rows, ``buck.RK4_ROWS``), so that a
+    parameter added there reaches the sweep kernel without an edit here."""
     items, names = [], {}
-    for r in range(recursive_ip.N_PARAMS):
-        if VARY[P_CP + r]:
-            items.append(f"D[{_row(P_CP + r)} + j]")
+    for r in rows:
+        if VARY[r]:
+            items.append(f"D[{_row(r)} + j]")
         else:  # a global of the generated function: numba compiles it in as a constant
-            names[f"c{r}"] = K[P_CP + r]
+            names[f"c{r}"] = K[r]
             items.append(f"c{r}")
     namespace = {"__name__": __name__, **names}
-    exec(f"def law(D, j):\n    return ({', '.join(items)},)\n", namespace)
-    return njit(inline="always", **options)(namespace["law"])
+    exec(f"def {name}(D, j):\n    return ({', '.join(items)},)\n", namespace)
+    return njit(inline="always", **options)(namespace[name])
 
 
 @lru_cache(maxsize=32)
@@ -151,14 +150,6 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     SHARED_REF = bool(reference_shared)
     # the derived coefficients are recomputed from D only where one of their sources varies
     PREPARE = any(VARY[P_PP + r] for r in (buck.L, buck.R, buck.C))
-    # each shared parameter a closure constant of its own (cheaper to compile than a tuple)
-    v_OUTPUT, c_OUTPUT = VARY[P_PP + buck.OUTPUT], K[P_PP + buck.OUTPUT]
-    v_L, c_L = VARY[P_PP + buck.L], K[P_PP + buck.L]
-    v_E, c_E = VARY[P_PP + buck.E], K[P_PP + buck.E]
-    v_A12, c_A12 = VARY[P_PP + buck.A12], K[P_PP + buck.A12]
-    v_A21, c_A21 = VARY[P_PP + buck.A21], K[P_PP + buck.A21]
-    v_A22, c_A22 = VARY[P_PP + buck.A22], K[P_PP + buck.A22]
-    v_COUPLING, c_COUPLING = VARY[P_PP + buck.COUPLING], K[P_PP + buck.COUPLING]
     # fast mode also steps the plant by its linear RK4 map: one fused step instead of
     # four dependent stages, which is what bounds a member loop (its latency, not its
     # arithmetic)
@@ -170,15 +161,11 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     flags = set(FAST_FLAGS) if fast else False
     options = dict(error_model="numpy", fastmath=flags)
 
-    @njit(inline="always", **options)
-    def plant(D, j):
-        """Member j's (L, E, A12, A21, A22, coupling): the arguments of ``buck.rk4`` and
-        ``buck.rk4_map`` before the state and after it, h."""
-        return ((D[_L + j] if v_L else c_L), (D[_E + j] if v_E else c_E),
-                (D[_A12 + j] if v_A12 else c_A12), (D[_A21 + j] if v_A21 else c_A21),
-                (D[_A22 + j] if v_A22 else c_A22), (D[_CPL + j] if v_COUPLING else c_COUPLING))
-
-    law = _law_reader(VARY, K, options)
+    # member j's arguments of buck.rk4 / rk4_map after the state, of buck.measure, and
+    # of recursive_ip.advance after its state
+    plant = _reader("plant", [P_PP + r for r in buck.RK4_ROWS], VARY, K, options)
+    output = _reader("output", [P_PP + buck.OUTPUT], VARY, K, options)
+    law = _reader("law", [P_CP + r for r in range(recursive_ip.N_PARAMS)], VARY, K, options)
 
     @njit(inline="always", **options)
     def prepare(D, PP, h):
@@ -196,6 +183,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     _jit.stable_identity(plant, identity)
     _jit.stable_identity(prepare, identity)
     _jit.stable_identity(law, identity)
+    _jit.stable_identity(output, identity)
 
     def make_tile(checked):
         # a shared reference in a plain tile: r_{k-1} and max |r| are per-sample scalars,
@@ -225,7 +213,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                     if not SHARED_REF:
                         r = R[j]
                     i, v = D[_I + j], D[_V + j]
-                    y = buck.measure(i, v, (D[_OUT + j] if v_OUTPUT else c_OUTPUT))
+                    y = buck.measure(i, v, output(D, j)[0])
                     u, a, g, gamma, carried, g1, g2 = recursive_ip.advance(
                         kl, y, r, D[_UP + j], D[_YP + j], (r_prev if HOIST else D[_RP + j]),
                         D[_G1 + j], D[_G2 + j], law(D, j))

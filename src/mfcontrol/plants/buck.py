@@ -31,6 +31,8 @@ A12 = 6  # derived: -1/L
 A21 = 7  # derived: 1/C
 A22 = 8  # derived: -1/(R C)
 N_PARAMS = 9
+#: the parameter rows :func:`rk4` and :func:`rk4_map` take after the state, in order
+RK4_ROWS = (L, E, A12, A21, A22, COUPLING)
 #: physical parameters a schedule may change, by name
 PARAM_ROWS = {"E": E, "L": L, "R": R, "C": C}
 
