@@ -68,3 +68,19 @@ def test_reference_as_function_and_array():
     a = simulate_loop(FirstOrder(-1.0, 1.0), mfcontrol.IP(1.0, 10.0, sample_time=h),
                       np.sin(2 * t), t_end=n * h)
     np.testing.assert_array_equal(f.signals["y"], a.signals["y"])
+
+
+def test_recursive_law_takes_its_period_from_sample_time_or_h():
+    from mfcontrol import Buck
+
+    with pytest.raises(mfcontrol.ConfigError, match="h = None: required: the RecursiveIP"):
+        mfcontrol.simulate_loop(Buck(), mfcontrol.RecursiveIP(), 2.5, t_end=1e-3)
+    a = mfcontrol.simulate_loop(Buck(), mfcontrol.RecursiveIP(sample_time=1e-6), 2.5,
+                                t_end=1e-3)
+    b = mfcontrol.simulate_loop(Buck(), mfcontrol.RecursiveIP(), 2.5, t_end=1e-3, h=1e-6)
+    np.testing.assert_array_equal(a.signals["y"], b.signals["y"])
+    # back-calculation sheds k_aw h of the excess: h is the controller's sample_time
+    from mfcontrol.laws import recursive_ip
+
+    c = mfcontrol.RecursiveIP(anti_windup="back-calculation", k_aw=1e3, sample_time=1e-5)
+    assert c._CP[recursive_ip.AW_COEF, 0] == 1e3 * 1e-5

@@ -10,9 +10,12 @@ from mfcontrol.experiments.cases import resolve_case
 
 @pytest.mark.parametrize("case", ["voltage-unstable-variational", "power-standard"])
 @pytest.mark.parametrize("fidelity", ["published", "paper"])
-def test_general_loop_reproduces_the_compiled_kernel_bit_for_bit(case, fidelity):
-    # the same law (RecursiveIP) and plant (Buck) objects, driven from Python
-    _, cfg = resolve_case(case, {"fidelity": fidelity, "sim.t_end": 5e-3})
+@pytest.mark.parametrize("anti_windup", [{}, {"controller.anti_windup": "back-calculation",
+                                              "controller.k_aw": 1e3, "sim.h": 1e-5}])
+def test_general_loop_reproduces_the_compiled_kernel_bit_for_bit(case, fidelity, anti_windup):
+    # the same law (RecursiveIP) and plant (Buck) objects, driven from Python; with
+    # back-calculation the live law used to take k_aw h with the default h (1e-6)
+    _, cfg = resolve_case(case, {"fidelity": fidelity, "sim.t_end": 5e-3, **anti_windup})
     assert compiled(cfg)
     kernel = mfcontrol.simulate(cfg)
     loop = _simulate_loop(cfg, "")

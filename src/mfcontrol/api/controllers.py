@@ -379,7 +379,10 @@ class RecursiveIP(_Controller):
     option table), e.g. ``RecursiveIP(alpha=10, kp=2, law="variational", gamma0=1)``.
     Returns the applied output ``clip(output_gain * u_k)``; the raw u_k, the gain and gamma
     are in :attr:`components`. Samples are taken to be equally spaced (the law's
-    derivative scale is ``deriv_scale``, not the sample time).
+    derivative scale is ``deriv_scale``, not the sample time). ``sample_time`` (s) is the
+    period of a simulated loop (``simulate_loop``'s default ``h``) and sets
+    back-calculation's share k_aw h; without it, back-calculation uses the paper's 1e-6 s
+    and ``simulate_loop`` needs ``h``.
 
     Examples
     --------
@@ -392,7 +395,7 @@ class RecursiveIP(_Controller):
     """
 
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
-                 **controller_keys: Any):
+                 sample_time: float | None = None, **controller_keys: Any):
         from ..config import resolve
         from ..errors import ConfigError
         from .params import recursive_law_column
@@ -409,8 +412,11 @@ class RecursiveIP(_Controller):
             raise ValueError(str(exc).removeprefix("controller.")) from None
         params = {"alpha": alpha, "kp": kp, "setpoint": _number("setpoint", setpoint),
                   **controller_keys}
+        if sample_time is not None:
+            params["sample_time"] = _number("sample_time", sample_time, positive=True)
+        self.sample_time = params.get("sample_time")
         super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
-        self._CP[:, 0] = recursive_law_column(cfg)[:, 0]
+        self._CP[:, 0] = recursive_law_column(cfg, self.sample_time)[:, 0]
         self._reset_state()
 
     def _reset_state(self) -> None:

@@ -231,7 +231,12 @@ def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_w
            stable_tol, diverge_above):
     """What a run of objects starts from, checked: (plant, h, t, r, S)."""
     plant = _as_plant(plant)
-    h = float(controller.sample_time if h is None else h)
+    if h is None:
+        h = getattr(controller, "sample_time", None)
+        if h is None:
+            raise ConfigError("h", None, f"required: the {type(controller).__name__} has no "
+                              f"sample_time to default to")
+    h = float(h)
     n = grid.n_samples(t_end, h)
     _check_changes(plant, changes)
     t = grid.times(n, t_end)

@@ -47,6 +47,7 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP:
                 "rate_sign", "gain", "deriv_scale", "output_gain", "duty_min", "duty_max",
                 "p_sample", "p_error", "u0", "anti_windup", "k_aw")
         return RecursiveIP(cfg["controller.alpha"], cfg["controller.kp"],
+                           sample_time=cfg["sim.h"],
                            **{k: cfg[f"controller.{k}"] for k in keys})
     options = {
         "sample_time": cfg["sim.h"], "order": cfg["controller.order"],
@@ -114,10 +115,11 @@ def buck_column(cfg: Config) -> np.ndarray:
     return col
 
 
-def recursive_law_column(cfg: Config) -> np.ndarray:
+def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
     """The recursive law's parameter column (rows of :mod:`mfcontrol.laws.recursive_ip`):
     the one translator of its options, for cases, sweeps and the live
-    :class:`~mfcontrol.api.controllers.RecursiveIP` alike."""
+    :class:`~mfcontrol.api.controllers.RecursiveIP` alike. ``h``: the sample period
+    back-calculation uses (default ``sim.h``)."""
     col = np.zeros((recursive_ip.N_PARAMS, _width(cfg)))
     variational = cfg["controller.law"] == "variational"
     col[variational_gain.MODE] = (variational_gain.VARIATIONAL if variational
@@ -139,19 +141,20 @@ def recursive_law_column(cfg: Config) -> np.ndarray:
     col[recursive_ip.OUT_GAIN] = cfg["controller.output_gain"]
     col[recursive_ip.OUT_MIN] = cfg["controller.duty_min"]
     col[recursive_ip.OUT_MAX] = cfg["controller.duty_max"]
-    col[recursive_ip.AW_COEF] = anti_windup_coefficient(cfg)
+    col[recursive_ip.AW_COEF] = anti_windup_coefficient(cfg, h)
     return col
 
 
-def anti_windup_coefficient(cfg: Config) -> float:
-    """Share of the excess over the limit that the recursive law sheds each sample."""
+def anti_windup_coefficient(cfg: Config, h: float | None = None) -> float:
+    """Share of the excess over the limit that the recursive law sheds each sample
+    (back-calculation: k_aw h, at most 1; ``h`` defaults to ``sim.h``)."""
     mode = cfg["controller.anti_windup"]
     if mode in ("auto", "none"):
         return 0.0
     if mode == "clamp":
         return 1.0
     k_aw = cfg["controller.k_aw"]
-    return 1.0 if k_aw is None else np.minimum(1.0, k_aw * cfg["sim.h"])
+    return 1.0 if k_aw is None else np.minimum(1.0, k_aw * (cfg["sim.h"] if h is None else h))
 
 
 def reference_column(cfg: Config) -> np.ndarray:
