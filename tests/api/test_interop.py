@@ -51,3 +51,23 @@ def test_recursive_ip_needs_dt():
     with pytest.raises(ValueError, match="dt"):
         as_nlsys(mfcontrol.RecursiveIP())
     assert as_nlsys(mfcontrol.RecursiveIP(), dt=1e-6).isdtime()
+
+
+def test_external_gain_takes_alpha_as_an_input():
+    # it ran with alpha = 1 whatever the caller meant (found in review)
+    h, n = 0.01, 300
+    make = lambda: mfcontrol.IPI(alpha=1.0, kp=5.0, ki=2.0, sample_time=h,  # noqa: E731
+                                 gain="external")
+    alpha = 1.0 + 0.5 * np.sin(np.arange(n) * h)
+    plant = FirstOrder(a=-1.0, b=1.0, w=0.3)
+    ours = mfcontrol.simulate_loop(plant, make(), 1.0, t_end=n * h, alpha=alpha)
+    ctrl = make()
+    sys = as_nlsys(ctrl)
+    assert sys.input_labels == ["y", "r", "alpha"]
+    loop = control.interconnect([sys, _plant_sys(plant, h)], inplist=["r", "alpha"],
+                                outlist=["y", "u"])
+    resp = control.input_output_response(
+        loop, ours.time, U=np.vstack([np.ones(n), alpha]),
+        X0=np.concatenate([as_nlsys_state(ctrl), plant.x0]))
+    np.testing.assert_allclose(resp.outputs[0], ours.signals["y"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(resp.outputs[1], ours.signals["u"], rtol=0, atol=1e-12)

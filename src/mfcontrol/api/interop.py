@@ -1,7 +1,8 @@
 """python-control interoperability.
 
 ``as_nlsys(controller)`` turns a live controller into a discrete-time
-``control.NonlinearIOSystem`` with inputs ``y`` (measurement) and ``r`` (reference), output
+``control.NonlinearIOSystem`` with inputs ``y`` (measurement) and ``r`` (reference), and
+``alpha`` for a controller with ``gain="external"``, output
 ``u`` and a state vector that holds all of the controller's memory. python-control may
 call the update and output functions several times per step, so both are pure: they
 compute from a copy of the state. The output at step k depends on the inputs at step k
@@ -26,7 +27,8 @@ def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
         Its parameters define the law; its current state is the system's initial state
         (``x0 = as_nlsys_state(controller)``). The live object itself is not modified.
     dt : float, optional
-        Sample period; defaults to the controller's ``sample_time`` (RecursiveIP needs it).
+        Sample period; defaults to the controller's ``sample_time`` (a RecursiveIP
+        without one needs it).
 
     Examples
     --------
@@ -39,29 +41,33 @@ def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
     import control
 
     CP = controller._CP
+    inputs = ["y", "r"]
     if isinstance(controller, IntelligentController):
         h = controller.sample_time if dt is None else float(dt)
+        if controller._external:  # alpha is an input, as it is an argument of each call
+            inputs.append("alpha")
 
-        def law(x, y, r):
-            return live.intelligent_pure(CP, np.asarray(x, dtype=float), float(y), float(r),
-                                         h, 1.0)
+        def law(x, u):
+            return live.intelligent_pure(CP, np.asarray(x, dtype=float), float(u[0]),
+                                         float(u[1]), h, float(u[2]) if len(u) > 2 else 1.0)
     elif isinstance(controller, RecursiveIP):
-        if dt is None:
-            raise ValueError("dt = None: RecursiveIP has no sample_time, pass dt")
-        h = float(dt)
+        h = controller.sample_time if dt is None else float(dt)
+        if h is None:
+            raise ValueError("dt = None: this RecursiveIP has no sample_time, pass dt")
 
-        def law(x, y, r):
-            return live.recursive_pure(CP, np.asarray(x, dtype=float), float(y), float(r))
+        def law(x, u):
+            return live.recursive_pure(CP, np.asarray(x, dtype=float), float(u[0]),
+                                       float(u[1]))
     else:
         raise TypeError(f"controller = {controller!r}: expected an mfcontrol controller")
 
     def update(t, x, u, params):
-        return law(x, u[0], u[1])[1]
+        return law(x, u)[1]
 
     def output(t, x, u, params):
-        return np.array([law(x, u[0], u[1])[0]])
+        return np.array([law(x, u)[0]])
 
-    return control.nlsys(update, output, inputs=["y", "r"], outputs=["u"],
+    return control.nlsys(update, output, inputs=inputs, outputs=["u"],
                          states=controller._CS.shape[0], dt=h, name=name)
 
 

@@ -80,6 +80,10 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
             if name not in numeric:
                 raise ConfigError(key, values, "not a numeric controller option; allowed: "
                                   + ", ".join(f"controller.{k}" for k in numeric))
+            unread = _unread(params, name)
+            if unread:
+                raise ConfigError(key, values, f"this controller never reads it ({unread}): "
+                                  "every member would be the same")
         else:
             raise ConfigError(key, values, "must start with 'plant.' or 'controller.'")
         try:
@@ -90,6 +94,21 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
             raise ConfigError(key, values, "must be a non-empty list of finite numbers")
         out[key] = arr
     return out
+
+
+def _unread(params: Mapping[str, Any], name: str) -> str:
+    """Why the law never reads the numeric option ``name`` with these options ("" when it
+    does)."""
+    variational = params.get("gain", params.get("law")) == "variational"
+    if name in ("gamma0", "Gamma", "eps_M") and not variational:
+        return "only the variational gain does"
+    if name == "alpha" and params.get("gain") == "external":
+        return "gain='external' takes alpha at every sample: sweep(..., alpha=)"
+    if name == "k_aw" and params.get("anti_windup") != "back-calculation":
+        return "only back-calculation anti-windup does"
+    if name == "setpoint":
+        return "the reference sets it"
+    return ""
 
 
 def sweep(plant, controller, reference: Reference = 0.0, *,
