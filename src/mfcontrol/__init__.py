@@ -15,7 +15,7 @@ from .api.plants import LTI, ODE, Boost, Buck, FirstOrder, Plant
 from .api.result import Result, SweepResult
 from .api.simulate import simulate, simulate_many, simulate_sweep
 from .api.sweep import LoopSweepResult, sweep
-from .config import Config, resolve
+from .config.resolve import Config, resolve
 from .errors import CaseError, ConfigError
 from .experiments.cases import names as case_names
 from .experiments.cases import run_case

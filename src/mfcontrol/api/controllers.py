@@ -396,7 +396,7 @@ class RecursiveIP(_Controller):
 
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
                  sample_time: float | None = None, **controller_keys: Any):
-        from ..config import resolve
+        from ..config.resolve import resolve
         from ..errors import ConfigError
         from .params import recursive_law_column
 

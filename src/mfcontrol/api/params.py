@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from ..config import Config
 from ..config.options import POSITIONAL
+from ..config.resolve import Config
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
 from .controllers import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP

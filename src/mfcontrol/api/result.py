@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..config import Config
+from ..config.resolve import Config
 
 #: the signals every run records, in file order (a law's components may follow)
 SIGNALS = ("y_ref", "y", "u", "u_raw", "gamma", "gain")

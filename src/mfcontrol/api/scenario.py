@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Config
+from ..config.resolve import Config
 from ..engine import metrics, paper_single, trajectory
 from ..laws import recursive_ip
 from ..numerics import grid

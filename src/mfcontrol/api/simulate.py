@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .._version import __version__
-from ..config import Config
+from ..config.resolve import Config
 from ..engine import trajectory
 from ..numerics import grid
 from . import metrics, scenario

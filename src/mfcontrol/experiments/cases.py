@@ -9,7 +9,7 @@ from typing import Any
 
 from ..api.result import Result, SweepResult
 from ..api.simulate import simulate, simulate_sweep
-from ..config import Config, resolve
+from ..config.resolve import Config, resolve
 from ..config.toml import flatten
 from ..errors import CaseError
 

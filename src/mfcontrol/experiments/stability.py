@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..api import scenario
-from ..config import Config
+from ..config.resolve import Config
 from ..engine import metrics, paper_single, trajectory
 from ..laws import recursive_ip
 from ..plants import buck

@@ -27,7 +27,7 @@ import numpy as np
 from .._version import __version__
 from ..api import batch
 from ..api.simulate import compiled, simulate
-from ..config import Config
+from ..config.resolve import Config
 from ..errors import ConfigError
 
 CHUNK = 4096
@@ -70,7 +70,7 @@ def _chunk_frame(grid_spec: dict, index: int):
     """Compute one chunk from a plain description (used locally and on Dask workers)."""
     import pandas as pd
 
-    from ..config import resolve
+    from ..config.resolve import resolve
 
     base = resolve(grid_spec["base"])
     grid = batch.Grid(base=base, axes={k: np.asarray(v) for k, v in grid_spec["grid"].items()})
