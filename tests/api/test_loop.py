@@ -1,5 +1,7 @@
 """The general closed loop with plant objects."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -84,3 +86,20 @@ def test_recursive_law_takes_its_period_from_sample_time_or_h():
 
     c = mfcontrol.RecursiveIP(anti_windup="back-calculation", k_aw=1e3, sample_time=1e-5)
     assert c._CP[recursive_ip.AW_COEF, 0] == 1e3 * 1e-5
+
+
+def test_a_bad_reference_or_alpha_is_a_one_line_error_not_a_divergence():
+    # a NaN reference used to come back as a plant that diverged at t = 0
+    plant = FirstOrder(a=-1.0, b=1.0)
+    ip = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=0.01)
+    with pytest.raises(mfcontrol.ConfigError, match=r"reference = nan: must be finite .*t = 0\.0"):
+        simulate_loop(plant, ip, float("nan"), t_end=1.0)
+    with pytest.raises(mfcontrol.ConfigError, match=r"reference = inf: .*t = 0\.5"):
+        simulate_loop(plant, ip, lambda t: 1.0 if t < 0.5 else math.inf, t_end=1.0)
+    with pytest.raises(mfcontrol.ConfigError,
+                       match=r"reference = 'an array of shape \(3,\)': .*\(100 samples\)"):
+        simulate_loop(plant, ip, [1.0, 2.0, 3.0], t_end=1.0)
+    ext = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=0.01, gain="external")
+    for bad in (1e-310, True, "2"):
+        with pytest.raises(mfcontrol.ConfigError, match="^alpha = "):
+            simulate_loop(plant, ext, 1.0, t_end=1.0, alpha=bad)

@@ -226,10 +226,14 @@ def test_divergence_is_flagged_with_finite_metrics(fast):
     assert res.arithmetic == ("fast" if fast else "exact")
 
 
-def test_a_non_finite_reference_is_a_flagged_result():
-    res = simulate_loop(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
-                        sample_time=0.01), lambda t: -np.inf if t >= 0.5 else 1.0, t_end=1.0)
-    assert res.metrics["diverged"] and res.metrics["t_diverge"] == 0.5
+def test_a_non_finite_reference_is_refused_up_front_or_flagged_in_the_kernel():
+    # a reference given as data is checked before the run (one line naming its time); a
+    # configured reference is evaluated in the kernel, where going non-finite is flagged
+    with pytest.raises(mfcontrol.ConfigError, match=r"reference = -inf: .*t = 0\.5"):
+        simulate_loop(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
+                      sample_time=0.01), lambda t: -np.inf if t >= 0.5 else 1.0, t_end=1.0)
+    res = mfcontrol.run_case("buck-ipi", {"reference.slope": -1e308})
+    assert res.metrics["diverged"]
     assert np.isfinite(res.metrics["iae"]) and np.isfinite(res.metrics["ise"])
 
 

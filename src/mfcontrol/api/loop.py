@@ -50,14 +50,33 @@ class Change:
 LoopResult = Result
 
 
-def _reference(reference: Reference, t: np.ndarray) -> np.ndarray:
-    if callable(reference):
-        return np.array([float(reference(tk)) for tk in t])
-    arr = np.asarray(reference, dtype=float)
+def _series(name: str, value: Reference, t: np.ndarray, positive: bool = False) -> np.ndarray:
+    """``value`` at every sample time (a number, a function of t or one value per sample),
+    checked: finite (and, with ``positive``, > 0 with a finite reciprocal) at every
+    sample. Errors name ``name``, the first bad value and its time."""
+    allowed = "a number, a function of t or one value per sample"
+    try:
+        if callable(value):
+            arr = np.array([float(value(tk)) for tk in t])
+        else:
+            if isinstance(value, bool | str | bytes):
+                raise TypeError
+            arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        shown = value if isinstance(value, bool | str | bytes) else type(value).__name__
+        raise ConfigError(name, shown, allowed) from None
     if arr.ndim == 0:
-        return np.full(t.size, float(arr))
-    if arr.shape != t.shape:
-        raise ValueError(f"reference has {arr.size} samples, the time grid {t.size}")
+        arr = np.full(t.size, float(arr))
+    elif arr.shape != t.shape:
+        raise ConfigError(name, f"an array of shape {arr.shape}",
+                          f"{allowed} ({t.size} samples)")
+    with np.errstate(divide="ignore", over="ignore"):
+        ok = np.isfinite(arr) & ((arr > 0) & np.isfinite(1.0 / arr) if positive else True)
+    if not ok.all():
+        k = int(np.flatnonzero(~ok)[0])
+        what = "finite and > 0 (with a finite 1/value)" if positive else "finite"
+        raise ConfigError(name, float(arr[k]), f"must be {what} at every sample "
+                                               f"(t = {float(t[k])!r})")
     return arr
 
 
@@ -241,7 +260,7 @@ def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_w
     _check_changes(plant, changes)
     t = grid.times(n, t_end)
     S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
-    return plant, h, t, _reference(reference, t), S
+    return plant, h, t, _series("reference", reference, t), S
 
 
 def _alpha(controller, alpha, t: np.ndarray) -> np.ndarray | None:
@@ -256,17 +275,7 @@ def _alpha(controller, alpha, t: np.ndarray) -> np.ndarray | None:
     if not external:
         raise ConfigError("alpha", alpha, "only for a controller with gain='external' "
                           "(the others set their own gain)")
-    try:
-        arr = _reference(alpha, t)
-    except (TypeError, ValueError) as exc:
-        raise ConfigError("alpha", alpha, f"a number, a function of t or one value per "
-                          f"sample ({exc})") from None
-    bad = ~(np.isfinite(arr) & (arr > 0))
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
-        raise ConfigError("alpha", float(arr[k]), f"must be finite and > 0 at every sample "
-                          f"(t = {float(t[k])!r})")
-    return arr
+    return _series("alpha", alpha, t, positive=True)
 
 
 # ---------------------------------------------------------------------------------------------
