@@ -151,7 +151,7 @@ def _settings(settle_time: float, t_end: float, final_window: float,
             check_value(key, value)
         except ConfigError as exc:
             raise ConfigError(name, value, exc.allowed) from None
-    return engine_metrics.settings(settle_time, t_end * (1 - final_window), diverge_above)
+    return engine_metrics.settings(settle_time, t_end, final_window, diverge_above)
 
 
 @contextmanager
@@ -215,7 +215,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     Returns (M, traj, CS): metrics of every member; with ``record`` (one member) its
     trajectory ``traj[row, k]``, else an empty array; the law memory of every member.
     """
-    n = round(t_end / h)
+    n = grid.n_samples(t_end, h)
     p0, l0 = plants[0], laws[0]
     for ep, law in zip(plants, laws, strict=True):
         if ep.functions != p0.functions or ep.integrator != p0.integrator or \

@@ -50,7 +50,7 @@ class Scenario:
 
 def n_steps(cfg: Config) -> int:
     """Samples in a configuration's run (validated when it was resolved)."""
-    return round(cfg["sim.t_end"] / cfg["sim.h"])
+    return grid.n_samples(cfg["sim.t_end"], cfg["sim.h"], "sim.t_end", "sim.h")
 
 
 def axis_columns(base: Config, key: str, values: np.ndarray) -> dict[str, np.ndarray]:
@@ -73,13 +73,11 @@ def axis_columns(base: Config, key: str, values: np.ndarray) -> dict[str, np.nda
 
 
 def _events(cfg: Config, n: int) -> list[tuple[int, int, bool, float]]:
-    """(sample, parameter row, additive?, value) for every scheduled change, in order."""
-    out = []
-    for t_change in cfg["plant.change_times"]:
-        k = grid.first_sample_at(t_change, cfg["sim.t_end"], n)
-        out.append((k, buck.R, True, cfg["plant.dR"]))
-        out.append((k, buck.C, True, cfg["plant.dC"]))
-    return out
+    """(sample, parameter row, additive?, value) for every scheduled change, in order:
+    the changes of :func:`mfcontrol.api.params.changes` (the paper's kernels take no
+    general schedule)."""
+    return [(grid.first_sample_at(c.time, cfg["sim.t_end"], n), buck.PARAM_ROWS[c.name],
+             c.add, c.value) for c in params.changes(cfg)]
 
 
 def build(configs: Sequence[Config]) -> Scenario:
@@ -101,9 +99,8 @@ def build(configs: Sequence[Config]) -> Scenario:
     ev_add = np.array([e[2] for e in events[0]], dtype=np.bool_)
     ev_steps = np.unique(ev_k[ev_k < n]) if n_ev else np.zeros(0, dtype=np.int64)
     X0 = np.column_stack([params.buck_state_column(c) for c in configs])
-    S = metrics.settings(first["metrics.settle_time"],
-                        first["sim.t_end"] * (1 - first["metrics.final_window"]),
-                        first["sim.diverge_above"])
+    S = metrics.settings(first["metrics.settle_time"], first["sim.t_end"],
+                         first["metrics.final_window"], first["sim.diverge_above"])
     return Scenario(
         n_steps=n, h=first["sim.h"], t_end=first["sim.t_end"],
         plant_kind=paper_single.BUCK,

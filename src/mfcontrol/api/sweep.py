@@ -96,6 +96,11 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
     return out
 
 
+def keep_members(n_members: int, keep: int) -> np.ndarray:
+    """``keep`` members spread evenly over a grid (first and last included)."""
+    return np.unique(np.round(np.linspace(0, n_members - 1, min(keep, n_members))).astype(int))
+
+
 def _unread(params: Mapping[str, Any], name: str) -> str:
     """Why the law never reads the numeric option ``name`` with these options ("" when it
     does)."""
@@ -204,7 +209,8 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     table.update({name: met[name] for name in _metrics.COLUMNS})
     kept = {}
     if keep:
-        for m in sorted({int(round(x)) for x in np.linspace(0, len(combos) - 1, keep)}):
+        for m in keep_members(len(combos), keep):
+            m = int(m)
             values = {k: float(table[k][m]) for k in keys}
             with restored(plant):
                 for k in plant_keys:

@@ -29,11 +29,13 @@ S_FINAL_START = 1
 S_DIVERGE_ABOVE = 2
 N_SETTINGS = 3
 
-def settings(settle_time: float, final_start: float, diverge_above: float) -> np.ndarray:
-    """The metric settings vector S of the kernels."""
+def settings(settle_time: float, t_end: float, final_window: float,
+             diverge_above: float) -> np.ndarray:
+    """The metric settings vector S of the kernels; the final window is the last
+    ``final_window`` share of the horizon."""
     S = np.zeros(N_SETTINGS)
     S[S_SETTLE] = settle_time
-    S[S_FINAL_START] = final_start
+    S[S_FINAL_START] = t_end * (1 - final_window)
     S[S_DIVERGE_ABOVE] = diverge_above
     return S
 

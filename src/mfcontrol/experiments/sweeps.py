@@ -27,6 +27,7 @@ import numpy as np
 from .._version import __version__
 from ..api import batch
 from ..api.simulate import compiled, simulate
+from ..api.sweep import keep_members
 from ..config.resolve import Config
 from ..errors import ConfigError
 
@@ -166,11 +167,6 @@ def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progre
         if cluster is not None:
             cluster.close()
     return done
-
-
-def keep_members(n_members: int, keep: int) -> np.ndarray:
-    """``keep`` members spread evenly over the grid (first and last included)."""
-    return np.unique(np.round(np.linspace(0, n_members - 1, min(keep, n_members))).astype(int))
 
 
 def _keep(grid: batch.Grid, keep: int, out: Path, fast: bool) -> None:
