@@ -641,3 +641,14 @@ def test_check_axis_refuses_exactly_what_with_overrides_refuses(case):
             except ConfigError:
                 axis_refused = True
             assert axis_refused == refused, (o.key, values)
+
+
+def test_an_algebraic_window_longer_than_the_run_is_refused_in_one_line():
+    # a window of 1e12 samples ended in a 14.6 TiB allocation (found in review)
+    for w in (4000, 10**12):
+        with pytest.raises(ConfigError, match=r"controller.window = \d+: must be fewer samples "
+                                              r"than the run's 4,000"):
+            mfcontrol.run_case("first-order-ip-algebraic", {"controller.window": w})
+    with pytest.raises(ValueError, match="from 2 to 10,000,000"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=1e-3, estimator="algebraic",
+                     window=10**9)

@@ -23,7 +23,7 @@ import numpy as np
 
 from .._version import __version__
 from ..engine import live
-from ..laws import intelligent, recursive_ip
+from ..laws import estimators, intelligent, recursive_ip
 from ..laws import variational_gain as gain_law
 
 _INF = math.inf
@@ -212,9 +212,11 @@ class IntelligentController(_Controller):
         _choice("integrator", integrator, ("first-order", "second-order"))
         lo, hi = _limits(output_limits)
         if estimator == "algebraic":
-            if not isinstance(window, int) or isinstance(window, bool) or window < 2:
+            if (not isinstance(window, int) or isinstance(window, bool) or window < 2
+                    or window > estimators.MAX_WINDOW):
                 raise ValueError(f"window = {window!r}: must be a whole number of samples "
-                                 ">= 2 for the algebraic estimator")
+                                 f"from 2 to {estimators.MAX_WINDOW:,} for the algebraic "
+                                 "estimator")
             if order == 2 and window % 2:
                 raise ValueError(f"window = {window!r}: must be even for order 2 (Simpson)")
         elif window is not None:

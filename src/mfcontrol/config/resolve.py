@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from ..laws import estimators
 from ..numerics import grid
 from .options import BY_KEY, OPTIONS, PLANT_PARAMETERS, POSITIONAL, Option, allowed
 from .toml import to_toml
@@ -185,6 +186,10 @@ class _Reads(dict):
         self.read.add(key)
         return super().__getitem__(key)
 
+    def get(self, key, default=None):
+        self.read.add(key)
+        return super().get(key, default)
+
 
 def check_axis(base: Config, key: str, values: Any) -> None:
     """Validate every value of a swept numeric option against ``base``, as
@@ -230,10 +235,16 @@ def _check_consistency(v: dict[str, Any]) -> None:
         if e["name"] not in names:
             raise ConfigError("plant.schedule", e, f"name must be a parameter of the "
                               f"{v['plant.model']} plant: {', '.join(names)}")
-    if (v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
-            and v["controller.order"] == 2 and v["controller.window"] % 2):
+    algebraic = v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
+    if algebraic and v["controller.order"] == 2 and v["controller.window"] % 2:
         raise ConfigError("controller.window", v["controller.window"],
                           "must be even for order 2 (Simpson's rule)")
+    n = round(v["sim.t_end"] / v["sim.h"])
+    if algebraic and v["controller.window"] >= min(n, estimators.MAX_WINDOW + 1):
+        # a window the run never fills estimates nothing (and would allocate its ring)
+        raise ConfigError("controller.window", v["controller.window"],
+                          f"must be fewer samples than the run's {n:,} (sim.t_end / sim.h) "
+                          f"and at most {estimators.MAX_WINDOW:,}")
     if v["controller.law"] in ("ip", "variational") and v["plant.model"] == "first-order":
         raise ConfigError("controller.law", v["controller.law"], "the paper's recursive law "
                           "drives a converter's duty cycle: use i-P .. i-PID for first-order")

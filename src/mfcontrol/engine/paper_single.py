@@ -1,16 +1,17 @@
-"""The closed-loop kernels.
+"""The paper's tuned single-run kernel: the buck under the recursive law.
 
 Each sample: scheduled parameter changes due at t_k (before that sample's plant step, as
 published), the measurement y_k (before the plant step) and the reference r_k, the control
 law, streaming metrics and divergence flags, then one plant step with the applied input
-held. Two kernels run this loop with the same scalar functions of the laws, plants and
-metrics (``recursive_ip.advance``, ``buck.rk4``, ``fold_metrics``/``accumulate``):
+held, with the scalar functions every kernel calls (``recursive_ip.advance``,
+``buck.rk4``, :func:`mfcontrol.engine.metrics.fold_metrics`).
 
-* :func:`run_single`: one member, from SoA columns (``X[row, j]`` plant state, ``PP`` plant
-  parameters, ``CS``/``CP`` controller state/parameters, ``RP`` reference, ``M`` metrics),
-  recording the full trajectory; :func:`run_single_fast` is the same loop in the fast
-  mode of the sweeps (fused arithmetic, the plant's RK4 step as its linear map);
-* :func:`mfcontrol.engine.paper_sweep.block_kernel`: blocks of members for sweeps.
+:func:`run_single` runs one member from SoA columns (``X[row, j]`` plant state, ``PP``
+plant parameters, ``CS``/``CP`` controller state/parameters, ``RP`` reference, ``M``
+metrics), recording the full trajectory; :func:`run_single_fast` is the same loop in the
+fast mode (fused arithmetic, the plant's RK4 step as its linear map). Sweeps of this case
+run in :mod:`mfcontrol.engine.paper_sweep`; every other loop in
+:mod:`mfcontrol.engine.compose`.
 """
 
 

@@ -65,6 +65,8 @@ U_MOM = Y_MOM + 2 * N_YMOM
 RING = U_MOM + 2 * N_UMOM  # y ring (M + 1 rows), then u ring (M + 1 rows)
 
 ORDERS = (1, 2)
+#: longest window: its ring buffer of 2 (M + 1) samples stays under 160 MB
+MAX_WINDOW = 10_000_000
 
 
 def n_state(M: int) -> int:
