@@ -176,7 +176,11 @@ class IntelligentController(_Controller):
         unlimited output over the limit at each sample.
     gain : {"constant", "variational", "external"}
         Gain adaptation: constant alpha, the paper's variational update (``gamma0``,
-        ``Gamma``, ``eps_M``, ``integrator``), or alpha passed to every call.
+        ``Gamma``, ``eps_M``, ``integrator``), or alpha passed to every call
+        (``simulate_loop`` and ``sweep`` take it as ``alpha=``). With an external alpha
+        the constructor's ``alpha`` only shows as ``gamma`` before the first derivative
+        exists, and the algebraic estimator weighs its window's past inputs by the
+        present alpha.
     setpoint, starting_output : float
         Initial setpoint and the output held until the first derivative exists.
 

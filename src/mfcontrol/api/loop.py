@@ -309,9 +309,10 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         The compiled engine's fast mode (fused multiply-adds, reciprocals): within about
         1e-12 relative of the default. Refused for a loop the Python driver runs.
     alpha : float, callable or array, optional
-        For a controller with ``gain="external"`` (and only for one): the alpha it is
-        given at every sample, as a loop of live calls passes ``alpha=``; constant, a
-        function of t, or one value per sample, each finite and > 0.
+        For a library controller with ``gain="external"`` (and only for one): the alpha
+        it is given at every sample, as a loop of live calls passes ``alpha=``; constant,
+        a function of t, or one value per sample, each finite and > 0. (A controller of
+        your own that takes alpha: close the loop yourself.)
 
     Returns
     -------

@@ -127,8 +127,9 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     ----------
     plant, controller, reference, t_end, h, changes, settle_time, final_window,
     stable_tol, diverge_above, alpha
-        As for :func:`mfcontrol.simulate_loop`. Every member starts from the plant's
-        ``x0`` and from a fresh controller (a controller's present memory is not used).
+        As for :func:`mfcontrol.simulate_loop` (``alpha``: one schedule, the same for
+        every member). Every member starts from the plant's ``x0`` and from a fresh
+        controller (a controller's present memory is not used).
     grid : mapping
         ``{"plant.NAME": values, "controller.NAME": values, ...}``: plant parameters (as in
         ``plant.params``) and numeric controller options (as its constructor takes them).
