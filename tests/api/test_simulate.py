@@ -123,3 +123,12 @@ def test_a_non_finite_reference_is_flagged_not_returned_as_non_finite_metrics():
     r = mfcontrol.run_case("buck-ipi", overrides={"reference.slope": -1e308})
     assert r.metrics["diverged"]
     assert all(np.isfinite(r.metrics[k]) for k in ("iae", "ise", "itae", "tv_u"))
+
+
+def test_a_sweep_case_may_vary_an_integer_option():
+    _, cfg = resolve_case("first-order-ip-algebraic", {"sweep.key": "controller.window",
+                                                        "sweep.values": [10, 20],
+                                                        "sim.t_end": 0.5})
+    res = mfcontrol.simulate_sweep(cfg)
+    assert [m.config["controller.window"] for m in res.members] == [10, 20]
+    assert res.members[0].metrics != res.members[1].metrics

@@ -108,3 +108,32 @@ def test_the_sample_time_is_not_an_axis():
         mfcontrol.sweep(FirstOrder(-1.0, 1.0), mfcontrol.IP(alpha=1.0, kp=5.0,
                         sample_time=0.01), 1.0, t_end=1.0,
                         grid={"controller.sample_time": [0.01, 0.02]})
+
+
+def test_an_axis_the_law_never_reads_is_refused():
+    # every member used to be the same run (found in review)
+    plant = FirstOrder(a=-1.0, b=1.0)
+    ext = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2, gain="external")
+    ip = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2, Gamma=1e-3)
+    for ctrl, key, why in ((ext, "alpha", "gain='external' takes alpha"),
+                           (ip, "Gamma", "only the variational gain"),
+                           (ip, "setpoint", "the reference sets it")):
+        with pytest.raises(mfcontrol.ConfigError, match=f"controller.{key} = .*{why}"):
+            mfcontrol.sweep(plant, ctrl, 1.0, grid={f"controller.{key}": [1.0, 2.0]},
+                            t_end=1.0, alpha=2.0 if ctrl is ext else None)
+
+
+def test_the_recursive_law_sweeps_any_of_its_options():
+    # only the keys given to RecursiveIP were axes; Gamma was refused unless passed
+    from mfcontrol import Buck
+
+    ctrl = mfcontrol.RecursiveIP(sample_time=1e-6, law="variational", gamma0=1.0)
+    sw = mfcontrol.sweep(Buck(), ctrl, 2.5, grid={"controller.Gamma": [1e-8, 5e-7]},
+                         t_end=2e-3)
+    df = sw.to_pandas()
+    for m, gamma_rate in enumerate([1e-8, 5e-7]):
+        one = mfcontrol.simulate_loop(
+            Buck(), mfcontrol.RecursiveIP(sample_time=1e-6, law="variational", gamma0=1.0,
+                                          Gamma=gamma_rate), 2.5, t_end=2e-3)
+        assert df["final_gamma"][m] == one.metrics["final_gamma"]
+    assert df["final_gamma"][0] != df["final_gamma"][1]

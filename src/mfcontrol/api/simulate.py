@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .._version import __version__
-from ..config.resolve import Config
+from ..config.resolve import Config, axis_value
 from ..engine import trajectory
 from ..numerics import grid
 from . import metrics, scenario
@@ -123,4 +123,5 @@ def simulate_sweep(cfg: Config, name: str = "", *, fast: bool = False) -> SweepR
 
 
 def _member(cfg: Config, key: str, value: float) -> Config:
-    return cfg.with_overrides({key: value, "sweep.key": None, "sweep.values": None})
+    return cfg.with_overrides({key: axis_value(key, value), "sweep.key": None,
+                               "sweep.values": None})

@@ -12,8 +12,10 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..config.options import BY_KEY, OPTIONS
 from ..errors import ConfigError
 from . import metrics as _metrics
+from .controllers import RecursiveIP
 from .loop import (
     Change,
     Reference,
@@ -77,10 +79,14 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
             # sample_time sets the time grid, which every member shares
             numeric = [k for k, v in params.items() if k != "sample_time"
                        and isinstance(v, int | float) and not isinstance(v, bool)]
+            if isinstance(controller, RecursiveIP):  # takes every option of the table
+                numeric += [o.key.partition(".")[2] for o in OPTIONS
+                            if o.key.startswith("controller.") and o.kind == "float"
+                            and o.key.partition(".")[2] not in numeric]
             if name not in numeric:
                 raise ConfigError(key, values, "not a numeric controller option; allowed: "
                                   + ", ".join(f"controller.{k}" for k in numeric))
-            unread = _unread(params, name)
+            unread = _unread(params, name, isinstance(controller, RecursiveIP))
             if unread:
                 raise ConfigError(key, values, f"this controller never reads it ({unread}): "
                                   "every member would be the same")
@@ -101,10 +107,13 @@ def keep_members(n_members: int, keep: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n_members - 1, min(keep, n_members))).astype(int))
 
 
-def _unread(params: Mapping[str, Any], name: str) -> str:
+def _unread(params: Mapping[str, Any], name: str, recursive: bool) -> str:
     """Why the law never reads the numeric option ``name`` with these options ("" when it
     does)."""
-    variational = params.get("gain", params.get("law")) == "variational"
+    if recursive:  # its own "gain" option is another thing (gamma or 1/alpha)
+        variational = params.get("law", BY_KEY["controller.law"].default) == "variational"
+    else:
+        variational = params.get("gain") == "variational"
     if name in ("gamma0", "Gamma", "eps_M") and not variational:
         return "only the variational gain does"
     if name == "alpha" and params.get("gain") == "external":
@@ -233,7 +242,8 @@ def _controller(controller, params, ctrl_keys, values):
     for k in ctrl_keys:
         name = k.partition(".")[2]
         v = values[k]
-        kw[name] = int(v) if isinstance(params[name], int) and float(v).is_integer() else v
+        kw[name] = (int(v) if isinstance(params.get(name), int) and float(v).is_integer()
+                    else v)
     try:
         return type(controller)(**kw)
     except ValueError as exc:

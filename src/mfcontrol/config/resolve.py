@@ -253,11 +253,12 @@ def _check_consistency(v: dict[str, Any]) -> None:
                           "sweep.key and sweep.values go together")
     if v["sweep.key"] is not None:
         o = BY_KEY.get(v["sweep.key"])
-        if (o is None or o.kind != "float" or o.key.startswith("sweep.")
+        if (o is None or o.kind not in ("float", "int") or o.key.startswith("sweep.")
                 or o.key in _GRID_KEYS):
             raise ConfigError("sweep.key", v["sweep.key"], "must name a numeric option that "
                               "keeps the time grid (not sim.h or sim.t_end)")
         for x in v["sweep.values"]:
+            x = axis_value(o.key, x)
             check_value(o.key, x)
             _check_consistency({**v, o.key: x, "sweep.key": None, "sweep.values": None})
 
