@@ -313,10 +313,8 @@ class IntelligentController(_Controller):
         """The terms of the last output: F_hat, feed-forward y*^(n), P, I, D (as they enter
         the bracket), the output before limiting, and gamma = 1/alpha used."""
         s = self._CS[:, 0]
-        return {"F_hat": float(s[intelligent.C_F]), "feedforward": float(s[intelligent.C_FF]),
-                "P": float(s[intelligent.C_P]), "I": float(s[intelligent.C_I]),
-                "D": float(s[intelligent.C_D]), "unlimited": float(s[intelligent.C_UNLIM]),
-                "gamma": float(s[gain_law.G1])}
+        return {**{name: float(s[row]) for name, row in intelligent.COMPONENTS},
+                "unlimited": float(s[intelligent.C_UNLIM]), "gamma": float(s[gain_law.G1])}
 
     @property
     def gamma(self) -> float:

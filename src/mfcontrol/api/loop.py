@@ -113,10 +113,9 @@ def law_arrays(controller) -> LawArrays | None:
     if not getattr(controller, "auto_mode", False):
         return None
     if isinstance(controller, IntelligentController):
+        names, rows = zip(*intelligent.COMPONENTS, strict=True)
         return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
-                         controller.sample_time, ("F_hat", "feedforward", "P", "I", "D"),
-                         (intelligent.C_F, intelligent.C_FF, intelligent.C_P, intelligent.C_I,
-                          intelligent.C_D))
+                         controller.sample_time, names, rows)
     if isinstance(controller, RecursiveIP):
         return LawArrays(compose.RECURSIVE_IP, controller._CP.copy(), controller._CS.copy(),
                          1.0, (), ())
@@ -387,7 +386,7 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
                 if k_c == k:
                     plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
             yk = plant.output(x)
-            if not (math.isfinite(yk) and abs(yk) <= bound):
+            if not engine_metrics.measurement_ok(yk, r[k], bound):  # the engine's test
                 y[k] = yk
                 break
             uk = (controller(yk, setpoint=r[k]) if al is None

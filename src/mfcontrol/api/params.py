@@ -18,6 +18,7 @@ import numpy as np
 
 from ..config.options import POSITIONAL
 from ..config.resolve import Config
+from ..engine import metrics as engine_metrics
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
 from .controllers import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
@@ -94,6 +95,12 @@ def plant_and_changes(cfg: Config):
     except ConfigError as exc:
         raise ConfigError("plant.schedule", f"{exc.key} = {exc.value!r}", exc.allowed) from None
     return p, ch
+
+
+def metric_settings(cfg: Config) -> np.ndarray:
+    """The kernels' metric settings vector of a (validated) configuration."""
+    return engine_metrics.settings(cfg["metrics.settle_time"], cfg["sim.t_end"],
+                                   cfg["metrics.final_window"], cfg["sim.diverge_above"])
 
 
 def _width(cfg: Config) -> int:

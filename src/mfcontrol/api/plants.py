@@ -29,10 +29,9 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 from scipy.integrate import solve_ivp
-from scipy.linalg import expm
 
 from ..errors import ConfigError
-from ..numerics import rk4
+from ..numerics import rk4, zoh
 from ..numerics import signatures as sig
 from ..plants import boost, buck, first_order, lti, ode
 
@@ -593,11 +592,10 @@ class LTI(Plant):
     def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
         if self._zoh is None or self._zoh[0] != h:
             n = self._A.shape[0]
-            M = np.zeros((n + 1, n + 1))
-            M[:n, :n] = self._A
-            M[:n, n] = self._B
-            E = expm(M * h)
-            self._zoh = (h, E[:n, :n], E[:n, n].copy())
+            Ad, Bd = np.empty((n, n)), np.empty(n)
+            zoh.discretise(np.ascontiguousarray(self._A), np.ascontiguousarray(self._B), h,
+                           Ad, Bd)  # the engine's discretisation
+            self._zoh = (h, Ad, Bd)
         _, Ad, Bd = self._zoh
         return Ad @ np.asarray(x, dtype=np.float64) + Bd * u
 

@@ -99,8 +99,7 @@ def build(configs: Sequence[Config]) -> Scenario:
     ev_add = np.array([e[2] for e in events[0]], dtype=np.bool_)
     ev_steps = np.unique(ev_k[ev_k < n]) if n_ev else np.zeros(0, dtype=np.int64)
     X0 = np.column_stack([params.buck_state_column(c) for c in configs])
-    S = metrics.settings(first["metrics.settle_time"], first["sim.t_end"],
-                         first["metrics.final_window"], first["sim.diverge_above"])
+    S = params.metric_settings(first)
     return Scenario(
         n_steps=n, h=first["sim.h"], t_end=first["sim.t_end"],
         plant_kind=paper_single.BUCK,

@@ -63,15 +63,14 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
 
 def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     from . import params
-    from .loop import _settings, compiled_run, law_arrays
+    from .loop import compiled_run, law_arrays
 
     n = scenario.n_steps(cfg)
     t_end = cfg["sim.t_end"]
     t = grid.times(n, t_end)
     plant, changes = params.plant_and_changes(cfg)
     ctrl = params.controller(cfg)
-    S = _settings(cfg["metrics.settle_time"], t_end, cfg["metrics.final_window"],
-                  cfg["sim.diverge_above"])
+    S = params.metric_settings(cfg)
     # the reference evaluated in the kernel, as a batch of these members evaluates it
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
                        params.reference_column(cfg), changes, t,
@@ -83,7 +82,7 @@ def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray
     """The metrics (kernel rows, one column per member) of configurations that share a
     model, law and time grid, in one batch of the general engine."""
     from . import params
-    from .loop import _settings, law_arrays, run_members
+    from .loop import law_arrays, run_members
 
     first = cfgs[0]
     n = scenario.n_steps(first)
@@ -91,11 +90,10 @@ def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray
     plants = [p.engine() for p, _ in members]
     laws = [law_arrays(params.controller(c)) for c in cfgs]
     RP = np.hstack([params.reference_column(c) for c in cfgs])
-    S = _settings(first["metrics.settle_time"], first["sim.t_end"],
-                  first["metrics.final_window"], first["sim.diverge_above"])
     M, _, _ = run_members(plants, laws, np.zeros((0, n)),
                           [ch for _, ch in members], t_end=first["sim.t_end"],
-                          h=first["sim.h"], S=S, fast=fast, RP=RP)
+                          h=first["sim.h"], S=params.metric_settings(first), fast=fast,
+                          RP=RP)
     return M
 
 

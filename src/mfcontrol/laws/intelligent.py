@@ -72,6 +72,9 @@ C_I = variational_gain.N_STATE + 11
 C_D = variational_gain.N_STATE + 12
 C_UNLIM = variational_gain.N_STATE + 13
 EST_BASE = variational_gain.N_STATE + 14
+#: the terms of the bracket by signal name: a live controller's ``components`` and the
+#: engine's recorded trajectory rows both read these
+COMPONENTS = (("F_hat", C_F), ("feedforward", C_FF), ("P", C_P), ("I", C_I), ("D", C_D))
 
 
 def n_state(M: int) -> int:
