@@ -41,6 +41,11 @@ PLANTS = {
     "first-order": lambda: FirstOrder(a=-1.0, b=1.0, w=0.3),
     "boost": lambda: Boost(E=1.0, L=1e-2, R=10.0, C=1e-2, x0=(0.0, 1.0)),
     "buck": lambda: Buck(E=2.0, L=1e-2, R=10.0, C=1e-2),
+    # the object's own step (the Python driver's) runs the engine's functions: its exact
+    # step used scipy's expm, not the engine's discretisation
+    "lti-exact": lambda: LTI([[0.0, 1.0], [-2.0, -0.5]], [0.0, 1.0], [1.0, 0.0],
+                             integrator="exact"),
+    "lti-rk4": lambda: LTI([[0.0, 1.0], [-2.0, -0.5]], [0.0, 1.0], [1.0, 0.0]),
 }
 
 
@@ -48,7 +53,8 @@ PLANTS = {
 @pytest.mark.parametrize("law", list(CONTROLLERS))
 def test_compiled_loop_equals_the_live_controller_in_a_python_loop(plant, law):
     h, n = 0.01, 300
-    changes = [Change(1.5, "a" if plant == "first-order" else "R", 0.5, add=True)]
+    changes = [Change(1.5, {"first-order": "a", "lti-exact": "A[1,0]",
+                            "lti-rk4": "A[1,0]"}.get(plant, "R"), 0.5, add=True)]
     fast = simulate_loop(PLANTS[plant](), CONTROLLERS[law](h), 1.0, t_end=n * h,
                          changes=changes)
     slow = simulate_loop(PLANTS[plant](), _Opaque(CONTROLLERS[law](h)), 1.0, t_end=n * h,

@@ -31,7 +31,7 @@ import numpy.typing as npt
 from scipy.integrate import solve_ivp
 
 from ..errors import ConfigError
-from ..numerics import rk4, zoh
+from ..numerics import rk4
 from ..numerics import signatures as sig
 from ..plants import boost, buck, first_order, lti, ode
 
@@ -479,7 +479,8 @@ class LTI(Plant):
             raise ConfigError("D", D, "must be 0: a sampled loop measures y_k before it "
                               "computes u_k, so y = C x + D u would need u_k before it exists "
                               "(an algebraic loop); model a fast feedthrough with a fast pole")
-        self._zoh: tuple[float, np.ndarray, np.ndarray] | None = None
+        # (h its Ad, Bd were derived for or None, the parameter vector of plants/lti.py)
+        self._packed: tuple[float | None, np.ndarray] | None = None
         super().__init__(tuple(f"x[{i}]" for i in range(n)), np.zeros(n) if x0 is None else x0,
                          integrator=integrator, rtol=rtol, atol=atol)
 
@@ -576,28 +577,49 @@ class LTI(Plant):
                               f"with i, j in 0..{n}")
         arr, idx = entries[name]
         arr[idx] = _number(name, value)
-        self._zoh = None
+        self._packed = None
+
+    # the Python-side calls run the engine's own functions (plants/lti.py), so that a
+    # plant object steps exactly as a run does
+
+    def _parameter_vector(self, h: float | None = None) -> np.ndarray:
+        """The parameter vector; with ``h``, its Ad, Bd derived for that step (only the
+        exact step reads them)."""
+        if self._packed is None or (h is not None and self._packed[0] != h):
+            p = lti.pack(self._A, self._B, self._C)
+            if h is not None:
+                sig.call_prepare(lti.derive.address, p, float(h), self._A.shape[0])
+            self._packed = (h, p)
+        return self._packed[1]
+
+    def _state(self, x: npt.ArrayLike) -> np.ndarray:
+        # always a fresh C-contiguous copy: the compiled step writes into it
+        return np.array(x, dtype=np.float64).reshape(self._A.shape[0])
 
     def output(self, x: np.ndarray) -> float:
-        return float(self._C @ np.asarray(x, dtype=np.float64))
+        return float(sig.call_output(lti.measured.address, self._state(x),
+                                     self._parameter_vector()))
 
     def derivative(self, t: float, x: np.ndarray, u: float) -> np.ndarray:
-        return self._A @ np.asarray(x, dtype=np.float64) + self._B * u
+        return sig.call_rhs(lti.rhs.address, float(t), self._state(x), float(u),
+                            self._parameter_vector())
+
+    def _rk4(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
+        x = self._state(x)
+        rk4.step_once(lti.rhs.address, float(t), x, float(u), self._parameter_vector(), float(h))
+        return x
 
     def engine(self) -> EnginePlant:
         n = self._A.shape[0]
         return self._engine((lti.rhs, lti.measured, lti.derive, lti.advance),
-                            lti.pack(self._A, self._B, self._C), lti.names(n))
+                            self._parameter_vector(), lti.names(n))
 
     def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
-        if self._zoh is None or self._zoh[0] != h:
-            n = self._A.shape[0]
-            Ad, Bd = np.empty((n, n)), np.empty(n)
-            zoh.discretise(np.ascontiguousarray(self._A), np.ascontiguousarray(self._B), h,
-                           Ad, Bd)  # the engine's discretisation
-            self._zoh = (h, Ad, Bd)
-        _, Ad, Bd = self._zoh
-        return Ad @ np.asarray(x, dtype=np.float64) + Bd * u
+        x = self._state(x)
+        h = float(h)
+        sig.call_advance(lti.advance.address, float(t), x, float(u),
+                         self._parameter_vector(h), h)
+        return x
 
 
 class ODE(Plant):
