@@ -139,10 +139,13 @@ def push(CS, j, base, M, y, u_prev):
     m1 = M + 1
     half = 0.5 * M
     slot = n % m1
+    # the next slot without a second division (a run-time modulus is an integer division,
+    # tens of cycles; this law runs it at every sample)
+    after = slot + 1 if slot + 1 < m1 else 0
     # leaving: y_{n-M-1} in the slot about to be overwritten, u_{n-M-1} in the next slot
     # (stored with y_{n-M}); before the window has filled these read the zeros of reset
     y_out = CS[base + RING + slot, j]
-    u_out = CS[base + RING + m1 + (n + 1) % m1, j]
+    u_out = CS[base + RING + m1 + after, j]
     for par in range(2):
         _slide(CS, j, base + Y_MOM + N_YMOM * par, N_YMOM)
         _slide(CS, j, base + U_MOM + N_UMOM * par, N_UMOM)
@@ -169,8 +172,10 @@ def estimate(CS, j, base, M, h, alpha, order):
         return np.nan
     k = n - 1
     m1 = M + 1
-    y_old = CS[base + RING + n % m1, j]  # y_{k-M}
-    y_new = CS[base + RING + k % m1, j]
+    newest = k % m1
+    oldest = newest + 1 if newest + 1 < m1 else 0  # n % m1, without a second division
+    y_old = CS[base + RING + oldest, j]  # y_{k-M}
+    y_new = CS[base + RING + newest, j]
     fm = float(M)
     half = 0.5 * fm
     h2 = half * half
