@@ -12,6 +12,10 @@ from numba's disk cache):
    a single run (``simulate_loop``) and a 1,024-member sweep (``mfcontrol.sweep``, kp x
    J) per simulation, against the same loop in python-control (one discrete ``nlsys``
    holding plant and controller, ``input_output_response``). Targets: 300x and 5,000x.
+   Beside them, the floor of any engine that runs this plant member by member in scalar
+   code: the plant's RK4 steps alone (f compiled in, 16 members side by side so that the
+   core overlaps their dependency chains, both cores), no law, metrics or reference. A
+   ratio to python-control above it would need members vectorised (SIMD) through f.
 3. ``simulate_loop`` linear in the horizon: the time of 200,000 samples over 20 times the
    time of 10,000 (1.0 is linear).
 
@@ -58,6 +62,54 @@ def controller(kp: float = 20.0) -> mfcontrol.IPI:
 
 
 CHANGES = [mfcontrol.Change(T_LOAD, "tau", LOAD)]
+
+
+def plant_floor(members: int, n: int = round(T_END / H), lanes: int = 16) -> float:
+    """Seconds per simulation of the motor's RK4 steps alone: ``members`` members, n
+    samples, in blocks of ``lanes`` members stepped stage by stage (f compiled in, the
+    block's rows as views of raw memory, which carry no reference count), the members split
+    over the cores. The input is held at 1 V: the plant's arithmetic does not depend on
+    where u comes from."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from numba import carray, njit
+
+    from mfcontrol.numerics.rk4 import combine, half, whole
+    from mfcontrol.numerics.signatures import pointer
+
+    f = njit(inline="always", error_model="numpy")(motor_f)
+
+    @njit(error_model="numpy", nogil=True)
+    def blocks(Xa, Pa, Wa, n, lanes, h):
+        for b0 in range(0, Xa.shape[0], lanes):
+            X = carray(pointer(Xa[b0:]), (lanes, 2))
+            P = carray(pointer(Pa[b0:]), (lanes, 6))
+            W = carray(pointer(Wa), (5, lanes, 2))
+            for _ in range(n):
+                for s in range(4):
+                    src = X if s == 0 else W[4]
+                    for i in range(lanes):
+                        f(0.0, src[i], 1.0, P[i], W[s, i])
+                    for i in range(lanes):
+                        for c in range(2):
+                            if s == 3:
+                                X[i, c] = combine(X[i, c], W[0, i, c], W[1, i, c], W[2, i, c],
+                                                  h * W[3, i, c])
+                            else:
+                                W[s, i, c] *= h
+                                W[4, i, c] = (whole(X[i, c], W[s, i, c]) if s == 2
+                                              else half(X[i, c], W[s, i, c]))
+        return Xa[0, 0]
+
+    per_core = max(1, members // (2 * lanes)) * lanes  # whole blocks only
+    members = 2 * per_core
+    P = np.tile([J, B_F, K_T, R_A, L_A, 0.0], (per_core, 1))
+    parts = [(np.zeros((per_core, 2)), P.copy(), np.zeros((5, lanes, 2))) for _ in range(2)]
+    blocks(*parts[0], 10, lanes, H)  # compile
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(2) as pool:
+        list(pool.map(lambda part: blocks(*part, n, lanes, H), parts))
+    return (time.perf_counter() - t0) / members
 
 
 def python_control_run(n: int = round(T_END / H)) -> np.ndarray:
@@ -141,6 +193,9 @@ def main() -> None:
     print(f"   sweep          {sweep / n_members * 1e3:8.4f} ms/sim   "
           f"{pc / (sweep / n_members):9.0f}x python-control (target 5,000x), "
           f"{n_members / sweep:,.0f} sims/s")
+    floor = min(plant_floor(n_members) for _ in range(3))
+    print(f"   plant alone    {floor * 1e3:8.4f} ms/sim   {pc / floor:9.0f}x python-control: the "
+          f"scalar floor (RK4 of f only, 16 members side by side, both cores)")
 
     print("3. simulate_loop against the horizon (1.0: linear)")
     short = median_time(lambda: mfcontrol.simulate_loop(
