@@ -66,10 +66,15 @@ def axis_columns(base: Config, key: str, values: np.ndarray) -> dict[str, np.nda
     for e, ev in enumerate(events):
         ev_val[e] = ev[3]
     ones = np.ones(m)
-    return {"PP": params.buck_column(cfg) * ones, "X0": params.buck_state_column(cfg) * ones,
-            "CP": params.recursive_law_column(cfg) * ones,
-            "RP": params.reference_column(cfg) * ones,
-            "ev_val": ev_val}
+    return {**{name: col * ones for name, col in _columns(cfg).items()}, "ev_val": ev_val}
+
+
+def _columns(cfg: Config) -> dict[str, np.ndarray]:
+    """The kernel's column arrays of a configuration (one column, or one per value where a
+    key holds an array): where each comes from, in one place for :func:`build` and
+    :func:`axis_columns`."""
+    return {"PP": params.buck_column(cfg), "X0": params.buck_state_column(cfg),
+            "CP": params.recursive_law_column(cfg), "RP": params.reference_column(cfg)}
 
 
 def _events(cfg: Config, n: int) -> list[tuple[int, int, bool, float]]:
@@ -98,18 +103,15 @@ def build(configs: Sequence[Config]) -> Scenario:
     ev_row = np.array([e[1] for e in events[0]], dtype=np.int64)
     ev_add = np.array([e[2] for e in events[0]], dtype=np.bool_)
     ev_steps = np.unique(ev_k[ev_k < n]) if n_ev else np.zeros(0, dtype=np.int64)
-    X0 = np.column_stack([params.buck_state_column(c) for c in configs])
-    S = params.metric_settings(first)
+    columns = [_columns(c) for c in configs]
+    stacked = {name: np.hstack([col[name] for col in columns]) for name in columns[0]}
     return Scenario(
         n_steps=n, h=first["sim.h"], t_end=first["sim.t_end"],
-        plant_kind=paper_single.BUCK,
-        PP=np.hstack([params.buck_column(c) for c in configs]),
-        X0=X0,
-        law_kind=paper_single.RECURSIVE_IP,
-        CP=np.hstack([params.recursive_law_column(c) for c in configs]),
-        RP=np.hstack([params.reference_column(c) for c in configs]),
+        plant_kind=paper_single.BUCK, law_kind=paper_single.RECURSIVE_IP,
+        PP=stacked["PP"], X0=stacked["X0"], CP=stacked["CP"], RP=stacked["RP"],
+        S=params.metric_settings(first),
         ev_steps=ev_steps.astype(np.int64), ev_k=ev_k, ev_row=ev_row, ev_add=ev_add,
-        ev_val=ev_val, S=S, state_names=buck.STATE_NAMES,
+        ev_val=ev_val, state_names=buck.STATE_NAMES,
     )
 
 
