@@ -652,3 +652,19 @@ def test_an_algebraic_window_longer_than_the_run_is_refused_in_one_line():
     with pytest.raises(ValueError, match="from 2 to 10,000,000"):
         mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=1e-3, estimator="algebraic",
                      window=10**9)
+
+
+def test_keys_read_are_the_keys_a_translator_reads_for_this_configuration():
+    from mfcontrol.api import params
+    from mfcontrol.config.resolve import keys_read, resolve
+
+    def read(**keys):
+        cfg = resolve({f"controller.{k}": v for k, v in keys.items()})
+        return keys_read(params.recursive_law_column, cfg, 1e-6)
+
+    assert {"controller.kp", "controller.duty_max"} <= read(law="ip")
+    # k_aw only matters to back-calculation, rate_term only to the variational law
+    assert "controller.k_aw" not in read(law="ip", anti_windup="clamp")
+    assert "controller.k_aw" in read(law="ip", anti_windup="back-calculation")
+    assert "controller.rate_term" not in read(law="ip")
+    assert "controller.rate_term" in read(law="variational")

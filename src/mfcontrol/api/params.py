@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..config.options import POSITIONAL
-from ..config.resolve import Config
+from ..config.resolve import Config, keys_read
 from ..engine import metrics as engine_metrics
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
@@ -44,12 +44,14 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP:
     law = cfg["controller.law"]
     limits = (cfg["controller.duty_min"], cfg["controller.duty_max"])
     if law not in POSITIONAL:
-        keys = ("law", "gamma0", "Gamma", "eps_M", "k_gamma", "integrator", "rate_term",
-                "rate_sign", "gain", "deriv_scale", "output_gain", "duty_min", "duty_max",
-                "p_sample", "p_error", "u0", "anti_windup", "k_aw")
+        # the controller keys its parameter column reads, given to the live controller
+        # (which builds the same column from them)
+        read = keys_read(recursive_law_column, cfg, cfg["sim.h"])
+        keys = {k.removeprefix("controller.") for k in read
+                if k.startswith("controller.")} - {"alpha", "kp"}
         return RecursiveIP(cfg["controller.alpha"], cfg["controller.kp"],
                            sample_time=cfg["sim.h"],
-                           **{k: cfg[f"controller.{k}"] for k in keys})
+                           **{k: cfg[f"controller.{k}"] for k in sorted(keys)})
     options = {
         "sample_time": cfg["sim.h"], "order": cfg["controller.order"],
         "output_limits": limits, "estimator": cfg["controller.estimator"],

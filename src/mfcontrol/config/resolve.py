@@ -175,6 +175,14 @@ def axis_value(key: str, v: float) -> float | int:
     return float(v)
 
 
+def keys_read(translate, cfg: Config, *args: Any) -> set[str]:
+    """The keys of ``cfg`` that ``translate(cfg, *args)`` reads: what a translator depends
+    on, found by running it (so a list of them is never written beside it)."""
+    values = _Reads(cfg.values)
+    translate(Config(values), *args)
+    return values.read
+
+
 class _Reads(dict):
     """A configuration that notes which keys are read."""
 
