@@ -105,6 +105,7 @@ def plant_floor(members: int, n: int = round(T_END / H), lanes: int = 16) -> flo
     members = 2 * per_core
     P = np.tile([J, B_F, K_T, R_A, L_A, 0.0], (per_core, 1))
     parts = [(np.zeros((per_core, 2)), P.copy(), np.zeros((5, lanes, 2))) for _ in range(2)]
+    assert per_core % lanes == 0  # blocks() reads whole blocks of raw memory
     blocks(*parts[0], 10, lanes, H)  # compile
     t0 = time.perf_counter()
     with ThreadPoolExecutor(2) as pool:

@@ -126,6 +126,25 @@ def test_recursive_ip_live_equals_the_simulator():
     assert ctrl.components["gamma"] == r.signals["gamma"][-1]
 
 
+@pytest.mark.parametrize("overrides", [
+    {}, {"controller.law": "variational"},
+    {"controller.anti_windup": "back-calculation", "controller.k_aw": 2e4},
+    {"controller.anti_windup": "back-calculation", "fidelity": "paper"},
+    {"controller.law": "variational", "controller.rate_term": True,
+     "controller.rate_sign": "minus", "sim.h": 2e-6},
+    {"controller.p_error": "y-r", "controller.p_sample": "previous", "controller.u0": 0.2},
+])
+def test_the_controller_of_a_configuration_has_the_kernels_parameter_column(overrides):
+    # the live controller of a case is built from the keys the column translator reads
+    from mfcontrol.api import params
+    from mfcontrol.experiments.cases import resolve_case
+
+    cfg = resolve_case("voltage-stable-standard")[1].with_overrides(overrides)
+    ctrl = params.controller(cfg)
+    np.testing.assert_array_equal(ctrl._CP[:, 0],
+                                  params.recursive_law_column(cfg, cfg["sim.h"])[:, 0])
+
+
 def test_recursive_ip_rejects_unknown_and_invalid_keys():
     with pytest.raises(TypeError, match="gamma_0"):
         RecursiveIP(alpha=10.0, kp=2.0, gamma_0=1.0)
