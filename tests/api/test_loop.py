@@ -103,3 +103,26 @@ def test_a_bad_reference_or_alpha_is_a_one_line_error_not_a_divergence():
     for bad in (1e-310, True, "2"):
         with pytest.raises(mfcontrol.ConfigError, match="^alpha = "):
             simulate_loop(plant, ext, 1.0, t_end=1.0, alpha=bad)
+
+
+def test_your_own_controller_is_given_alpha_at_every_sample():
+    # it used to be refused ("only for a controller with gain='external'")
+    class Mine:
+        def __call__(self, y, setpoint=None, alpha=1.0):
+            return (setpoint - y) / alpha
+
+    h, n = 0.01, 100
+    res = simulate_loop(FirstOrder(a=-1.0, b=1.0), Mine(), 1.0, t_end=n * h, h=h,
+                        alpha=lambda t: 1.0 + t)
+    plant, x, us = FirstOrder(a=-1.0, b=1.0), FirstOrder(a=-1.0, b=1.0).x0, []
+    for tk in res.time:  # t_k = k t_end / N, the library's grid
+        us.append((1.0 - plant.output(x)) / (1.0 + tk))
+        x = plant.step(tk, x, us[-1], h)
+    np.testing.assert_array_equal(res.signals["u"], us)
+
+    class NoAlpha:
+        def __call__(self, y, setpoint=None):
+            return 0.0
+
+    with pytest.raises(mfcontrol.ConfigError, match="^alpha = 2.0: your controller must take"):
+        simulate_loop(FirstOrder(a=-1.0, b=1.0), NoAlpha(), 1.0, t_end=1.0, h=h, alpha=2.0)

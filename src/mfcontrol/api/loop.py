@@ -16,6 +16,7 @@ Python driver, one call per sample, and the result's ``engine`` says ``"python"`
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import contextmanager
@@ -263,18 +264,36 @@ def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_w
 
 
 def _alpha(controller, alpha, t: np.ndarray) -> np.ndarray | None:
-    """The alpha of every sample for a controller with an external gain (None for any
-    other controller), checked: finite and > 0 everywhere."""
+    """The alpha of every sample for a controller that is given one (None for any other
+    controller), checked: finite and > 0 everywhere. A library controller takes it when
+    its gain is external; a controller of your own when it has an ``alpha`` parameter."""
+    from .controllers import _Controller
+
     external = getattr(controller, "_external", False)
     if alpha is None:
         if external:
             raise ConfigError("alpha", None, "gain='external' needs alpha: a number, a "
                               "function of t or one value per sample")
         return None
+    if not isinstance(controller, _Controller):  # yours
+        if not _takes_alpha(controller):
+            raise ConfigError("alpha", alpha, "your controller must take it: "
+                              "u = controller(y, setpoint=r, alpha=a)")
+        return _series("alpha", alpha, t, positive=True)
     if not external:
         raise ConfigError("alpha", alpha, "only for a controller with gain='external' "
                           "(the others set their own gain)")
     return _series("alpha", alpha, t, positive=True)
+
+
+def _takes_alpha(controller) -> bool:
+    """Whether ``controller(y, setpoint=r, alpha=a)`` binds (an ``alpha`` parameter or
+    ``**kwargs``)."""
+    try:
+        inspect.signature(controller).bind(0.0, setpoint=0.0, alpha=1.0)
+    except (TypeError, ValueError):
+        return False
+    return True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -308,10 +327,10 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         The compiled engine's fast mode (fused multiply-adds, reciprocals): within about
         1e-12 relative of the default. Refused for a loop the Python driver runs.
     alpha : float, callable or array, optional
-        For a library controller with ``gain="external"`` (and only for one): the alpha
-        it is given at every sample, as a loop of live calls passes ``alpha=``; constant,
-        a function of t, or one value per sample, each finite and > 0. (A controller of
-        your own that takes alpha: close the loop yourself.)
+        The alpha given at every sample, as a loop of live calls passes ``alpha=``:
+        constant, a function of t, or one value per sample, each finite and > 0. For a
+        library controller with ``gain="external"`` (the others set their own gain), or a
+        controller of your own that takes it (``controller(y, setpoint=r, alpha=a)``).
 
     Returns
     -------
