@@ -65,7 +65,16 @@ def controller(kp: float = 20.0) -> mfcontrol.IPI:
 CHANGES = [mfcontrol.Change(T_LOAD, "tau", LOAD)]
 
 
-def plant_floor(members: int, n: int = round(T_END / H), lanes: int = 16) -> float:
+def _member_parameters(n_members: int) -> np.ndarray:
+    """The motor's parameters, one row per member, J differing between them (so that a
+    layout mistake shows in the final states)."""
+    P = np.tile([J, B_F, K_T, R_A, L_A, 0.0], (n_members, 1))
+    P[:, 0] *= 1.0 + np.arange(n_members) / n_members
+    return P
+
+
+def plant_floor(members: int, n: int = round(T_END / H),
+                lanes: int = 16) -> tuple[float, np.ndarray]:
     """Seconds per simulation of the motor's RK4 steps alone: ``members`` members, n
     samples, in blocks of ``lanes`` members stepped stage by stage (f compiled in, the
     block's rows as views of raw memory, which carry no reference count), the members split
@@ -104,7 +113,7 @@ def plant_floor(members: int, n: int = round(T_END / H), lanes: int = 16) -> flo
 
     per_core = max(1, members // (2 * lanes)) * lanes  # whole blocks only
     members = 2 * per_core
-    P = np.tile([J, B_F, K_T, R_A, L_A, 0.0], (per_core, 1))
+    P = _member_parameters(per_core)
     parts = [(np.zeros((per_core, 2)), P.copy(), np.zeros((5, lanes, 2))) for _ in range(2)]
     assert per_core % lanes == 0  # blocks() reads whole blocks of raw memory
     blocks(*parts[0], 10, lanes, H)  # compile
@@ -112,10 +121,11 @@ def plant_floor(members: int, n: int = round(T_END / H), lanes: int = 16) -> flo
     t0 = time.perf_counter()
     with ThreadPoolExecutor(2) as pool:
         list(pool.map(lambda part: blocks(*part, n, lanes, H), parts))
-    return (time.perf_counter() - t0) / members, parts[0][0][0].copy()
+    return (time.perf_counter() - t0) / members, parts[0][0].copy()
 
 
-def plant_floor_simd(members: int, n: int = round(T_END / H), lanes: int = 64) -> float:
+def plant_floor_simd(members: int, n: int = round(T_END / H),
+                     lanes: int = 64) -> tuple[float, np.ndarray]:
     """As :func:`plant_floor`, with the block laid out member-contiguous: state i of the
     block's members in one row (``X[i, l]``), f called on the column views ``X[:, l]`` of
     raw memory. LLVM then vectorises f itself over the members (SIMD), which the
@@ -160,15 +170,19 @@ def plant_floor_simd(members: int, n: int = round(T_END / H), lanes: int = 64) -
 
     per_core = max(1, members // (2 * lanes)) * lanes  # whole blocks only
     members = 2 * per_core
-    blocks_p = np.repeat(np.array([J, B_F, K_T, R_A, L_A, 0.0])[:, None], lanes, 1).ravel()
-    parts = [(np.zeros(2 * per_core), np.tile(blocks_p, per_core // lanes), np.ones(lanes),
-              np.zeros(10 * lanes)) for _ in range(2)]
+    n_blocks = per_core // lanes
+    # block b holds members b lanes .. (b + 1) lanes - 1: parameter k of its member l at
+    # [b, k, l], state i at [b, i, l]
+    P = _member_parameters(per_core).reshape(n_blocks, lanes, 6).transpose(0, 2, 1).ravel()
+    parts = [(np.zeros(2 * per_core), P.copy(), np.ones(lanes), np.zeros(10 * lanes))
+             for _ in range(2)]
     blocks(*parts[0], 10, lanes, H)  # compile
     parts[0][0][:] = 0.0
     t0 = time.perf_counter()
     with ThreadPoolExecutor(2) as pool:
         list(pool.map(lambda part: blocks(*part, n, lanes, H), parts))
-    return (time.perf_counter() - t0) / members, parts[0][0][::lanes][:2].copy()
+    states = parts[0][0].reshape(n_blocks, 2, lanes).transpose(0, 2, 1).reshape(per_core, 2)
+    return (time.perf_counter() - t0) / members, states.copy()
 
 
 def python_control_run(n: int = round(T_END / H)) -> np.ndarray:
@@ -256,8 +270,9 @@ def main() -> None:
     print(f"   plant alone    {floor * 1e3:8.4f} ms/sim   {pc / floor:9.0f}x python-control: the "
           f"scalar floor (RK4 of f only, 16 members side by side, both cores)")
     simd = min(plant_floor_simd(n_members)[0] for _ in range(3))
-    # the same arithmetic: 50 steps, before the motor settles
-    same = np.array_equal(plant_floor(32, n=50)[1], plant_floor_simd(128, n=50)[1])
+    # the same arithmetic: 50 steps, before the motor settles, every member (J differs)
+    same = np.array_equal(plant_floor(256, n=50)[1], plant_floor_simd(256, n=50)[1])
+    assert same, "the member-contiguous steps differ from the scalar ones"
     print(f"   plant, SIMD    {simd * 1e3:8.4f} ms/sim   {pc / simd:9.0f}x python-control: the "
           f"same, members contiguous (64 a block), f vectorised over them; the same final "
           f"state bit for bit: {same}")

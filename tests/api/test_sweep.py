@@ -137,3 +137,15 @@ def test_the_recursive_law_sweeps_any_of_its_options():
                                           Gamma=gamma_rate), 2.5, t_end=2e-3)
         assert df["final_gamma"][m] == one.metrics["final_gamma"]
     assert df["final_gamma"][0] != df["final_gamma"][1]
+
+
+def test_a_controller_of_your_own_is_refused_by_name():
+    # review: it was reported as the plant, or as not taking alpha
+    class Mine:
+        def __call__(self, y, setpoint=None, alpha=1.0):
+            return 0.0
+
+    for alpha in (None, 2.0):
+        with pytest.raises(mfcontrol.ConfigError, match="^controller = 'Mine': a sweep"):
+            mfcontrol.sweep(FirstOrder(-1.0, 1.0), Mine(), 1.0, t_end=1.0, h=0.01,
+                            grid={"plant.a": [-1.0, -2.0]}, alpha=alpha)

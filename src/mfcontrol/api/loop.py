@@ -288,10 +288,14 @@ def _alpha(controller, alpha, t: np.ndarray) -> np.ndarray | None:
 
 def _takes_alpha(controller) -> bool:
     """Whether ``controller(y, setpoint=r, alpha=a)`` binds (an ``alpha`` parameter or
-    ``**kwargs``)."""
+    ``**kwargs``); True when its signature cannot be read (a call will tell)."""
     try:
-        inspect.signature(controller).bind(0.0, setpoint=0.0, alpha=1.0)
+        signature = inspect.signature(controller)
     except (TypeError, ValueError):
+        return True
+    try:
+        signature.bind(0.0, setpoint=0.0, alpha=1.0)
+    except TypeError:
         return False
     return True
 

@@ -175,14 +175,18 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         raise ConfigError("keep", keep, "must be a whole number >= 0")
     plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
                                final_window, stable_tol, diverge_above)
+    if law_arrays(controller) is None:
+        raise ConfigError("controller", type(controller).__name__, "a sweep runs in the "
+                          "compiled engine: a library controller (IP, IPI, IPD, IPID, "
+                          "RecursiveIP) in automatic mode")
     axes = _axes(grid, plant, controller)
     R = r[None, :]
     al = _alpha(controller, alpha, t)
     base_ep = plant.engine() if hasattr(plant, "engine") else None
-    if base_ep is None or law_arrays(controller) is None:
+    if base_ep is None:
         raise ConfigError("plant", type(plant).__name__, "a sweep runs in the compiled "
-                          "engine: the plant must compile and the controller be a library "
-                          "controller (see simulate_loop's engine_note)")
+                          "engine: the plant must compile (see simulate_loop's "
+                          "engine_note)")
     keys = list(axes)
     combos = list(itertools.product(*(range(v.size) for v in axes.values())))
     plant_keys = [k for k in keys if k.startswith("plant.")]
