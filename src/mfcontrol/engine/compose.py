@@ -179,7 +179,7 @@ SIGNATURE = types.boolean(
 @lru_cache(maxsize=2)
 def member_kernel(fast: bool = False):
     """The compiled member loop (exact IEEE arithmetic, or the fast mode's flags); loaded
-    from numba's disk cache after the first compilation, which takes about 15 s."""
+    from numba's disk cache after the first compilation, which takes about 20 s."""
     options = dict(error_model="numpy", cache=True, nogil=True)
     if fast:
         options["fastmath"] = set(_jit.FAST_FLAGS)
