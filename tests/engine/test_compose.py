@@ -321,3 +321,97 @@ def test_a_schedule_that_breaks_the_plant_is_refused_for_a_case():
     with pytest.raises(mfcontrol.ConfigError, match="plant.schedule"):
         mfcontrol.simulate(bad)
     assert mfcontrol.simulate(cfg).metrics["stable"]
+
+
+def _motor_in_place(t, x, u, p, dxdt):
+    dxdt[0] = (p[2] * x[1] - p[1] * x[0] - p[5]) / p[0]
+    dxdt[1] = (u - p[3] * x[1] - p[2] * x[0]) / p[4]
+
+
+def _motor_returning(t, x, u, p):
+    return np.array([(p[2] * x[1] - p[1] * x[0] - p[5]) / p[0],
+                     (u - p[3] * x[1] - p[2] * x[0]) / p[4]])
+
+
+VECTORISED_LAWS = {
+    "IPI": lambda kp: mfcontrol.IPI(alpha=50.0, kp=kp, ki=50.0, sample_time=1e-3,
+                                    output_limits=(-24, 24)),
+    "IPID-algebraic": lambda kp: mfcontrol.IPID(alpha=50.0, kp=kp, ki=20.0, kd=0.01, order=1,
+                                                sample_time=1e-3, estimator="algebraic",
+                                                window=8, output_limits=(-24, 24)),
+    "IP-variational": lambda kp: mfcontrol.IP(alpha=50.0, kp=kp, sample_time=1e-3,
+                                              gain="variational", Gamma=1e-7, eps_M=0.1),
+    "IP-external": lambda kp: mfcontrol.IP(alpha=50.0, kp=kp, sample_time=1e-3,
+                                           gain="external"),
+    "RecursiveIP": lambda kp: mfcontrol.RecursiveIP(alpha=50.0, kp=kp, sample_time=1e-3,
+                                                    duty_min=-24.0, duty_max=24.0,
+                                                    output_gain=1.0, deriv_scale=1e-3),
+}
+
+
+@pytest.mark.parametrize("law", list(VECTORISED_LAWS))
+@pytest.mark.parametrize("f", [_motor_in_place, _motor_returning])
+def test_vectorised_members_equal_their_single_runs(law, f):
+    # 70 members in the vectorised loop (a block of 64 and a part block), each with its own
+    # J and gain, its load step at its own sample, some going bad at different samples:
+    # the metrics and law memory of each are those of its single run, bit for bit
+    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.engine import compose, metrics
+
+    assert 64 < 70 < 2 * compose.LANES
+    h, t_end, m = 1e-3, 0.4, 70
+    plant = ODE(f, lambda x, p: x[0], x0=(0.0, 0.0),
+                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plants, laws, changes = [], [], []
+    for j in range(m):
+        plant.set_param("J", 3e-4 + 1e-5 * j)
+        plants.append(plant.engine())
+        laws.append(law_arrays(VECTORISED_LAWS[law](-40.0 + 1.5 * j)))
+        changes.append([Change(0.1 + 0.002 * j, "tau", 0.02 + 0.001 * j)])
+    S = metrics.settings(0.1, t_end, 0.2, 200.0)
+    R = np.full((1, round(t_end / h)), 60.0)
+    AL = np.full((1, R.shape[1]), 40.0) if law == "IP-external" else None
+    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
+                           vectorise=True)
+    assert plants[0].block[0].compiled  # the vectorised loop ran (its step is compiled)
+    assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
+    for j in range(m):
+        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
+                                 t_end=t_end, h=h, S=S, AL=AL)
+        np.testing.assert_array_equal(M[:, j], Mj[:, 0], err_msg=f"member {j}")
+        np.testing.assert_array_equal(CS[:, j], CSj[:, 0], err_msg=f"member {j}")
+
+
+def test_the_vectorised_loop_is_chosen_when_it_pays():
+    from mfcontrol.engine import compose
+
+    block = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
+                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3,
+                        "tau": 0.0}).engine().block
+    big = compose.BLOCK_WORTH
+    assert not compose.use_blocks(block, compose.RK4, 1024, 10_000, False, None)
+    assert compose.use_blocks(block, compose.RK4, 1024, big, False, None)
+    assert not compose.use_blocks(block, compose.DP45, 1024, big, False, None)
+    assert not compose.use_blocks(block, compose.RK4, 1024, big, True, None)  # trajectory
+    assert not compose.use_blocks(block, compose.RK4, 1, big, False, True)
+    assert not compose.use_blocks(None, compose.RK4, 1024, big, False, True)  # no block
+    assert compose.use_blocks(block, compose.RK4, 2, 10, False, True)
+    # the fast mode's single runs fuse the RK4's arithmetic, the block step does not
+    assert not compose.use_blocks(block, compose.RK4, 1024, big, False, True, fast=True)
+
+
+def test_a_plant_that_compiles_only_member_by_member_falls_back_to_the_member_loop():
+    # review: g on a column view of a block cannot reshape (not contiguous); the sweep
+    # raised instead of running the members one by one
+    def g(x, p):
+        return x.reshape((2, 1))[0, 0]
+
+    plant = ODE(_motor_in_place, g, x0=(0.0, 0.0),
+                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    ctrl = mfcontrol.IPI(alpha=50.0, kp=20.0, ki=50.0, sample_time=1e-3,
+                         output_limits=(-24, 24))
+    grid = {"controller.kp": [5.0, 20.0], "plant.J": [3e-4, 8e-4]}
+    sw = mfcontrol.sweep(plant, ctrl, 60.0, grid=grid, t_end=0.2, vectorise=True)
+    assert plant.engine().block[1].failed
+    ref = mfcontrol.sweep(plant, ctrl, 60.0, grid=grid, t_end=0.2, vectorise=False)
+    np.testing.assert_array_equal(sw.to_pandas()["iae"], ref.to_pandas()["iae"])

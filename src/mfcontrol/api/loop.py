@@ -204,13 +204,16 @@ def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mappi
 def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 changes_per_member: Sequence[Sequence[Change]], *, t_end: float, h: float,
                 S: np.ndarray, fast: bool = False, record: bool = False,
-                RP: np.ndarray | None = None, AL: np.ndarray | None = None):
+                RP: np.ndarray | None = None, AL: np.ndarray | None = None,
+                vectorise: bool | None = None):
     """Members (engine plants and law arrays of one family) through the compiled engine.
 
     The reference is ``R[j]`` (``R[0]`` for all when R has one row) or, when R has no
     rows, the configured reference of each member, ``RP[:, j]`` (see
     :mod:`mfcontrol.laws.reference`). ``AL`` (one row, or one per member): the alpha of
-    an external gain at every sample.
+    an external gain at every sample. ``vectorise``: run the members in the engine's
+    vectorised loop when the plant has block functions (True, False, or None: when it pays,
+    :func:`mfcontrol.engine.compose.use_blocks`).
 
     Returns (M, traj, CS): metrics of every member; with ``record`` (one member) its
     trajectory ``traj[row, k]``, else an empty array; the law memory of every member.
@@ -242,7 +245,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 np.zeros((reference.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP),
                 np.zeros((0, n)) if AL is None else np.ascontiguousarray(AL, dtype=np.float64),
                 events, S, M, tol,
-                DT, traj, comp_rows, fast=fast)
+                DT, traj, comp_rows, fast=fast, block=p0.block, vectorise=vectorise)
     return M, traj, CS
 
 

@@ -31,7 +31,7 @@ import numpy.typing as npt
 from scipy.integrate import solve_ivp
 
 from ..errors import ConfigError
-from ..numerics import rk4
+from ..numerics import rk4, rk4_block
 from ..numerics import signatures as sig
 from ..plants import boost, buck, first_order, lti, ode
 
@@ -53,6 +53,9 @@ class EnginePlant(NamedTuple):
     tol: tuple[float, float]
     #: parameter names a schedule may change, and their entries in p
     columns: Mapping[str, int]
+    #: (step, output) over a block of members, f and g compiled in
+    #: (:mod:`mfcontrol.numerics.rk4_block`), for plants that have them (your own ODE)
+    block: tuple[Any, Any] | None = None
 
 # ---------------------------------------------------------------------------------------------
 # validation
@@ -685,6 +688,7 @@ class ODE(Plant):
             raise ConfigError("state_names", state_names, f"must name the {n} states of x0")
         super().__init__(names, x0, integrator=integrator, rtol=rtol, atol=atol)
         self._compiled = None
+        self._block = None
         #: why the Python driver runs this plant (None while it compiles)
         self.python_reason: str | None = None
         # one call of each up front: a wrong shape is reported here, not mid-run
@@ -713,8 +717,12 @@ class ODE(Plant):
         if self._compiled is None:
             return None
         rhs, output = self._compiled
-        return self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
-                            {name: i for i, name in enumerate(self._names)})
+        if self._block is None:
+            self._block = rk4_block.compiled(ode.python_function(self._f),
+                                             ode.python_function(self._g), self._inplace)
+        ep = self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
+                          {name: i for i, name in enumerate(self._names)})
+        return ep._replace(block=self._block)
 
     def set_param(self, name: str, value: float) -> None:
         if name not in self._names:

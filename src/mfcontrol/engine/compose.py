@@ -29,7 +29,9 @@ from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
 import numpy as np
-from numba import njit, types
+from numba import carray, njit, types
+from numba.core import config as numba_config
+from numba.core.errors import NumbaError
 
 from .. import _jit
 from ..laws import intelligent, recursive_ip, reference, variational_gain
@@ -49,6 +51,30 @@ INTEGRATORS = {"rk4": RK4, "rk45": DP45, "exact": EXACT}
 
 # trajectory rows; the law's component rows follow from T_COMP on, then the plant states
 T_COMP = trajectory.T_X0
+
+
+@_jit.step_jit
+def _sample(law_kind, cp, cs, lane, mj, S, k, t, h, y, r, law_dt, external, alpha, a_prev,
+            bound):
+    """Sample k of the member in column ``lane`` after its measurement y: the divergence
+    test on y, the law, the metrics fold; what every loop of this engine runs. Returns
+    (ok, u, a, g, gamma); with ok False the member stops at this sample."""
+    if not engine_metrics.measurement_ok(y, r, bound):
+        # flagged before the law runs: the controller's memory ends at the last good
+        # sample, as a loop of live calls would leave it
+        engine_metrics.member_metrics(mj, S, lane, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
+        return False, 0.0, 0.0, 0.0, 0.0
+    if law_kind == INTELLIGENT:
+        if external:  # as the live controller writes it (engine.live)
+            cs[variational_gain.ALPHA_EXT, lane] = alpha
+        a = intelligent.step(cp, cs, lane, y, r, law_dt)
+        u = cs[intelligent.C_UNLIM, lane]
+        gamma = cs[variational_gain.G1, lane]
+        g = gamma
+    else:
+        u, a, g, gamma = recursive_ip.step(cp, cs, lane, y, r)
+    ok = engine_metrics.member_metrics(mj, S, lane, k, t, h, y, r, u, a, a_prev, gamma)
+    return ok, u, a, g, gamma
 
 
 def _make_loop(fast):
@@ -126,21 +152,10 @@ def _make_loop(fast):
                     r = R[ref_row, k]
                 else:
                     r = reference.value(RP, j, t)
-                if not engine_metrics.measurement_ok(y, r, bound):
-                    # flagged before the law runs: the controller's memory ends at the last
-                    # good sample, as a loop of live calls would leave it
-                    engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
-                    break
-                if law_kind == INTELLIGENT:
-                    if external:  # as the live controller writes it (engine.live)
-                        cs[variational_gain.ALPHA_EXT, 0] = AL[j if own_alpha else 0, k]
-                    a = intelligent.step(cp, cs, 0, y, r, law_dt)
-                    u = cs[intelligent.C_UNLIM, 0]
-                    gamma = cs[variational_gain.G1, 0]
-                    g = gamma
-                else:
-                    u, a, g, gamma = recursive_ip.step(cp, cs, 0, y, r)
-                if not engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
+                alpha = AL[j if own_alpha else 0, k] if external else 0.0
+                ok, u, a, g, gamma = _sample(law_kind, cp, cs, 0, mj, S, k, t, h, y, r, law_dt,
+                                             external, alpha, a_prev, bound)
+                if not ok:
                     break
                 a_prev = a
                 if record and j == j0:
@@ -180,13 +195,185 @@ SIGNATURE = types.boolean(
 def member_kernel(fast: bool = False):
     """The compiled member loop (exact IEEE arithmetic, or the fast mode's flags); loaded
     from numba's disk cache after the first compilation, which takes about 20 s."""
+    return _compile(_make_loop, SIGNATURE, fast)
+
+
+def _compile(make, signature, fast: bool):
+    """The loop ``make(fast)`` compiled for ``signature`` and cached on disk."""
     options = dict(error_model="numpy", cache=True, nogil=True)
     if fast:
         options["fastmath"] = set(_jit.FAST_FLAGS)
-    fn = njit(**options)(_make_loop(bool(fast)))
-    fn.compile(SIGNATURE)
+    fn = njit(**options)(make(bool(fast)))
+    fn.compile(signature)
     fn.disable_compile()
     return fn
+
+
+#: members a block of the vectorised loop runs side by side
+LANES = 64
+#: member-samples from which a sweep compiles a plant's block functions (about 3 s, once
+#: per plant and process) to run in the vectorised loop: about what they save there
+#: (measured on the DC motor of benchmarks/bench_engine.py, 1,024 members of 10,000
+#: samples on two cores: 0.80-0.86 -> 0.44-0.48 ms per member, about 40 ns per
+#: member-sample)
+BLOCK_WORTH = 75_000_000
+
+
+@_jit.step_jit
+def _into_lane(A, j, a, lane):
+    """Column j of A into column ``lane`` of a (one member's rows, either way)."""
+    for i in range(A.shape[0]):
+        a[i, lane] = A[i, j]
+
+
+def _make_block_loop(fast):
+    """The vectorised member loop (``fast`` as for :func:`_make_loop`)."""
+    FAST = fast
+
+    def block_loop(law_kind, step, output, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP,
+                   AL, ev_k, ev_col, ev_add, ev_val, S, M, j0, j1):
+        """Members j0 .. j1-1, :data:`LANES` at a time, for n_steps samples; the arrays
+        as :func:`member_loop` takes them. A block's states and parameters are laid out
+        member-contiguous and advanced by the plant's block functions (``step``,
+        ``output``: addresses, :mod:`mfcontrol.numerics.rk4_block`), which compile the
+        plant's f and g over the members into vector instructions; the law and the
+        metrics run member by member (:func:`_sample`), each member as in its single run,
+        bit for bit. RK4 plants without derived parameters only; no trajectory."""
+        step = sig.as_block_step(step)
+        output = sig.as_block_output(output)
+        lanes = LANES
+        n_x = X.shape[1]
+        n_p = P.shape[1]
+        n_ev = ev_col.size
+        own_ref = R.shape[0] > 1
+        use_series = R.shape[0] > 0
+        own_alpha = AL.shape[0] > 1
+        external = AL.shape[0] > 0
+        bound = S[engine_metrics.S_DIVERGE_ABOVE]
+        # the block's arrays are views of raw memory (carray): arrays with a reference
+        # count would be counted up and down at every call of the law and the metrics
+        # fold (atomic operations; measured 0.55 against 0.21 ms per member here)
+        n_cp, n_cs, n_m = CP.shape[0], CS.shape[0], M.shape[0]
+        buf = np.zeros(lanes * (6 * n_x + n_p + 2 + n_cp + n_cs + n_m))
+        base = sig.pointer(buf)
+        xb = carray(base, (n_x, lanes))
+        pb = carray(sig.offset(base, lanes * n_x), (n_p, lanes))
+        ub = carray(sig.offset(base, lanes * (n_x + n_p)), (lanes,))
+        yb = carray(sig.offset(base, lanes * (n_x + n_p + 1)), (lanes,))
+        w = carray(sig.offset(base, lanes * (n_x + n_p + 2)), (5, n_x, lanes))
+        cp = carray(sig.offset(base, lanes * (6 * n_x + n_p + 2)), (n_cp, lanes))
+        cs = carray(sig.offset(base, lanes * (6 * n_x + n_p + 2 + n_cp)), (n_cs, lanes))
+        mj = carray(sig.offset(base, lanes * (6 * n_x + n_p + 2 + n_cp + n_cs)), (n_m, lanes))
+        alive = np.zeros(lanes, dtype=np.bool_)
+        a_prev = np.zeros(lanes)
+        next_ev = np.zeros(lanes, dtype=np.int64)
+        for b0 in range(j0, j1, lanes):
+            nb = min(lanes, j1 - b0)
+            for lane in range(lanes):
+                j = b0 + lane if lane < nb else b0  # a part block's spare lanes copy b0
+                _into_lane(X.T, j, xb, lane)
+                _into_lane(P.T, j, pb, lane)
+                _into_lane(CP, j, cp, lane)
+                _into_lane(CS, j, cs, lane)
+                _into_lane(M, j, mj, lane)
+                alive[lane] = lane < nb
+                a_prev[lane] = 0.0
+                ub[lane] = 0.0
+                next_ev[lane] = n_steps
+                for e in range(n_ev):
+                    next_ev[lane] = min(next_ev[lane], ev_k[e, j])
+            n_alive = nb
+            for k in range(n_steps):
+                t = grid.time(k, t_end, n_steps)
+                for lane in range(nb):
+                    if alive[lane] and k == next_ev[lane]:
+                        j = b0 + lane
+                        next_ev[lane] = n_steps
+                        for e in range(n_ev):
+                            ke = ev_k[e, j]
+                            if ke == k:
+                                c = ev_col[e]
+                                pb[c, lane] = (pb[c, lane] + ev_val[e, j] if ev_add[e]
+                                               else ev_val[e, j])
+                            elif ke > k:
+                                next_ev[lane] = min(next_ev[lane], ke)
+                output(sig.pointer(xb), sig.pointer(pb), sig.pointer(yb), n_x, n_p, lanes)
+                for lane in range(nb):
+                    if not alive[lane]:
+                        continue
+                    j = b0 + lane
+                    if use_series:
+                        r = R[j if own_ref else 0, k]
+                    else:
+                        r = reference.value(RP, j, t)
+                    alpha = AL[j if own_alpha else 0, k] if external else 0.0
+                    ok, u, a, g, gamma = _sample(law_kind, cp, cs, lane, mj, S, k, t, h,
+                                                 yb[lane], r, law_dt, external, alpha,
+                                                 a_prev[lane], bound)
+                    if not ok:
+                        alive[lane] = False
+                        n_alive -= 1
+                        ub[lane] = 0.0
+                        _into_lane(xb, lane, X.T, j)  # its state when it stopped
+                        continue
+                    a_prev[lane] = a
+                    ub[lane] = a
+                if n_alive == 0:
+                    break
+                if n_alive < lanes:
+                    # a stopped or spare lane steps a copy of a live one: f never sees a
+                    # state that no single run reaches (a diverged one, say)
+                    src = 0
+                    while not alive[src]:
+                        src += 1
+                    for lane in range(lanes):
+                        if not alive[lane]:
+                            ub[lane] = ub[src]
+                            _into_lane(xb, src, xb, lane)
+                            _into_lane(pb, src, pb, lane)
+                step(t, sig.pointer(xb), sig.pointer(ub), sig.pointer(pb), h, sig.pointer(w),
+                     n_x, n_p, lanes)
+            for lane in range(nb):
+                j = b0 + lane
+                if alive[lane]:
+                    _into_lane(xb, lane, X.T, j)
+                _into_lane(cs, lane, CS, j)
+                _into_lane(mj, lane, M, j)
+        # a use of buf after the views of it: numba frees an array after its last use
+        return FAST if buf.size > 0 else not FAST
+
+    return block_loop
+
+
+BLOCK_SIGNATURE = types.boolean(
+    types.int64, types.intp, types.intp, types.int64, types.float64, types.float64,
+    types.float64, _m, _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m,
+    types.int64, types.int64)
+
+
+@lru_cache(maxsize=1)
+def block_kernel():
+    """The compiled vectorised member loop, exact arithmetic only (the fast mode's single
+    runs fuse the RK4's arithmetic, which the plant's block step does not); cached on
+    disk like :func:`member_kernel` (about 10 s the first time)."""
+    return _compile(_make_block_loop, BLOCK_SIGNATURE, False)
+
+
+def use_blocks(block, integ: int, n_members: int, n_steps: int, record: bool,
+               vectorise: bool | None, fast: bool = False) -> bool:
+    """Whether members run in the vectorised loop: a plant with block functions that
+    numba could compile, RK4, the exact arithmetic, no trajectory, and ``vectorise``
+    True, or None (automatic) with the functions compiled already or the work worth
+    compiling them (:data:`BLOCK_WORTH`), and not under Intel SVML (whose vector sin,
+    exp, ... differ from the scalar ones in the last bits)."""
+    if (block is None or integ != RK4 or record or fast or n_members < 2
+            or vectorise is False or block[0].failed or block[1].failed):
+        return False
+    if vectorise:
+        return True
+    if numba_config.USING_SVML or n_members < LANES // 4:
+        return False
+    return (block[0].compiled and block[1].compiled) or n_members * n_steps >= BLOCK_WORTH
 
 
 def threads_for(n_members: int, n_samples: int) -> int:
@@ -197,23 +384,47 @@ def threads_for(n_members: int, n_samples: int) -> int:
 
 
 def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL,
-        events, S, M, tol, DT, traj, comp_rows, *, fast=False, threads=None):
+        events, S, M, tol, DT, traj, comp_rows, *, fast=False, threads=None, block=None,
+        vectorise=None):
     """Run every member (all columns) through the member loop; arrays in place.
 
     ``plant_fns`` is (rhs, output, prepare, advance); ``events`` (ev_k, ev_col, ev_add,
     ev_val). ``traj`` with n_steps columns records member 0 (then only one member runs).
+    ``block``: the plant's block functions, or None; when :func:`use_blocks` says so the
+    members run in the vectorised loop (``vectorise``: True, False or None, automatic),
+    which leaves P and DT as they were (nothing reads them after a run).
     """
-    fn = member_kernel(fast)
-    rhs, output, prepare, advance = (f.address for f in plant_fns)
     ev_k, ev_col, ev_add, ev_val = events
     m = X.shape[0]
-    args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X, P,
-            CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
+    record = traj.shape[1] == n_steps
     n_threads = threads_for(m, n_steps) if threads is None else threads
-    if n_threads <= 1 or traj.shape[1] == n_steps:
-        fn(*args, 0, m, traj, comp_rows)
+    addresses = None
+    if use_blocks(block, integ, m, n_steps, record, vectorise, fast):
+        try:
+            addresses = (block[0].address, block[1].address)
+        except NumbaError:
+            # f or g compile as a single run's functions but not over a block (an
+            # operation that needs contiguous arrays, say): the member loop runs them,
+            # and use_blocks will not ask again (the failure is kept)
+            addresses = None
+    if addresses is not None:
+        fn = block_kernel()
+        args = (law_kind, *addresses, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL,
+                ev_k, ev_col, ev_add, ev_val, S, M)
+        tail = ()
+        # threads split at whole blocks
+        cuts = np.linspace(0, -(-m // LANES), n_threads + 1).round().astype(int) * LANES
+        bounds = np.minimum(cuts, m)
+    else:
+        fn = member_kernel(fast)
+        rhs, output, prepare, advance = (f.address for f in plant_fns)
+        args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X,
+                P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
+        tail = (traj, comp_rows)
+        bounds = np.linspace(0, m, n_threads + 1).astype(int)
+    if n_threads <= 1 or record:
+        fn(*args, 0, m, *tail)
         return
-    bounds = np.linspace(0, m, n_threads + 1).astype(int)
     with ThreadPoolExecutor(n_threads) as pool:
-        list(pool.map(lambda ab: fn(*args, ab[0], ab[1], traj, comp_rows),
-                      zip(bounds[:-1], bounds[1:], strict=True)))
+        list(pool.map(lambda ab: fn(*args, ab[0], ab[1], *tail),
+                      [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b > a]))

@@ -26,6 +26,7 @@ array view. Their signatures, in that order::
 import numpy as np
 from numba import carray, cfunc, njit, types
 from numba.core import cgutils
+from numba.core.errors import NumbaError
 from numba.extending import intrinsic
 
 _ptr = types.CPointer(types.float64)
@@ -35,28 +36,52 @@ RHS = types.void(types.float64, _ptr, types.float64, _ptr, _ptr, _n, _n)
 OUTPUT = types.float64(_ptr, _ptr, _n, _n)
 PREPARE = types.void(_ptr, types.float64, _n, _n)
 ADVANCE = types.void(types.float64, _ptr, types.float64, _ptr, types.float64, _n, _n)
+#: a block of b members laid out member-contiguous (:mod:`mfcontrol.numerics.rk4_block`)
+BLOCK_STEP = types.void(types.float64, _ptr, _ptr, _ptr, types.float64, _ptr, _n, _n, _n)
+BLOCK_OUTPUT = types.void(_ptr, _ptr, _ptr, _n, _n, _n)
 
 RHS_T = types.FunctionType(RHS)
 OUTPUT_T = types.FunctionType(OUTPUT)
 PREPARE_T = types.FunctionType(PREPARE)
 ADVANCE_T = types.FunctionType(ADVANCE)
+BLOCK_STEP_T = types.FunctionType(BLOCK_STEP)
+BLOCK_OUTPUT_T = types.FunctionType(BLOCK_OUTPUT)
 
 
 class Lazy:
-    """A C-callable compiled (or loaded from numba's disk cache) on first use, so that
-    importing the package does not load every plant's code."""
+    """A C-callable compiled (or loaded from numba's disk cache, with ``cache``) on first
+    use, so that importing the package does not load every plant's code."""
 
-    def __init__(self, sig, py_func):
+    def __init__(self, sig, py_func, cache=True):
         self._sig = sig
         self.py_func = py_func
+        self._cache = cache
         self._compiled = None
+        self._error = None
         self.__doc__ = py_func.__doc__
         self.__name__ = py_func.__name__
 
     @property
+    def compiled(self) -> bool:
+        """Whether it has been compiled (or loaded) in this process."""
+        return self._compiled is not None
+
+    @property
+    def failed(self) -> bool:
+        """Whether numba could not compile it (then :attr:`cfunc` raises that again)."""
+        return self._error is not None
+
+    @property
     def cfunc(self):
+        if self._error is not None:
+            raise self._error
         if self._compiled is None:
-            self._compiled = cfunc(self._sig, error_model="numpy", cache=True)(self.py_func)
+            try:
+                self._compiled = cfunc(self._sig, error_model="numpy", cache=self._cache)(
+                    self.py_func)
+            except NumbaError as exc:
+                self._error = exc
+                raise
         return self._compiled
 
     @property
@@ -91,6 +116,8 @@ as_rhs = _caster(RHS_T)
 as_output = _caster(OUTPUT_T)
 as_prepare = _caster(PREPARE_T)
 as_advance = _caster(ADVANCE_T)
+as_block_step = _caster(BLOCK_STEP_T)
+as_block_output = _caster(BLOCK_OUTPUT_T)
 
 
 @intrinsic
@@ -104,6 +131,18 @@ def pointer(typingctx, arr):
         return context.make_array(signature.args[0])(context, builder, args[0]).data
 
     return _ptr(arr), codegen
+
+
+@intrinsic
+def offset(typingctx, ptr, n):
+    """The pointer ``n`` floats past ``ptr``."""
+    if ptr != _ptr or not isinstance(n, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.gep(args[0], [args[1]])
+
+    return _ptr(ptr, n), codegen
 
 
 @njit(inline="always")
