@@ -57,7 +57,8 @@ T_COMP = trajectory.T_X0
 def _sample(law_kind, cp, cs, lane, mj, S, k, t, h, y, r, law_dt, external, alpha, a_prev,
             bound):
     """Sample k of the member in column ``lane`` after its measurement y: the divergence
-    test on y, the law, the metrics fold; what every loop of this engine runs. Returns
+    test on y, the law, the metrics fold, as the vectorised loop runs it (the member loop
+    writes the same steps out, for speed). Returns
     (ok, u, a, g, gamma); with ok False the member stops at this sample."""
     if not engine_metrics.measurement_ok(y, r, bound):
         # flagged before the law runs: the controller's memory ends at the last good
@@ -152,10 +153,21 @@ def _make_loop(fast):
                     r = R[ref_row, k]
                 else:
                     r = reference.value(RP, j, t)
-                alpha = AL[j if own_alpha else 0, k] if external else 0.0
-                ok, u, a, g, gamma = _sample(law_kind, cp, cs, 0, mj, S, k, t, h, y, r, law_dt,
-                                             external, alpha, a_prev, bound)
-                if not ok:
+                # _sample's step written out: called from here it measured 5-10% slower
+                # single runs (100,000-sample DC-motor runs, interleaved with and without)
+                if not engine_metrics.measurement_ok(y, r, bound):
+                    engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
+                    break
+                if law_kind == INTELLIGENT:
+                    if external:
+                        cs[variational_gain.ALPHA_EXT, 0] = AL[j if own_alpha else 0, k]
+                    a = intelligent.step(cp, cs, 0, y, r, law_dt)
+                    u = cs[intelligent.C_UNLIM, 0]
+                    gamma = cs[variational_gain.G1, 0]
+                    g = gamma
+                else:
+                    u, a, g, gamma = recursive_ip.step(cp, cs, 0, y, r)
+                if not engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
                     break
                 a_prev = a
                 if record and j == j0:
