@@ -78,6 +78,22 @@ def _sample(law_kind, cp, cs, lane, mj, S, k, t, h, y, r, law_dt, external, alph
     return ok, u, a, g, gamma
 
 
+@_jit.step_jit
+def _events_at(k, j, ev_k, ev_col, ev_add, ev_val, p, lane, never):
+    """Member j's scheduled changes due at sample k applied to its parameters, column
+    ``lane`` of p; returns the sample of its next change after k (``never`` if none). With
+    k = -1 it applies nothing and returns the first."""
+    nxt = never
+    for e in range(ev_col.size):
+        ke = ev_k[e, j]
+        if ke == k:
+            c = ev_col[e]
+            p[c, lane] = p[c, lane] + ev_val[e, j] if ev_add[e] else ev_val[e, j]
+        elif ke > k:
+            nxt = min(nxt, ke)
+    return nxt
+
+
 def _make_loop(fast):
     """The member loop, compiled exact or with the fast mode's flags (``fast`` only tells
     numba's cache the two apart)."""
@@ -105,7 +121,6 @@ def _make_loop(fast):
         n_x = X.shape[1]
         n_p = P.shape[1]
         w = np.empty((max(5, dopri45.N_WORK), n_x))
-        n_ev = ev_col.size
         record = traj.shape[1] == n_steps
         t_x0 = T_COMP + comp_rows.size
         own_ref = R.shape[0] > 1
@@ -130,23 +145,14 @@ def _make_loop(fast):
             x = X[j]
             p = P[j]
             prepare(sig.pointer(p), h, n_x, n_p)
-            next_ev = n_steps
-            for e in range(n_ev):
-                next_ev = min(next_ev, ev_k[e, j])
+            next_ev = _events_at(-1, j, ev_k, ev_col, ev_add, ev_val, P.T, j, n_steps)
             a_prev = 0.0
             dt_carry = DT[j]
             ref_row = j if own_ref else 0
             for k in range(n_steps):
                 t = grid.time(k, t_end, n_steps)
                 if k == next_ev:
-                    next_ev = n_steps
-                    for e in range(n_ev):
-                        ke = ev_k[e, j]
-                        if ke == k:
-                            c = ev_col[e]
-                            p[c] = p[c] + ev_val[e, j] if ev_add[e] else ev_val[e, j]
-                        elif ke > k:
-                            next_ev = min(next_ev, ke)
+                    next_ev = _events_at(k, j, ev_k, ev_col, ev_add, ev_val, P.T, j, n_steps)
                     prepare(sig.pointer(p), h, n_x, n_p)
                 y = output(sig.pointer(x), sig.pointer(p), n_x, n_p)
                 if use_series:
@@ -256,7 +262,6 @@ def _make_block_loop(fast):
         lanes = LANES
         n_x = X.shape[1]
         n_p = P.shape[1]
-        n_ev = ev_col.size
         own_ref = R.shape[0] > 1
         use_series = R.shape[0] > 0
         own_alpha = AL.shape[0] > 1
@@ -291,24 +296,15 @@ def _make_block_loop(fast):
                 alive[lane] = lane < nb
                 a_prev[lane] = 0.0
                 ub[lane] = 0.0
-                next_ev[lane] = n_steps
-                for e in range(n_ev):
-                    next_ev[lane] = min(next_ev[lane], ev_k[e, j])
+                next_ev[lane] = _events_at(-1, j, ev_k, ev_col, ev_add, ev_val, pb, lane,
+                                           n_steps)
             n_alive = nb
             for k in range(n_steps):
                 t = grid.time(k, t_end, n_steps)
                 for lane in range(nb):
                     if alive[lane] and k == next_ev[lane]:
-                        j = b0 + lane
-                        next_ev[lane] = n_steps
-                        for e in range(n_ev):
-                            ke = ev_k[e, j]
-                            if ke == k:
-                                c = ev_col[e]
-                                pb[c, lane] = (pb[c, lane] + ev_val[e, j] if ev_add[e]
-                                               else ev_val[e, j])
-                            elif ke > k:
-                                next_ev[lane] = min(next_ev[lane], ke)
+                        next_ev[lane] = _events_at(k, b0 + lane, ev_k, ev_col, ev_add, ev_val,
+                                                   pb, lane, n_steps)
                 output(sig.pointer(xb), sig.pointer(pb), sig.pointer(yb), n_x, n_p, lanes)
                 for lane in range(nb):
                     if not alive[lane]:
