@@ -97,67 +97,119 @@ def _limit(x, lo, hi):
     return hi if x > hi else (lo if x < lo else x)
 
 
+#: from this sample on the law depends on k only through its state (the model order n is
+#: at most 2 and the gain adaptation starts at its own STEADY): a loop over members may
+#: run every later sample through :func:`derivatives`, :func:`next_gamma` and
+#: :func:`output` without the start-up branches
+STEADY = max(2.0, variational_gain.STEADY)
+
+
+@step_jit
+def derivatives(n, y, r, y1, y2, r1, r2, dt):
+    """(y', y*', y^(n), y*^(n)) by backward differences from the last three samples."""
+    yd = (y - y1) / dt
+    rd = (r - r1) / dt
+    if n == 2.0:
+        yn = (y - 2.0 * y1 + y2) / (dt * dt)
+        rn = (r - 2.0 * r1 + r2) / (dt * dt)
+    else:
+        yn = yd
+        rn = rd
+    return yd, rd, yn, rn
+
+
+@step_jit
+def output(f_hat, rn, gamma, e, integ1, e1, dt, kp, ki, kd, lo, hi, aw, k_aw):
+    """The bracket from plain floats: (u_k applied, u unlimited, the integral carried,
+    e'_k), with anti-windup; the one place it is written (:func:`step` and the
+    vectorised loop of :mod:`mfcontrol.engine.compose` call it). Every branch is
+    arithmetic, so a loop over members turns it into selects."""
+    integ = integ1 + e * dt
+    e_d = (e - e1) / dt
+    base = f_hat - rn + kp * e + kd * e_d
+    u_unlim = -gamma * (base + ki * integ)
+    u = _limit(u_unlim, lo, hi)
+    if ki != 0.0 and u != u_unlim:
+        if aw == AW_CLAMP:
+            # integrating moved u further past the limit it hit: undo it
+            pushed = -gamma * ki * (integ - integ1)
+            if (u_unlim > hi and pushed > 0.0) or (u_unlim < lo and pushed < 0.0):
+                integ = integ1
+                u_unlim = -gamma * (base + ki * integ)
+                u = _limit(u_unlim, lo, hi)
+        elif aw == AW_BACK:
+            integ = integ + k_aw * dt * (u - u_unlim) / (-gamma * ki)
+    return u, u_unlim, integ, e_d
+
+
+@step_jit
+def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic):
+    """Sample k >= n past the hold: the derivatives, gamma, F_hat, the bracket and its
+    terms into the state; returns (u_k applied, u unlimited, gamma_k)."""
+    e = y - r
+    u1 = CS[U1, j]
+    yd, rd, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
+    gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
+    alpha = 1.0 / gamma
+    f_hat = yn - alpha * u1
+    if algebraic:
+        f_alg = estimators.estimate(CS, j, EST_BASE, int(CP[M_WIN, j]), dt, alpha, int(n))
+        if not math.isnan(f_alg):
+            f_hat = f_alg
+    kp, ki, kd = CP[KP, j], CP[KI, j], CP[KD, j]
+    u, u_unlim, integ, e_d = output(f_hat, rn, gamma, e, CS[INTEG, j], CS[E1, j], dt, kp, ki,
+                                    kd, CP[OUT_MIN, j], CP[OUT_MAX, j], aw, CP[K_AW, j])
+    CS[INTEG, j] = integ
+    CS[C_F, j] = f_hat
+    CS[C_FF, j] = rn
+    CS[C_P, j] = kp * e
+    CS[C_I, j] = ki * integ
+    CS[C_D, j] = kd * e_d
+    CS[C_UNLIM, j] = u_unlim
+    return u, u_unlim, gamma
+
+
+@step_jit
+def _remember(CS, j, y, r, u):
+    """The sample's y, r, e and applied u into the history; one more sample seen."""
+    CS[Y2, j] = CS[Y1, j]
+    CS[Y1, j] = y
+    CS[R2, j] = CS[R1, j]
+    CS[R1, j] = r
+    CS[E1, j] = y - r
+    CS[U1, j] = u
+    CS[K, j] = CS[K, j] + 1.0
+
+
 @step_jit
 def step(CP, CS, j, y, r, dt):
     """One sample: measurement y_k, reference r_k and period dt in; applied u_k out."""
     k = CS[K, j]
     n = CP[N_ORDER, j]
-    u1 = CS[U1, j]
-    lo = CP[OUT_MIN, j]
-    hi = CP[OUT_MAX, j]
     algebraic = CP[EST, j] == ALGEBRAIC
-    m_win = int(CP[M_WIN, j])
-    e = y - r
     if algebraic:
-        estimators.push(CS, j, EST_BASE, m_win, y, u1)
+        estimators.push(CS, j, EST_BASE, int(CP[M_WIN, j]), y, CS[U1, j])
     if k < n:
-        u = u1
+        u = CS[U1, j]
         CS[C_UNLIM, j] = u
     else:
-        yd = (y - CS[Y1, j]) / dt
-        rd = (r - CS[R1, j]) / dt
-        gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
-        alpha = 1.0 / gamma
-        if n == 2.0:
-            yn = (y - 2.0 * CS[Y1, j] + CS[Y2, j]) / (dt * dt)
-            rn = (r - 2.0 * CS[R1, j] + CS[R2, j]) / (dt * dt)
-        else:
-            yn = yd
-            rn = rd
-        f_hat = yn - alpha * u1
-        if algebraic:
-            f_alg = estimators.estimate(CS, j, EST_BASE, m_win, dt, alpha, int(n))
-            if not math.isnan(f_alg):
-                f_hat = f_alg
-        integ = CS[INTEG, j] + e * dt
-        e_d = (e - CS[E1, j]) / dt
-        ki = CP[KI, j]
-        base = f_hat - rn + CP[KP, j] * e + CP[KD, j] * e_d
-        u_unlim = -gamma * (base + ki * integ)
-        u = _limit(u_unlim, lo, hi)
-        aw = CP[AW, j]
-        if ki != 0.0 and u != u_unlim:
-            if aw == AW_CLAMP:
-                # integrating moved u further past the limit it hit: undo it
-                pushed = -gamma * ki * (integ - CS[INTEG, j])
-                if (u_unlim > hi and pushed > 0.0) or (u_unlim < lo and pushed < 0.0):
-                    integ = CS[INTEG, j]
-                    u_unlim = -gamma * (base + ki * integ)
-                    u = _limit(u_unlim, lo, hi)
-            elif aw == AW_BACK:
-                integ = integ + CP[K_AW, j] * dt * (u - u_unlim) / (-gamma * ki)
-        CS[INTEG, j] = integ
-        CS[C_F, j] = f_hat
-        CS[C_FF, j] = rn
-        CS[C_P, j] = CP[KP, j] * e
-        CS[C_I, j] = ki * integ
-        CS[C_D, j] = CP[KD, j] * e_d
-        CS[C_UNLIM, j] = u_unlim
-    CS[Y2, j] = CS[Y1, j]
-    CS[Y1, j] = y
-    CS[R2, j] = CS[R1, j]
-    CS[R1, j] = r
-    CS[E1, j] = e
-    CS[U1, j] = u
-    CS[K, j] = k + 1.0
+        u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic)
+    _remember(CS, j, y, r, u)
     return u
+
+
+@step_jit
+def steady_step(CP, CS, j, y, r, dt, simple):
+    """:func:`step` for a sample past the start-up (k >= :data:`STEADY`) with the
+    backward-difference estimator, with the start-up's branches compiled out, so that a
+    loop over members vectorises; returns (u_k applied, u unlimited, gamma_k). ``simple``
+    (a compile-time constant): the member has model order 1 and no back-calculation,
+    which takes the branches of order 2 and of back-calculation, with their divisions,
+    out of the loop (measured 9.8 against 6.6 ns per member-sample)."""
+    n = 1.0 if simple else CP[N_ORDER, j]
+    aw = CP[AW, j]
+    if simple:
+        aw = AW_CLAMP if aw == AW_CLAMP else AW_NONE
+    u, u_unlim, gamma = _bracket(CP, CS, j, y, r, dt, STEADY, n, aw, False)
+    _remember(CS, j, y, r, u)
+    return u, u_unlim, gamma

@@ -109,9 +109,8 @@ def parameters(CP, j):
 
 
 @step_jit
-def step(CP, CS, j, y, r):
-    """One sample: measurement y_k and reference r_k in, (u_k, applied, g_k, gamma_k) out."""
-    k = CS[K, j]
+def _step_at(CP, CS, j, y, r, k):
+    """One sample, the law evaluated as at sample k, its state advanced by one sample."""
     u, applied, g, gamma, carried, g1, g2 = advance(
         k, y, r, CS[U_PREV, j], CS[Y_PREV, j], CS[R_PREV, j], CS[vg.G1, j], CS[vg.G2, j],
         parameters(CP, j))
@@ -120,5 +119,18 @@ def step(CP, CS, j, y, r):
     CS[R_PREV, j] = r
     CS[vg.G1, j] = g1
     CS[vg.G2, j] = g2
-    CS[K, j] = k + 1.0
+    CS[K, j] = CS[K, j] + 1.0
     return u, applied, g, gamma
+
+
+@step_jit
+def step(CP, CS, j, y, r):
+    """One sample: measurement y_k and reference r_k in, (u_k, applied, g_k, gamma_k) out."""
+    return _step_at(CP, CS, j, y, r, CS[K, j])
+
+
+@step_jit
+def steady_step(CP, CS, j, y, r):
+    """:func:`step` for a sample k >= :data:`STEADY`, with the start-up's branches
+    compiled out (a loop over members vectorises)."""
+    return _step_at(CP, CS, j, y, r, STEADY)
