@@ -343,6 +343,12 @@ VECTORISED_LAWS = {
                                               gain="variational", Gamma=1e-7, eps_M=0.1),
     "IP-external": lambda kp: mfcontrol.IP(alpha=50.0, kp=kp, sample_time=1e-3,
                                            gain="external"),
+    "IPD-second-order": lambda kp: mfcontrol.IPD(alpha=5e4, kp=kp * 10.0, kd=40.0,
+                                                 sample_time=1e-3),
+    # anti-windup differing between the members of a block (kp's sign alternates with j)
+    "IPI-mixed-anti-windup": lambda kp: mfcontrol.IPI(
+        alpha=50.0, kp=kp, ki=50.0, sample_time=1e-3, output_limits=(-24, 24),
+        anti_windup="back-calculation" if round(2 * kp) % 2 else "clamp"),
     "RecursiveIP": lambda kp: mfcontrol.RecursiveIP(alpha=50.0, kp=kp, sample_time=1e-3,
                                                     duty_min=-24.0, duty_max=24.0,
                                                     output_gain=1.0, deriv_scale=1e-3),
@@ -415,3 +421,36 @@ def test_a_plant_that_compiles_only_member_by_member_falls_back_to_the_member_lo
     assert plant.engine().block[1].failed
     ref = mfcontrol.sweep(plant, ctrl, 60.0, grid=grid, t_end=0.2, vectorise=False)
     np.testing.assert_array_equal(sw.to_pandas()["iae"], ref.to_pandas()["iae"])
+
+
+def test_a_member_whose_law_output_goes_non_finite_in_the_vectorised_loop_stops_there():
+    # the vectorised law flags a non-finite output (here an external alpha of 0: an
+    # infinite gain) while every measurement is good: that member stops at that sample,
+    # with the metrics and law memory of its single run, and the others run on
+    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.engine import metrics
+
+    h, t_end, m = 1e-3, 0.3, 70
+    plant = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
+                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plants = [plant.engine()] * m
+    laws = [law_arrays(mfcontrol.IP(alpha=50.0, kp=5.0 + j, sample_time=h, gain="external",
+                                    output_limits=(-24, 24))) for j in range(m)]
+    n = round(t_end / h)
+    AL = np.full((m, n), 40.0)
+    bad = {3: 120, 40: 150, 66: 151}  # member: the sample its alpha is 0
+    for j, k in bad.items():
+        AL[j, k:] = 0.0
+    S = metrics.settings(0.1, t_end, 0.2, 1e6)
+    R = np.full((1, n), 60.0)
+    changes = [[] for _ in range(m)]
+    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
+                           vectorise=True)
+    np.testing.assert_array_equal(np.flatnonzero(M[metrics.M_DIVERGED]), sorted(bad))
+    for j in range(m):
+        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
+                                 t_end=t_end, h=h, S=S, AL=AL[j:j + 1])
+        np.testing.assert_array_equal(M[:, j], Mj[:, 0], err_msg=f"member {j}")
+        np.testing.assert_array_equal(CS[:, j], CSj[:, 0], err_msg=f"member {j}")
+    for j, k in bad.items():
+        assert M[metrics.M_N_SAMPLES, j] == k

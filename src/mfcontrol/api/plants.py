@@ -719,7 +719,8 @@ class ODE(Plant):
         rhs, output = self._compiled
         if self._block is None:
             self._block = rk4_block.compiled(ode.python_function(self._f),
-                                             ode.python_function(self._g), self._inplace)
+                                             ode.python_function(self._g), self._inplace,
+                                             self.x0.size, self._p.size)
         ep = self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
                           {name: i for i, name in enumerate(self._names)})
         return ep._replace(block=self._block)

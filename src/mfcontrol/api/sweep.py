@@ -152,10 +152,11 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         (``result.kept``).
     vectorise : bool or None
         For your own ODE (RK4): run the members in the engine's vectorised loop, where
-        numba compiles f and g over blocks of 64 members into vector instructions (the
-        DC motor of the README's Speed section: 1.8x faster, the same bits), at the price
-        of compiling them (about 3 s, once per plant and process). None (default): when
-        the sweep is large enough to repay that (7.5e7 member-samples) or they are
+        numba compiles f and g over blocks of 64 members into vector instructions and
+        the law and the metrics run over the block as well (the DC motor of the
+        README's Speed section: about 5x faster, the same bits), at the price of
+        compiling f and g so (about 3 s, once per plant and process). None (default):
+        when the sweep is large enough to repay that (5e7 member-samples) or they are
         compiled already.
 
     Returns

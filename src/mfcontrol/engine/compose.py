@@ -16,6 +16,13 @@ the first-order plant, LTI models and your own ODE. Members (columns of the law 
 rows of the plant arrays) run one after another, each a single run; :func:`run` spreads
 them over threads (the kernel releases the GIL).
 
+Sweeps of your own ODE may run in the vectorised loop (:func:`block_kernel`): members in
+blocks of :data:`LANES`, the plant's f and g compiled over the block
+(:mod:`mfcontrol.numerics.rk4_block`), and, past the start-up, the law
+(``steady_step`` of either law) and the metrics fold run as loops over the block that
+the compiler turns into vector instructions; each member is still its single run, bit
+for bit.
+
 The paper's buck under the recursive law keeps its own tuned kernels
 (:mod:`mfcontrol.engine.paper_single`, :mod:`mfcontrol.engine.paper_sweep`): state in registers and
 members vectorised. Both fold the metrics with the same function, step the law with the
@@ -35,7 +42,7 @@ from numba.core.errors import NumbaError
 
 from .. import _jit
 from ..laws import intelligent, recursive_ip, reference, variational_gain
-from ..numerics import dopri45, grid, rk4
+from ..numerics import dopri45, grid, rk4, rk4_block
 from ..numerics import signatures as sig
 from . import metrics as engine_metrics
 from . import paper_single, trajectory
@@ -228,13 +235,12 @@ def _compile(make, signature, fast: bool):
 
 
 #: members a block of the vectorised loop runs side by side
-LANES = 64
+LANES = rk4_block.LANES
 #: member-samples from which a sweep compiles a plant's block functions (about 3 s, once
 #: per plant and process) to run in the vectorised loop: about what they save there
 #: (measured on the DC motor of benchmarks/bench_engine.py, 1,024 members of 10,000
-#: samples on two cores: 0.80-0.86 -> 0.44-0.48 ms per member, about 40 ns per
-#: member-sample)
-BLOCK_WORTH = 75_000_000
+#: samples on two cores: about 0.7 -> 0.13 ms per member, some 60 ns per member-sample)
+BLOCK_WORTH = 50_000_000
 
 
 @_jit.step_jit
@@ -242,6 +248,118 @@ def _into_lane(A, j, a, lane):
     """Column j of A into column ``lane`` of a (one member's rows, either way)."""
     for i in range(A.shape[0]):
         a[i, lane] = A[i, j]
+
+
+# Rows of a block's law buffer D (LANES members a row). Every row the vectorised law and
+# metrics fold touch lies a compile-time constant distance from the buffer's start, so
+# the compiler needs no run-time alias checks to vectorise the loops over members.
+_CP0 = 0  # the law's parameters, either law's rows
+_N_CP = max(intelligent.N_PARAMS, recursive_ip.N_PARAMS)
+_Y = _CP0 + _N_CP  # y_k of every member
+_R = _Y + 1  # r_k
+_U = _R + 1  # the input applied at sample k, which the plant holds over the coming step
+_UM = _U + 1  # the law's output as the metrics see it (u_k before the limits)
+_G = _UM + 1  # gamma_k
+_AP = _G + 1  # the input applied at the previous sample
+_M0 = _AP + 1  # the metrics, in the rows of engine.metrics
+_CS0 = _M0 + engine_metrics.N_METRICS  # the law's state (as many rows as it has)
+_DIVERGED = _M0 + engine_metrics.M_DIVERGED
+
+
+@_jit.step_jit
+def _law_out(D, i, applied, u, gamma):
+    """Member i's law outputs into the block's rows: the applied input, the output the
+    metrics see, gamma. Returns 1 if a live member's output is not finite."""
+    D[_U, i] = applied
+    D[_UM, i] = u
+    D[_G, i] = gamma
+    return 1 if D[_DIVERGED, i] == 0.0 and not np.isfinite(u) else 0
+
+
+@_jit.step_jit
+def _law_views(D, n_cp, n_cs):
+    """The law's parameter and state rows of a block as arrays of their own, at constant
+    distances from D's start: a slice of D would clamp its bounds to D's run-time size,
+    which hides the distances from the compiler (the loop then does not vectorise:
+    measured 18 against 7 ns per member-sample)."""
+    base = sig.pointer(D)
+    return (carray(sig.offset(base, _CP0 * LANES), (n_cp, LANES)),
+            carray(sig.offset(base, _CS0 * LANES), (n_cs, LANES)))
+
+
+@_jit.step_jit
+def _intelligent_lanes(D, dt, simple):
+    """A sample past the start-up of the intelligent law with the backward-difference
+    estimator (:func:`mfcontrol.laws.intelligent.steady_step`, ``simple`` as it takes
+    it), for every member of a block at once: the loop vectorises. Members whose
+    measurement is bad must not be in the block (the caller runs such a sample member by
+    member). Returns how many live members have a non-finite output (they stop at this
+    sample)."""
+    cp, cs = _law_views(D, intelligent.N_PARAMS, intelligent.EST_BASE)
+    n_bad = 0
+    for i in range(LANES):
+        u, u_unlim, gamma = intelligent.steady_step(cp, cs, i, D[_Y, i], D[_R, i], dt, simple)
+        n_bad += _law_out(D, i, u, u_unlim, gamma)
+    return n_bad
+
+
+@_jit.step_jit
+def _recursive_lanes(D):
+    """As :func:`_intelligent_lanes`, for the paper's recursive law
+    (:func:`mfcontrol.laws.recursive_ip.steady_step`)."""
+    cp, cs = _law_views(D, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
+    n_bad = 0
+    for i in range(LANES):
+        u, applied, _, gamma = recursive_ip.steady_step(cp, cs, i, D[_Y, i], D[_R, i])
+        n_bad += _law_out(D, i, applied, u, gamma)
+    return n_bad
+
+
+@_jit.step_jit
+def _fold_lanes(D, k, t, h, settle, final_start):
+    """Sample k folded into the metrics of every member of a block, none of which went
+    bad at it: :func:`mfcontrol.engine.metrics.fold_metrics` for a live member whose
+    sample passes the divergence test is :func:`~mfcontrol.engine.metrics.accumulate`,
+    the sample count and the final gamma, and so is this loop, with no select on a
+    member's state (which the compiler would turn into masked stores, microcoded and
+    slow on AMD cores: measured 9.8 against 1.7 ns per member-sample). A stopped member's
+    rows take garbage: the block kept its metrics when it stopped."""
+    M, EM = _M0, engine_metrics
+    for i in range(LANES):
+        a = D[_U, i]
+        (D[M + EM.M_IAE, i], D[M + EM.M_ISE, i], D[M + EM.M_ITAE, i],
+         D[M + EM.M_MAX_E_SETTLED, i], D[M + EM.M_MAX_E_FINAL, i], D[M + EM.M_MAX_ABS_R, i],
+         D[M + EM.M_TV, i]) = EM.accumulate(
+            D[M + EM.M_IAE, i], D[M + EM.M_ISE, i], D[M + EM.M_ITAE, i],
+            D[M + EM.M_MAX_E_SETTLED, i], D[M + EM.M_MAX_E_FINAL, i],
+            D[M + EM.M_MAX_ABS_R, i], D[M + EM.M_TV, i], k, t, h, D[_Y, i], D[_R, i], a,
+            D[_AP, i], settle, final_start)
+        D[M + EM.M_N_SAMPLES, i] = k + 1.0
+        D[M + EM.M_FINAL_GAMMA, i] = D[_G, i]
+        D[_AP, i] = a
+
+
+@_jit.step_jit
+def _fold_lane(D, i, k, t, h, settle, final_start, bound):
+    """Member i's sample folded into its metrics rows with the divergence test
+    (:func:`mfcontrol.engine.metrics.fold_metrics`, as a single run's
+    :func:`~mfcontrol.engine.metrics.member_metrics`), for a sample on which some member
+    went bad. Returns 1 if member i went bad here."""
+    M, EM = _M0, engine_metrics
+    was = 1.0 - D[_DIVERGED, i]
+    a = D[_U, i]
+    (alive, D[M + EM.M_T_DIVERGE, i], D[M + EM.M_N_SAMPLES, i], D[M + EM.M_IAE, i],
+     D[M + EM.M_ISE, i], D[M + EM.M_ITAE, i], D[M + EM.M_MAX_E_SETTLED, i],
+     D[M + EM.M_MAX_E_FINAL, i], D[M + EM.M_MAX_ABS_R, i], D[M + EM.M_TV, i],
+     D[M + EM.M_FINAL_GAMMA, i]) = EM.fold_metrics(
+        was, D[M + EM.M_T_DIVERGE, i], D[M + EM.M_N_SAMPLES, i], D[M + EM.M_IAE, i],
+        D[M + EM.M_ISE, i], D[M + EM.M_ITAE, i], D[M + EM.M_MAX_E_SETTLED, i],
+        D[M + EM.M_MAX_E_FINAL, i], D[M + EM.M_MAX_ABS_R, i], D[M + EM.M_TV, i],
+        D[M + EM.M_FINAL_GAMMA, i], k, t, h, D[_Y, i], D[_R, i], D[_UM, i], a, D[_AP, i],
+        D[_G, i], settle, final_start, bound)
+    D[_DIVERGED, i] = 1.0 - alive
+    D[_AP, i] = a
+    return 1 if (was != 0.0 and alive == 0.0) else 0
 
 
 def _make_block_loop(fast):
@@ -254,35 +372,45 @@ def _make_block_loop(fast):
         as :func:`member_loop` takes them. A block's states and parameters are laid out
         member-contiguous and advanced by the plant's block functions (``step``,
         ``output``: addresses, :mod:`mfcontrol.numerics.rk4_block`), which compile the
-        plant's f and g over the members into vector instructions; the law and the
-        metrics run member by member (:func:`_sample`), each member as in its single run,
-        bit for bit. RK4 plants without derived parameters only; no trajectory."""
+        plant's f and g over the members into vector instructions. Once past its start-up
+        samples the law (either law; the intelligent one with the backward-difference
+        estimator) and the metrics fold run over the members as one loop, vectorised
+        too; the start-up samples, a sample on which a member's measurement is bad and
+        the algebraic estimator run member by member (:func:`_sample`). Each member is
+        its single run, bit for bit. RK4 plants without derived parameters only; no
+        trajectory."""
         step = sig.as_block_step(step)
         output = sig.as_block_output(output)
         lanes = LANES
         n_x = X.shape[1]
         n_p = P.shape[1]
+        n_cp, n_cs = CP.shape[0], CS.shape[0]
         own_ref = R.shape[0] > 1
         use_series = R.shape[0] > 0
         own_alpha = AL.shape[0] > 1
         external = AL.shape[0] > 0
+        settle = S[engine_metrics.S_SETTLE]
+        final_start = S[engine_metrics.S_FINAL_START]
         bound = S[engine_metrics.S_DIVERGE_ABOVE]
+        steady = intelligent.STEADY if law_kind == INTELLIGENT else recursive_ip.STEADY
         # the block's arrays are views of raw memory (carray): arrays with a reference
         # count would be counted up and down at every call of the law and the metrics
         # fold (atomic operations; measured 0.55 against 0.21 ms per member here)
-        n_cp, n_cs, n_m = CP.shape[0], CS.shape[0], M.shape[0]
-        buf = np.zeros(lanes * (6 * n_x + n_p + 2 + n_cp + n_cs + n_m))
+        n_law = _CS0 + n_cs
+        buf = np.zeros(lanes * (n_law + 6 * n_x + n_p))
         base = sig.pointer(buf)
-        xb = carray(base, (n_x, lanes))
-        pb = carray(sig.offset(base, lanes * n_x), (n_p, lanes))
-        ub = carray(sig.offset(base, lanes * (n_x + n_p)), (lanes,))
-        yb = carray(sig.offset(base, lanes * (n_x + n_p + 1)), (lanes,))
-        w = carray(sig.offset(base, lanes * (n_x + n_p + 2)), (5, n_x, lanes))
-        cp = carray(sig.offset(base, lanes * (6 * n_x + n_p + 2)), (n_cp, lanes))
-        cs = carray(sig.offset(base, lanes * (6 * n_x + n_p + 2 + n_cp)), (n_cs, lanes))
-        mj = carray(sig.offset(base, lanes * (6 * n_x + n_p + 2 + n_cp + n_cs)), (n_m, lanes))
+        D = carray(base, (n_law, lanes))
+        cp = carray(sig.offset(base, lanes * _CP0), (n_cp, lanes))
+        cs = carray(sig.offset(base, lanes * _CS0), (n_cs, lanes))
+        mj = carray(sig.offset(base, lanes * _M0), (engine_metrics.N_METRICS, lanes))
+        yb = sig.offset(base, lanes * _Y)
+        ub = sig.offset(base, lanes * _U)
+        xp = sig.offset(base, lanes * n_law)
+        pp = sig.offset(base, lanes * (n_law + n_x))
+        wp = sig.offset(base, lanes * (n_law + n_x + n_p))
+        xb = carray(xp, (n_x, lanes))
+        pb = carray(pp, (n_p, lanes))
         alive = np.zeros(lanes, dtype=np.bool_)
-        a_prev = np.zeros(lanes)
         next_ev = np.zeros(lanes, dtype=np.int64)
         for b0 in range(j0, j1, lanes):
             nb = min(lanes, j1 - b0)
@@ -294,38 +422,106 @@ def _make_block_loop(fast):
                 _into_lane(CS, j, cs, lane)
                 _into_lane(M, j, mj, lane)
                 alive[lane] = lane < nb
-                a_prev[lane] = 0.0
-                ub[lane] = 0.0
+                if lane >= nb:  # never folded as a live member
+                    D[_DIVERGED, lane] = 1.0
+                D[_AP, lane] = 0.0
+                D[_U, lane] = 0.0
                 next_ev[lane] = _events_at(-1, j, ev_k, ev_col, ev_add, ev_val, pb, lane,
                                            n_steps)
             n_alive = nb
+            # the vectorised law needs every member at the same law sample (a sweep's
+            # members start together) and, for the intelligent law, no algebraic window
+            law_k0 = cs[intelligent.K if law_kind == INTELLIGENT else recursive_ip.K, 0]
+            lanes_law = True
+            simple = True
+            for lane in range(lanes):
+                if law_kind == INTELLIGENT:
+                    lanes_law &= cs[intelligent.K, lane] == law_k0
+                    lanes_law &= cp[intelligent.EST, lane] == intelligent.BACKWARD
+                    simple &= cp[intelligent.N_ORDER, lane] == 1.0
+                    simple &= cp[intelligent.AW, lane] != intelligent.AW_BACK
+                else:
+                    lanes_law &= cs[recursive_ip.K, lane] == law_k0
+            # one reference for the block when its members share it
+            shared_ref = not own_ref
+            if not use_series:
+                for lane in range(nb):
+                    for i in range(RP.shape[0]):
+                        shared_ref &= RP[i, b0 + lane] == RP[i, b0]
+            block_ev = n_steps
+            for lane in range(nb):
+                block_ev = min(block_ev, next_ev[lane])
             for k in range(n_steps):
                 t = grid.time(k, t_end, n_steps)
-                for lane in range(nb):
-                    if alive[lane] and k == next_ev[lane]:
-                        next_ev[lane] = _events_at(k, b0 + lane, ev_k, ev_col, ev_add, ev_val,
-                                                   pb, lane, n_steps)
-                output(sig.pointer(xb), sig.pointer(pb), sig.pointer(yb), n_x, n_p, lanes)
-                for lane in range(nb):
-                    if not alive[lane]:
-                        continue
-                    j = b0 + lane
-                    if use_series:
-                        r = R[j if own_ref else 0, k]
+                if k == block_ev:
+                    block_ev = n_steps
+                    for lane in range(nb):
+                        if alive[lane]:
+                            if k == next_ev[lane]:
+                                next_ev[lane] = _events_at(k, b0 + lane, ev_k, ev_col,
+                                                           ev_add, ev_val, pb, lane, n_steps)
+                            block_ev = min(block_ev, next_ev[lane])
+                output(xp, pp, yb)
+                if shared_ref:
+                    r0 = R[0, k] if use_series else reference.value(RP, b0, t)
+                    for lane in range(lanes):
+                        D[_R, lane] = r0
+                else:
+                    for lane in range(lanes):
+                        j = b0 + lane if lane < nb else b0
+                        D[_R, lane] = R[j, k] if use_series else reference.value(RP, j, t)
+                vector = lanes_law and law_k0 + k >= steady
+                if vector:
+                    # every live member's measurement good: then the law runs for all as
+                    # one loop (stopped and spare lanes too, on copies of a live one's
+                    # state; nothing of theirs is kept)
+                    n_bad = 0
+                    for lane in range(lanes):
+                        ok = engine_metrics.measurement_ok(D[_Y, lane], D[_R, lane], bound)
+                        n_bad += 1 if alive[lane] and not ok else 0
+                    vector = n_bad == 0
+                went_bad = 0
+                if vector:
+                    if external:
+                        for lane in range(lanes):
+                            j = b0 + lane if lane < nb else b0
+                            cs[variational_gain.ALPHA_EXT, lane] = AL[j if own_alpha else 0, k]
+                    if law_kind == INTELLIGENT and simple:
+                        n_bad = _intelligent_lanes(D, law_dt, True)
+                    elif law_kind == INTELLIGENT:
+                        n_bad = _intelligent_lanes(D, law_dt, False)
                     else:
-                        r = reference.value(RP, j, t)
-                    alpha = AL[j if own_alpha else 0, k] if external else 0.0
-                    ok, u, a, g, gamma = _sample(law_kind, cp, cs, lane, mj, S, k, t, h,
-                                                 yb[lane], r, law_dt, external, alpha,
-                                                 a_prev[lane], bound)
-                    if not ok:
-                        alive[lane] = False
-                        n_alive -= 1
-                        ub[lane] = 0.0
-                        _into_lane(xb, lane, X.T, j)  # its state when it stopped
-                        continue
-                    a_prev[lane] = a
-                    ub[lane] = a
+                        n_bad = _recursive_lanes(D)
+                    if n_bad == 0:
+                        _fold_lanes(D, k, t, h, settle, final_start)
+                    else:
+                        for lane in range(lanes):
+                            went_bad += _fold_lane(D, lane, k, t, h, settle, final_start,
+                                                   bound)
+                else:
+                    for lane in range(nb):
+                        if not alive[lane]:
+                            continue
+                        j = b0 + lane
+                        alpha = AL[j if own_alpha else 0, k] if external else 0.0
+                        ok, u, a, g, gamma = _sample(law_kind, cp, cs, lane, mj, S, k, t, h,
+                                                     D[_Y, lane], D[_R, lane], law_dt,
+                                                     external, alpha, D[_AP, lane], bound)
+                        if ok:
+                            D[_AP, lane] = a
+                            D[_U, lane] = a
+                        else:  # its metrics say so (M_DIVERGED)
+                            went_bad += 1
+                            D[_U, lane] = 0.0
+                if went_bad > 0:
+                    for lane in range(nb):
+                        if alive[lane] and mj[engine_metrics.M_DIVERGED, lane] != 0.0:
+                            alive[lane] = False
+                            n_alive -= 1
+                            # its state, law memory and metrics when it stopped
+                            _into_lane(xb, lane, X.T, b0 + lane)
+                            _into_lane(cs, lane, CS, b0 + lane)
+                            _into_lane(mj, lane, M, b0 + lane)
                 if n_alive == 0:
                     break
                 if n_alive < lanes:
@@ -336,17 +532,16 @@ def _make_block_loop(fast):
                         src += 1
                     for lane in range(lanes):
                         if not alive[lane]:
-                            ub[lane] = ub[src]
+                            D[_U, lane] = D[_U, src]
                             _into_lane(xb, src, xb, lane)
                             _into_lane(pb, src, pb, lane)
-                step(t, sig.pointer(xb), sig.pointer(ub), sig.pointer(pb), h, sig.pointer(w),
-                     n_x, n_p, lanes)
+                step(t, xp, ub, pp, h, wp)
             for lane in range(nb):
-                j = b0 + lane
                 if alive[lane]:
+                    j = b0 + lane
                     _into_lane(xb, lane, X.T, j)
-                _into_lane(cs, lane, CS, j)
-                _into_lane(mj, lane, M, j)
+                    _into_lane(cs, lane, CS, j)
+                    _into_lane(mj, lane, M, j)
         # a use of buf after the views of it: numba frees an array after its last use
         return FAST if buf.size > 0 else not FAST
 
@@ -363,7 +558,8 @@ BLOCK_SIGNATURE = types.boolean(
 def block_kernel():
     """The compiled vectorised member loop, exact arithmetic only (the fast mode's single
     runs fuse the RK4's arithmetic, which the plant's block step does not); cached on
-    disk like :func:`member_kernel` (about 10 s the first time)."""
+    disk like :func:`member_kernel` (about 40 s the first time on the machine of the
+    README's figures)."""
     return _compile(_make_block_loop, BLOCK_SIGNATURE, False)
 
 

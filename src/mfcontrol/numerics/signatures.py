@@ -36,9 +36,10 @@ RHS = types.void(types.float64, _ptr, types.float64, _ptr, _ptr, _n, _n)
 OUTPUT = types.float64(_ptr, _ptr, _n, _n)
 PREPARE = types.void(_ptr, types.float64, _n, _n)
 ADVANCE = types.void(types.float64, _ptr, types.float64, _ptr, types.float64, _n, _n)
-#: a block of b members laid out member-contiguous (:mod:`mfcontrol.numerics.rk4_block`)
-BLOCK_STEP = types.void(types.float64, _ptr, _ptr, _ptr, types.float64, _ptr, _n, _n, _n)
-BLOCK_OUTPUT = types.void(_ptr, _ptr, _ptr, _n, _n, _n)
+#: a block of members laid out member-contiguous (:mod:`mfcontrol.numerics.rk4_block`),
+#: its sizes compiled in
+BLOCK_STEP = types.void(types.float64, _ptr, _ptr, _ptr, types.float64, _ptr)
+BLOCK_OUTPUT = types.void(_ptr, _ptr, _ptr)
 
 RHS_T = types.FunctionType(RHS)
 OUTPUT_T = types.FunctionType(OUTPUT)
