@@ -345,7 +345,8 @@ VECTORISED_LAWS = {
                                            gain="external"),
     "IPD-second-order": lambda kp: mfcontrol.IPD(alpha=5e4, kp=kp * 10.0, kd=40.0,
                                                  sample_time=1e-3),
-    # anti-windup differing between the members of a block (kp's sign alternates with j)
+    # anti-windup differing between the members of a block (round(2 kp) = 3 j - 80: its
+    # parity alternates with j)
     "IPI-mixed-anti-windup": lambda kp: mfcontrol.IPI(
         alpha=50.0, kp=kp, ki=50.0, sample_time=1e-3, output_limits=(-24, 24),
         anti_windup="back-calculation" if round(2 * kp) % 2 else "clamp"),
@@ -357,7 +358,7 @@ VECTORISED_LAWS = {
 
 @pytest.mark.parametrize("law", list(VECTORISED_LAWS))
 @pytest.mark.parametrize("f", [_motor_in_place, _motor_returning])
-def test_vectorised_members_equal_their_single_runs(law, f):
+def test_vectorised_members_equal_their_single_runs(law, f, monkeypatch):
     # 70 members in the vectorised loop (a block of 64 and a part block), each with its own
     # J and gain, its load step at its own sample, some going bad at different samples:
     # the metrics and law memory of each are those of its single run, bit for bit
@@ -377,9 +378,12 @@ def test_vectorised_members_equal_their_single_runs(law, f):
     S = metrics.settings(0.1, t_end, 0.2, 200.0)
     R = np.full((1, round(t_end / h)), 60.0)
     AL = np.full((1, R.shape[1]), 40.0) if law == "IP-external" else None
+    vectorised = _count_vectorised(monkeypatch)
     M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
                            vectorise=True)
     assert plants[0].block[0].compiled  # the vectorised loop ran (its step is compiled)
+    # the law ran over the blocks, except with the algebraic estimator (member by member)
+    assert (vectorised[0] == 0) == (law == "IPID-algebraic")
     assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
     for j in range(m):
         Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
@@ -388,7 +392,62 @@ def test_vectorised_members_equal_their_single_runs(law, f):
         np.testing.assert_array_equal(CS[:, j], CSj[:, 0], err_msg=f"member {j}")
 
 
-def test_the_vectorised_loop_is_chosen_when_it_pays():
+def _count_vectorised(monkeypatch) -> list[int]:
+    """A one-item list that will hold the block-samples the next runs vectorised."""
+    from mfcontrol.engine import compose
+
+    count, run = [0], compose.run
+
+    def counting(*args, **kwargs):
+        count[0] += run(*args, **kwargs)
+        return count[0]
+
+    monkeypatch.setattr(compose, "run", counting)
+    return count
+
+
+@pytest.mark.parametrize("own", ["series", "parameters"])
+def test_vectorised_members_with_references_of_their_own_equal_their_single_runs(
+        own, monkeypatch):
+    # each member its own reference: a row of R, or its own reference parameters (half
+    # the blocks sharing them, half not): as its single run, bit for bit
+    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.engine import metrics
+    from mfcontrol.laws import reference
+
+    h, t_end, m = 1e-3, 0.3, 130
+    n = round(t_end / h)
+    plant = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
+                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plants = [plant.engine()] * m
+    laws = [law_arrays(VECTORISED_LAWS["IPI"](-40.0 + 0.75 * j)) for j in range(m)]
+    changes = [[] for _ in range(m)]
+    S = metrics.settings(0.1, t_end, 0.2, 70.0)
+    RP = None
+    if own == "series":
+        R = 60.0 + 0.25 * np.arange(m)[:, None] + np.zeros((1, n))
+    else:
+        R = np.zeros((0, n))
+        RP = np.zeros((reference.N_PARAMS, m))
+        RP[reference.KIND] = reference.RAMP_HOLD_RAMP
+        RP[reference.SLOPE] = 600.0
+        RP[reference.LEVEL] = np.where(np.arange(m) < 64, 60.0, 40.0 + np.arange(m) % 7)
+        RP[reference.T_RAMP2] = np.inf
+    vectorised = _count_vectorised(monkeypatch)
+    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, RP=RP,
+                           vectorise=True)
+    assert vectorised[0] > 0
+    assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
+    for j in range(m):
+        Rj = R[j:j + 1] if own == "series" else R
+        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], Rj, changes[j:j + 1],
+                                 t_end=t_end, h=h, S=S,
+                                 RP=None if RP is None else RP[:, j:j + 1])
+        np.testing.assert_array_equal(M[:, j], Mj[:, 0], err_msg=f"member {j}")
+        np.testing.assert_array_equal(CS[:, j], CSj[:, 0], err_msg=f"member {j}")
+
+
+def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     from mfcontrol.engine import compose
 
     block = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
@@ -396,6 +455,13 @@ def test_the_vectorised_loop_is_chosen_when_it_pays():
                         "tau": 0.0}).engine().block
     big = compose.BLOCK_WORTH
     assert not compose.use_blocks(block, compose.RK4, 1024, 10_000, False, None)
+    # the loop itself compiled once on this machine (or not: then only far more work
+    # repays its first compilation)
+    monkeypatch.setattr(compose, "_block_kernel_ready", lambda: False)
+    assert not compose.use_blocks(block, compose.RK4, 1024, big, False, None)
+    assert compose.use_blocks(block, compose.RK4, 1024, compose.BLOCK_WORTH_COLD, False,
+                              None)
+    monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
     assert compose.use_blocks(block, compose.RK4, 1024, big, False, None)
     assert not compose.use_blocks(block, compose.DP45, 1024, big, False, None)
     assert not compose.use_blocks(block, compose.RK4, 1024, big, True, None)  # trajectory

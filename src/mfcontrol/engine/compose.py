@@ -5,7 +5,8 @@ due at k (then the plant's ``prepare``), the measurement y_k = output(x_k) befor
 step, the reference r_k, the law (:func:`mfcontrol.laws.intelligent.step` or
 :func:`mfcontrol.laws.recursive_ip.step`, the functions the live controllers call), the
 metrics fold of every kernel (:func:`mfcontrol.engine.metrics.fold_metrics`, with its
-divergence test), then the plant advanced over [t_k, t_k + h] with the applied input held:
+divergence test; the vectorised loop below runs its steady samples through the same
+functions' pieces), then the plant advanced over [t_k, t_k + h] with the applied input held:
 by the one RK4 (:mod:`mfcontrol.numerics.rk4`), the one Dormand-Prince 5(4)
 (:mod:`mfcontrol.numerics.dopri45`) or the plant's exact step.
 
@@ -31,6 +32,7 @@ same function and integrate the buck with the same arithmetic.
 
 from __future__ import annotations
 
+import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
@@ -64,7 +66,8 @@ T_COMP = trajectory.T_X0
 def _sample(law_kind, cp, cs, lane, mj, S, k, t, h, y, r, law_dt, external, alpha, a_prev,
             bound):
     """Sample k of the member in column ``lane`` after its measurement y: the divergence
-    test on y, the law, the metrics fold, as the vectorised loop runs it (the member loop
+    test on y, the law, the metrics fold, as the vectorised loop runs its start-up
+    samples, the samples with a bad measurement and the algebraic estimator (the member loop
     writes the same steps out, for speed). Returns
     (ok, u, a, g, gamma); with ok False the member stops at this sample."""
     if not engine_metrics.measurement_ok(y, r, bound):
@@ -223,12 +226,17 @@ def member_kernel(fast: bool = False):
     return _compile(_make_loop, SIGNATURE, fast)
 
 
-def _compile(make, signature, fast: bool):
-    """The loop ``make(fast)`` compiled for ``signature`` and cached on disk."""
+def _dispatcher(make, fast: bool):
+    """The loop ``make(fast)`` as a dispatcher cached on disk, not compiled yet."""
     options = dict(error_model="numpy", cache=True, nogil=True)
     if fast:
         options["fastmath"] = set(_jit.FAST_FLAGS)
-    fn = njit(**options)(make(bool(fast)))
+    return njit(**options)(make(bool(fast)))
+
+
+def _compile(make, signature, fast: bool):
+    """The loop ``make(fast)`` compiled for ``signature`` (or loaded from the disk cache)."""
+    fn = _dispatcher(make, fast)
     fn.compile(signature)
     fn.disable_compile()
     return fn
@@ -241,6 +249,9 @@ LANES = rk4_block.LANES
 #: (measured on the DC motor of benchmarks/bench_engine.py, 1,024 members of 10,000
 #: samples on two cores: about 0.7 -> 0.13 ms per member, some 60 ns per member-sample)
 BLOCK_WORTH = 50_000_000
+#: the same while the vectorised loop itself is not compiled yet on this machine (about
+#: 40 s, once: then it is in numba's disk cache)
+BLOCK_WORTH_COLD = 700_000_000
 
 
 @_jit.step_jit
@@ -363,8 +374,7 @@ def _fold_lane(D, i, k, t, h, settle, final_start, bound):
 
 
 def _make_block_loop(fast):
-    """The vectorised member loop (``fast`` as for :func:`_make_loop`)."""
-    FAST = fast
+    """The vectorised member loop (exact arithmetic only: ``fast`` is not read)."""
 
     def block_loop(law_kind, step, output, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP,
                    AL, ev_k, ev_col, ev_add, ev_val, S, M, j0, j1):
@@ -376,9 +386,11 @@ def _make_block_loop(fast):
         samples the law (either law; the intelligent one with the backward-difference
         estimator) and the metrics fold run over the members as one loop, vectorised
         too; the start-up samples, a sample on which a member's measurement is bad and
-        the algebraic estimator run member by member (:func:`_sample`). Each member is
-        its single run, bit for bit. RK4 plants without derived parameters only; no
-        trajectory."""
+        the algebraic estimator run member by member (:func:`_sample`), and so does a
+        block whose members are not all at the same law sample or that holds a member
+        that came in stopped. Each member is its single run, bit for bit. RK4 plants
+        without derived parameters only; no trajectory. Returns how many block-samples
+        ran with the law vectorised."""
         step = sig.as_block_step(step)
         output = sig.as_block_output(output)
         lanes = LANES
@@ -395,7 +407,8 @@ def _make_block_loop(fast):
         steady = intelligent.STEADY if law_kind == INTELLIGENT else recursive_ip.STEADY
         # the block's arrays are views of raw memory (carray): arrays with a reference
         # count would be counted up and down at every call of the law and the metrics
-        # fold (atomic operations; measured 0.55 against 0.21 ms per member here)
+        # fold (atomic operations; measured 0.55 against 0.21 ms per member, when the
+        # law ran member by member)
         n_law = _CS0 + n_cs
         buf = np.zeros(lanes * (n_law + 6 * n_x + n_p))
         base = sig.pointer(buf)
@@ -412,6 +425,7 @@ def _make_block_loop(fast):
         pb = carray(pp, (n_p, lanes))
         alive = np.zeros(lanes, dtype=np.bool_)
         next_ev = np.zeros(lanes, dtype=np.int64)
+        n_vector = 0
         for b0 in range(j0, j1, lanes):
             nb = min(lanes, j1 - b0)
             for lane in range(lanes):
@@ -435,6 +449,8 @@ def _make_block_loop(fast):
             lanes_law = True
             simple = True
             for lane in range(lanes):
+                # a member that comes in stopped stops at its first sample, member by member
+                lanes_law &= mj[engine_metrics.M_DIVERGED, lane] == 0.0 or lane >= nb
                 if law_kind == INTELLIGENT:
                     lanes_law &= cs[intelligent.K, lane] == law_k0
                     lanes_law &= cp[intelligent.EST, lane] == intelligent.BACKWARD
@@ -447,7 +463,9 @@ def _make_block_loop(fast):
             if not use_series:
                 for lane in range(nb):
                     for i in range(RP.shape[0]):
-                        shared_ref &= RP[i, b0 + lane] == RP[i, b0]
+                        a, b = RP[i, b0 + lane], RP[i, b0]
+                        # the same bits: +0 and -0 give references of different signs
+                        shared_ref &= a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
             block_ev = n_steps
             for lane in range(nb):
                 block_ev = min(block_ev, next_ev[lane])
@@ -473,8 +491,9 @@ def _make_block_loop(fast):
                 vector = lanes_law and law_k0 + k >= steady
                 if vector:
                     # every live member's measurement good: then the law runs for all as
-                    # one loop (stopped and spare lanes too, on copies of a live one's
-                    # state; nothing of theirs is kept)
+                    # one loop (stopped and spare lanes too: their plant state is a copy
+                    # of a live one's, their law memory and metrics garbage that nothing
+                    # keeps, having been saved when they stopped)
                     n_bad = 0
                     for lane in range(lanes):
                         ok = engine_metrics.measurement_ok(D[_Y, lane], D[_R, lane], bound)
@@ -482,7 +501,8 @@ def _make_block_loop(fast):
                     vector = n_bad == 0
                 went_bad = 0
                 if vector:
-                    if external:
+                    n_vector += 1
+                    if external and law_kind == INTELLIGENT:
                         for lane in range(lanes):
                             j = b0 + lane if lane < nb else b0
                             cs[variational_gain.ALPHA_EXT, lane] = AL[j if own_alpha else 0, k]
@@ -543,12 +563,12 @@ def _make_block_loop(fast):
                     _into_lane(cs, lane, CS, j)
                     _into_lane(mj, lane, M, j)
         # a use of buf after the views of it: numba frees an array after its last use
-        return FAST if buf.size > 0 else not FAST
+        return n_vector if buf.size > 0 else -1
 
     return block_loop
 
 
-BLOCK_SIGNATURE = types.boolean(
+BLOCK_SIGNATURE = types.int64(
     types.int64, types.intp, types.intp, types.int64, types.float64, types.float64,
     types.float64, _m, _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m,
     types.int64, types.int64)
@@ -568,8 +588,9 @@ def use_blocks(block, integ: int, n_members: int, n_steps: int, record: bool,
     """Whether members run in the vectorised loop: a plant with block functions that
     numba could compile, RK4, the exact arithmetic, no trajectory, and ``vectorise``
     True, or None (automatic) with the functions compiled already or the work worth
-    compiling them (:data:`BLOCK_WORTH`), and not under Intel SVML (whose vector sin,
-    exp, ... differ from the scalar ones in the last bits)."""
+    compiling them (:data:`BLOCK_WORTH`, or :data:`BLOCK_WORTH_COLD` before the loop
+    itself has ever been compiled), and not under Intel SVML (whose vector sin, exp, ...
+    differ from the scalar ones in the last bits)."""
     if (block is None or integ != RK4 or record or fast or n_members < 2
             or vectorise is False or block[0].failed or block[1].failed):
         return False
@@ -577,7 +598,21 @@ def use_blocks(block, integ: int, n_members: int, n_steps: int, record: bool,
         return True
     if numba_config.USING_SVML or n_members < LANES // 4:
         return False
-    return (block[0].compiled and block[1].compiled) or n_members * n_steps >= BLOCK_WORTH
+    if block[0].compiled and block[1].compiled:
+        return True
+    work = n_members * n_steps
+    return work >= BLOCK_WORTH and (work >= BLOCK_WORTH_COLD or _block_kernel_ready())
+
+
+def _block_kernel_ready() -> bool:
+    """The vectorised loop is loaded in this process or compiled in numba's disk cache."""
+    if block_kernel.cache_info().currsize:
+        return True
+    fn = _dispatcher(_make_block_loop, False)
+    try:
+        return fn._cache.load_overload(BLOCK_SIGNATURE, fn.targetctx) is not None
+    except (AttributeError, TypeError):  # numba's cache internals moved: assume cold
+        return False
 
 
 def threads_for(n_members: int, n_samples: int) -> int:
@@ -594,9 +629,11 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
 
     ``plant_fns`` is (rhs, output, prepare, advance); ``events`` (ev_k, ev_col, ev_add,
     ev_val). ``traj`` with n_steps columns records member 0 (then only one member runs).
-    ``block``: the plant's block functions, or None; when :func:`use_blocks` says so the
-    members run in the vectorised loop (``vectorise``: True, False or None, automatic),
-    which leaves P and DT as they were (nothing reads them after a run).
+    ``block``: the plant's block functions (:class:`mfcontrol.numerics.rk4_block.Block`),
+    or None; when :func:`use_blocks` says so the members run in the vectorised loop
+    (``vectorise``: True, False or None, automatic), which leaves P and DT as they were
+    (nothing reads them after a run). Returns how many block-samples ran with the law
+    vectorised (0 in the member loop).
     """
     ev_k, ev_col, ev_add, ev_val = events
     m = X.shape[0]
@@ -612,6 +649,7 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
             # and use_blocks will not ask again (the failure is kept)
             addresses = None
     if addresses is not None:
+        _check_block(block, X, P, CP, CS, M, law_kind)
         fn = block_kernel()
         args = (law_kind, *addresses, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL,
                 ev_k, ev_col, ev_add, ev_val, S, M)
@@ -627,8 +665,24 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
         tail = (traj, comp_rows)
         bounds = np.linspace(0, m, n_threads + 1).astype(int)
     if n_threads <= 1 or record:
-        fn(*args, 0, m, *tail)
-        return
-    with ThreadPoolExecutor(n_threads) as pool:
-        list(pool.map(lambda ab: fn(*args, ab[0], ab[1], *tail),
-                      [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b > a]))
+        done = [fn(*args, 0, m, *tail)]
+    else:
+        with ThreadPoolExecutor(n_threads) as pool:
+            done = list(pool.map(lambda ab: fn(*args, ab[0], ab[1], *tail),
+                                 [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)
+                                  if b > a]))
+    return sum(int(d) for d in done) if addresses is not None else 0
+
+
+def _check_block(block, X, P, CP, CS, M, law_kind) -> None:
+    """The block functions and the vectorised loop's buffer lay out what these arrays
+    hold: a mismatch would read and write past the buffer, so it is an error."""
+    law_rows = intelligent.EST_BASE if law_kind == INTELLIGENT else recursive_ip.N_STATE
+    if (X.shape[1], P.shape[1]) != (block.n_x, block.n_p) or CP.shape[0] > _N_CP \
+            or M.shape[0] != engine_metrics.N_METRICS or CS.shape[0] < law_rows:
+        raise ValueError(
+            f"the vectorised loop got {X.shape[1]} states, {P.shape[1]} parameters, "
+            f"{CP.shape[0]} law parameters, {CS.shape[0]} law state rows and "
+            f"{M.shape[0]} metric rows; its plant has {block.n_x} states and {block.n_p} "
+            f"parameters, its law at most {_N_CP} parameters and at least {law_rows} "
+            f"state rows, and there are {engine_metrics.N_METRICS} metrics")

@@ -21,7 +21,7 @@ repays it (:func:`mfcontrol.engine.compose.run`).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import carray, njit
@@ -33,13 +33,22 @@ from .rk4 import combine, half, whole
 LANES = 64
 
 
+class Block(NamedTuple):
+    """A plant's block functions and the sizes compiled into them."""
+
+    step: sig.Lazy
+    output: sig.Lazy
+    n_x: int
+    n_p: int
+
+
 def compiled(f: Callable[..., Any], g: Callable[..., Any], in_place: bool, n_x: int,
              n_p: int):
     """(step, output): the block functions of the plant with right-hand side ``f`` (in
     place, ``f(t, x, u, p, dxdt)``, or returning, ``f(t, x, u, p)``), output ``g(x, p)``,
     n_x states and n_p parameters, as :class:`~mfcontrol.numerics.signatures.Lazy`
-    C-callables of the signatures ``BLOCK_STEP`` and ``BLOCK_OUTPUT``; compiled on first
-    use, not cached."""
+    C-callables of the signatures ``BLOCK_STEP`` and ``BLOCK_OUTPUT`` (a :class:`Block`);
+    compiled on first use, not cached."""
     nx, np_, b = int(n_x), int(n_p), LANES
     fi = njit(inline="always", error_model="numpy")(f)
     gi = njit(inline="always", error_model="numpy")(g)
@@ -92,5 +101,5 @@ def compiled(f: Callable[..., Any], g: Callable[..., Any], in_place: bool, n_x: 
         for lane in range(b):
             Y[lane] = gi(X[:, lane], P[:, lane])
 
-    return (sig.Lazy(sig.BLOCK_STEP, step, cache=False),
-            sig.Lazy(sig.BLOCK_OUTPUT, output, cache=False))
+    return Block(sig.Lazy(sig.BLOCK_STEP, step, cache=False),
+                 sig.Lazy(sig.BLOCK_OUTPUT, output, cache=False), nx, np_)
