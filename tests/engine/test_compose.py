@@ -388,8 +388,28 @@ def test_vectorised_members_equal_their_single_runs(law, f, monkeypatch):
     for j in range(m):
         Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S, AL=AL)
-        np.testing.assert_array_equal(M[:, j], Mj[:, 0], err_msg=f"member {j}")
-        np.testing.assert_array_equal(CS[:, j], CSj[:, 0], err_msg=f"member {j}")
+        _assert_same_bits(M[:, j], Mj[:, 0], j)
+        _assert_same_bits(CS[:, j], CSj[:, 0], j)
+
+
+def _assert_same_bits(a, b, member):
+    """a and b hold the same floats bit for bit (+0 and -0, NaN payloads told apart)."""
+    np.testing.assert_array_equal(np.ascontiguousarray(a).view(np.uint64),
+                                  np.ascontiguousarray(b).view(np.uint64),
+                                  err_msg=f"member {member}")
+
+
+def test_the_vectorised_loop_is_found_in_the_disk_cache():
+    # the probe of numba's disk cache (it relies on numba's internals: a change there
+    # would quietly make the automatic choice "never compiled")
+    from mfcontrol.engine import compose
+
+    compose.block_kernel()  # compiled or loaded: now in the disk cache
+    compose.block_kernel.cache_clear()
+    try:
+        assert compose._block_kernel_ready()
+    finally:
+        compose.block_kernel()
 
 
 def _count_vectorised(monkeypatch) -> list[int]:
@@ -443,8 +463,8 @@ def test_vectorised_members_with_references_of_their_own_equal_their_single_runs
         Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], Rj, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S,
                                  RP=None if RP is None else RP[:, j:j + 1])
-        np.testing.assert_array_equal(M[:, j], Mj[:, 0], err_msg=f"member {j}")
-        np.testing.assert_array_equal(CS[:, j], CSj[:, 0], err_msg=f"member {j}")
+        _assert_same_bits(M[:, j], Mj[:, 0], j)
+        _assert_same_bits(CS[:, j], CSj[:, 0], j)
 
 
 def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
@@ -453,16 +473,17 @@ def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     block = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
                 params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3,
                         "tau": 0.0}).engine().block
-    big = compose.BLOCK_WORTH
-    assert not compose.use_blocks(block, compose.RK4, 1024, 10_000, False, None)
-    # the loop itself compiled once on this machine (or not: then only far more work
+    m = 1000
+    big, cold = compose.BLOCK_WORTH // m, compose.BLOCK_WORTH_COLD // m  # samples
+    # the loop itself compiled on this machine already (or not: then only far more work
     # repays its first compilation)
-    monkeypatch.setattr(compose, "_block_kernel_ready", lambda: False)
-    assert not compose.use_blocks(block, compose.RK4, 1024, big, False, None)
-    assert compose.use_blocks(block, compose.RK4, 1024, compose.BLOCK_WORTH_COLD, False,
-                              None)
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
-    assert compose.use_blocks(block, compose.RK4, 1024, big, False, None)
+    assert not compose.use_blocks(block, compose.RK4, m, big - 1, False, None)
+    assert compose.use_blocks(block, compose.RK4, m, big, False, None)
+    monkeypatch.setattr(compose, "_block_kernel_ready", lambda: False)
+    assert not compose.use_blocks(block, compose.RK4, m, cold - 1, False, None)
+    assert compose.use_blocks(block, compose.RK4, m, cold, False, None)
+    monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
     assert not compose.use_blocks(block, compose.DP45, 1024, big, False, None)
     assert not compose.use_blocks(block, compose.RK4, 1024, big, True, None)  # trajectory
     assert not compose.use_blocks(block, compose.RK4, 1, big, False, True)
@@ -516,7 +537,37 @@ def test_a_member_whose_law_output_goes_non_finite_in_the_vectorised_loop_stops_
     for j in range(m):
         Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S, AL=AL[j:j + 1])
-        np.testing.assert_array_equal(M[:, j], Mj[:, 0], err_msg=f"member {j}")
-        np.testing.assert_array_equal(CS[:, j], CSj[:, 0], err_msg=f"member {j}")
+        _assert_same_bits(M[:, j], Mj[:, 0], j)
+        _assert_same_bits(CS[:, j], CSj[:, 0], j)
     for j, k in bad.items():
         assert M[metrics.M_N_SAMPLES, j] == k
+
+
+def test_vectorised_members_whose_references_differ_in_the_sign_of_zero_keep_it():
+    # review: members sharing a block were taken to share the reference when their
+    # parameters compared equal, and +0 == -0: a level of -0.0 gave r = +0.0 in the law's
+    # memory, where the single run keeps -0.0
+    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.engine import metrics
+    from mfcontrol.laws import intelligent, reference
+
+    h, t_end, m = 1e-3, 0.02, 70
+    n = round(t_end / h)
+    plant = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
+                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plants = [plant.engine()] * m
+    laws = [law_arrays(VECTORISED_LAWS["IPI"](20.0)) for _ in range(m)]
+    RP = np.zeros((reference.N_PARAMS, m))
+    RP[reference.SLOPE] = 600.0
+    RP[reference.LEVEL] = np.where(np.arange(m) % 2, -0.0, 0.0)
+    RP[reference.T_RAMP2] = np.inf
+    S = metrics.settings(0.1, t_end, 0.2, 1e6)
+    changes = [[] for _ in range(m)]
+    M, _, CS = run_members(plants, laws, np.zeros((0, n)), changes, t_end=t_end, h=h, S=S,
+                           RP=RP, vectorise=True)
+    for j in (0, 1):
+        Mj, _, CSj = run_members(plants[:1], laws[:1], np.zeros((0, n)), changes[:1],
+                                 t_end=t_end, h=h, S=S, RP=RP[:, j:j + 1])
+        _assert_same_bits(M[:, j], Mj[:, 0], j)
+        _assert_same_bits(CS[:, j], CSj[:, 0], j)
+    assert np.signbit(CS[intelligent.R1, 1]) and not np.signbit(CS[intelligent.R1, 0])

@@ -55,7 +55,7 @@ class EnginePlant(NamedTuple):
     columns: Mapping[str, int]
     #: (step, output) over a block of members, f and g compiled in
     #: (:mod:`mfcontrol.numerics.rk4_block`), for plants that have them (your own ODE)
-    block: tuple[Any, Any] | None = None
+    block: rk4_block.Block | None = None
 
 # ---------------------------------------------------------------------------------------------
 # validation

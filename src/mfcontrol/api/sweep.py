@@ -151,13 +151,16 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         Also run this many members, spread over the grid, with their trajectories
         (``result.kept``).
     vectorise : bool or None
-        For your own ODE (RK4): run the members in the engine's vectorised loop, where
-        numba compiles f and g over blocks of 64 members into vector instructions and
-        the law and the metrics run over the block as well (the DC motor of the
-        README's Speed section: about 5x faster, the same bits), at the price of
-        compiling f and g so (about 3 s, once per plant and process). None (default):
-        when the sweep is large enough to repay that (5e7 member-samples) or they are
-        compiled already.
+        For your own ODE (RK4, exact arithmetic: not with ``fast=True``): run the
+        members in the engine's vectorised loop, where numba compiles f and g over
+        blocks of 64 members into vector instructions and, past the first samples, the
+        law and the metrics run over the block as well (the algebraic estimator member
+        by member; the DC motor of the README's Speed section: about 6x faster, the
+        same bits), at the price of compiling f and g so (about 3 s, once per plant and
+        process) and, the first time ever on a machine, the loop itself (about 40 s,
+        then cached on disk). None (default): when the sweep is large enough to repay
+        that (5e7 member-samples once the loop is compiled, 7e8 before) or f and g are
+        compiled so already.
 
     Returns
     -------

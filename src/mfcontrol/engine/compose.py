@@ -587,10 +587,10 @@ def use_blocks(block, integ: int, n_members: int, n_steps: int, record: bool,
                vectorise: bool | None, fast: bool = False) -> bool:
     """Whether members run in the vectorised loop: a plant with block functions that
     numba could compile, RK4, the exact arithmetic, no trajectory, and ``vectorise``
-    True, or None (automatic) with the functions compiled already or the work worth
-    compiling them (:data:`BLOCK_WORTH`, or :data:`BLOCK_WORTH_COLD` before the loop
-    itself has ever been compiled), and not under Intel SVML (whose vector sin, exp, ...
-    differ from the scalar ones in the last bits)."""
+    True, or None (automatic): from :data:`BLOCK_WORTH_COLD` member-samples on; from
+    :data:`BLOCK_WORTH` on, or with the plant's block functions compiled already, once
+    the loop itself is compiled on this machine; never under Intel SVML (whose vector
+    sin, exp, ... differ from the scalar ones in the last bits)."""
     if (block is None or integ != RK4 or record or fast or n_members < 2
             or vectorise is False or block[0].failed or block[1].failed):
         return False
@@ -598,20 +598,23 @@ def use_blocks(block, integ: int, n_members: int, n_steps: int, record: bool,
         return True
     if numba_config.USING_SVML or n_members < LANES // 4:
         return False
-    if block[0].compiled and block[1].compiled:
-        return True
     work = n_members * n_steps
-    return work >= BLOCK_WORTH and (work >= BLOCK_WORTH_COLD or _block_kernel_ready())
+    if work >= BLOCK_WORTH_COLD:
+        return True
+    ready = _block_kernel_ready()
+    return ready and ((block[0].compiled and block[1].compiled) or work >= BLOCK_WORTH)
 
 
 def _block_kernel_ready() -> bool:
-    """The vectorised loop is loaded in this process or compiled in numba's disk cache."""
+    """The vectorised loop is loaded in this process or compiled in numba's disk cache
+    (looked up in the cache's index, not loaded)."""
     if block_kernel.cache_info().currsize:
         return True
-    fn = _dispatcher(_make_block_loop, False)
     try:
-        return fn._cache.load_overload(BLOCK_SIGNATURE, fn.targetctx) is not None
-    except (AttributeError, TypeError):  # numba's cache internals moved: assume cold
+        fn = _dispatcher(_make_block_loop, False)
+        key = fn._cache._index_key(BLOCK_SIGNATURE, fn.targetctx.codegen())
+        return key in fn._cache._cache_file._load_index()
+    except Exception:  # noqa: BLE001 (numba's cache internals moved, or no cache: cold)
         return False
 
 
@@ -677,12 +680,17 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
 def _check_block(block, X, P, CP, CS, M, law_kind) -> None:
     """The block functions and the vectorised loop's buffer lay out what these arrays
     hold: a mismatch would read and write past the buffer, so it is an error."""
-    law_rows = intelligent.EST_BASE if law_kind == INTELLIGENT else recursive_ip.N_STATE
-    if (X.shape[1], P.shape[1]) != (block.n_x, block.n_p) or CP.shape[0] > _N_CP \
+    if law_kind == INTELLIGENT:
+        n_cp = intelligent.N_PARAMS
+        windows = CP[intelligent.M_WIN][CP[intelligent.EST] == intelligent.ALGEBRAIC]
+        law_rows = intelligent.n_state(int(windows.max()) if windows.size else 0)
+    else:
+        n_cp, law_rows = recursive_ip.N_PARAMS, recursive_ip.N_STATE
+    if (X.shape[1], P.shape[1]) != (block.n_x, block.n_p) or CP.shape[0] != n_cp \
             or M.shape[0] != engine_metrics.N_METRICS or CS.shape[0] < law_rows:
         raise ValueError(
             f"the vectorised loop got {X.shape[1]} states, {P.shape[1]} parameters, "
             f"{CP.shape[0]} law parameters, {CS.shape[0]} law state rows and "
             f"{M.shape[0]} metric rows; its plant has {block.n_x} states and {block.n_p} "
-            f"parameters, its law at most {_N_CP} parameters and at least {law_rows} "
+            f"parameters, its law {n_cp} parameters and at least {law_rows} "
             f"state rows, and there are {engine_metrics.N_METRICS} metrics")
