@@ -350,29 +350,6 @@ def _fold_lanes(D, k, t, h, settle, final_start):
         D[_AP, i] = a
 
 
-@_jit.step_jit
-def _fold_lane(D, i, k, t, h, settle, final_start, bound):
-    """Member i's sample folded into its metrics rows with the divergence test
-    (:func:`mfcontrol.engine.metrics.fold_metrics`, as a single run's
-    :func:`~mfcontrol.engine.metrics.member_metrics`), for a sample on which some member
-    went bad. Returns 1 if member i went bad here."""
-    M, EM = _M0, engine_metrics
-    was = 1.0 - D[_DIVERGED, i]
-    a = D[_U, i]
-    (alive, D[M + EM.M_T_DIVERGE, i], D[M + EM.M_N_SAMPLES, i], D[M + EM.M_IAE, i],
-     D[M + EM.M_ISE, i], D[M + EM.M_ITAE, i], D[M + EM.M_MAX_E_SETTLED, i],
-     D[M + EM.M_MAX_E_FINAL, i], D[M + EM.M_MAX_ABS_R, i], D[M + EM.M_TV, i],
-     D[M + EM.M_FINAL_GAMMA, i]) = EM.fold_metrics(
-        was, D[M + EM.M_T_DIVERGE, i], D[M + EM.M_N_SAMPLES, i], D[M + EM.M_IAE, i],
-        D[M + EM.M_ISE, i], D[M + EM.M_ITAE, i], D[M + EM.M_MAX_E_SETTLED, i],
-        D[M + EM.M_MAX_E_FINAL, i], D[M + EM.M_MAX_ABS_R, i], D[M + EM.M_TV, i],
-        D[M + EM.M_FINAL_GAMMA, i], k, t, h, D[_Y, i], D[_R, i], D[_UM, i], a, D[_AP, i],
-        D[_G, i], settle, final_start, bound)
-    D[_DIVERGED, i] = 1.0 - alive
-    D[_AP, i] = a
-    return 1 if (was != 0.0 and alive == 0.0) else 0
-
-
 def _make_block_loop(fast):
     """The vectorised member loop (exact arithmetic only: ``fast`` is not read)."""
 
@@ -514,10 +491,14 @@ def _make_block_loop(fast):
                         n_bad = _recursive_lanes(D)
                     if n_bad == 0:
                         _fold_lanes(D, k, t, h, settle, final_start)
-                    else:
+                    else:  # a single run's gated fold, member by member
                         for lane in range(lanes):
-                            went_bad += _fold_lane(D, lane, k, t, h, settle, final_start,
-                                                   bound)
+                            was = mj[engine_metrics.M_DIVERGED, lane] == 0.0
+                            ok = engine_metrics.member_metrics(
+                                mj, S, lane, k, t, h, D[_Y, lane], D[_R, lane], D[_UM, lane],
+                                D[_U, lane], D[_AP, lane], D[_G, lane])
+                            D[_AP, lane] = D[_U, lane]
+                            went_bad += 1 if was and not ok else 0
                 else:
                     for lane in range(nb):
                         if not alive[lane]:
