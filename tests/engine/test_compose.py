@@ -323,14 +323,9 @@ def test_a_schedule_that_breaks_the_plant_is_refused_for_a_case():
     assert mfcontrol.simulate(cfg).metrics["stable"]
 
 
-def _motor_in_place(t, x, u, p, dxdt):
-    dxdt[0] = (p[2] * x[1] - p[1] * x[0] - p[5]) / p[0]
-    dxdt[1] = (u - p[3] * x[1] - p[2] * x[0]) / p[4]
-
-
-def _motor_returning(t, x, u, p):
-    return np.array([(p[2] * x[1] - p[1] * x[0] - p[5]) / p[0],
-                     (u - p[3] * x[1] - p[2] * x[0]) / p[4]])
+def _motor(f=_motor_inplace, g=lambda x, p: x[0]) -> ODE:
+    """The DC motor of PARAMS with right-hand side f and output g."""
+    return ODE(f, g, x0=(0.0, 0.0), params=PARAMS)
 
 
 VECTORISED_LAWS = {
@@ -357,7 +352,7 @@ VECTORISED_LAWS = {
 
 
 @pytest.mark.parametrize("law", list(VECTORISED_LAWS))
-@pytest.mark.parametrize("f", [_motor_in_place, _motor_returning])
+@pytest.mark.parametrize("f", [_motor_inplace, _motor_returning])
 def test_vectorised_members_equal_their_single_runs(law, f, monkeypatch):
     # 70 members in the vectorised loop (a block of 64 and a part block), each with its own
     # J and gain, its load step at its own sample, some going bad at different samples:
@@ -367,8 +362,7 @@ def test_vectorised_members_equal_their_single_runs(law, f, monkeypatch):
 
     assert 64 < 70 < 2 * compose.LANES
     h, t_end, m = 1e-3, 0.4, 70
-    plant = ODE(f, lambda x, p: x[0], x0=(0.0, 0.0),
-                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plant = _motor(f)
     plants, laws, changes = [], [], []
     for j in range(m):
         plant.set_param("J", 3e-4 + 1e-5 * j)
@@ -437,8 +431,7 @@ def test_vectorised_members_with_references_of_their_own_equal_their_single_runs
 
     h, t_end, m = 1e-3, 0.3, 130
     n = round(t_end / h)
-    plant = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
-                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plant = _motor()
     plants = [plant.engine()] * m
     laws = [law_arrays(VECTORISED_LAWS["IPI"](-40.0 + 0.75 * j)) for j in range(m)]
     changes = [[] for _ in range(m)]
@@ -470,9 +463,7 @@ def test_vectorised_members_with_references_of_their_own_equal_their_single_runs
 def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     from mfcontrol.engine import compose
 
-    block = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
-                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3,
-                        "tau": 0.0}).engine().block
+    block = _motor().engine().block
     m = 1000
     big, cold = compose.BLOCK_WORTH // m, compose.BLOCK_WORTH_COLD // m  # samples
     # the loop itself compiled on this machine already (or not: then only far more work
@@ -499,8 +490,7 @@ def test_a_plant_that_compiles_only_member_by_member_falls_back_to_the_member_lo
     def g(x, p):
         return x.reshape((2, 1))[0, 0]
 
-    plant = ODE(_motor_in_place, g, x0=(0.0, 0.0),
-                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plant = _motor(g=g)
     ctrl = mfcontrol.IPI(alpha=50.0, kp=20.0, ki=50.0, sample_time=1e-3,
                          output_limits=(-24, 24))
     grid = {"controller.kp": [5.0, 20.0], "plant.J": [3e-4, 8e-4]}
@@ -518,8 +508,7 @@ def test_a_member_whose_law_output_goes_non_finite_in_the_vectorised_loop_stops_
     from mfcontrol.engine import metrics
 
     h, t_end, m = 1e-3, 0.3, 70
-    plant = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
-                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plant = _motor()
     plants = [plant.engine()] * m
     laws = [law_arrays(mfcontrol.IP(alpha=50.0, kp=5.0 + j, sample_time=h, gain="external",
                                     output_limits=(-24, 24))) for j in range(m)]
@@ -553,8 +542,7 @@ def test_vectorised_members_whose_references_differ_in_the_sign_of_zero_keep_it(
 
     h, t_end, m = 1e-3, 0.02, 70
     n = round(t_end / h)
-    plant = ODE(_motor_in_place, lambda x, p: x[0], x0=(0.0, 0.0),
-                params={"J": 5e-4, "b": 1e-4, "k": 0.05, "R": 2.0, "L": 2e-3, "tau": 0.0})
+    plant = _motor()
     plants = [plant.engine()] * m
     laws = [law_arrays(VECTORISED_LAWS["IPI"](20.0)) for _ in range(m)]
     RP = np.zeros((reference.N_PARAMS, m))
