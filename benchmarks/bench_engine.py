@@ -20,6 +20,12 @@ from numba's disk cache):
    steps with the members' states contiguous, where LLVM vectorises f, bit for bit equal.
 3. ``simulate_loop`` linear in the horizon: the time of 200,000 samples over 20 times the
    time of 10,000 (1.0 is linear).
+4. Sweeps of the built-in cases ``buck-ipi``, ``boost-ipd`` and
+   ``first-order-ip-algebraic`` (1,024 members, kp x a plant parameter): the engine's
+   batch of the members' configurations (``general_metrics``) in the member loop and in
+   the vectorised loop (the library plant's block functions), per member-sample on both
+   cores, and the whole of what ``mfcontrol sweep CASE`` runs per member (building each
+   member's configuration and objects, then the batch).
 
 Timings are printed, never asserted. Run::
 
@@ -36,7 +42,9 @@ import numpy as np
 
 import mfcontrol
 from bench_batch import median_time  # noqa: I001 (a sibling script: run from anywhere)
+from mfcontrol.api import batch
 from mfcontrol.api.plants import ODE
+from mfcontrol.api.simulate import general_metrics
 from mfcontrol.experiments.cases import resolve_case
 
 J, B_F, K_T, R_A, L_A = 5e-4, 1e-4, 0.05, 2.0, 2e-3
@@ -261,6 +269,9 @@ def main() -> None:
     sweep = median_time(lambda: mfcontrol.sweep(plant, controller(), SPEED, grid=grid,
                                                 t_end=T_END, changes=CHANGES), 3)
     n_members = side * (args.members // side)
+    member = median_time(lambda: mfcontrol.sweep(plant, controller(), SPEED, grid=grid,
+                                                 t_end=T_END, changes=CHANGES,
+                                                 vectorise=False), 3)
     mfcontrol.sweep(plant, controller(), SPEED, grid=grid, t_end=T_END, changes=CHANGES,
                     vectorise=True)  # compiles the plant's block functions
     vec = median_time(lambda: mfcontrol.sweep(plant, controller(), SPEED, grid=grid,
@@ -270,7 +281,10 @@ def main() -> None:
           f"(target 300x)")
     print(f"   sweep          {sweep / n_members * 1e3:8.4f} ms/sim   "
           f"{pc / (sweep / n_members):9.0f}x python-control (target 5,000x), "
-          f"{n_members / sweep:,.0f} sims/s")
+          f"{n_members / sweep:,.0f} sims/s (default: the vectorised loop with f member by "
+          f"member unless the block functions are compiled)")
+    print(f"   sweep, vectorise=False {member / n_members * 1e3:8.4f} ms/sim   "
+          f"{pc / (member / n_members):9.0f}x python-control (the member loop)")
     print(f"   sweep, vectorise=True {vec / n_members * 1e3:8.4f} ms/sim   "
           f"{pc / (vec / n_members):9.0f}x python-control (blocks of 64 members: f, g, the "
           f"law and the metrics vectorised over them)")
@@ -292,6 +306,24 @@ def main() -> None:
         plant, controller(), SPEED, t_end=200.0, changes=CHANGES), 3)
     print(f"   10,000 samples {short * 1e3:.2f} ms, 200,000 samples {long * 1e3:.2f} ms: "
           f"{long / (20 * short):.2f}")
+
+    print("4. built-in cases swept, 1,024 members (kp x a plant parameter), both cores")
+    sweeps = {"buck-ipi": ("controller.kp", "linspace(1e3,5e3,32)", "plant.R",
+                           "linspace(5,20,32)"),
+              "boost-ipd": ("controller.kp", "linspace(2e7,8e7,32)", "plant.R",
+                            "linspace(5,20,32)"),
+              "first-order-ip-algebraic": ("controller.kp", "linspace(1,10,32)", "plant.a",
+                                           "linspace(-2,0,32)")}
+    for c, (k1, v1, k2, v2) in sweeps.items():
+        g = batch.make_grid(cfgs[c], batch.parse_grid({k1: v1, k2: v2}))
+        members = [g.config(m) for m in range(g.n_members)]
+        per_ms = samples[c] * g.n_members
+        loop = median_time(lambda ms=members: general_metrics(ms, vectorise=False), 3)
+        vec = median_time(lambda ms=members: general_metrics(ms, vectorise=None), 3)
+        whole = median_time(lambda g=g: batch.run_range(g, 0, g.n_members), 3)
+        print(f"   {c:26s} member loop {loop / per_ms * 1e9:5.1f} ns/member-sample, "
+              f"vectorised {vec / per_ms * 1e9:5.1f} ({loop / vec:4.1f}x); "
+              f"mfcontrol sweep {whole / g.n_members * 1e6:5.0f} us/member")
 
 
 if __name__ == "__main__":

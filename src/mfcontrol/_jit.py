@@ -66,7 +66,15 @@ FAST_FLAGS = ("contract", "arcp", "nsz")
 #: Kernels of the fast mode: compiled on first use, cached on disk.
 fast_kernel_jit = njit(error_model="numpy", cache=True, fastmath=set(FAST_FLAGS))
 
-#: Small step functions: inlined into every kernel that calls them.
-step_jit = njit(inline="always", error_model="numpy", cache=True)
+_step_jit = njit(inline="always", error_model="numpy", cache=True)
+
+
+def step_jit(fn):
+    """Small step functions: inlined into every kernel that calls them. Each has an
+    identity derived from its module and name (:func:`stable_identity`): a compiled
+    closure that calls one (a plant's block functions) pickles it into its cache key."""
+    dispatcher = _step_jit(fn)
+    stable_identity(dispatcher)
+    return dispatcher
 #: Kernels: compiled once, cached on disk next to the package.
 kernel_jit = njit(error_model="numpy", cache=True)

@@ -466,22 +466,30 @@ def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     block = _motor().engine().block
     m = 1000
     big, cold = compose.BLOCK_WORTH // m, compose.BLOCK_WORTH_COLD // m  # samples
-    # the loop itself compiled on this machine already (or not: then only far more work
-    # repays its first compilation)
+    loop = compose.loop_for
+    # the loop itself compiled on this machine already: it runs a quarter block or more,
+    # on the block functions when they are worth compiling
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
-    assert not compose.use_blocks(block, compose.RK4, m, big - 1, False, None)
-    assert compose.use_blocks(block, compose.RK4, m, big, False, None)
+    assert loop(block, compose.RK4, m, big - 1, False, None) == "lanes"
+    assert loop(block, compose.RK4, m, big, False, None) == "block"
+    assert loop(None, compose.RK4, m, big, False, None) == "lanes"  # a library plant
+    assert loop(block, compose.DP45, m, big, False, None) == "lanes"
+    assert loop(None, compose.EXACT, compose.LANES // 4, 10, False, None) == "lanes"
+    assert loop(None, compose.EXACT, compose.LANES // 4 - 1, 10, False, None) == "member"
+    # not compiled yet: only far more work repays its first compilation
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: False)
-    assert not compose.use_blocks(block, compose.RK4, m, cold - 1, False, None)
-    assert compose.use_blocks(block, compose.RK4, m, cold, False, None)
-    monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
-    assert not compose.use_blocks(block, compose.DP45, 1024, big, False, None)
-    assert not compose.use_blocks(block, compose.RK4, 1024, big, True, None)  # trajectory
-    assert not compose.use_blocks(block, compose.RK4, 1, big, False, True)
-    assert not compose.use_blocks(None, compose.RK4, 1024, big, False, True)  # no block
-    assert compose.use_blocks(block, compose.RK4, 2, 10, False, True)
-    # the fast mode's single runs fuse the RK4's arithmetic, the block step does not
-    assert not compose.use_blocks(block, compose.RK4, 1024, big, False, True, fast=True)
+    assert loop(block, compose.RK4, m, cold - 1, False, None) == "member"
+    assert loop(block, compose.RK4, m, cold, False, None) == "block"
+    assert loop(None, compose.RK4, m, cold, False, None) == "lanes"
+    # asked for, or refused
+    assert loop(block, compose.RK4, 2, 10, False, True) == "block"
+    assert loop(None, compose.EXACT, 2, 10, False, True) == "lanes"
+    assert loop(block, compose.DP45, 2, 10, False, True) == "lanes"
+    assert loop(block, compose.RK4, 1, big, False, True) == "member"
+    assert loop(block, compose.RK4, m, cold, True, None) == "member"  # trajectory
+    assert loop(block, compose.RK4, m, cold, False, False) == "member"
+    # the fast mode's single runs fuse the RK4's arithmetic, the vectorised loop does not
+    assert loop(block, compose.RK4, m, cold, False, True, fast=True) == "member"
 
 
 def test_a_plant_that_compiles_only_member_by_member_falls_back_to_the_member_loop():
@@ -559,3 +567,126 @@ def test_vectorised_members_whose_references_differ_in_the_sign_of_zero_keep_it(
         _assert_same_bits(M[:, j], Mj[:, 0], j)
         _assert_same_bits(CS[:, j], CSj[:, 0], j)
     assert np.signbit(CS[intelligent.R1, 1]) and not np.signbit(CS[intelligent.R1, 0])
+
+
+def _case_members(case, over, m=70):
+    """m configurations of a built-in case, member j with the overrides ``over(j)``."""
+    from mfcontrol.experiments import cases
+
+    return [cases.resolve_case(case, over(j))[1] for j in range(m)]
+
+
+# built-in plants on their own compiled functions in the vectorised loop: members differing
+# in the parameters their plant derives from (the converters' 1/L, 1/C, 1/(R C)), changes
+# at samples of their own, the adaptive integrator's carried step, members going bad at
+# samples of their own
+LIBRARY_SWEEPS = {
+    "boost-rk4": ("boost-ipd", lambda j: {
+        "sim.t_end": 0.05, "sim.diverge_above": 38.0, "plant.L": 1e-3 * (0.8 + 0.01 * j),
+        "controller.kp": 4.4e7 * (0.5 + 0.03 * j),
+        "controller.alpha": 1.333e11 * (0.3 + 0.05 * j),
+        "plant.schedule": [{"t": 0.03 + 2e-4 * j, "name": "R",
+                            "set": 15.0 if j % 3 else 10.5}]}),
+    "boost-rk45": ("boost-ipd", lambda j: {
+        "sim.t_end": 0.01, "sim.integrator": "rk45", "plant.L": 1e-3 * (0.8 + 0.01 * j),
+        "controller.kp": 4.4e7 * (0.5 + 0.03 * j)}),
+    "buck-rk4": ("buck-ipi", lambda j: {
+        "plant.C": 1e-5 * (0.8 + 0.01 * j), "sim.diverge_above": 7.6,
+        "plant.dR": 5.0 if j % 2 else 0.5, "controller.kp": 3e3 * (0.5 + 0.1 * j),
+        "controller.alpha": 5e4 * (0.005 + 0.01 * j)}),
+    "first-order-algebraic": ("first-order-ip-algebraic", lambda j: {
+        "sim.t_end": 3.0, "sim.diverge_above": 1.01, "plant.a": -1.0 + 0.05 * j,
+        "controller.kp": -3.0 + 0.5 * j}),
+    "first-order-backward": ("first-order-ip-algebraic", lambda j: {
+        "sim.t_end": 3.0, "sim.diverge_above": 1.01, "plant.a": -1.0 + 0.05 * j,
+        "controller.estimator": "backward-difference", "controller.kp": -3.0 + 0.5 * j}),
+}
+
+
+def _loops_chosen(monkeypatch) -> list[str]:
+    """A list that will hold the loop each of the next batches runs in."""
+    from mfcontrol.engine import compose
+
+    chosen, loop_for = [], compose.loop_for
+
+    def recording(*args, **kwargs):
+        chosen.append(loop_for(*args, **kwargs))
+        return chosen[-1]
+
+    monkeypatch.setattr(compose, "loop_for", recording)
+    return chosen
+
+
+@pytest.mark.parametrize("sweep", [*LIBRARY_SWEEPS, "boost-rk4-own-functions"])
+def test_built_in_plants_in_the_vectorised_loop_equal_their_single_runs(sweep, monkeypatch):
+    from mfcontrol.api.simulate import general_metrics
+    from mfcontrol.engine import metrics
+    from mfcontrol.numerics import blocks
+
+    if sweep == "boost-rk4-own-functions":  # no block functions: each plant on its own
+        monkeypatch.setattr(blocks, "of_library", lambda *args: None)
+    cfgs = _case_members(*LIBRARY_SWEEPS[sweep.replace("-own-functions", "")])
+    vectorised = _count_vectorised(monkeypatch)
+    loops = _loops_chosen(monkeypatch)
+    M = general_metrics(cfgs, vectorise=True)
+    assert loops == ["lanes" if sweep in ("boost-rk45", "boost-rk4-own-functions")
+                     else "block"]
+    # the law ran over the blocks, except with the algebraic estimator (member by member)
+    assert (vectorised[0] == 0) == (sweep == "first-order-algebraic")
+    if sweep != "boost-rk45":
+        assert 0 < M[metrics.M_DIVERGED].sum() < len(cfgs)  # some go bad
+    for j, cfg in enumerate(cfgs):
+        _assert_same_bits(M[:, j], general_metrics([cfg])[:, 0], j)
+
+
+@pytest.mark.parametrize("plant", ["lti-exact", "motor-rk45", "first-order-exact"])
+def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs(
+        plant, monkeypatch):
+    # the LTI's discretisation derived per member (with h) and again after its change of
+    # A; your own ODE under the adaptive integrator (neither has block functions: each
+    # member on its plant's own functions); the first-order plant's exact step over the
+    # block: each member as in its single run, bit for bit
+    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.engine import metrics
+
+    m = 70
+    if plant == "lti-exact":
+        obj, h, t_end, name = LTI([[0.0, 1.0], [-2.0, -0.5]], [0.0, 1.0], [1.0, 0.0],
+                                  integrator="exact"), 0.01, 4.0, "A[1,0]"
+        make = lambda j: mfcontrol.IP(alpha=1.0, kp=-2.0 + 0.2 * j, sample_time=h)  # noqa: E731
+        change = lambda j: Change(1.0 + 0.01 * j, name, -2.0 - 0.1 * j)  # noqa: E731
+        R = np.ones((1, round(t_end / h)))
+    elif plant == "first-order-exact":
+        obj, h, t_end, name = FirstOrder(-1.0, 1.0, integrator="exact"), 0.01, 4.0, "w"
+        make = lambda j: mfcontrol.IPI(alpha=1.0, kp=-2.0 + 0.2 * j, ki=1.0,  # noqa: E731
+                                       sample_time=h)
+        change = lambda j: Change(1.0 + 0.01 * j, name, 0.5)  # noqa: E731
+        R = np.ones((1, round(t_end / h)))
+    else:
+        obj, h, t_end, name = ODE(_motor_inplace, lambda x, p: x[0], x0=(0.0, 0.0),
+                                  params=PARAMS, integrator="rk45"), 1e-3, 0.3, "tau"
+        make = lambda j: VECTORISED_LAWS["IPI"](-40.0 + 1.5 * j)  # noqa: E731
+        change = lambda j: Change(0.1 + 0.002 * j, name, 0.02 + 0.001 * j)  # noqa: E731
+        R = np.full((1, round(t_end / h)), 60.0)
+    plants, laws, changes = [], [], []
+    for j in range(m):
+        if plant == "lti-exact":
+            obj.set_param(name, obj.params[name] * (1.0 + 0.01 * j))
+        else:
+            obj.set_param("a" if plant == "first-order-exact" else name,
+                          -1.0 + 0.01 * j if plant == "first-order-exact" else 0.0)
+        plants.append(obj.engine())
+        laws.append(law_arrays(make(j)))
+        changes.append([change(j)])
+    S = metrics.settings(0.1, t_end, 0.2, 200.0 if plant == "motor-rk45" else 5.0)
+    vectorised = _count_vectorised(monkeypatch)
+    loops = _loops_chosen(monkeypatch)
+    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, vectorise=True)
+    assert vectorised[0] > 0
+    assert loops == ["block" if plant == "first-order-exact" else "lanes"]
+    assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
+    for j in range(m):
+        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
+                                 t_end=t_end, h=h, S=S)
+        _assert_same_bits(M[:, j], Mj[:, 0], j)
+        _assert_same_bits(CS[:, j], CSj[:, 0], j)

@@ -212,8 +212,8 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     rows, the configured reference of each member, ``RP[:, j]`` (see
     :mod:`mfcontrol.laws.reference`). ``AL`` (one row, or one per member): the alpha of
     an external gain at every sample. ``vectorise``: run the members in the engine's
-    vectorised loop when the plant has block functions (True, False, or None: when it pays,
-    :func:`mfcontrol.engine.compose.use_blocks`).
+    vectorised loop (True, False, or None: when it pays,
+    :func:`mfcontrol.engine.compose.loop_for`).
 
     Returns (M, traj, CS): metrics of every member; with ``record`` (one member) its
     trajectory ``traj[row, k]``, else an empty array; the law memory of every member.

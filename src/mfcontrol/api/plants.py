@@ -31,7 +31,7 @@ import numpy.typing as npt
 from scipy.integrate import solve_ivp
 
 from ..errors import ConfigError
-from ..numerics import rk4, rk4_block
+from ..numerics import blocks, rk4
 from ..numerics import signatures as sig
 from ..plants import boost, buck, first_order, lti, ode
 
@@ -53,9 +53,9 @@ class EnginePlant(NamedTuple):
     tol: tuple[float, float]
     #: parameter names a schedule may change, and their entries in p
     columns: Mapping[str, int]
-    #: (step, output) over a block of members, f and g compiled in
-    #: (:mod:`mfcontrol.numerics.rk4_block`), for plants that have them (your own ODE)
-    block: rk4_block.Block | None = None
+    #: (step, output) over a block of members, the plant's functions compiled in
+    #: (:mod:`mfcontrol.numerics.blocks`), for plants that have them
+    block: blocks.Block | None = None
 
 # ---------------------------------------------------------------------------------------------
 # validation
@@ -297,7 +297,9 @@ class _CompiledPlant(Plant):
         return x
 
     def engine(self) -> EnginePlant:
-        return self._engine(self._functions(), self._p, self._module.PARAM_ROWS)
+        mod = self._module
+        return self._engine(self._functions(), self._p, mod.PARAM_ROWS)._replace(
+            block=blocks.of_library(mod, self.integrator, mod.N_STATE, mod.N_PARAMS))
 
 
 class Buck(_CompiledPlant):
@@ -718,9 +720,9 @@ class ODE(Plant):
             return None
         rhs, output = self._compiled
         if self._block is None:
-            self._block = rk4_block.compiled(ode.python_function(self._f),
-                                             ode.python_function(self._g), self._inplace,
-                                             self.x0.size, self._p.size)
+            self._block = blocks.of_ode(ode.python_function(self._f),
+                                        ode.python_function(self._g), self._inplace,
+                                        self.x0.size, self._p.size)
         ep = self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
                           {name: i for i, name in enumerate(self._names)})
         return ep._replace(block=self._block)

@@ -78,9 +78,11 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     return dataclasses.replace(res, config=cfg, changes=())
 
 
-def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray:
+def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
+                    vectorise: bool | None = None) -> np.ndarray:
     """The metrics (kernel rows, one column per member) of configurations that share a
-    model, law and time grid, in one batch of the general engine."""
+    model, law and time grid, in one batch of the general engine (``vectorise`` as
+    :func:`mfcontrol.api.loop.run_members` takes it)."""
     from . import params
     from .loop import law_arrays, run_members
 
@@ -93,7 +95,7 @@ def general_metrics(cfgs: Sequence[Config], *, fast: bool = False) -> np.ndarray
     M, _, _ = run_members(plants, laws, np.zeros((0, n)),
                           [ch for _, ch in members], t_end=first["sim.t_end"],
                           h=first["sim.h"], S=params.metric_settings(first), fast=fast,
-                          RP=RP)
+                          RP=RP, vectorise=vectorise)
     return M
 
 

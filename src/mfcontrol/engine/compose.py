@@ -17,12 +17,13 @@ the first-order plant, LTI models and your own ODE. Members (columns of the law 
 rows of the plant arrays) run one after another, each a single run; :func:`run` spreads
 them over threads (the kernel releases the GIL).
 
-Sweeps of your own ODE may run in the vectorised loop (:func:`block_kernel`): members in
-blocks of :data:`LANES`, the plant's f and g compiled over the block
-(:mod:`mfcontrol.numerics.rk4_block`), and, past the start-up, the law
-(``steady_step`` of either law) and the metrics fold run as loops over the block that
-the compiler turns into vector instructions; each member is still its single run, bit
-for bit.
+Sweeps run in the vectorised loop (:func:`block_kernel`, chosen by :func:`loop_for`):
+members in blocks of :data:`LANES`, the plant's step and output compiled over the block
+(:mod:`mfcontrol.numerics.blocks`: the library's plants and your own ODE) or, where it has
+none (the LTI, the adaptive integrator), each member's plant on its own functions; past
+the start-up, the law (``steady_step`` of either law) and the metrics fold run as loops
+over the block that the compiler turns into vector instructions. Each member is still
+its single run, bit for bit.
 
 The paper's buck under the recursive law keeps its own tuned kernels
 (:mod:`mfcontrol.engine.paper_single`, :mod:`mfcontrol.engine.paper_sweep`): state in registers and
@@ -44,7 +45,7 @@ from numba.core.errors import NumbaError
 
 from .. import _jit
 from ..laws import intelligent, recursive_ip, reference, variational_gain
-from ..numerics import dopri45, grid, rk4, rk4_block
+from ..numerics import blocks, dopri45, grid, rk4
 from ..numerics import signatures as sig
 from . import metrics as engine_metrics
 from . import paper_single, trajectory
@@ -86,6 +87,21 @@ def _sample(law_kind, cp, cs, lane, mj, S, k, t, h, y, r, law_dt, external, alph
         u, a, g, gamma = recursive_ip.step(cp, cs, lane, y, r)
     ok = engine_metrics.member_metrics(mj, S, lane, k, t, h, y, r, u, a, a_prev, gamma)
     return ok, u, a, g, gamma
+
+
+@_jit.step_jit
+def _advance(integ, rhs, advance, t, x, u, p, h, rtol, atol, dt, w):
+    """One member's plant over [t, t + h] with u held, in place, by the integrator
+    ``integ``: the one RK4, the one Dormand-Prince 5(4) (``dt`` the step it carries from
+    sample to sample, returned) or the plant's exact step. ``w``: scratch of
+    max(5, :data:`mfcontrol.numerics.dopri45.N_WORK`) rows of the state's size."""
+    if integ == RK4:
+        rk4.step(rhs, t, x, u, p, h, w)
+    elif integ == DP45:
+        dt = dopri45.integrate(rhs, t, x, u, p, h, rtol, atol, dt, w)
+    else:
+        advance(t, sig.pointer(x), u, sig.pointer(p), h, x.size, p.size)
+    return dt
 
 
 @_jit.step_jit
@@ -192,12 +208,8 @@ def _make_loop(fast):
                         traj[T_COMP + c, k] = cs[comp_rows[c], 0]
                     for i in range(n_x):
                         traj[t_x0 + i, k] = x[i]
-                if integ == RK4:
-                    rk4.step(rhs, t, x, a, p, h, w)
-                elif integ == DP45:
-                    dt_carry = dopri45.integrate(rhs, t, x, a, p, h, rtol, atol, dt_carry, w)
-                else:
-                    advance(t, sig.pointer(x), a, sig.pointer(p), h, n_x, n_p)
+                dt_carry = _advance(integ, rhs, advance, t, x, a, p, h, rtol, atol, dt_carry,
+                                    w)
             DT[j] = dt_carry
             for i in range(CS.shape[0]):
                 CS[i, j] = cs[i, 0]
@@ -243,7 +255,7 @@ def _compile(make, signature, fast: bool):
 
 
 #: members a block of the vectorised loop runs side by side
-LANES = rk4_block.LANES
+LANES = blocks.LANES
 #: member-samples from which a sweep compiles a plant's block functions (about 3 s, once
 #: per plant and process) to run in the vectorised loop: about what they save there
 #: (measured on the DC motor of benchmarks/bench_engine.py, 1,024 members of 10,000
@@ -259,6 +271,20 @@ def _into_lane(A, j, a, lane):
     """Column j of A into column ``lane`` of a (one member's rows, either way)."""
     for i in range(A.shape[0]):
         a[i, lane] = A[i, j]
+
+
+@_jit.step_jit
+def _prepare_lane(prepare, pb, ps, lane, h, n_x):
+    """What member ``lane``'s plant derives from its parameters (``prepare``), as its
+    single run derives it, at the start and after each of its scheduled changes: column
+    ``lane`` of pb into row ``lane`` of ps, prepared there (where the plant's own
+    functions read it), and back into the column (where the block functions read it)."""
+    n_p = pb.shape[0]
+    for i in range(n_p):
+        ps[lane, i] = pb[i, lane]
+    prepare(sig.pointer(ps[lane]), h, n_x, n_p)
+    for i in range(n_p):
+        pb[i, lane] = ps[lane, i]
 
 
 # Rows of a block's law buffer D (LANES members a row). Every row the vectorised law and
@@ -353,23 +379,33 @@ def _fold_lanes(D, k, t, h, settle, final_start):
 def _make_block_loop(fast):
     """The vectorised member loop (exact arithmetic only: ``fast`` is not read)."""
 
-    def block_loop(law_kind, step, output, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP,
-                   AL, ev_k, ev_col, ev_add, ev_val, S, M, j0, j1):
+    def block_loop(law_kind, integ, step, output, rhs, measured, prepare, advance, n_steps,
+                   h, t_end, law_dt, X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val,
+                   S, M, tol, DT, j0, j1):
         """Members j0 .. j1-1, :data:`LANES` at a time, for n_steps samples; the arrays
-        as :func:`member_loop` takes them. A block's states and parameters are laid out
-        member-contiguous and advanced by the plant's block functions (``step``,
-        ``output``: addresses, :mod:`mfcontrol.numerics.rk4_block`), which compile the
-        plant's f and g over the members into vector instructions. Once past its start-up
-        samples the law (either law; the intelligent one with the backward-difference
-        estimator) and the metrics fold run over the members as one loop, vectorised
-        too; the start-up samples, a sample on which a member's measurement is bad and
-        the algebraic estimator run member by member (:func:`_sample`), and so does a
-        block whose members are not all at the same law sample or that holds a member
-        that came in stopped. Each member is its single run, bit for bit. RK4 plants
-        without derived parameters only; no trajectory. Returns how many block-samples
-        ran with the law vectorised."""
+        and the plant's functions (``rhs`` .. ``advance``) as :func:`member_loop` takes
+        them. With the plant's block functions (``step``, ``output``: addresses, not 0;
+        :mod:`mfcontrol.numerics.blocks`), a block's states and parameters are laid
+        out member-contiguous and advanced by them, the plant's functions compiled over
+        the members into vector instructions; with 0, each member's plant runs on its own
+        functions, by the integrator ``integ``, as in its single run. Either way what
+        ``prepare`` derives is derived per member, at the start and after its changes.
+        Once past its start-up samples the law (either law; the intelligent one with the
+        backward-difference estimator) and the metrics fold run over the members as one
+        loop, vectorised; the start-up samples, a sample on which a
+        member's measurement is bad and the algebraic estimator run member by member
+        (:func:`_sample`), and so does a block whose members are not all at the same law
+        sample or that holds a member that came in stopped. Each member is its single
+        run, bit for bit. No trajectory. Returns how many block-samples ran with the law
+        vectorised."""
+        by_block = step != 0
         step = sig.as_block_step(step)
         output = sig.as_block_output(output)
+        rhs = sig.as_rhs(rhs)
+        measured = sig.as_output(measured)
+        prepare = sig.as_prepare(prepare)
+        advance = sig.as_advance(advance)
+        rtol, atol = tol[0], tol[1]
         lanes = LANES
         n_x = X.shape[1]
         n_p = P.shape[1]
@@ -387,7 +423,8 @@ def _make_block_loop(fast):
         # fold (atomic operations; measured 0.55 against 0.21 ms per member, when the
         # law ran member by member)
         n_law = _CS0 + n_cs
-        buf = np.zeros(lanes * (n_law + 6 * n_x + n_p))
+        n_w = max(5, dopri45.N_WORK)
+        buf = np.zeros(lanes * (n_law + 7 * n_x + 2 * n_p) + n_w * n_x)
         base = sig.pointer(buf)
         D = carray(base, (n_law, lanes))
         cp = carray(sig.offset(base, lanes * _CP0), (n_cp, lanes))
@@ -400,6 +437,14 @@ def _make_block_loop(fast):
         wp = sig.offset(base, lanes * (n_law + n_x + n_p))
         xb = carray(xp, (n_x, lanes))
         pb = carray(pp, (n_p, lanes))
+        # without block functions: each member's state and parameters (with what its
+        # prepare derives) contiguous, for its own functions, and their scratch
+        xsp = sig.offset(wp, lanes * 5 * n_x)
+        psp = sig.offset(wp, lanes * 6 * n_x)
+        xs = carray(xsp, (lanes, n_x))
+        ps = carray(psp, (lanes, n_p))
+        ws = carray(sig.offset(wp, lanes * (6 * n_x + n_p)), (n_w, n_x))
+        dtc = np.zeros(lanes)
         alive = np.zeros(lanes, dtype=np.bool_)
         next_ev = np.zeros(lanes, dtype=np.int64)
         n_vector = 0
@@ -419,6 +464,11 @@ def _make_block_loop(fast):
                 D[_U, lane] = 0.0
                 next_ev[lane] = _events_at(-1, j, ev_k, ev_col, ev_add, ev_val, pb, lane,
                                            n_steps)
+            for lane in range(lanes):
+                _prepare_lane(prepare, pb, ps, lane, h, n_x)
+                if not by_block:
+                    _into_lane(xb, lane, xs.T, lane)
+                    dtc[lane] = DT[b0 + lane if lane < nb else b0]
             n_alive = nb
             # the vectorised law needs every member at the same law sample (a sweep's
             # members start together) and, for the intelligent law, no algebraic window
@@ -455,8 +505,15 @@ def _make_block_loop(fast):
                             if k == next_ev[lane]:
                                 next_ev[lane] = _events_at(k, b0 + lane, ev_k, ev_col,
                                                            ev_add, ev_val, pb, lane, n_steps)
+                                _prepare_lane(prepare, pb, ps, lane, h, n_x)
                             block_ev = min(block_ev, next_ev[lane])
-                output(xp, pp, yb)
+                if by_block:
+                    output(xp, pp, yb)
+                else:  # a stopped or spare lane keeps its last y: nothing reads it
+                    for lane in range(lanes):
+                        if alive[lane]:
+                            D[_Y, lane] = measured(sig.offset(xsp, lane * n_x),
+                                                   sig.offset(psp, lane * n_p), n_x, n_p)
                 if shared_ref:
                     r0 = R[0, k] if use_series else reference.value(RP, b0, t)
                     for lane in range(lanes):
@@ -520,11 +577,23 @@ def _make_block_loop(fast):
                             alive[lane] = False
                             n_alive -= 1
                             # its state, law memory and metrics when it stopped
+                            if not by_block:
+                                _into_lane(xs.T, lane, xb, lane)
+                                DT[b0 + lane] = dtc[lane]
                             _into_lane(xb, lane, X.T, b0 + lane)
                             _into_lane(cs, lane, CS, b0 + lane)
                             _into_lane(mj, lane, M, b0 + lane)
                 if n_alive == 0:
                     break
+                if not by_block:
+                    for lane in range(lanes):
+                        if alive[lane]:
+                            dtc[lane] = _advance(
+                                integ, rhs, advance, t,
+                                carray(sig.offset(xsp, lane * n_x), (n_x,)), D[_U, lane],
+                                carray(sig.offset(psp, lane * n_p), (n_p,)), h, rtol, atol,
+                                dtc[lane], ws)
+                    continue
                 if n_alive < lanes:
                     # a stopped or spare lane steps a copy of a live one: f never sees a
                     # state that no single run reaches (a diverged one, say)
@@ -540,6 +609,9 @@ def _make_block_loop(fast):
             for lane in range(nb):
                 if alive[lane]:
                     j = b0 + lane
+                    if not by_block:
+                        _into_lane(xs.T, lane, xb, lane)
+                        DT[j] = dtc[lane]
                     _into_lane(xb, lane, X.T, j)
                     _into_lane(cs, lane, CS, j)
                     _into_lane(mj, lane, M, j)
@@ -550,9 +622,9 @@ def _make_block_loop(fast):
 
 
 BLOCK_SIGNATURE = types.int64(
-    types.int64, types.intp, types.intp, types.int64, types.float64, types.float64,
-    types.float64, _m, _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m,
-    types.int64, types.int64)
+    types.int64, types.int64, types.intp, types.intp, types.intp, types.intp, types.intp,
+    types.intp, types.int64, types.float64, types.float64, types.float64, _m, _m, _m, _m,
+    _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v, types.int64, types.int64)
 
 
 @lru_cache(maxsize=1)
@@ -564,26 +636,35 @@ def block_kernel():
     return _compile(_make_block_loop, BLOCK_SIGNATURE, False)
 
 
-def use_blocks(block, integ: int, n_members: int, n_steps: int, record: bool,
-               vectorise: bool | None, fast: bool = False) -> bool:
-    """Whether members run in the vectorised loop: a plant with block functions that
-    numba could compile, RK4, the exact arithmetic, no trajectory, and ``vectorise``
-    True, or None (automatic): from :data:`BLOCK_WORTH_COLD` member-samples on; from
-    :data:`BLOCK_WORTH` on, or with the plant's block functions compiled already, once
-    the loop itself is compiled on this machine; never under Intel SVML (whose vector
-    sin, exp, ... differ from the scalar ones in the last bits)."""
-    if (block is None or integ != RK4 or record or fast or n_members < 2
-            or vectorise is False or block[0].failed or block[1].failed):
-        return False
+def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
+             vectorise: bool | None, fast: bool = False) -> str:
+    """Which loop runs a batch: ``"member"`` (:func:`member_kernel`), or the vectorised
+    loop (:func:`block_kernel`) with each member's plant on its own functions,
+    ``"lanes"``, or with the plant's block functions, ``"block"``.
+
+    The vectorised loop runs exact arithmetic, no trajectory, two members or more, and
+    ``vectorise`` True, or None (automatic): for at least a quarter block of members,
+    once the loop is compiled on this machine (in numba's disk cache), or from
+    :data:`BLOCK_WORTH_COLD` member-samples on. It takes the block functions (built for
+    this integrator, and numba could compile them) when asked to, or automatically
+    when they are a library plant's (cached on disk), compiled already, or from
+    :data:`BLOCK_WORTH` member-samples on (your own ODE's cost about 3 s per process),
+    and never automatically under Intel SVML (whose vector sin, exp, ... differ from the
+    scalar ones in the last bits)."""
+    if record or fast or n_members < 2 or vectorise is False:
+        return "member"
+    has_block = (block is not None and INTEGRATORS[block.integrator] == integ
+                 and not block.step.failed and not block.output.failed)
     if vectorise:
-        return True
-    if numba_config.USING_SVML or n_members < LANES // 4:
-        return False
+        return "block" if has_block else "lanes"
     work = n_members * n_steps
-    if work >= BLOCK_WORTH_COLD:
-        return True
-    ready = _block_kernel_ready()
-    return ready and ((block[0].compiled and block[1].compiled) or work >= BLOCK_WORTH)
+    if n_members < LANES // 4 or not (work >= BLOCK_WORTH_COLD or _block_kernel_ready()):
+        return "member"
+    if has_block and not numba_config.USING_SVML and (
+            block.cached or (block.step.compiled and block.output.compiled)
+            or work >= BLOCK_WORTH):
+        return "block"
+    return "lanes"
 
 
 def _block_kernel_ready() -> bool:
@@ -609,41 +690,42 @@ def threads_for(n_members: int, n_samples: int) -> int:
 def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL,
         events, S, M, tol, DT, traj, comp_rows, *, fast=False, threads=None, block=None,
         vectorise=None):
-    """Run every member (all columns) through the member loop; arrays in place.
+    """Run every member (all columns) through the member loop or the vectorised loop
+    (:func:`loop_for`; ``vectorise`` True, False or None, automatic); arrays in place.
 
     ``plant_fns`` is (rhs, output, prepare, advance); ``events`` (ev_k, ev_col, ev_add,
     ev_val). ``traj`` with n_steps columns records member 0 (then only one member runs).
-    ``block``: the plant's block functions (:class:`mfcontrol.numerics.rk4_block.Block`),
-    or None; when :func:`use_blocks` says so the members run in the vectorised loop
-    (``vectorise``: True, False or None, automatic), which leaves P and DT as they were
-    (nothing reads them after a run). Returns how many block-samples ran with the law
-    vectorised (0 in the member loop).
+    ``block``: the plant's block functions (:class:`mfcontrol.numerics.blocks.Block`),
+    or None. The vectorised loop leaves P as it was (the member loop writes the scheduled
+    changes and what ``prepare`` derives into it; nothing reads P after a run). Returns
+    how many block-samples ran with the law vectorised (0 in the member loop).
     """
     ev_k, ev_col, ev_add, ev_val = events
     m = X.shape[0]
     record = traj.shape[1] == n_steps
     n_threads = threads_for(m, n_steps) if threads is None else threads
-    addresses = None
-    if use_blocks(block, integ, m, n_steps, record, vectorise, fast):
+    which = loop_for(block, integ, m, n_steps, record, vectorise, fast)
+    block_fns = (0, 0)
+    if which == "block":
         try:
-            addresses = (block[0].address, block[1].address)
+            block_fns = (block[0].address, block[1].address)
         except NumbaError:
             # f or g compile as a single run's functions but not over a block (an
-            # operation that needs contiguous arrays, say): the member loop runs them,
-            # and use_blocks will not ask again (the failure is kept)
-            addresses = None
-    if addresses is not None:
-        _check_block(block, X, P, CP, CS, M, law_kind)
+            # operation that needs contiguous arrays, say): each member's plant runs on
+            # its own functions, and loop_for will not ask again (the failure is kept)
+            which = loop_for(None, integ, m, n_steps, record, vectorise, fast)
+    rhs, output, prepare, advance = (f.address for f in plant_fns)
+    if which != "member":
+        _check_block(block if which == "block" else None, X, P, CP, CS, M, law_kind)
         fn = block_kernel()
-        args = (law_kind, *addresses, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL,
-                ev_k, ev_col, ev_add, ev_val, S, M)
+        args = (law_kind, integ, *block_fns, rhs, output, prepare, advance, n_steps, h, t_end,
+                law_dt, X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
         tail = ()
         # threads split at whole blocks
         cuts = np.linspace(0, -(-m // LANES), n_threads + 1).round().astype(int) * LANES
         bounds = np.minimum(cuts, m)
     else:
         fn = member_kernel(fast)
-        rhs, output, prepare, advance = (f.address for f in plant_fns)
         args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X,
                 P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
         tail = (traj, comp_rows)
@@ -655,12 +737,14 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
             done = list(pool.map(lambda ab: fn(*args, ab[0], ab[1], *tail),
                                  [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)
                                   if b > a]))
-    return sum(int(d) for d in done) if addresses is not None else 0
+    return sum(int(d) for d in done) if which != "member" else 0
 
 
 def _check_block(block, X, P, CP, CS, M, law_kind) -> None:
-    """The block functions and the vectorised loop's buffer lay out what these arrays
-    hold: a mismatch would read and write past the buffer, so it is an error."""
+    """The block functions (or None) and the vectorised loop's buffer lay out what these
+    arrays hold: a mismatch would read and write past the buffer, so it is an error."""
+    if block is None:
+        block = blocks.Block(None, None, X.shape[1], P.shape[1])
     if law_kind == INTELLIGENT:
         n_cp = intelligent.N_PARAMS
         windows = CP[intelligent.M_WIN][CP[intelligent.EST] == intelligent.ALGEBRAIC]

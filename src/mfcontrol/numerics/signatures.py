@@ -36,7 +36,7 @@ RHS = types.void(types.float64, _ptr, types.float64, _ptr, _ptr, _n, _n)
 OUTPUT = types.float64(_ptr, _ptr, _n, _n)
 PREPARE = types.void(_ptr, types.float64, _n, _n)
 ADVANCE = types.void(types.float64, _ptr, types.float64, _ptr, types.float64, _n, _n)
-#: a block of members laid out member-contiguous (:mod:`mfcontrol.numerics.rk4_block`),
+#: a block of members laid out member-contiguous (:mod:`mfcontrol.numerics.blocks`),
 #: its sizes compiled in
 BLOCK_STEP = types.void(types.float64, _ptr, _ptr, _ptr, types.float64, _ptr)
 BLOCK_OUTPUT = types.void(_ptr, _ptr, _ptr)
