@@ -22,10 +22,10 @@ from numba's disk cache):
    time of 10,000 (1.0 is linear).
 4. Sweeps of the built-in cases ``buck-ipi``, ``boost-ipd`` and
    ``first-order-ip-algebraic`` (1,024 members, kp x a plant parameter): the engine's
-   batch of the members' configurations (``general_metrics``) in the member loop and in
+   batch of the members (``batch_metrics``) in the member loop and in
    the vectorised loop (the library plant's block functions), per member-sample on both
-   cores, and the whole of what ``mfcontrol sweep CASE`` runs per member (building each
-   member's configuration and objects, then the batch).
+   cores, the members' plants and laws built beforehand; and the whole of what
+   ``mfcontrol sweep CASE`` runs per member (building the members, then the batch).
 
 Timings are printed, never asserted. Run::
 
@@ -42,9 +42,11 @@ import numpy as np
 
 import mfcontrol
 from bench_batch import median_time  # noqa: I001 (a sibling script: run from anywhere)
-from mfcontrol.api import batch
+from mfcontrol.api import batch, params
+from mfcontrol.api.loop import law_arrays
 from mfcontrol.api.plants import ODE
-from mfcontrol.api.simulate import general_metrics
+from mfcontrol.api.simulate import batch_metrics
+from mfcontrol.engine import compose
 from mfcontrol.experiments.cases import resolve_case
 
 J, B_F, K_T, R_A, L_A = 5e-4, 1e-4, 0.05, 2.0, 2e-3
@@ -252,6 +254,7 @@ def main() -> None:
               f"ratio {ns / (base * 1e9):5.2f}")
 
     print("2. DC motor i-PI, numba ODE in place, 10,000 samples")
+    compose.block_kernel()  # the vectorised loop, compiled or loaded: the warm state
     plant = motor()
     mfcontrol.simulate_loop(plant, controller(), SPEED, t_end=T_END, changes=CHANGES)
     single = median_time(lambda: mfcontrol.simulate_loop(
@@ -317,9 +320,18 @@ def main() -> None:
     for c, (k1, v1, k2, v2) in sweeps.items():
         g = batch.make_grid(cfgs[c], batch.parse_grid({k1: v1, k2: v2}))
         members = [g.config(m) for m in range(g.n_members)]
+        pieces = [params.plant_and_changes(m) for m in members]
+        plants = [p.engine() for p, _ in pieces]
+        changes = [ch for _, ch in pieces]
+        laws = [law_arrays(params.controller(m)) for m in members]
+        RP = np.hstack([params.reference_column(m) for m in members])
         per_ms = samples[c] * g.n_members
-        loop = median_time(lambda ms=members: general_metrics(ms, vectorise=False), 3)
-        vec = median_time(lambda ms=members: general_metrics(ms, vectorise=None), 3)
+
+        def engine(vectorise, plants=plants, changes=changes, laws=laws, RP=RP, c=c):
+            return batch_metrics(cfgs[c], plants, changes, laws, RP, vectorise=vectorise)
+
+        loop = median_time(lambda: engine(False), 3)
+        vec = median_time(lambda: engine(None), 3)
         whole = median_time(lambda g=g: batch.run_range(g, 0, g.n_members), 3)
         print(f"   {c:26s} member loop {loop / per_ms * 1e9:5.1f} ns/member-sample, "
               f"vectorised {vec / per_ms * 1e9:5.1f} ({loop / vec:4.1f}x); "

@@ -173,3 +173,27 @@ def test_an_integer_option_is_a_grid_axis_and_members_equal_single_runs():
             assert cols[key][m] == single[key], (m, key)
     with pytest.raises(mfcontrol.ConfigError, match="controller.window = 4.5: must be a whole"):
         batch.make_grid(base, {"controller.window": np.array([4.0, 4.5])})
+
+
+def test_a_general_grid_builds_each_part_once_per_distinct_setting(monkeypatch):
+    # an n x m grid of a plant key and a controller key: n plants and m laws (and one
+    # reference) built, not n m configurations; each member still its single run
+    _, base = resolve_case("boost-ipd", {"sim.t_end": 0.01})
+    axes = {"plant.R": np.array([8.0, 10.0, 12.0]), "controller.kp": np.linspace(2e7, 6e7, 4)}
+    grid = batch.make_grid(base, axes)
+    readers, built = batch._general_readers(), {}
+
+    def counting(part, fn):
+        def build(cfg):
+            built[part] = built.get(part, 0) + 1
+            return fn(cfg)
+        return build
+
+    monkeypatch.setattr(batch, "_general_readers",
+                        lambda: {part: counting(part, fn) for part, fn in readers.items()})
+    cols = batch.run_range(grid, 0, grid.n_members)
+    assert built == {"plant": 3 + 1, "law": 4 + 1, "reference": 1 + 1}  # + the key probes
+    for m in range(grid.n_members):
+        single = mfcontrol.simulate(grid.config(m)).metrics
+        for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "diverged", "n_samples"):
+            assert cols[key][m] == single[key], (m, key)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -84,16 +85,26 @@ def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
     model, law and time grid, in one batch of the general engine (``vectorise`` as
     :func:`mfcontrol.api.loop.run_members` takes it)."""
     from . import params
-    from .loop import law_arrays, run_members
+    from .loop import law_arrays
 
-    first = cfgs[0]
-    n = scenario.n_steps(first)
     members = [params.plant_and_changes(c) for c in cfgs]
-    plants = [p.engine() for p, _ in members]
-    laws = [law_arrays(params.controller(c)) for c in cfgs]
-    RP = np.hstack([params.reference_column(c) for c in cfgs])
-    M, _, _ = run_members(plants, laws, np.zeros((0, n)),
-                          [ch for _, ch in members], t_end=first["sim.t_end"],
+    return batch_metrics(cfgs[0], [p.engine() for p, _ in members], [ch for _, ch in members],
+                         [law_arrays(params.controller(c)) for c in cfgs],
+                         np.hstack([params.reference_column(c) for c in cfgs]), fast=fast,
+                         vectorise=vectorise)
+
+
+def batch_metrics(first: Config, plants: Sequence[Any], changes: Sequence[Sequence[Any]],
+                  laws: Sequence[Any], RP: np.ndarray, *, fast: bool = False,
+                  vectorise: bool | None = None) -> np.ndarray:
+    """The metrics of members given as their engine plants, scheduled changes, law arrays
+    and reference columns (``RP[:, j]``), built from configurations that share the time
+    grid and metric settings of ``first``, in one batch of the general engine."""
+    from . import params
+    from .loop import run_members
+
+    n = scenario.n_steps(first)
+    M, _, _ = run_members(plants, laws, np.zeros((0, n)), changes, t_end=first["sim.t_end"],
                           h=first["sim.h"], S=params.metric_settings(first), fast=fast,
                           RP=RP, vectorise=vectorise)
     return M

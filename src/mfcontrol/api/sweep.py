@@ -151,16 +151,20 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         Also run this many members, spread over the grid, with their trajectories
         (``result.kept``).
     vectorise : bool or None
-        For your own ODE (RK4, exact arithmetic: not with ``fast=True``): run the
-        members in the engine's vectorised loop, where numba compiles f and g over
-        blocks of 64 members into vector instructions and, past the first samples, the
-        law and the metrics run over the block as well (the algebraic estimator member
-        by member; the DC motor of the README's Speed section: about 6x faster, the
-        same bits), at the price of compiling f and g so (about 3 s, once per plant and
-        process) and, the first time ever on a machine, the loop itself (about 40 s,
-        then cached on disk). None (default): when the sweep is large enough to repay
-        that (5e7 member-samples once the loop is compiled, 7e8 before) or f and g are
-        compiled so already.
+        Run the members in the engine's vectorised loop (exact arithmetic: not with
+        ``fast=True``): blocks of 64 members whose law and metrics, past the first
+        samples, run over the block as vector instructions (the algebraic estimator
+        member by member), the plant too when it has block functions: the library's
+        plants (compiled once per machine) and your own ODE under RK4, whose f and g
+        numba compiles over the block (about 3 s, once per plant and process);
+        otherwise each member's f runs through its compiled function. The same bits
+        either way; on the DC motor of the README's Speed section, about 1.6x faster
+        than the member loop with f member by member and about 6x with f over the
+        block. True: always, f over the block where it can; False: the member loop;
+        None (default): from 16 members on once the vectorised loop is compiled on the
+        machine (about 40 s the first time ever, then cached on disk; before that from
+        7e8 member-samples on), with your f over the block from 8e7 member-samples on
+        or once compiled so.
 
     Returns
     -------

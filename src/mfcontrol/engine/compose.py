@@ -256,11 +256,12 @@ def _compile(make, signature, fast: bool):
 
 #: members a block of the vectorised loop runs side by side
 LANES = blocks.LANES
-#: member-samples from which a sweep compiles a plant's block functions (about 3 s, once
+#: member-samples from which a sweep compiles your ODE's block functions (about 3 s, once
 #: per plant and process) to run in the vectorised loop: about what they save there
-#: (measured on the DC motor of benchmarks/bench_engine.py, 1,024 members of 10,000
-#: samples on two cores: about 0.7 -> 0.13 ms per member, some 60 ns per member-sample)
-BLOCK_WORTH = 50_000_000
+#: against f member by member (measured on the DC motor of benchmarks/bench_engine.py,
+#: 1,024 members of 10,000 samples on two cores: about 0.49 -> 0.13 ms per member, some
+#: 36 ns per member-sample)
+BLOCK_WORTH = 80_000_000
 #: the same while the vectorised loop itself is not compiled yet on this machine (about
 #: 40 s, once: then it is in numba's disk cache)
 BLOCK_WORTH_COLD = 700_000_000
