@@ -177,23 +177,48 @@ def test_an_integer_option_is_a_grid_axis_and_members_equal_single_runs():
 
 def test_a_general_grid_builds_each_part_once_per_distinct_setting(monkeypatch):
     # an n x m grid of a plant key and a controller key: n plants and m laws (and one
-    # reference) built, not n m configurations; each member still its single run
+    # reference) built, not n m configurations; each member still its single run (a
+    # range from a member past the first, enough members for the vectorised loop)
+    from mfcontrol.api import simulate
+
     _, base = resolve_case("boost-ipd", {"sim.t_end": 0.01})
-    axes = {"plant.R": np.array([8.0, 10.0, 12.0]), "controller.kp": np.linspace(2e7, 6e7, 4)}
+    axes = {"plant.R": np.linspace(8.0, 12.0, 5), "controller.kp": np.linspace(2e7, 6e7, 6)}
     grid = batch.make_grid(base, axes)
-    readers, built = batch._general_readers(), {}
+    parts, built = simulate.member_parts(), {}
 
-    def counting(part, fn):
-        def build(cfg):
+    def counting(part, build):
+        def counted(cfg):
             built[part] = built.get(part, 0) + 1
-            return fn(cfg)
-        return build
+            return build(cfg)
+        return counted
 
-    monkeypatch.setattr(batch, "_general_readers",
-                        lambda: {part: counting(part, fn) for part, fn in readers.items()})
-    cols = batch.run_range(grid, 0, grid.n_members)
-    assert built == {"plant": 3 + 1, "law": 4 + 1, "reference": 1 + 1}  # + the key probes
-    for m in range(grid.n_members):
+    monkeypatch.setattr(batch, "member_parts",
+                        lambda: {part: counting(part, b) for part, b in parts.items()})
+    start, stop = 7, grid.n_members
+    cols = batch.run_range(grid, start, stop)
+    # members 7 .. 29 hold R values 1 .. 4 and every kp; + the probes of who reads a key
+    assert built == {"plant": 4 + 1, "law": 6 + 1, "reference": 1 + 1}
+    for m in range(start, stop):
         single = mfcontrol.simulate(grid.config(m)).metrics
         for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "diverged", "n_samples"):
-            assert cols[key][m] == single[key], (m, key)
+            assert cols[key][m - start] == single[key], (m, key)
+
+
+@pytest.mark.parametrize("axes", [
+    {"controller.window": [10, 20]},  # read by no part with this estimator
+    {"controller.duty_max": [0.8, 0.9], "plant.R": [8.0, 12.0]},  # met in one check
+])
+def test_a_general_grid_whose_keys_cannot_be_split_by_part_runs_a_configuration_per_member(
+        axes, monkeypatch):
+    from mfcontrol.api import simulate
+
+    _, base = resolve_case("boost-ipd", {"sim.t_end": 0.005})
+    grid = batch.make_grid(base, {k: np.array(v, dtype=float) for k, v in axes.items()})
+    plain = []
+    monkeypatch.setattr(batch, "general_metrics",
+                        lambda cfgs, **kw: plain.append(len(cfgs))
+                        or simulate.general_metrics(cfgs, **kw))
+    cols = batch.run_range(grid, 0, grid.n_members)
+    assert plain == [grid.n_members]
+    for m in range(grid.n_members):
+        assert cols["iae"][m] == mfcontrol.simulate(grid.config(m)).metrics["iae"]

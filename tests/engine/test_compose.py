@@ -462,21 +462,30 @@ def test_vectorised_members_with_references_of_their_own_equal_their_single_runs
 
 def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     from mfcontrol.engine import compose
+    from mfcontrol.numerics import blocks
 
     block = _motor().engine().block
+    library = Boost().engine().block
     m = 1000
     big, cold = compose.BLOCK_WORTH // m, compose.BLOCK_WORTH_COLD // m  # samples
     loop = compose.loop_for
+    ready = [False]  # whether block functions are compiled or in numba's disk cache
+    monkeypatch.setattr(blocks.Block, "ready", property(lambda self: ready[0]))
     # the loop itself compiled on this machine already: it runs a quarter block or more,
-    # on the block functions when they are worth compiling
+    # on the block functions when they are worth compiling or compiled already
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
     assert loop(block, compose.RK4, m, big - 1, False, None) == "lanes"
     assert loop(block, compose.RK4, m, big, False, None) == "block"
-    assert loop(None, compose.RK4, m, big, False, None) == "lanes"  # a library plant
-    assert loop(block, compose.DP45, m, big, False, None) == "lanes"
+    assert loop(library, compose.RK4, m, big - 1, False, None) == "lanes"
+    ready[0] = True  # a library plant's once compiled on the machine, or your ODE's
+    assert loop(library, compose.RK4, compose.LANES // 4, 10, False, None) == "block"
+    assert loop(block, compose.RK4, m, 10, False, None) == "block"
+    assert loop(None, compose.RK4, m, big, False, None) == "lanes"  # no block functions
+    assert loop(block, compose.DP45, m, big, False, None) == "lanes"  # built for RK4
     assert loop(None, compose.EXACT, compose.LANES // 4, 10, False, None) == "lanes"
     assert loop(None, compose.EXACT, compose.LANES // 4 - 1, 10, False, None) == "member"
     # not compiled yet: only far more work repays its first compilation
+    ready[0] = False
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: False)
     assert loop(block, compose.RK4, m, cold - 1, False, None) == "member"
     assert loop(block, compose.RK4, m, cold, False, None) == "block"
@@ -490,11 +499,36 @@ def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     assert loop(block, compose.RK4, m, cold, False, False) == "member"
     # the fast mode's single runs fuse the RK4's arithmetic, the vectorised loop does not
     assert loop(block, compose.RK4, m, cold, False, True, fast=True) == "member"
+    # review: under Intel SVML a loop over a block's members (even of the reference) may
+    # take vector sin, cos, ... whose last bits differ: never chosen automatically
+    monkeypatch.setattr(compose.numba_config, "USING_SVML", True)
+    assert loop(library, compose.RK4, m, cold, False, None) == "member"
+    assert loop(library, compose.RK4, m, 10, False, True) == "block"
 
 
-def test_a_plant_that_compiles_only_member_by_member_falls_back_to_the_member_loop():
+def test_block_functions_are_found_in_the_disk_cache_before_they_load():
+    # review: the automatic choice took a library plant's block functions as compiled
+    # whether or not they were; it now looks them up in numba's disk cache
+    import uuid
+
+    from mfcontrol.numerics import blocks
+    from mfcontrol.plants import first_order
+
+    key = ("test", uuid.uuid4().hex)  # block functions never compiled before
+    build = lambda: blocks._build(first_order.rhs.py_func,  # noqa: E731
+                                  first_order.measured.py_func, "library", 1, 3, key)
+    fresh = build()
+    assert not fresh.ready
+    assert fresh.step.address and fresh.output.address  # compiled, saved to the disk cache
+    assert fresh.ready
+    again = build()  # as another process would build them
+    assert not again.step.compiled and again.ready
+    assert not blocks.of_ode(_motor_inplace, lambda x, p: x[0], True, 2, 6).ready
+
+
+def test_a_plant_that_compiles_only_member_by_member_runs_each_member_on_its_functions():
     # review: g on a column view of a block cannot reshape (not contiguous); the sweep
-    # raised instead of running the members one by one
+    # raised instead of running each member's plant through its own functions
     def g(x, p):
         return x.reshape((2, 1))[0, 0]
 
@@ -589,7 +623,8 @@ LIBRARY_SWEEPS = {
                             "set": 15.0 if j % 3 else 10.5}]}),
     "boost-rk45": ("boost-ipd", lambda j: {
         "sim.t_end": 0.01, "sim.integrator": "rk45", "plant.L": 1e-3 * (0.8 + 0.01 * j),
-        "controller.kp": 4.4e7 * (0.5 + 0.03 * j)}),
+        "controller.kp": 4.4e7 * (0.5 + 0.03 * j), "sim.diverge_above": 22.0,
+        "plant.schedule": [{"t": 0.002 + 5e-5 * j, "name": "R", "set": 5.0 + 0.2 * j}]}),
     "buck-rk4": ("buck-ipi", lambda j: {
         "plant.C": 1e-5 * (0.8 + 0.01 * j), "sim.diverge_above": 7.6,
         "plant.dR": 5.0 if j % 2 else 0.5, "controller.kp": 3e3 * (0.5 + 0.1 * j),
@@ -619,24 +654,43 @@ def _loops_chosen(monkeypatch) -> list[str]:
 
 @pytest.mark.parametrize("sweep", [*LIBRARY_SWEEPS, "boost-rk4-own-functions"])
 def test_built_in_plants_in_the_vectorised_loop_equal_their_single_runs(sweep, monkeypatch):
-    from mfcontrol.api.simulate import general_metrics
+    from mfcontrol.api.simulate import batch_metrics, member_parts
     from mfcontrol.engine import metrics
     from mfcontrol.numerics import blocks
 
     if sweep == "boost-rk4-own-functions":  # no block functions: each plant on its own
         monkeypatch.setattr(blocks, "of_library", lambda *args: None)
     cfgs = _case_members(*LIBRARY_SWEEPS[sweep.replace("-own-functions", "")])
+    parts = {name: [build(c) for c in cfgs] for name, build in member_parts().items()}
     vectorised = _count_vectorised(monkeypatch)
     loops = _loops_chosen(monkeypatch)
-    M = general_metrics(cfgs, vectorise=True)
+    M, CS = batch_metrics(cfgs[0], parts, vectorise=True)
     assert loops == ["lanes" if sweep in ("boost-rk45", "boost-rk4-own-functions")
                      else "block"]
     # the law ran over the blocks, except with the algebraic estimator (member by member)
     assert (vectorised[0] == 0) == (sweep == "first-order-algebraic")
-    if sweep != "boost-rk45":
-        assert 0 < M[metrics.M_DIVERGED].sum() < len(cfgs)  # some go bad
-    for j, cfg in enumerate(cfgs):
-        _assert_same_bits(M[:, j], general_metrics([cfg])[:, 0], j)
+    assert 0 < M[metrics.M_DIVERGED].sum() < len(cfgs)  # some go bad
+    for j in range(len(cfgs)):
+        Mj, CSj = batch_metrics(cfgs[j], {k: v[j:j + 1] for k, v in parts.items()})
+        _assert_same_bits(M[:, j], Mj[:, 0], j)
+        _assert_same_bits(CS[:, j], CSj[:, 0], j)
+
+
+def _final_states(monkeypatch) -> list[tuple[np.ndarray, np.ndarray]]:
+    """A list that will hold (X, DT) after each of the next batches: the plant states
+    and the adaptive integrator's carried steps the engine leaves (run_members drops
+    them)."""
+    from mfcontrol.engine import compose
+
+    out, run = [], compose.run
+
+    def keeping(*args, **kwargs):
+        done = run(*args, **kwargs)
+        out.append((args[7].copy(), args[18].copy()))  # X, DT
+        return done
+
+    monkeypatch.setattr(compose, "run", keeping)
+    return out
 
 
 @pytest.mark.parametrize("plant", ["lti-exact", "motor-rk45", "first-order-exact"])
@@ -645,46 +699,53 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
     # the LTI's discretisation derived per member (with h) and again after its change of
     # A; your own ODE under the adaptive integrator (neither has block functions: each
     # member on its plant's own functions); the first-order plant's exact step over the
-    # block: each member as in its single run, bit for bit
+    # block: each member as in its single run, bit for bit, and the final states and
+    # carried steps those of the member loop. 130 members (two blocks and a part block)
+    # over enough samples for two threads.
     from mfcontrol.api.loop import law_arrays, run_members
-    from mfcontrol.engine import metrics
+    from mfcontrol.engine import compose, metrics
 
-    m = 70
+    m = 130
     if plant == "lti-exact":
         obj, h, t_end, name = LTI([[0.0, 1.0], [-2.0, -0.5]], [0.0, 1.0], [1.0, 0.0],
-                                  integrator="exact"), 0.01, 4.0, "A[1,0]"
-        make = lambda j: mfcontrol.IP(alpha=1.0, kp=-2.0 + 0.2 * j, sample_time=h)  # noqa: E731
-        change = lambda j: Change(1.0 + 0.01 * j, name, -2.0 - 0.1 * j)  # noqa: E731
+                                  integrator="exact"), 0.01, 20.0, "A[1,0]"
+        make = lambda j: mfcontrol.IP(alpha=1.0, kp=-2.0 + 0.1 * j, sample_time=h)  # noqa: E731
+        change = lambda j: Change(1.0 + 0.01 * j, name, -2.0 - 0.05 * j)  # noqa: E731
         R = np.ones((1, round(t_end / h)))
     elif plant == "first-order-exact":
-        obj, h, t_end, name = FirstOrder(-1.0, 1.0, integrator="exact"), 0.01, 4.0, "w"
-        make = lambda j: mfcontrol.IPI(alpha=1.0, kp=-2.0 + 0.2 * j, ki=1.0,  # noqa: E731
+        obj, h, t_end, name = FirstOrder(-1.0, 1.0, integrator="exact"), 0.01, 20.0, "w"
+        make = lambda j: mfcontrol.IPI(alpha=1.0, kp=-2.0 + 0.1 * j, ki=1.0,  # noqa: E731
                                        sample_time=h)
         change = lambda j: Change(1.0 + 0.01 * j, name, 0.5)  # noqa: E731
         R = np.ones((1, round(t_end / h)))
     else:
         obj, h, t_end, name = ODE(_motor_inplace, lambda x, p: x[0], x0=(0.0, 0.0),
-                                  params=PARAMS, integrator="rk45"), 1e-3, 0.3, "tau"
-        make = lambda j: VECTORISED_LAWS["IPI"](-40.0 + 1.5 * j)  # noqa: E731
+                                  params=PARAMS, integrator="rk45"), 1e-3, 2.0, "tau"
+        make = lambda j: VECTORISED_LAWS["IPI"](-40.0 + 0.75 * j)  # noqa: E731
         change = lambda j: Change(0.1 + 0.002 * j, name, 0.02 + 0.001 * j)  # noqa: E731
         R = np.full((1, round(t_end / h)), 60.0)
     plants, laws, changes = [], [], []
     for j in range(m):
         if plant == "lti-exact":
-            obj.set_param(name, obj.params[name] * (1.0 + 0.01 * j))
-        else:
-            obj.set_param("a" if plant == "first-order-exact" else name,
-                          -1.0 + 0.01 * j if plant == "first-order-exact" else 0.0)
+            obj.set_param(name, obj.params[name] * (1.0 + 0.005 * j))
+        elif plant == "first-order-exact":
+            obj.set_param("a", -1.0 + 0.005 * j)
         plants.append(obj.engine())
         laws.append(law_arrays(make(j)))
         changes.append([change(j)])
     S = metrics.settings(0.1, t_end, 0.2, 200.0 if plant == "motor-rk45" else 5.0)
+    assert compose.threads_for(m, R.shape[1]) == 2
     vectorised = _count_vectorised(monkeypatch)
     loops = _loops_chosen(monkeypatch)
+    finals = _final_states(monkeypatch)
     M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, vectorise=True)
     assert vectorised[0] > 0
     assert loops == ["block" if plant == "first-order-exact" else "lanes"]
     assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
+    run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, vectorise=False)
+    (X, DT), (X_member, DT_member) = finals
+    _assert_same_bits(X, X_member, "all")
+    _assert_same_bits(DT, DT_member, "all")
     for j in range(m):
         Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S)

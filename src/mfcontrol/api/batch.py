@@ -27,7 +27,7 @@ from ..errors import ConfigError
 from ..laws import recursive_ip
 from . import metrics as _metrics
 from . import scenario
-from .simulate import batch_metrics, compiled, general_metrics
+from .simulate import batch_metrics, compiled, general_metrics, member_parts
 
 _SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
 METRIC_COLUMNS = _metrics.COLUMNS
@@ -250,46 +250,44 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
     return cols
 
 
-def _general_readers():
-    """What a member of the general engine is built from, by the part of it built: the
-    translators a single run calls (:mod:`mfcontrol.api.params`)."""
-    from . import params
-    from .loop import law_arrays
-
-    return {"plant": lambda cfg: (lambda pc: (pc[0].engine(), pc[1]))(
-                params.plant_and_changes(cfg)),
-            "law": lambda cfg: law_arrays(params.controller(cfg)),
-            "reference": params.reference_column}
-
-
 def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
     """Metrics (kernel rows) of members start .. stop-1 of a grid the paper's kernel does
     not cover, in one batch of the general engine.
 
-    Each member's plant (with its schedule), law and reference are what its single run
-    builds from its configuration, but each is built once per distinct setting of the
-    swept keys it reads: the plant and the controller of an n x m grid of a plant key and
-    a controller key are n + m configurations, not n m (each about 0.3 ms, more than
-    simulating a member). A key read by none or by more than one of them (or by the
-    settings every member shares) is swept the plain way, a configuration per member."""
-    from ..config.resolve import keys_read
+    Each member's parts (:func:`mfcontrol.api.simulate.member_parts`: its plant with its
+    schedule, its law, its reference) are what its single run builds from its
+    configuration, but each part is built once per distinct setting of the swept keys it
+    reads: the plant and the controller of an n x m grid of a plant key and a controller
+    key are n + m configurations, not n m (each about 0.3 ms, more than simulating a
+    member). Which part reads a key is found by building the parts of member ``start``;
+    a key read by none or by more than one part (or by the settings every member
+    shares) is swept the plain way, a configuration per member, and so is a grid whose
+    keys of different parts meet in a check across options (each part's configuration
+    is checked with its own keys set only)."""
+    from ..config.resolve import _check_consistency, keys_read
     from . import params
 
-    readers = _general_readers()
+    parts = member_parts()
+    probe = grid.config(start)
+    shared = keys_read(lambda c: (scenario.n_steps(c), params.metric_settings(c)), probe)
+    checked = keys_read(_check_consistency, probe)
+    reads = {part: keys_read(build, probe) for part, build in parts.items()}
     owner: dict[str, str] = {}
-    shared = keys_read(lambda c: (scenario.n_steps(c), params.metric_settings(c)), grid.base)
-    reads = {part: keys_read(fn, grid.base) for part, fn in readers.items()}
     for key in grid.axes:
-        parts = [part for part, keys in reads.items() if key in keys]
-        if len(parts) != 1 or key in shared:
-            return general_metrics([grid.config(m) for m in range(start, stop)], fast=fast)
-        owner[key] = parts[0]
+        readers = [part for part, keys in reads.items() if key in keys]
+        if len(readers) != 1 or key in shared:
+            owner.clear()
+            break
+        owner[key] = readers[0]
+    if not owner or len({owner[k] for k in grid.axes if k in checked}) > 1:
+        return general_metrics([grid.config(m) for m in range(start, stop)], fast=fast)
     keys = list(grid.axes)
     idx = np.unravel_index(np.arange(start, stop), grid.shape)
-    members: dict[str, list] = {part: [] for part in readers}
-    for part, build in readers.items():
+    members: dict[str, list] = {}
+    for part, build in parts.items():
         mine = [c for c, k in enumerate(keys) if owner[k] == part]
         built: dict[tuple[int, ...], object] = {}
+        members[part] = []
         for j in range(stop - start):
             at = tuple(int(idx[c][j]) for c in mine)
             if at not in built:  # the configuration with these values set, checked
@@ -297,10 +295,7 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
                     {keys[c]: axis_value(keys[c], grid.axes[keys[c]][i])
                      for c, i in zip(mine, at, strict=True)}))
             members[part].append(built[at])
-    plants = [p for p, _ in members["plant"]]
-    changes = [ch for _, ch in members["plant"]]
-    return batch_metrics(grid.base, plants, changes, members["law"],
-                         np.hstack(members["reference"]), fast=fast)
+    return batch_metrics(grid.base, members, fast=fast)[0]
 
 
 def chunks(n_members: int, size: int) -> Iterator[tuple[int, int, int]]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -79,35 +79,46 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     return dataclasses.replace(res, config=cfg, changes=())
 
 
+def member_parts() -> dict[str, Callable[[Config], Any]]:
+    """How a member of the general engine is built from its configuration, part by part,
+    by the translators a single run calls (:mod:`mfcontrol.api.params`): ``"plant"``,
+    its engine plant and scheduled changes; ``"law"``, its law's arrays;
+    ``"reference"``, its reference column."""
+    from . import params
+    from .loop import law_arrays
+
+    def plant(cfg: Config) -> tuple[Any, list]:
+        p, changes = params.plant_and_changes(cfg)
+        return p.engine(), changes
+
+    return {"plant": plant, "law": lambda cfg: law_arrays(params.controller(cfg)),
+            "reference": params.reference_column}
+
+
 def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
                     vectorise: bool | None = None) -> np.ndarray:
     """The metrics (kernel rows, one column per member) of configurations that share a
     model, law and time grid, in one batch of the general engine (``vectorise`` as
     :func:`mfcontrol.api.loop.run_members` takes it)."""
-    from . import params
-    from .loop import law_arrays
-
-    members = [params.plant_and_changes(c) for c in cfgs]
-    return batch_metrics(cfgs[0], [p.engine() for p, _ in members], [ch for _, ch in members],
-                         [law_arrays(params.controller(c)) for c in cfgs],
-                         np.hstack([params.reference_column(c) for c in cfgs]), fast=fast,
-                         vectorise=vectorise)
+    parts = {name: [build(c) for c in cfgs] for name, build in member_parts().items()}
+    return batch_metrics(cfgs[0], parts, fast=fast, vectorise=vectorise)[0]
 
 
-def batch_metrics(first: Config, plants: Sequence[Any], changes: Sequence[Sequence[Any]],
-                  laws: Sequence[Any], RP: np.ndarray, *, fast: bool = False,
-                  vectorise: bool | None = None) -> np.ndarray:
-    """The metrics of members given as their engine plants, scheduled changes, law arrays
-    and reference columns (``RP[:, j]``), built from configurations that share the time
-    grid and metric settings of ``first``, in one batch of the general engine."""
+def batch_metrics(first: Config, parts: Mapping[str, Sequence[Any]], *, fast: bool = False,
+                  vectorise: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(M, CS): the metrics and law memory of members given as their parts (each part's
+    list as :func:`member_parts` builds it, one item per member), built from
+    configurations that share the time grid and metric settings of ``first``, in one
+    batch of the general engine."""
     from . import params
     from .loop import run_members
 
     n = scenario.n_steps(first)
-    M, _, _ = run_members(plants, laws, np.zeros((0, n)), changes, t_end=first["sim.t_end"],
-                          h=first["sim.h"], S=params.metric_settings(first), fast=fast,
-                          RP=RP, vectorise=vectorise)
-    return M
+    M, _, CS = run_members([ep for ep, _ in parts["plant"]], parts["law"], np.zeros((0, n)),
+                           [ch for _, ch in parts["plant"]], t_end=first["sim.t_end"],
+                           h=first["sim.h"], S=params.metric_settings(first), fast=fast,
+                           RP=np.hstack(parts["reference"]), vectorise=vectorise)
+    return M, CS
 
 
 def simulate_many(cfgs: Sequence[Config], name: str = "", *,

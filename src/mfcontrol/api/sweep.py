@@ -161,10 +161,9 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         either way; on the DC motor of the README's Speed section, about 1.6x faster
         than the member loop with f member by member and about 6x with f over the
         block. True: always, f over the block where it can; False: the member loop;
-        None (default): from 16 members on once the vectorised loop is compiled on the
-        machine (about 40 s the first time ever, then cached on disk; before that from
-        7e8 member-samples on), with your f over the block from 8e7 member-samples on
-        or once compiled so.
+        None (default): when it pays (:func:`mfcontrol.engine.compose.loop_for`: once
+        the vectorised loop is compiled on the machine, about 40 s the first time ever,
+        then cached on disk; f over the block for large sweeps or once compiled so).
 
     Returns
     -------

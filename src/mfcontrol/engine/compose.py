@@ -275,6 +275,13 @@ def _into_lane(A, j, a, lane):
 
 
 @_jit.step_jit
+def _member_of(b0, lane, nb):
+    """The member in column ``lane`` of the block of nb members from member b0: a part
+    block's spare lanes hold copies of member b0."""
+    return b0 + lane if lane < nb else b0
+
+
+@_jit.step_jit
 def _prepare_lane(prepare, pb, ps, lane, h, n_x):
     """What member ``lane``'s plant derives from its parameters (``prepare``), as its
     single run derives it, at the start and after each of its scheduled changes: column
@@ -452,7 +459,7 @@ def _make_block_loop(fast):
         for b0 in range(j0, j1, lanes):
             nb = min(lanes, j1 - b0)
             for lane in range(lanes):
-                j = b0 + lane if lane < nb else b0  # a part block's spare lanes copy b0
+                j = _member_of(b0, lane, nb)
                 _into_lane(X.T, j, xb, lane)
                 _into_lane(P.T, j, pb, lane)
                 _into_lane(CP, j, cp, lane)
@@ -469,7 +476,7 @@ def _make_block_loop(fast):
                 _prepare_lane(prepare, pb, ps, lane, h, n_x)
                 if not by_block:
                     _into_lane(xb, lane, xs.T, lane)
-                    dtc[lane] = DT[b0 + lane if lane < nb else b0]
+                    dtc[lane] = DT[_member_of(b0, lane, nb)]
             n_alive = nb
             # the vectorised law needs every member at the same law sample (a sweep's
             # members start together) and, for the intelligent law, no algebraic window
@@ -521,7 +528,7 @@ def _make_block_loop(fast):
                         D[_R, lane] = r0
                 else:
                     for lane in range(lanes):
-                        j = b0 + lane if lane < nb else b0
+                        j = _member_of(b0, lane, nb)
                         D[_R, lane] = R[j, k] if use_series else reference.value(RP, j, t)
                 vector = lanes_law and law_k0 + k >= steady
                 if vector:
@@ -539,7 +546,7 @@ def _make_block_loop(fast):
                     n_vector += 1
                     if external and law_kind == INTELLIGENT:
                         for lane in range(lanes):
-                            j = b0 + lane if lane < nb else b0
+                            j = _member_of(b0, lane, nb)
                             cs[variational_gain.ALPHA_EXT, lane] = AL[j if own_alpha else 0, k]
                     if law_kind == INTELLIGENT and simple:
                         n_bad = _intelligent_lanes(D, law_dt, True)
@@ -647,11 +654,12 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     ``vectorise`` True, or None (automatic): for at least a quarter block of members,
     once the loop is compiled on this machine (in numba's disk cache), or from
     :data:`BLOCK_WORTH_COLD` member-samples on. It takes the block functions (built for
-    this integrator, and numba could compile them) when asked to, or automatically
-    when they are a library plant's (cached on disk), compiled already, or from
-    :data:`BLOCK_WORTH` member-samples on (your own ODE's cost about 3 s per process),
-    and never automatically under Intel SVML (whose vector sin, exp, ... differ from the
-    scalar ones in the last bits)."""
+    this integrator, and numba could compile them) when asked to, or automatically when
+    they are compiled in this process or in numba's disk cache (a library plant's, once
+    compiled on the machine) or from :data:`BLOCK_WORTH` member-samples on (your own
+    ODE's cost about 3 s per process). Never automatically under Intel SVML (whose
+    vector sin, exp, ... differ from the scalar ones in the last bits: a loop over a
+    block's members, even of the reference, could change a member's bits)."""
     if record or fast or n_members < 2 or vectorise is False:
         return "member"
     has_block = (block is not None and INTEGRATORS[block.integrator] == integ
@@ -659,11 +667,10 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     if vectorise:
         return "block" if has_block else "lanes"
     work = n_members * n_steps
-    if n_members < LANES // 4 or not (work >= BLOCK_WORTH_COLD or _block_kernel_ready()):
+    if (n_members < LANES // 4 or numba_config.USING_SVML
+            or not (work >= BLOCK_WORTH_COLD or _block_kernel_ready())):
         return "member"
-    if has_block and not numba_config.USING_SVML and (
-            block.cached or (block.step.compiled and block.output.compiled)
-            or work >= BLOCK_WORTH):
+    if has_block and (work >= BLOCK_WORTH or block.ready):
         return "block"
     return "lanes"
 
@@ -722,9 +729,9 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
         args = (law_kind, integ, *block_fns, rhs, output, prepare, advance, n_steps, h, t_end,
                 law_dt, X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
         tail = ()
-        # threads split at whole blocks
-        cuts = np.linspace(0, -(-m // LANES), n_threads + 1).round().astype(int) * LANES
-        bounds = np.minimum(cuts, m)
+        # threads split at whole blocks, their shares of members as even as that allows
+        bounds = (np.linspace(0, m, n_threads + 1) / LANES).round().astype(int) * LANES
+        bounds[-1] = m
     else:
         fn = member_kernel(fast)
         args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X,

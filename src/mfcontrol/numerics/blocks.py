@@ -49,8 +49,12 @@ class Block(NamedTuple):
     n_p: int
     #: the integrator the step is: "rk4", or "exact" (the plant's own exact step)
     integrator: str = "rk4"
-    #: compiled once per machine (numba's disk cache), not once per process
-    cached: bool = False
+
+    @property
+    def ready(self) -> bool:
+        """Whether both are compiled in this process or found in numba's disk cache (a
+        library plant's, once compiled on the machine)."""
+        return self.step.ready and self.output.ready
 
 
 def _inline(fn: Callable[..., Any], key: tuple | None):
@@ -145,7 +149,7 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
     cache = key is not None
     return Block(sig.Lazy(sig.BLOCK_STEP, step, cache=cache),
                  sig.Lazy(sig.BLOCK_OUTPUT, output, cache=cache), nx, np_,
-                 "exact" if form == "exact" else "rk4", cache)
+                 "exact" if form == "exact" else "rk4")
 
 
 def of_ode(f: Callable[..., Any], g: Callable[..., Any], in_place: bool, n_x: int,

@@ -25,7 +25,8 @@ array view. Their signatures, in that order::
 
 import numpy as np
 from numba import carray, cfunc, njit, types
-from numba.core import cgutils
+from numba.core import cgutils, sigutils
+from numba.core.ccallback import CFunc
 from numba.core.errors import NumbaError
 from numba.extending import intrinsic
 
@@ -66,6 +67,24 @@ class Lazy:
     def compiled(self) -> bool:
         """Whether it has been compiled (or loaded) in this process."""
         return self._compiled is not None
+
+    @property
+    def ready(self) -> bool:
+        """Whether it is compiled in this process or in numba's disk cache (its index
+        looked up, nothing loaded or compiled)."""
+        if self._compiled is not None:
+            return True
+        if not self._cache or self._error is not None:
+            return False
+        try:
+            probe = CFunc(self.py_func, sigutils.normalize_signature(self._sig), {},
+                          {"error_model": "numpy"})
+            probe.enable_caching()
+            cache = probe._cache
+            key = cache._index_key(probe._sig, probe._targetdescr.target_context.codegen())
+            return key in cache._cache_file._load_index()
+        except Exception:  # noqa: BLE001 (numba's cache internals moved: say not cached)
+            return False
 
     @property
     def failed(self) -> bool:
