@@ -42,10 +42,9 @@ import numpy as np
 
 import mfcontrol
 from bench_batch import median_time  # noqa: I001 (a sibling script: run from anywhere)
-from mfcontrol.api import batch, params
-from mfcontrol.api.loop import law_arrays
+from mfcontrol.api import batch
 from mfcontrol.api.plants import ODE
-from mfcontrol.api.simulate import batch_metrics
+from mfcontrol.api.simulate import batch_metrics, member_parts
 from mfcontrol.engine import compose
 from mfcontrol.experiments.cases import resolve_case
 
@@ -320,15 +319,12 @@ def main() -> None:
     for c, (k1, v1, k2, v2) in sweeps.items():
         g = batch.make_grid(cfgs[c], batch.parse_grid({k1: v1, k2: v2}))
         members = [g.config(m) for m in range(g.n_members)]
-        pieces = [params.plant_and_changes(m) for m in members]
-        plants = [p.engine() for p, _ in pieces]
-        changes = [ch for _, ch in pieces]
-        laws = [law_arrays(params.controller(m)) for m in members]
-        RP = np.hstack([params.reference_column(m) for m in members])
+        parts = {name: [build(m) for m in members]
+                 for name, build in member_parts().items()}
         per_ms = samples[c] * g.n_members
 
-        def engine(vectorise, plants=plants, changes=changes, laws=laws, RP=RP, c=c):
-            return batch_metrics(cfgs[c], plants, changes, laws, RP, vectorise=vectorise)
+        def engine(vectorise, parts=parts, c=c):
+            return batch_metrics(cfgs[c], parts, vectorise=vectorise)
 
         loop = median_time(lambda: engine(False), 3)
         vec = median_time(lambda: engine(None), 3)
