@@ -178,7 +178,7 @@ def test_an_integer_option_is_a_grid_axis_and_members_equal_single_runs():
 def test_a_general_grid_builds_each_part_once_per_distinct_setting(monkeypatch):
     # an n x m grid of a plant key and a controller key: n plants and m laws (and one
     # reference) built, not n m configurations; each member still its single run (a
-    # range from a member past the first, enough members for the vectorised loop)
+    # range from a member past the first)
     from mfcontrol.api import simulate
 
     _, base = resolve_case("boost-ipd", {"sim.t_end": 0.01})
@@ -206,7 +206,8 @@ def test_a_general_grid_builds_each_part_once_per_distinct_setting(monkeypatch):
 
 @pytest.mark.parametrize("axes", [
     {"controller.window": [10, 20]},  # read by no part with this estimator
-    {"controller.duty_max": [0.8, 0.9], "plant.R": [8.0, 12.0]},  # met in one check
+    # keys of two parts, both read by the checks across options
+    {"controller.duty_max": [0.8, 0.9], "plant.R": [8.0, 12.0]},
 ])
 def test_a_general_grid_whose_keys_cannot_be_split_by_part_runs_a_configuration_per_member(
         axes, monkeypatch):

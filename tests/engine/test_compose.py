@@ -469,23 +469,24 @@ def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     m = 1000
     big, cold = compose.BLOCK_WORTH // m, compose.BLOCK_WORTH_COLD // m  # samples
     loop = compose.loop_for
-    ready = [False]  # whether block functions are compiled or in numba's disk cache
-    monkeypatch.setattr(blocks.Block, "ready", property(lambda self: ready[0]))
+    compiled = [False]  # whether your ODE's block functions are compiled in the process
+    monkeypatch.setattr(blocks.Block, "cheap", property(
+        lambda self: self.step.cached or compiled[0]))
     # the loop itself compiled on this machine already: it runs a quarter block or more,
-    # on the block functions when they are worth compiling or compiled already
+    # on the block functions when they are worth compiling or cost nothing to use
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
     assert loop(block, compose.RK4, m, big - 1, False, None) == "lanes"
     assert loop(block, compose.RK4, m, big, False, None) == "block"
-    assert loop(library, compose.RK4, m, big - 1, False, None) == "lanes"
-    ready[0] = True  # a library plant's once compiled on the machine, or your ODE's
+    # a library plant's: compiled once per machine, then loaded from the disk cache
     assert loop(library, compose.RK4, compose.LANES // 4, 10, False, None) == "block"
+    compiled[0] = True
     assert loop(block, compose.RK4, m, 10, False, None) == "block"
     assert loop(None, compose.RK4, m, big, False, None) == "lanes"  # no block functions
     assert loop(block, compose.DP45, m, big, False, None) == "lanes"  # built for RK4
     assert loop(None, compose.EXACT, compose.LANES // 4, 10, False, None) == "lanes"
     assert loop(None, compose.EXACT, compose.LANES // 4 - 1, 10, False, None) == "member"
     # not compiled yet: only far more work repays its first compilation
-    ready[0] = False
+    compiled[0] = False
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: False)
     assert loop(block, compose.RK4, m, cold - 1, False, None) == "member"
     assert loop(block, compose.RK4, m, cold, False, None) == "block"
@@ -506,24 +507,40 @@ def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     assert loop(library, compose.RK4, m, 10, False, True) == "block"
 
 
-def test_block_functions_are_found_in_the_disk_cache_before_they_load():
-    # review: the automatic choice took a library plant's block functions as compiled
-    # whether or not they were; it now looks them up in numba's disk cache
-    import uuid
+def test_a_library_plants_block_functions_load_from_the_disk_cache_in_a_new_process():
+    # review: closures over the plant's step functions pickled them with an identity
+    # drawn in each process, so the library's block functions recompiled in every process
+    import subprocess
+    import sys
 
     from mfcontrol.numerics import blocks
-    from mfcontrol.plants import first_order
+    from mfcontrol.plants import boost
 
-    key = ("test", uuid.uuid4().hex)  # block functions never compiled before
-    build = lambda: blocks._build(first_order.rhs.py_func,  # noqa: E731
-                                  first_order.measured.py_func, "library", 1, 3, key)
-    fresh = build()
-    assert not fresh.ready
-    assert fresh.step.address and fresh.output.address  # compiled, saved to the disk cache
-    assert fresh.ready
-    again = build()  # as another process would build them
-    assert not again.step.compiled and again.ready
-    assert not blocks.of_ode(_motor_inplace, lambda x, p: x[0], True, 2, 6).ready
+    block = blocks.of_library(boost, "rk4", boost.N_STATE, boost.N_PARAMS)
+    assert block.cheap and block.step.address and block.output.address  # compiled, saved
+    assert not blocks.of_ode(_motor_inplace, lambda x, p: x[0], True, 2, 6).cheap
+    code = ("from mfcontrol.numerics import blocks; from mfcontrol.plants import boost; "
+            "b = blocks.of_library(boost, 'rk4', boost.N_STATE, boost.N_PARAMS); "
+            "b.step.address; b.output.address; "
+            "print(b.step.cfunc.cache_hits, b.output.cfunc.cache_hits)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["1", "1"]
+
+
+def test_threads_split_the_vectorised_loop_at_whole_blocks():
+    # review: with three threads or more a cut rounded past the last member, and a thread
+    # ran members that do not exist
+    from mfcontrol.engine import compose
+
+    for m in range(1, 700, 7):
+        for n in range(1, 9):
+            b = compose.block_bounds(m, n)
+            assert b[0] == 0 and b[-1] == m and len(b) == n + 1
+            assert np.all(np.diff(b) >= 0)
+            assert np.all((b % compose.LANES == 0) | (b == m))
+    np.testing.assert_array_equal(compose.block_bounds(130, 2), [0, 64, 130])
+    np.testing.assert_array_equal(compose.block_bounds(50, 4), [0, 0, 0, 50, 50])
 
 
 def test_a_plant_that_compiles_only_member_by_member_runs_each_member_on_its_functions():
@@ -734,7 +751,7 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
         laws.append(law_arrays(make(j)))
         changes.append([change(j)])
     S = metrics.settings(0.1, t_end, 0.2, 200.0 if plant == "motor-rk45" else 5.0)
-    assert compose.threads_for(m, R.shape[1]) == 2
+    monkeypatch.setattr(compose, "threads_for", lambda members, samples: min(2, members))
     vectorised = _count_vectorised(monkeypatch)
     loops = _loops_chosen(monkeypatch)
     finals = _final_states(monkeypatch)

@@ -261,9 +261,9 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
     key are n + m configurations, not n m (each about 0.3 ms, more than simulating a
     member). Which part reads a key is found by building the parts of member ``start``;
     a key read by none or by more than one part (or by the settings every member
-    shares) is swept the plain way, a configuration per member, and so is a grid whose
-    keys of different parts meet in a check across options (each part's configuration
-    is checked with its own keys set only)."""
+    shares) is swept the plain way, a configuration per member, and so is a grid with
+    keys of different parts among those the checks across options read (each part's
+    configuration is checked with its own keys set only)."""
     from ..config.resolve import _check_consistency, keys_read
     from . import params
 

@@ -162,7 +162,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         than the member loop with f member by member and about 6x with f over the
         block. True: always, f over the block where it can; False: the member loop;
         None (default): when it pays (:func:`mfcontrol.engine.compose.loop_for`: once
-        the vectorised loop is compiled on the machine, about 40 s the first time ever,
+        the vectorised loop is compiled on the machine, about 75 s the first time ever,
         then cached on disk; f over the block for large sweeps or once compiled so).
 
     Returns

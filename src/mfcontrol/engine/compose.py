@@ -263,7 +263,7 @@ LANES = blocks.LANES
 #: 36 ns per member-sample)
 BLOCK_WORTH = 80_000_000
 #: the same while the vectorised loop itself is not compiled yet on this machine (about
-#: 40 s, once: then it is in numba's disk cache)
+#: 75 s, once: then it is in numba's disk cache)
 BLOCK_WORTH_COLD = 700_000_000
 
 
@@ -639,7 +639,7 @@ BLOCK_SIGNATURE = types.int64(
 def block_kernel():
     """The compiled vectorised member loop, exact arithmetic only (the fast mode's single
     runs fuse the RK4's arithmetic, which the plant's block step does not); cached on
-    disk like :func:`member_kernel` (about 40 s the first time on the machine of the
+    disk like :func:`member_kernel` (about 75 s the first time on the machine of the
     README's figures)."""
     return _compile(_make_block_loop, BLOCK_SIGNATURE, False)
 
@@ -655,9 +655,10 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     once the loop is compiled on this machine (in numba's disk cache), or from
     :data:`BLOCK_WORTH_COLD` member-samples on. It takes the block functions (built for
     this integrator, and numba could compile them) when asked to, or automatically when
-    they are compiled in this process or in numba's disk cache (a library plant's, once
-    compiled on the machine) or from :data:`BLOCK_WORTH` member-samples on (your own
-    ODE's cost about 3 s per process). Never automatically under Intel SVML (whose
+    they cost no compilation worth weighing (a library plant's, compiled once per
+    machine; your own ODE's once compiled in this process) or from :data:`BLOCK_WORTH`
+    member-samples on (your own ODE's cost about 3 s per process). Never automatically
+    under Intel SVML (whose
     vector sin, exp, ... differ from the scalar ones in the last bits: a loop over a
     block's members, even of the reference, could change a member's bits)."""
     if record or fast or n_members < 2 or vectorise is False:
@@ -670,7 +671,7 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     if (n_members < LANES // 4 or numba_config.USING_SVML
             or not (work >= BLOCK_WORTH_COLD or _block_kernel_ready())):
         return "member"
-    if has_block and (work >= BLOCK_WORTH or block.ready):
+    if has_block and (work >= BLOCK_WORTH or block.cheap):
         return "block"
     return "lanes"
 
@@ -729,9 +730,7 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
         args = (law_kind, integ, *block_fns, rhs, output, prepare, advance, n_steps, h, t_end,
                 law_dt, X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
         tail = ()
-        # threads split at whole blocks, their shares of members as even as that allows
-        bounds = (np.linspace(0, m, n_threads + 1) / LANES).round().astype(int) * LANES
-        bounds[-1] = m
+        bounds = block_bounds(m, n_threads)
     else:
         fn = member_kernel(fast)
         args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X,
@@ -746,6 +745,16 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
                                  [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)
                                   if b > a]))
     return sum(int(d) for d in done) if which != "member" else 0
+
+
+def block_bounds(m: int, n_threads: int) -> np.ndarray:
+    """Where ``n_threads`` threads split m members of the vectorised loop: at whole
+    blocks, their shares of members as even as that allows (non-decreasing, from 0 to
+    m; a thread may get none)."""
+    cuts = (np.linspace(0, m, n_threads + 1) / LANES).round().astype(np.int64) * LANES
+    cuts = np.minimum(cuts, m)
+    cuts[-1] = m
+    return cuts
 
 
 def _check_block(block, X, P, CP, CS, M, law_kind) -> None:

@@ -25,8 +25,7 @@ array view. Their signatures, in that order::
 
 import numpy as np
 from numba import carray, cfunc, njit, types
-from numba.core import cgutils, sigutils
-from numba.core.ccallback import CFunc
+from numba.core import cgutils
 from numba.core.errors import NumbaError
 from numba.extending import intrinsic
 
@@ -69,22 +68,9 @@ class Lazy:
         return self._compiled is not None
 
     @property
-    def ready(self) -> bool:
-        """Whether it is compiled in this process or in numba's disk cache (its index
-        looked up, nothing loaded or compiled)."""
-        if self._compiled is not None:
-            return True
-        if not self._cache or self._error is not None:
-            return False
-        try:
-            probe = CFunc(self.py_func, sigutils.normalize_signature(self._sig), {},
-                          {"error_model": "numpy"})
-            probe.enable_caching()
-            cache = probe._cache
-            key = cache._index_key(probe._sig, probe._targetdescr.target_context.codegen())
-            return key in cache._cache_file._load_index()
-        except Exception:  # noqa: BLE001 (numba's cache internals moved: say not cached)
-            return False
+    def cached(self) -> bool:
+        """Whether it is kept in numba's disk cache (compiled once per machine)."""
+        return self._cache
 
     @property
     def failed(self) -> bool:
