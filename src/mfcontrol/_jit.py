@@ -76,5 +76,7 @@ def step_jit(fn):
     dispatcher = _step_jit(fn)
     stable_identity(dispatcher)
     return dispatcher
+
+
 #: Kernels: compiled once, cached on disk next to the package.
 kernel_jit = njit(error_model="numpy", cache=True)

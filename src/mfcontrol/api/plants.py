@@ -224,9 +224,10 @@ class Plant(ABC):
         runs through the Python driver (:func:`mfcontrol.api.loop.simulate_loop` says so)."""
         return None
 
-    def _engine(self, functions, p: np.ndarray, columns: Mapping[str, int]) -> EnginePlant:
+    def _engine(self, functions, p: np.ndarray, columns: Mapping[str, int],
+                block: blocks.Block | None = None) -> EnginePlant:
         return EnginePlant(functions, np.array(p, dtype=np.float64), self.x0, self.integrator,
-                           (self._rtol, self._atol), columns)
+                           (self._rtol, self._atol), columns, block)
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
@@ -298,8 +299,8 @@ class _CompiledPlant(Plant):
 
     def engine(self) -> EnginePlant:
         mod = self._module
-        return self._engine(self._functions(), self._p, mod.PARAM_ROWS)._replace(
-            block=blocks.of_library(mod, self.integrator, mod.N_STATE, mod.N_PARAMS))
+        return self._engine(self._functions(), self._p, mod.PARAM_ROWS,
+                            blocks.of_library(mod, self.integrator, mod.N_STATE, mod.N_PARAMS))
 
 
 class Buck(_CompiledPlant):
@@ -723,9 +724,8 @@ class ODE(Plant):
             self._block = blocks.of_ode(ode.python_function(self._f),
                                         ode.python_function(self._g), self._inplace,
                                         self.x0.size, self._p.size)
-        ep = self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
-                          {name: i for i, name in enumerate(self._names)})
-        return ep._replace(block=self._block)
+        return self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
+                            {name: i for i, name in enumerate(self._names)}, self._block)
 
     def set_param(self, name: str, value: float) -> None:
         if name not in self._names:

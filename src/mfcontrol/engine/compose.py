@@ -282,6 +282,19 @@ def _member_of(b0, lane, nb):
 
 
 @_jit.step_jit
+def _keep_member(by_block, lane, j, xs, xb, cs, mj, dtc, X, CS, M, DT):
+    """Member j, in column ``lane`` of a block, written back where it stopped or ended:
+    its plant state (from the member-contiguous rows ``xs`` and its carried step when it
+    ran on its own functions, else from the block's columns), law memory and metrics."""
+    if not by_block:
+        _into_lane(xs.T, lane, xb, lane)
+        DT[j] = dtc[lane]
+    _into_lane(xb, lane, X.T, j)
+    _into_lane(cs, lane, CS, j)
+    _into_lane(mj, lane, M, j)
+
+
+@_jit.step_jit
 def _prepare_lane(prepare, pb, ps, lane, h, n_x):
     """What member ``lane``'s plant derives from its parameters (``prepare``), as its
     single run derives it, at the start and after each of its scheduled changes: column
@@ -585,12 +598,8 @@ def _make_block_loop(fast):
                             alive[lane] = False
                             n_alive -= 1
                             # its state, law memory and metrics when it stopped
-                            if not by_block:
-                                _into_lane(xs.T, lane, xb, lane)
-                                DT[b0 + lane] = dtc[lane]
-                            _into_lane(xb, lane, X.T, b0 + lane)
-                            _into_lane(cs, lane, CS, b0 + lane)
-                            _into_lane(mj, lane, M, b0 + lane)
+                            _keep_member(by_block, lane, b0 + lane, xs, xb, cs, mj, dtc,
+                                         X, CS, M, DT)
                 if n_alive == 0:
                     break
                 if not by_block:
@@ -616,13 +625,8 @@ def _make_block_loop(fast):
                 step(t, xp, ub, pp, h, wp)
             for lane in range(nb):
                 if alive[lane]:
-                    j = b0 + lane
-                    if not by_block:
-                        _into_lane(xs.T, lane, xb, lane)
-                        DT[j] = dtc[lane]
-                    _into_lane(xb, lane, X.T, j)
-                    _into_lane(cs, lane, CS, j)
-                    _into_lane(mj, lane, M, j)
+                    _keep_member(by_block, lane, b0 + lane, xs, xb, cs, mj, dtc, X, CS, M,
+                                 DT)
         # a use of buf after the views of it: numba frees an array after its last use
         return n_vector if buf.size > 0 else -1
 
@@ -658,9 +662,9 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     they cost no compilation worth weighing (a library plant's, compiled once per
     machine; your own ODE's once compiled in this process) or from :data:`BLOCK_WORTH`
     member-samples on (your own ODE's cost about 3 s per process). Never automatically
-    under Intel SVML (whose
-    vector sin, exp, ... differ from the scalar ones in the last bits: a loop over a
-    block's members, even of the reference, could change a member's bits)."""
+    under Intel SVML (whose vector sin, exp, ... differ from the scalar ones in the last
+    bits: a loop over a block's members, even of the reference, could change a member's
+    bits)."""
     if record or fast or n_members < 2 or vectorise is False:
         return "member"
     has_block = (block is not None and INTEGRATORS[block.integrator] == integ
