@@ -77,15 +77,25 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
     library's exact step, advance(t, x, u, p, h, nx, np). Cached on disk with ``key``."""
     nx, np_, b = int(n_x), int(n_p), LANES
     fi, gi = _inline(f, key and key + ("f",)), _inline(g, key and key + ("g",))
+    if form in ("library", "exact"):
+        # the library's functions take the sizes as well: given them here, they take the
+        # forms below (the in-place right-hand side, the exact step, g(x, p))
+        f_sized, g_sized = fi, gi
+
+        def f_given_sizes(t, x, u, p, dxdt_or_h):
+            f_sized(t, x, u, p, dxdt_or_h, nx, np_)
+
+        def g_given_sizes(x, p):
+            return g_sized(x, p, nx, np_)
+
+        fi = _inline(f_given_sizes, key and key + ("f", "sizes"))
+        gi = _inline(g_given_sizes, key and key + ("g", "sizes"))
+        form = "in-place" if form == "library" else form
 
     if form == "in-place":
         def derivatives(t, S, U, P, F):
             for lane in range(S.shape[1]):
                 fi(t, S[:, lane], U[lane], P[:, lane], F[:, lane])
-    elif form == "library":
-        def derivatives(t, S, U, P, F):
-            for lane in range(S.shape[1]):
-                fi(t, S[:, lane], U[lane], P[:, lane], F[:, lane], nx, np_)
     else:
         def derivatives(t, S, U, P, F):
             for lane in range(S.shape[1]):
@@ -109,7 +119,7 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
             U = carray(up, (b,), np.float64)
             P = carray(pp, (np_, b), np.float64)
             for lane in range(b):
-                fi(t, X[:, lane], U[lane], P[:, lane], h, nx, np_)
+                fi(t, X[:, lane], U[lane], P[:, lane], h)
     else:
         def step(t, xp, up, pp, h, wp):
             """One RK4 step of every member of the block, its input U[l] held."""
@@ -130,22 +140,13 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
                     X[i, lane] = rk4.combine(X[i, lane], F1[i, lane], F2[i, lane],
                                              F3[i, lane], h * F4[i, lane])
 
-    if form in ("library", "exact"):
-        def output(xp, pp, yp):
-            """Y[l] = g(x, p) of every member of the block."""
-            X = carray(xp, (nx, b), np.float64)
-            P = carray(pp, (np_, b), np.float64)
-            Y = carray(yp, (b,), np.float64)
-            for lane in range(b):
-                Y[lane] = gi(X[:, lane], P[:, lane], nx, np_)
-    else:
-        def output(xp, pp, yp):
-            """Y[l] = g(x, p) of every member of the block."""
-            X = carray(xp, (nx, b), np.float64)
-            P = carray(pp, (np_, b), np.float64)
-            Y = carray(yp, (b,), np.float64)
-            for lane in range(b):
-                Y[lane] = gi(X[:, lane], P[:, lane])
+    def output(xp, pp, yp):
+        """Y[l] = g(x, p) of every member of the block."""
+        X = carray(xp, (nx, b), np.float64)
+        P = carray(pp, (np_, b), np.float64)
+        Y = carray(yp, (b,), np.float64)
+        for lane in range(b):
+            Y[lane] = gi(X[:, lane], P[:, lane])
 
     cache = key is not None
     return Block(sig.Lazy(sig.BLOCK_STEP, step, cache=cache),
