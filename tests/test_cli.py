@@ -38,6 +38,7 @@ ALL_CASES = (
     "sweep-epsM",
     "buck-ipi", "boost-ipd", "first-order-ip-algebraic",
     "map-alpha-dR-standard", "map-alpha-dR-variational", "map-Gamma-epsM",
+    "motor-noise-ipi", "motor-noise-ipi-algebraic", "motor-noise-pid", "buck-50khz-noise",
 )
 
 
@@ -144,9 +145,15 @@ ERRORS = [
     # choices
     pytest.param([S, CASE, "--set", "fidelity=wrong"],
                  ["fidelity", "'wrong'", "must be one of published, paper"], id="bad-fidelity"),
-    pytest.param([S, CASE, "--set", "controller.law=pid"],
-                 ["controller.law", "'pid'",
-                  "must be one of ip, variational, i-P, i-PI, i-PD, i-PID"], id="bad-law"),
+    pytest.param([S, CASE, "--set", "controller.law=PID"],
+                 ["controller.law", "'PID'",
+                  "must be one of ip, variational, i-P, i-PI, i-PD, i-PID, pid"], id="bad-law"),
+    pytest.param([S, CASE, "--set", "sensor.delay=99999999"],
+                 ["sensor.delay", "99999999", "must be fewer samples than the run's"],
+                 id="sensor-delay-past-the-run"),
+    pytest.param([S, CASE, "--set", "sensor.noise=pink"],
+                 ["sensor.noise", "'pink'", "must be one of none, gaussian, uniform"],
+                 id="bad-noise"),
     pytest.param([S, CASE, "--set", "plant.coupling=loose"],
                  ["plant.coupling", "'loose'", "must be one of published, textbook"],
                  id="bad-coupling"),
@@ -454,7 +461,8 @@ def test_run_writes_the_four_files(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [
         "config.toml", "figure.png", "metrics.json", "trajectory.csv"]
     header, rows = _read_csv(out / "trajectory.csv")
-    assert header == ["t", "y_ref", "y", "u", "u_raw", "gamma", "gain", "i_L", "v_C"]
+    assert header == ["t", "y_ref", "y", "y_meas", "u", "u_plant", "u_raw", "gamma", "gain",
+                      "i_L", "v_C"]
     assert len(rows) == 1000
     assert all(len(r) == len(header) for r in rows)
     assert float(rows[0][0]) == 0.0
@@ -546,3 +554,13 @@ def test_show_checks_every_sweep_member_against_the_cross_key_rules():
                            "--set", "sweep.key=plant.dR", "--set", "sweep.values=[1.0, -20.0]"],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and "plant.dR = -20.0" in proc.stderr
+
+
+def test_a_reader_that_goes_away_gets_no_traceback():
+    # `mfcontrol cases | head -1`: the pipe closes before everything is written
+    proc = subprocess.Popen([sys.executable, "-m", "mfcontrol.cli", "cases"], env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # before the command (about a second of imports) writes anything
+    err = proc.stderr.read().decode()
+    proc.wait(timeout=60)
+    assert "Traceback" not in err and "BrokenPipeError" not in err

@@ -34,3 +34,15 @@ def test_boost_ipd(tmp_path, monkeypatch):
     t = res.time
     assert abs(res.error[(t > 0.03) & (t < 0.04)]).max() < 1e-3  # holds 30 V before the load
     assert abs(res.error[t > 0.055]).max() < 1e-3  # and after it
+
+
+def test_realistic_loops(tmp_path, monkeypatch):
+    runs, delayed = _run("realistic_loops", tmp_path, monkeypatch)
+    tv = {name: res.metrics["tv_u"] for name, res in runs.items()}
+    # the docstring's claims: backward differences chatter, the algebraic estimator and
+    # the PI do not; the algebraic i-PI tracks best; 20 samples of delay leave only the PI
+    assert tv["motor-noise-ipi"] > 30 * max(tv["motor-noise-ipi-algebraic"],
+                                            tv["motor-noise-pid"])
+    iae = {name: res.metrics["iae"] for name, res in runs.items()}
+    assert min(iae, key=iae.get) == "motor-noise-ipi-algebraic"
+    assert [res.metrics["stable"] for res in delayed.values()] == [False, False, True]

@@ -9,9 +9,10 @@ Quick use::
 """
 
 from ._version import __version__
-from .api.controllers import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
+from .api.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
+from .api.elements import Actuator, Disturbance, Sensor
 from .api.loop import Change, LoopResult, simulate_loop
-from .api.plants import LTI, ODE, Boost, Buck, FirstOrder, Plant
+from .api.plants import LTI, ODE, Boost, Buck, DCMotor, FirstOrder, Plant
 from .api.result import Result, SweepResult
 from .api.simulate import simulate, simulate_many, simulate_sweep
 from .api.sweep import LoopSweepResult, sweep
@@ -21,9 +22,10 @@ from .experiments.cases import names as case_names
 from .experiments.cases import run_case
 
 __all__ = [
-    "IP", "IPD", "IPI", "IPID", "IntelligentController", "RecursiveIP",
+    "IP", "IPD", "IPI", "IPID", "PID", "IntelligentController", "RecursiveIP",
+    "Sensor", "Actuator", "Disturbance",
     "CaseError", "Config", "ConfigError", "Result", "SweepResult", "__version__",
-    "Plant", "Buck", "Boost", "FirstOrder", "LTI", "ODE",
+    "Plant", "Buck", "Boost", "DCMotor", "FirstOrder", "LTI", "ODE",
     "Change", "LoopResult", "LoopSweepResult", "simulate_loop", "sweep",
     "case_names", "resolve", "run_case", "simulate", "simulate_many", "simulate_sweep",
 ]

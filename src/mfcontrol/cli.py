@@ -7,6 +7,7 @@ exit code 2; an interrupted command ends with exit code 130.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -208,6 +209,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("mfcontrol: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader went away (`mfcontrol cases | head -1`): no traceback; stdout goes
+        # to devnull so that Python's flush at exit does not raise again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
 
 
 if __name__ == "__main__":

@@ -197,7 +197,7 @@ def test_a_general_grid_builds_each_part_once_per_distinct_setting(monkeypatch):
     start, stop = 7, grid.n_members
     cols = batch.run_range(grid, start, stop)
     # members 7 .. 29 hold R values 1 .. 4 and every kp; + the probes of who reads a key
-    assert built == {"plant": 4 + 1, "law": 6 + 1, "reference": 1 + 1}
+    assert built == {"plant": 4 + 1, "law": 6 + 1, "reference": 1 + 1, "elements": 1 + 1}
     for m in range(start, stop):
         single = mfcontrol.simulate(grid.config(m)).metrics
         for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "diverged", "n_samples"):

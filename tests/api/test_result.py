@@ -6,7 +6,8 @@ from matplotlib.figure import Figure
 
 import mfcontrol
 
-COLUMNS = ["t", "y_ref", "y", "u", "u_raw", "gamma", "gain", "i_L", "v_C"]
+COLUMNS = ["t", "y_ref", "y", "y_meas", "u", "u_plant", "u_raw", "gamma", "gain", "i_L",
+           "v_C"]
 
 
 def test_result_carries_config_version_and_frames(tmp_path):
@@ -50,8 +51,12 @@ def test_one_result_type_with_the_same_signal_names_on_every_path():
     python = mfcontrol.simulate_loop(FirstOrder(-1.0, 1.0), Mine(), 1.0, t_end=0.5)
     for r in (case, paper, loop, python):
         assert type(r) is mfcontrol.Result
-        assert list(r.signals)[:6] == ["y_ref", "y", "u", "u_raw", "gamma", "gain"]
+        assert list(r.signals)[:8] == ["y_ref", "y", "y_meas", "u", "u_plant", "u_raw",
+                                       "gamma", "gain"]
+        # no sensor or actuator: what they pass on is what they were given
+        assert np.array_equal(r.signals["y_meas"], r.signals["y"], equal_nan=True)
+        assert np.array_equal(r.signals["u_plant"], r.signals["u"], equal_nan=True)
     assert python.engine == "python" and np.all(np.isnan(python.signals["gamma"]))
     assert (case.config is not None, loop.config) == (True, None)
-    assert list(case.to_pandas().columns)[:7] == ["t", "y_ref", "y", "u", "u_raw", "gamma",
-                                                  "gain"]
+    assert list(case.to_pandas().columns)[:9] == ["t", "y_ref", "y", "y_meas", "u", "u_plant",
+                                                  "u_raw", "gamma", "gain"]

@@ -153,7 +153,7 @@ MALFORMED = [
     ("sweep.key", 3.0, "must be a string"),
     ("fidelity", "wrong", "must be one of published, paper"),
     ("fidelity", "Paper", "must be one of published, paper"),
-    ("controller.law", "pid", "must be one of ip, variational, i-P, i-PI, i-PD, i-PID"),
+    ("controller.law", "PID", "must be one of ip, variational, i-P, i-PI, i-PD, i-PID, pid"),
     ("plant.output", "current", "must be one of voltage, power"),
     ("plant.coupling", "loose", "must be one of published, textbook"),
     ("controller.integrator", "third-order", "must be one of first-order, second-order"),
@@ -161,13 +161,40 @@ MALFORMED = [
     ("controller.rate_sign", "+", "must be one of plus, minus"),
     ("controller.p_sample", "next", "must be one of previous, current"),
     ("controller.p_error", "r+y", "must be one of r-y, y-r"),
-    ("plant.model", "tank", "must be one of buck, boost, first-order"),
+    ("plant.model", "tank", "must be one of buck, boost, first-order, dc-motor"),
     ("reference.kind", "step", "must be one of ramp-hold-ramp, smooth-step"),
     ("metrics.final_window", 1.5, "must be a number in (0, 1]"),
     ("metrics.final_window", 0.0, "must be a number in (0, 1]"),
     ("metrics.settle_time", -1.0, "must be a finite number >= 0"),
     ("reference.t_ramp2", -1e-3, "must be a finite number >= 0"),
     ("plant.change_times", [4e-3, -1e-3], "must be a list of finite numbers >= 0"),
+    # the loop's elements, the PID and the DC motor
+    ("sensor.noise", "white", "must be one of none, gaussian, uniform"),
+    ("sensor.noise_std", -0.1, "must be a finite number >= 0"),
+    ("sensor.noise_std", "0.1", "must be a finite number >= 0"),
+    ("sensor.seed", -1, "must be a whole number >= 0"),
+    ("sensor.seed", 1.5, "must be a whole number >= 0"),
+    ("sensor.seed", 2**53, "must be a whole number from 0 to 9,007,199,254,740,991"),
+    ("sensor.quantum", float("inf"), "must be a finite number >= 0"),
+    ("sensor.delay", -2, "must be a whole number >= 0"),
+    ("sensor.delay", 10_000, "must be fewer samples than the run's 10,000 (sim.t_end / sim.h)"),
+    ("actuator.delay", 2.0, "must be a whole number >= 0"),
+    ("actuator.delay", 10_000, "must be fewer samples than the run's 10,000 (sim.t_end / sim.h)"),
+    ("actuator.rate_limit", -5.0, "must be a finite number >= 0"),
+    ("disturbance.kind", "impulse", "must be one of none, step, ramp, sine, table"),
+    ("disturbance.at", "state", "must be one of input, output"),
+    ("disturbance.amplitude", float("nan"), "must be a finite number"),
+    ("disturbance.t0", -1.0, "must be a finite number >= 0"),
+    ("disturbance.frequency", -50.0, "must be a finite number >= 0"),
+    ("disturbance.times", [1.0, "x"], "must be a list of finite numbers >= 0"),
+    ("disturbance.values", 3.0, "must be a list of finite numbers"),
+    ("sim.substeps", 0, "must be a whole number > 0"),
+    ("sim.substeps", 100_001, "must be a whole number from 1 to 100,000"),
+    ("controller.N", 0.0, "must be a finite number > 0"),
+    ("controller.b", "one", "must be a finite number"),
+    ("controller.Tt", -1.0, "must be a finite number > 0"),
+    ("plant.J", 0.0, "must be a finite number > 0"),
+    ("plant.friction", -1e-4, "must be a finite number >= 0"),
 ]
 
 
@@ -183,7 +210,9 @@ def test_every_choice_is_accepted():
         for choice in o.choices:
             value = int(choice) if o.kind == "int" else choice
             # a first-order plant only takes the positional laws
-            extra = {"controller.law": "i-P"} if value == "first-order" else {}
+            extra = {"controller.law": "i-P"} if value in ("first-order", "dc-motor") else {}
+            if value == "table":
+                extra = {"disturbance.times": [0.0], "disturbance.values": [1.0]}
             assert resolve({o.key: value, **extra})[o.key] == value
 
 
@@ -554,7 +583,8 @@ CASE_NAMES = sorted(p.stem for p in CASES_DIR.glob("*.toml"))
 
 def test_builtin_cases():
     assert CASE_NAMES == sorted(mfcontrol.case_names())
-    assert len(CASE_NAMES) == 14  # the paper's eight, three toolkit cases, three maps
+    # the paper's eight, three toolkit cases, three maps, four realistic loops
+    assert len(CASE_NAMES) == 18
 
 
 @pytest.mark.parametrize("fidelity", ["published", "paper"])
@@ -668,3 +698,34 @@ def test_keys_read_are_the_keys_a_translator_reads_for_this_configuration():
     assert "controller.k_aw" in read(law="ip", anti_windup="back-calculation")
     assert "controller.rate_term" not in read(law="ip")
     assert "controller.rate_term" in read(law="variational")
+
+
+# ---------------------------------------------------------------------------------------
+# checks across the new options: tables, the PID's gains, the recursive law's plants
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("settings", "key", "phrase"), [
+    ({"disturbance.kind": "table", "disturbance.times": [0.0, 1.0],
+      "disturbance.values": [1.0]}, "disturbance.values",
+     "must have one value per time of disturbance.times (2), at least one"),
+    ({"disturbance.kind": "table"}, "disturbance.values", "at least one"),
+    ({"disturbance.kind": "table", "disturbance.times": [1.0, 0.5],
+      "disturbance.values": [1.0, 2.0]}, "disturbance.times", "must be nondecreasing"),
+    ({"controller.law": "pid", "controller.kp": 0.0, "controller.kd": 1.0},
+     "controller.kd", "must have the sign of controller.kp"),
+    ({"controller.law": "pid", "controller.kp": 1.0, "controller.kd": -1.0},
+     "controller.kd", "must have the sign of controller.kp"),
+    ({"controller.law": "pid", "controller.kp": -1.0, "controller.ki": 1.0},
+     "controller.ki", "must have the sign of controller.kp"),
+    ({"plant.model": "dc-motor"}, "controller.law", "use i-P .. i-PID or pid for dc-motor"),
+])
+def test_checks_across_the_new_options(settings, key, phrase):
+    rejects(settings, key, settings.get(key, resolve({})[key]
+                                        if key != "controller.law" else "ip"), phrase)
+
+
+def test_a_pid_with_a_tracking_time_may_have_any_integral_sign():
+    cfg = resolve({"controller.law": "pid", "controller.kp": -1.0, "controller.ki": 1.0,
+                   "controller.Tt": 0.1})
+    assert cfg["controller.Tt"] == 0.1

@@ -220,7 +220,7 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
     """
     values = grid.values(start, stop)
     tol = grid.base["metrics.stable_tol"]
-    if compiled(grid.base):
+    if paper_grid(grid):
         changes = _cell_changes(grid) if changes is None else changes
         scn = build_members(grid, start, stop, changes)
         n = stop - start
@@ -242,12 +242,22 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         first = paper_sweep.P_M
         M = D[:, first:first + engine_metrics.N_METRICS].transpose(1, 0, 2).reshape(
             engine_metrics.N_METRICS, -1)[:, :n]
+        engine_metrics.without_loop_sums(M)
         met = _metrics.table(M, tol)
     else:  # the general engine, every member of the range in one batch
         met = _metrics.table(_general_batch(grid, start, stop, fast), tol)
     cols: dict[str, np.ndarray] = {"member": np.arange(start, stop, dtype=np.int64), **values}
     cols.update({name: met[name] for name in METRIC_COLUMNS})
     return cols
+
+
+def paper_grid(grid: Grid) -> bool:
+    """Whether the paper's sweep kernel runs every member of the grid: its base is a
+    configuration it covers (:func:`mfcontrol.api.simulate.compiled`) and no axis sets a
+    loop element (the kernel has none)."""
+    return compiled(grid.base) and not any(
+        k.partition(".")[0] in ("sensor", "actuator", "disturbance") or k == "sim.substeps"
+        for k in grid.axes)
 
 
 def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
@@ -309,7 +319,7 @@ def run_grid(grid: Grid, chunk: int = 4096,
              specialise: bool | None = None) -> dict[str, np.ndarray]:
     """Every member's metrics, in memory (the CLI writes chunks to disk instead);
     ``fast`` and ``specialise`` as in :func:`run_range`."""
-    changes = _cell_changes(grid) if compiled(grid.base) else None
+    changes = _cell_changes(grid) if paper_grid(grid) else None
     parts = []
     done = 0
     for _, a, b in chunks(grid.n_members, chunk):

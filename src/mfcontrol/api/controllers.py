@@ -23,7 +23,7 @@ import numpy as np
 
 from .._version import __version__
 from ..engine import live
-from ..laws import estimators, intelligent, recursive_ip
+from ..laws import estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
 
 _INF = math.inf
@@ -149,7 +149,31 @@ class _Controller:
         return f"{type(self).__name__}({args})"
 
 
-class IntelligentController(_Controller):
+class _Sampled(_Controller):
+    """A controller with a sample time and output limits: the positional laws."""
+
+    _dt: float
+
+    @property
+    def sample_time(self) -> float:
+        return self._dt
+
+    @property
+    def output_limits(self) -> tuple[float | None, float | None]:
+        lo, hi = self._params["output_limits"]
+        return lo, hi
+
+    def _output(self, u: float) -> float:
+        """The law's output, or the last one held when the law overflowed (NaN: the
+        compiled step left its state untouched), counted in ``nan_count``."""
+        if u != u:
+            self.nan_count += 1
+            return self._last_output
+        self._last_output = u
+        return u
+
+
+class IntelligentController(_Sampled):
     """Positional intelligent controller of order n: i-P, i-PI, i-PD or i-PID.
 
     ``u = -(F_hat - y*^(n) + kp e + ki int(e) + kd e') / alpha`` with ``e = y - y*``
@@ -281,15 +305,6 @@ class IntelligentController(_Controller):
         self._CS[intelligent.U1, 0] = start
         self._last_output = start
 
-    @property
-    def sample_time(self) -> float:
-        return self._dt
-
-    @property
-    def output_limits(self) -> tuple[float | None, float | None]:
-        lo, hi = self._params["output_limits"]
-        return lo, hi
-
     def __call__(self, y: float, setpoint: float | None = None, dt: float | None = None,
                  alpha: float | None = None) -> float:
         """One sample: the measurement in, the (limited) control out."""
@@ -302,11 +317,7 @@ class IntelligentController(_Controller):
         u = live.intelligent_step(self._CP, self._CS, self._backup, float(y),
                                   float(self.setpoint), self._dt if dt is None else float(dt),
                                   1.0 if alpha is None else float(alpha))
-        if u != u:  # the law overflowed: state untouched, hold the output
-            self.nan_count += 1
-            return self._last_output
-        self._last_output = u
-        return u
+        return self._output(u)
 
     @property
     def components(self) -> dict[str, float]:
@@ -449,3 +460,93 @@ class RecursiveIP(_Controller):
     @property
     def components(self) -> dict[str, float]:
         return dict(self._components)
+
+
+class PID(_Sampled):
+    """The discrete PID of Astrom and Hagglund, the baseline of every comparison
+    (:mod:`mfcontrol.laws.pid`): ``P = kp (b r - y)``, a derivative on the measurement
+    filtered with time constant Td / N, back-calculation anti-windup with tracking time
+    Tt (``Ti = kp / ki``, ``Td = kd / kp``). Gains act on ``r - y``: positive for a plant
+    whose output rises with its input, as in simple-pid.
+
+    Parameters
+    ----------
+    kp, ki, kd : float
+        Proportional, integral (1/s) and derivative (s) gains; kd needs kp of its sign,
+        ki too unless ``Tt`` is given.
+    sample_time : float
+        Sample period h (s); a call may pass another ``dt``.
+    N : float
+        Derivative filter: time constant Td / N (default 10).
+    b : float
+        Setpoint weight of the proportional term (default 1).
+    Tt : float, optional
+        Tracking time (s); default sqrt(Ti Td) with an integral and a derivative, else Ti.
+    output_limits : (low, high)
+        Output limits, None for none.
+    setpoint : float
+        Initial setpoint.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1, output_limits=(0, 10))
+    >>> ctrl(0.0, setpoint=1.0), round(ctrl(0.5, setpoint=1.0), 6)
+    (2.0, 1.1)
+
+    The first output is P = 2 (1 - 0); the integral then holds 1 * 0.1 * 1 = 0.1, and the
+    second output is 2 (1 - 0.5) + 0.1.
+    """
+
+    def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, *, sample_time: float,
+                 N: float = 10.0, b: float = 1.0, Tt: float | None = None,
+                 output_limits: tuple[float | None, float | None] = (None, None),
+                 setpoint: float = 0.0):
+        from ..config.resolve import _check_pid
+        from ..errors import ConfigError
+
+        lo, hi = _limits(output_limits)
+        params = {"kp": _number("kp", kp), "ki": _number("ki", ki), "kd": _number("kd", kd),
+                  "sample_time": _number("sample_time", sample_time, positive=True),
+                  "N": _number("N", N, positive=True), "b": _number("b", b),
+                  "Tt": _number("Tt", Tt, positive=True, allow_none=True),
+                  "output_limits": [lo, hi], "setpoint": _number("setpoint", setpoint)}
+        try:
+            _check_pid(params["kp"], params["ki"], params["kd"], params["Tt"])
+        except ConfigError as exc:
+            raise ValueError(str(exc)) from None
+        super().__init__(params, pid.N_PARAMS, pid.N_STATE)
+        cp = self._CP[:, 0]
+        cp[pid.KP], cp[pid.KI], cp[pid.KD] = params["kp"], params["ki"], params["kd"]
+        cp[pid.N], cp[pid.B] = params["N"], params["b"]
+        cp[pid.TT] = pid.tracking_time(params["kp"], params["ki"], params["kd"], params["Tt"])
+        cp[pid.OUT_MIN] = -_INF if lo is None else lo
+        cp[pid.OUT_MAX] = _INF if hi is None else hi
+        self._dt = params["sample_time"]
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        live.pid_reset(self._CS, math.nan)
+        self._last_output = 0.0
+
+    def _bumpless_start(self, start: float) -> None:
+        lo, hi = self._CP[pid.OUT_MIN, 0], self._CP[pid.OUT_MAX, 0]
+        start = min(max(start, lo), hi)
+        live.pid_reset(self._CS, start)
+        self._last_output = start
+
+    def __call__(self, y: float, setpoint: float | None = None,
+                 dt: float | None = None) -> float:
+        """One sample: the measurement in, the (limited) control out."""
+        if not self._measurement_ok(y, setpoint):
+            return self._last_output
+        u = live.pid_step(self._CP, self._CS, self._backup, float(y), float(self.setpoint),
+                          self._dt if dt is None else float(dt))
+        return self._output(u)
+
+    @property
+    def components(self) -> dict[str, float]:
+        """The terms of the last output: P, I, D and the output before limiting."""
+        s = self._CS[:, 0]
+        return {**{name: float(s[row]) for name, row in pid.COMPONENTS},
+                "unlimited": float(s[pid.C_UNLIM])}

@@ -25,10 +25,13 @@ from typing import Any
 
 import numpy as np
 
+from ..elements import disturbance as disturbance_law
+from ..elements import layout
 from ..engine import compose, trajectory
 from ..engine import metrics as engine_metrics
 from ..errors import ConfigError
-from ..laws import intelligent, reference
+from ..laws import intelligent, pid, reference
+from ..laws import reference as reference_law
 from ..numerics import grid
 from . import metrics as _metrics
 from .result import SIGNALS, Result
@@ -109,10 +112,14 @@ class LawArrays:
 def law_arrays(controller) -> LawArrays | None:
     """The engine's view of ``controller``; None when only the Python driver can run it
     (not a library controller, or in manual mode)."""
-    from .controllers import IntelligentController, RecursiveIP
+    from .controllers import PID, IntelligentController, RecursiveIP
 
     if not getattr(controller, "auto_mode", False):
         return None
+    if isinstance(controller, PID):
+        names, rows = zip(*pid.COMPONENTS, strict=True)
+        return LawArrays(compose.PID, controller._CP.copy(), controller._CS.copy(),
+                         controller.sample_time, names, rows)
     if isinstance(controller, IntelligentController):
         names, rows = zip(*intelligent.COMPONENTS, strict=True)
         return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
@@ -205,13 +212,17 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 changes_per_member: Sequence[Sequence[Change]], *, t_end: float, h: float,
                 S: np.ndarray, fast: bool = False, record: bool = False,
                 RP: np.ndarray | None = None, AL: np.ndarray | None = None,
+                LP: np.ndarray | None = None, step: tuple[float, float, float] | None = None,
                 vectorise: bool | None = None):
     """Members (engine plants and law arrays of one family) through the compiled engine.
 
     The reference is ``R[j]`` (``R[0]`` for all when R has one row) or, when R has no
     rows, the configured reference of each member, ``RP[:, j]`` (see
     :mod:`mfcontrol.laws.reference`). ``AL`` (one row, or one per member): the alpha of
-    an external gain at every sample. ``vectorise``: run the members in the engine's
+    an external gain at every sample. ``LP`` (one column, or one per member): the loop's
+    elements (:func:`mfcontrol.api.elements.column`; default none). ``step``: the
+    reference step (t0, from, to) the step metrics measure, for a reference given as R
+    (from RP, a smooth-step is one). ``vectorise``: run the members in the engine's
     vectorised loop (True, False, or None: when it pays,
     :func:`mfcontrol.engine.compose.loop_for`).
 
@@ -235,18 +246,42 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     for j, law in enumerate(laws):
         CS[:law.CS.shape[0], j] = law.CS[:, 0]
     events = _event_arrays(changes_per_member, p0.columns, t_end, n)
+    RP = np.zeros((reference.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP)
+    LP = layout.column() if LP is None else LP
+    LP = np.ascontiguousarray(LP if LP.shape[1] == m else np.repeat(LP, m, axis=1))
     M = np.zeros((engine_metrics.N_METRICS, m))
+    engine_metrics.start(M, *_step_metrics_of(RP, step),
+                         _load_step_of(LP, changes_per_member))
     comp_rows = np.array(l0.rows, dtype=np.int64)
     traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
     tol = np.array(p0.tol, dtype=np.float64)
     DT = np.full(m, -1.0)
     compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
                 l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
-                np.zeros((reference.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP),
-                np.zeros((0, n)) if AL is None else np.ascontiguousarray(AL, dtype=np.float64),
-                events, S, M, tol,
+                RP, np.zeros((0, n)) if AL is None else np.ascontiguousarray(AL, dtype=np.float64),
+                LP, events, S, M, tol,
                 DT, traj, comp_rows, fast=fast, block=p0.block, vectorise=vectorise)
     return M, traj, CS
+
+
+def _step_metrics_of(RP: np.ndarray, step) -> tuple:
+    """(t0, from, to) of every member's reference step, as the step metrics take them:
+    a smooth-step reference's, else ``step`` (the same for all), else none (to = NaN)."""
+    smooth = RP[reference.KIND] == reference.SMOOTH_STEP
+    t0, y0, y1 = step if step is not None else (0.0, math.nan, math.nan)
+    return (np.where(smooth, RP[reference.T0], t0), np.where(smooth, RP[reference.INITIAL], y0),
+            np.where(smooth, RP[reference.FINAL], y1))
+
+
+def _load_step_of(LP: np.ndarray, changes_per_member) -> np.ndarray:
+    """Every member's first load step, from which ``iae_load`` counts: a step
+    disturbance's t0 or its first scheduled plant change, whichever comes first (inf for
+    neither)."""
+    d = LP[layout.DISTURBANCE:]
+    step = np.where(d[disturbance_law.KIND] == disturbance_law.STEP, d[disturbance_law.T0],
+                    np.inf)
+    first = np.array([min((c.time for c in ch), default=np.inf) for ch in changes_per_member])
+    return np.minimum(step, first)
 
 
 def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_window,
@@ -311,7 +346,8 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
                   h: float | None = None, changes: Sequence[Change] = (),
                   settle_time: float = 0.0, final_window: float = 0.2,
                   stable_tol: float = 0.1, diverge_above: float = 1e12,
-                  name: str = "", fast: bool = False, alpha: Reference | None = None) -> Result:
+                  name: str = "", fast: bool = False, alpha: Reference | None = None,
+                  sensor=None, actuator=None, disturbance=None, substeps: int = 1) -> Result:
     """Simulate ``controller`` on ``plant`` tracking ``reference`` for ``t_end`` seconds.
 
     Parameters
@@ -338,11 +374,21 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         constant, a function of t, or one value per sample, each finite and > 0. For a
         library controller with ``gain="external"`` (the others set their own gain), or a
         controller of your own that takes it (``controller(y, setpoint=r, alpha=a)``).
+    sensor, actuator, disturbance : Sensor, Actuator, Disturbance, optional
+        The loop's elements (:mod:`mfcontrol.api.elements`): what the controller
+        receives of y (noise, quantisation, delay), what reaches the plant of u (delay,
+        rate limit) and a disturbance on the plant's input or output. The compiled
+        engine runs them; ``y_meas`` and ``u_plant`` record what they made of y and u.
+    substeps : int
+        Plant integration steps of h / substeps per sample, the input held (the
+        controller still runs every h).
 
     Returns
     -------
     Result
-        ``engine`` says whether the compiled engine or the Python driver ran it.
+        ``engine`` says whether the compiled engine or the Python driver ran it. On a
+        constant reference, the step metrics (overshoot, rise and settling time) take
+        the run as a step from the plant's initial output to it at t = 0.
 
     Examples
     --------
@@ -356,6 +402,8 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
                                final_window, stable_tol, diverge_above)
     al = _alpha(controller, alpha, t)
+    LP = _elements(sensor, actuator, disturbance, substeps, t.size)
+    step = _constant_step(plant, reference)
     ep = plant.engine() if hasattr(plant, "engine") else None
     law = law_arrays(controller)
     if ep is None or law is None:
@@ -363,18 +411,52 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         if fast:
             raise ConfigError("fast", True, f"only the compiled engine has a fast mode; this "
                               f"loop runs in Python ({note})")
+        if not layout.plain(LP):
+            raise ConfigError("sensor/actuator/disturbance/substeps", "given", "only the "
+                              f"compiled engine runs them; this loop runs in Python ({note})")
         return _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol,
-                              name, note, al)
+                              name, note, al, step)
     return compiled_run(plant, ep, controller, law, r[None, :], None, changes, t, h, t_end, S,
-                        stable_tol, name, fast, None if al is None else al[None, :])
+                        stable_tol, name, fast, None if al is None else al[None, :], LP, step)
+
+
+def _elements(sensor, actuator, disturbance, substeps, n: int) -> np.ndarray:
+    """The elements' LP column, checked (the objects' types; delays shorter than the run;
+    substeps as ``sim.substeps``)."""
+    from ..config.resolve import MAX_SUBSTEPS, check_value
+    from .elements import Actuator, Disturbance, Sensor, column
+
+    for name, obj, kind in (("sensor", sensor, Sensor), ("actuator", actuator, Actuator),
+                            ("disturbance", disturbance, Disturbance)):
+        if obj is not None and not isinstance(obj, kind):
+            raise ConfigError(name, type(obj).__name__, f"must be a mfcontrol.{kind.__name__}")
+        if obj is not None and getattr(obj, "delay", 0) >= n:
+            raise ConfigError(f"{name}.delay", obj.delay, f"must be fewer samples than the "
+                              f"run's {n:,}")
+    try:
+        check_value("sim.substeps", substeps)
+    except ConfigError as exc:
+        raise ConfigError("substeps", substeps, exc.allowed) from None
+    if substeps > MAX_SUBSTEPS:
+        raise ConfigError("substeps", substeps, f"must be a whole number from 1 to "
+                          f"{MAX_SUBSTEPS:,}")
+    return column(sensor, actuator, disturbance, substeps)
+
+
+def _constant_step(plant, reference) -> tuple[float, float, float] | None:
+    """A constant reference as the step the step metrics measure: from the plant's
+    initial output to it at t = 0 (None for any other reference)."""
+    if isinstance(reference, int | float | np.number) and not isinstance(reference, bool):
+        return 0.0, float(plant.output(np.asarray(plant.x0, dtype=float))), float(reference)
+    return None
 
 
 def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, stable_tol, name,
-                 fast, AL=None) -> Result:
+                 fast, AL=None, LP=None, step=None) -> Result:
     """One member through the compiled engine, its trajectory named as a Result; the
-    reference as for :func:`run_members`."""
+    reference, elements and step as for :func:`run_members`."""
     M, traj, CS = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
-                              fast=fast, record=True, RP=RP, AL=AL)
+                              fast=fast, record=True, RP=RP, AL=AL, LP=LP, step=step)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]
     _hand_back(controller, CS, traj, k_end)
@@ -394,7 +476,7 @@ def _python_reason(plant, ep, controller) -> str:
 
 
 def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, name,
-                   note, al=None) -> Result:
+                   note, al=None, step=None) -> Result:
     """The loop in Python, one plant step and one controller call per sample."""
     n = t.size
     # each change at its sample, in list order: the engine's rule
@@ -426,6 +508,8 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
             x = plant.step(t[k], x, uk, h)
     gamma = comps.get("gamma", np.full(n, np.nan))
     M = np.zeros((engine_metrics.N_METRICS, 1))
+    engine_metrics.start(M, *_step_metrics_of(np.zeros((reference_law.N_PARAMS, 1)), step),
+                         _load_step_of(layout.column(), [changes]))
     engine_metrics.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]
@@ -433,7 +517,9 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
     comps["u_raw"] = comps.pop("unlimited", comps.get("u_raw", np.full(n, np.nan)))
     comps.setdefault("gamma", np.full(n, np.nan))
     comps.setdefault("gain", comps["gamma"])
-    signals = {"y_ref": r, "y": y, "u": u, **{k: comps[k] for k in SIGNALS[3:]},
+    signals = {"y_ref": r, "y": y, "y_meas": y, "u": u, "u_plant": u,
+               **{k: comps[k] for k in SIGNALS if k not in ("y_ref", "y", "y_meas", "u",
+                                                             "u_plant")},
                **{k: v for k, v in comps.items() if k not in SIGNALS}}
     signals = {k: v[:k_end] for k, v in signals.items()}
     states = {s: X[:k_end, i] for i, s in enumerate(plant.state_names)}

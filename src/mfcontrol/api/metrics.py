@@ -15,7 +15,24 @@ t_diverge          time of the first such sample (NaN if none)
 max_abs_e_final    max |e_k| over the stability window (last 20 % of the horizon)
 max_abs_ref        max |y*_k| over the run
 stable             see :func:`is_stable`
+energy_u           sum u_k^2 h, the control's energy
+steady_state_error mean of y*_k - y_k over the stability window
+overshoot          on a step reference (from y0 to y1 at t0): the largest excursion past
+                   y1, in % of |y1 - y0| (0 if none)
+rise_time          10 % to 90 % of the step: between the first samples that reach them
+settling_time      from t0 until y stays within 2 % of |y1 - y0| around y1 (NaN if it
+                   does not by the end of the step window)
+iae_load           sum |e_k| h from the first load step on: a step disturbance's t0 or
+                   the first scheduled plant change (NaN without either)
 =================  ===========================================================
+
+The step metrics (overshoot, rise_time, settling_time) need a step reference: a case's
+``smooth-step`` reference, or a constant one given to :func:`mfcontrol.simulate_loop`
+(a step from the plant's initial output at t = 0); NaN otherwise. They judge the step
+window, from the step to the first load step (which starts a response of its own, judged
+by ``iae_load``) or the end. The loop metrics
+(``energy_u`` to ``iae_load``) are folded by the general engine; the paper's tuned
+kernels (its buck cases under the recursive laws) report them as NaN.
 """
 
 from __future__ import annotations
@@ -36,9 +53,12 @@ STABILITY_RULE = (
 )
 
 
+#: the loop metrics (:func:`_loop_metrics`), NaN from the paper's tuned kernels
+LOOP_METRICS = ("energy_u", "steady_state_error", "overshoot", "rise_time", "settling_time",
+                "iae_load")
 #: the metric columns of a sweep table, in order
 COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_final",
-           "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable")
+           "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable", *LOOP_METRICS)
 
 
 def is_stable(diverged, max_abs_e_final, max_abs_ref, tol):
@@ -64,7 +84,31 @@ def table(M: np.ndarray, tol: float) -> dict[str, np.ndarray]:
         "n_samples": M[engine_metrics.M_N_SAMPLES].astype(np.int64),
     }
     out["stable"] = is_stable(diverged, out["max_abs_e_final"], out["max_abs_ref"], tol)
+    out.update(_loop_metrics(M))
     return out
+
+
+def _loop_metrics(M: np.ndarray) -> dict[str, np.ndarray]:
+    """The loop metrics from their folded rows (:func:`mfcontrol.engine.metrics.loop_sums`)."""
+    em = engine_metrics
+    size = np.abs(M[em.M_STEP_TO] - M[em.M_STEP_FROM])
+    step = np.isfinite(size) & (size > 0)
+    t10, t90, t_in = M[em.M_T10], M[em.M_T90], M[em.M_T_IN]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rise = np.where(step & np.isfinite(t10) & np.isfinite(t90), t90 - t10, math.nan)
+        # y inside the band from t_in on; outside at the window's last sample: not settled
+        settled = step & (t_in <= M[em.M_T_LAST])
+        settling = np.where(settled, np.maximum(t_in, M[em.M_STEP_T0]) - M[em.M_STEP_T0],
+                            math.nan)
+        return {
+            "energy_u": M[em.M_ENERGY].copy(),
+            "steady_state_error": np.where(M[em.M_N_FINAL] > 0,
+                                           M[em.M_E_FINAL] / M[em.M_N_FINAL], math.nan),
+            "overshoot": np.where(step, 100.0 * M[em.M_PEAK] / size, math.nan),
+            "rise_time": rise,
+            "settling_time": settling,
+            "iae_load": np.where(np.isfinite(M[em.M_LOAD_T0]), M[em.M_IAE_LOAD], math.nan),
+        }
 
 
 def from_kernel(M: np.ndarray, j: int, tol: float) -> dict:

@@ -21,14 +21,19 @@ from ..config.resolve import Config, keys_read
 from ..engine import metrics as engine_metrics
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
-from .controllers import IP, IPD, IPI, IPID, IntelligentController, RecursiveIP
+from .controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
+from .elements import Actuator, Disturbance, Sensor, column
 from .loop import Change
 
 
 def plant(cfg: Config):
-    from .plants import Boost, Buck, FirstOrder
+    from .plants import Boost, Buck, DCMotor, FirstOrder
 
     model, integ = cfg["plant.model"], cfg["sim.integrator"]
+    if model == "dc-motor":
+        return DCMotor(**{k: cfg[f"plant.{k}"] for k in ("J", "friction", "Km", "Ra", "La",
+                                                          "load")},
+                       x0=(cfg["plant.y0"], cfg["plant.i0"]), integrator=integ)
     if model == "first-order":
         return FirstOrder(cfg["plant.a"], cfg["plant.b"], cfg["plant.w"],
                           x0=cfg["plant.y0"], integrator=integ)
@@ -40,9 +45,13 @@ def plant(cfg: Config):
                 x0=x0, integrator=integ)
 
 
-def controller(cfg: Config) -> IntelligentController | RecursiveIP:
+def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
     law = cfg["controller.law"]
     limits = (cfg["controller.duty_min"], cfg["controller.duty_max"])
+    if law == "pid":
+        return PID(cfg["controller.kp"], cfg["controller.ki"], cfg["controller.kd"],
+                   sample_time=cfg["sim.h"], N=cfg["controller.N"], b=cfg["controller.b"],
+                   Tt=cfg["controller.Tt"], output_limits=limits)
     if law not in POSITIONAL:
         # the controller keys its parameter column reads, given to the live controller
         # (which builds the same column from them)
@@ -71,6 +80,25 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP:
     if law == "i-PD":
         return IPD(a, kp, kd, **options)
     return IPID(a, kp, ki, kd, **options)
+
+
+def elements(cfg: Config) -> np.ndarray:
+    """The loop's elements (``[sensor]``, ``[actuator]``, ``[disturbance]``,
+    ``sim.substeps``) as the engine's LP column."""
+    def section(name: str, kind):
+        return kind(**{k: cfg[f"{name}.{k}"] for k in kind.__dataclass_fields__})
+
+    return column(section("sensor", Sensor), section("actuator", Actuator),
+                  section("disturbance", Disturbance), cfg["sim.substeps"])
+
+
+def ideal_loop(cfg: Config) -> bool:
+    """No sensor, actuator or disturbance element, one integration step per sample: the
+    loop the paper's kernels run."""
+    return (cfg["sensor.noise"] == "none" and cfg["sensor.quantum"] == 0.0
+            and cfg["sensor.delay"] == 0 and cfg["actuator.delay"] == 0
+            and cfg["actuator.rate_limit"] == 0.0 and cfg["disturbance.kind"] == "none"
+            and cfg["sim.substeps"] == 1)
 
 
 def changes(cfg: Config) -> list[Change]:

@@ -33,7 +33,7 @@ from scipy.integrate import solve_ivp
 from ..errors import ConfigError
 from ..numerics import blocks, rk4
 from ..numerics import signatures as sig
-from ..plants import boost, buck, first_order, lti, ode
+from ..plants import boost, buck, dc_motor, first_order, lti, ode
 
 __all__ = ["LTI", "ODE", "Boost", "Buck", "FirstOrder", "Plant", "EnginePlant"]
 
@@ -241,13 +241,21 @@ class _CompiledPlant(Plant):
 
     _module: Any
     _positive: frozenset[str] = frozenset()
+    _nonnegative: frozenset[str] = frozenset()
+
+    def _value(self, name: str, value: Any) -> float:
+        """A parameter's value, checked: finite, and > 0 or >= 0 where the model needs."""
+        v = _number(name, value, name in self._positive)
+        if name in self._nonnegative and v < 0:
+            raise ConfigError(name, value, "must be a finite number >= 0")
+        return v
 
     def __init__(self, params: Mapping[str, Any], fixed: Mapping[int, float],
                  x0: npt.ArrayLike, **kw: Any):
         mod = self._module
         self._p = np.zeros(mod.N_PARAMS)
         for name, value in params.items():
-            self._p[mod.PARAM_ROWS[name]] = _number(name, value, name in self._positive)
+            self._p[mod.PARAM_ROWS[name]] = self._value(name, value)
         for row, value in fixed.items():
             self._p[row] = value
         self._derive()
@@ -272,7 +280,7 @@ class _CompiledPlant(Plant):
         rows = self._module.PARAM_ROWS
         if name not in rows:
             raise ConfigError(name, value, "unknown parameter; allowed: " + ", ".join(rows))
-        self._p[rows[name]] = _number(name, value, name in self._positive)
+        self._p[rows[name]] = self._value(name, value)
         self._derive()
 
     def _state(self, x: npt.ArrayLike) -> np.ndarray:
@@ -429,6 +437,54 @@ class FirstOrder(_CompiledPlant):
         super().__init__({"a": a, "b": b, "w": w}, {}, x0,
                          integrator=integrator, rtol=rtol, atol=atol)
 
+
+
+class DCMotor(_CompiledPlant):
+    """DC motor driven by its armature voltage (:mod:`mfcontrol.plants.dc_motor`), states
+    (omega, i_a), output the speed omega (rad/s).
+
+    Parameters
+    ----------
+    J : float
+        Rotor inertia (kg m^2), > 0.
+    friction : float
+        Viscous friction (N m s), >= 0.
+    Km : float
+        Torque and back-emf constant (N m/A = V s/rad), > 0.
+    Ra, La : float
+        Armature resistance (ohm) and inductance (H), > 0.
+    load : float
+        Load torque (N m); ``set_param("load", ...)`` or a schedule steps it.
+    x0 : array_like
+        Initial (omega, i_a).
+    integrator : {"rk4", "rk45"}
+        ``"rk4"`` is the engine's RK4 on :func:`mfcontrol.plants.dc_motor.rhs`.
+    rtol, atol : float
+        Tolerances of ``"rk45"``.
+
+    Examples
+    --------
+    Under 12 V with no load the speed settles at Km u / (Km^2 + Ra friction):
+
+    >>> from mfcontrol import DCMotor
+    >>> motor = DCMotor()
+    >>> x = motor.x0
+    >>> for k in range(20000):
+    ...     x = motor.step(k * 1e-3, x, 12.0, 1e-3)
+    >>> round(motor.output(x), 3), round(0.05 * 12 / (0.05**2 + 2 * 1e-4), 3)
+    (222.222, 222.222)
+    """
+
+    _module = dc_motor
+    _positive = frozenset({"J", "Km", "Ra", "La"})
+    _nonnegative = frozenset({"friction"})
+
+    def __init__(self, J: float = 5e-4, friction: float = 1e-4, Km: float = 0.05,
+                 Ra: float = 2.0, La: float = 2e-3, load: float = 0.0, *,
+                 x0: npt.ArrayLike = (0.0, 0.0), integrator: str = "rk4",
+                 rtol: float = 1e-9, atol: float = 1e-12):
+        super().__init__({"J": J, "friction": friction, "Km": Km, "Ra": Ra, "La": La,
+                          "load": load}, {}, x0, integrator=integrator, rtol=rtol, atol=atol)
 
 
 class LTI(Plant):

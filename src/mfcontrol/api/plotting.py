@@ -22,10 +22,27 @@ _OUTPUT = {
 }
 
 
+#: (quantity, symbol, unit) of the output and the input's axis label, per plant model
+_MODELS = {
+    "first-order": (("output", "y", "1"), "control $u$ (1)"),
+    "dc-motor": (("speed", r"\omega", "rad/s"), "armature voltage $u$ (V)"),
+}
+
+
 def _labels(result: Result) -> tuple[str, str, str]:
-    if result.config["plant.model"] == "first-order":
-        return ("output", "y", "1")
+    model = result.config["plant.model"]
+    if model in _MODELS:
+        return _MODELS[model][0]
     return _OUTPUT[result.config["plant.output"]]
+
+
+def _input_label(result: Result) -> str:
+    model = result.config["plant.model"]
+    return _MODELS[model][1] if model in _MODELS else "duty cycle $d$ (1)"
+
+
+def _differs(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and not np.array_equal(a, b, equal_nan=True)
 
 
 def _time_scale(t: np.ndarray) -> tuple[float, str]:
@@ -35,11 +52,14 @@ def _time_scale(t: np.ndarray) -> tuple[float, str]:
 
 def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
     cfg = result.config
-    times = list(cfg["plant.change_times"]) if cfg["plant.model"] != "first-order" else []
+    times = (list(cfg["plant.change_times"]) if cfg["plant.model"] in ("buck", "boost")
+             else [])
     times += [e["t"] for e in cfg["plant.schedule"]]
     for tc in times:
         if tc < cfg["sim.t_end"]:
             ax.axvline(tc * scale, color="0.6", lw=0.8, ls=":")
+    if cfg["disturbance.kind"] != "none" and cfg["disturbance.t0"] < cfg["sim.t_end"]:
+        ax.axvline(cfg["disturbance.t0"] * scale, color="tab:orange", lw=0.8, ls=":")
 
 
 def _save(fig: Figure, path: str | Path | None) -> Figure:
@@ -48,7 +68,10 @@ def _save(fig: Figure, path: str | Path | None) -> Figure:
     return fig
 
 
-def _tracking_panel(ax, t_ms, y, y_ref, ylabel: str, sym: str) -> None:
+def _tracking_panel(ax, t_ms, y, y_ref, ylabel: str, sym: str,
+                    y_meas: np.ndarray | None = None) -> None:
+    if y_meas is not None and _differs(y_meas, y):
+        ax.plot(t_ms, y_meas, color="0.65", lw=0.6, label=f"measured ${sym}$ (sensor)")
     ax.plot(t_ms, y, color="tab:red", lw=1.4, label=f"output ${sym}$")
     ax.plot(t_ms, y_ref, color="tab:blue", lw=1.2, ls="--", label=f"reference ${sym}^*$")
     ax.set_ylabel(ylabel)
@@ -64,8 +87,8 @@ def plot_loop(result, path: str | Path | None = None, title: str | None = None,
     scale, time_label = _time_scale(result.time)
     t = result.time * scale
     _tracking_panel(axes[0], t, result.signals["y"], result.signals["y_ref"], output_label,
-                    "y")
-    axes[1].plot(t, result.signals["u"], color="tab:green", lw=1.0)
+                    "y", result.signals.get("y_meas"))
+    _input_panel(axes[1], t, result)
     axes[1].set_ylabel(input_label)
     for a in axes:
         a.grid(True, alpha=0.3)
@@ -77,6 +100,19 @@ def plot_loop(result, path: str | Path | None = None, title: str | None = None,
                           color="tab:red", fontsize=9, loc="right")
     fig.suptitle(title if title is not None else result.name)
     return _save(fig, path)
+
+
+def _input_panel(ax, t, result) -> None:
+    """The controller's output, and what reached the plant where the actuator or an input
+    disturbance made it differ."""
+    u, u_plant = result.signals["u"], result.signals.get("u_plant")
+    if u_plant is not None and _differs(u_plant, u):
+        ax.plot(t, u, color="tab:green", lw=0.8, label="controller output $u$")
+        ax.plot(t, u_plant, color="tab:olive", lw=1.0, ls="--",
+                label="reaching the plant $u_{plant}$")
+        ax.legend(loc="best", fontsize=8)
+    else:
+        ax.plot(t, u, color="tab:green", lw=1.0)
 
 
 def plot_run(result: Result, path: str | Path | None = None, title: str | None = None,
@@ -91,10 +127,9 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     scale, time_label = _time_scale(result.time)
     t = result.time * scale
     _tracking_panel(axes[0], t, result.signals["y"], result.signals["y_ref"],
-                    f"{quantity} ${sym}$ ({unit})", sym)
-    axes[1].plot(t, result.signals["u"], color="tab:green", lw=1.0)
-    converter = result.config["plant.model"] != "first-order"
-    axes[1].set_ylabel("duty cycle $d$ (1)" if converter else "control $u$ (1)")
+                    f"{quantity} ${sym}$ ({unit})", sym, result.signals.get("y_meas"))
+    _input_panel(axes[1], t, result)
+    axes[1].set_ylabel(_input_label(result))
     if with_gamma:
         _gamma_axes(axes[2], result)
     for a in axes:

@@ -14,7 +14,7 @@ from .._version import __version__
 from ..config.resolve import Config
 
 #: the signals every run records, in file order (a law's components may follow)
-SIGNALS = ("y_ref", "y", "u", "u_raw", "gamma", "gain")
+SIGNALS = ("y_ref", "y", "y_meas", "u", "u_plant", "u_raw", "gamma", "gain")
 
 
 class _Files:
@@ -76,9 +76,12 @@ class Result(_Trajectory):
     time : ndarray
         Sample times t_k (s), up to divergence.
     signals : dict of ndarray
-        ``y_ref`` reference, ``y`` output at t_k before that sample's plant step, ``u`` the
-        controller's (limited) output, what the plant received (the duty cycle on a
-        converter), ``u_raw`` the law's output before limiting (the recursive law's raw
+        ``y_ref`` reference, ``y`` output at t_k before that sample's plant step (with an output
+        disturbance), ``y_meas`` what the controller received of it (after the sensor's noise,
+        quantisation and delay; ``y`` without a sensor), ``u`` the controller's (limited) output
+        (the duty cycle on a converter), ``u_plant`` what reached the plant (after the actuator's
+        delay and rate limit and an input disturbance; ``u`` without them), ``u_raw`` the law's
+        output before limiting (the recursive law's raw
         u_k, before its output gain), ``gamma`` the adaptive gain (1/alpha for a constant
         gain), ``gain`` what multiplied the derivative error; an intelligent controller
         adds its terms ``F_hat``, ``feedforward``, ``P``, ``I``, ``D``.

@@ -10,6 +10,7 @@ import numpy as np
 
 from .._version import __version__
 from ..config.resolve import Config, axis_value
+from ..elements import layout
 from ..engine import trajectory
 from ..numerics import grid
 from . import metrics, scenario
@@ -29,8 +30,11 @@ def compiled(cfg: Config) -> bool:
     """Whether the paper's tuned kernel covers this configuration (the paper's laws on the
     buck with RK4); everything else runs in the general engine
     (:mod:`mfcontrol.engine.compose`) with the same laws."""
+    from .params import ideal_loop
+
     return (cfg["plant.model"] == "buck" and cfg["controller.law"] in ("ip", "variational")
-            and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"])
+            and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"]
+            and ideal_loop(cfg))
 
 
 def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
@@ -75,7 +79,8 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     # the reference evaluated in the kernel, as a batch of these members evaluates it
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
                        params.reference_column(cfg), changes, t,
-                       cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast)
+                       cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast,
+                       LP=params.elements(cfg))
     return dataclasses.replace(res, config=cfg, changes=())
 
 
@@ -83,7 +88,7 @@ def member_parts() -> dict[str, Callable[[Config], Any]]:
     """How a member of the general engine is built from its configuration, part by part,
     by the translators a single run calls (:mod:`mfcontrol.api.params`): ``"plant"``,
     its engine plant and scheduled changes; ``"law"``, its law's arrays;
-    ``"reference"``, its reference column."""
+    ``"reference"``, its reference column; ``"elements"``, its loop elements' column."""
     from . import params
     from .loop import law_arrays
 
@@ -92,7 +97,7 @@ def member_parts() -> dict[str, Callable[[Config], Any]]:
         return p.engine(), changes
 
     return {"plant": plant, "law": lambda cfg: law_arrays(params.controller(cfg)),
-            "reference": params.reference_column}
+            "reference": params.reference_column, "elements": params.elements}
 
 
 def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
@@ -117,7 +122,8 @@ def batch_metrics(first: Config, parts: Mapping[str, Sequence[Any]], *, fast: bo
     M, _, CS = run_members([ep for ep, _ in parts["plant"]], parts["law"], np.zeros((0, n)),
                            [ch for _, ch in parts["plant"]], t_end=first["sim.t_end"],
                            h=first["sim.h"], S=params.metric_settings(first), fast=fast,
-                           RP=np.hstack(parts["reference"]), vectorise=vectorise)
+                           RP=np.hstack(parts["reference"]),
+                           LP=layout.stack(parts["elements"]), vectorise=vectorise)
     return M, CS
 
 

@@ -34,8 +34,9 @@ OPTIONS: tuple[Option, ...] = (
     _o("fidelity", "str", "published", "preset for the options below that differ between the "
        "published code and the printed equations", FIDELITIES),
     # plant
-    _o("plant.model", "str", "buck", "plant model: averaged buck or boost converter, or "
-       "y' = a y + b u + w", ("buck", "boost", "first-order")),
+    _o("plant.model", "str", "buck", "plant model: averaged buck or boost converter, "
+       "y' = a y + b u + w, or a DC motor's speed under its armature voltage",
+       ("buck", "boost", "first-order", "dc-motor")),
     _o("plant.output", "str", "voltage", "converters' measured output: v_C, or v_C * i_L "
        "(buck)", ("voltage", "power")),
     _o("plant.coupling", "str", None, "buck input coupling: the published code adds E d/L to "
@@ -49,12 +50,21 @@ OPTIONS: tuple[Option, ...] = (
     _o("plant.dC", "float", 1e-9, "capacitance added at each load change (F)"),
     _o("plant.change_times", "floats", [4e-3, 6e-3], "load change times (s): applied at the "
        "first sample t_k >= each time, before that sample's plant step", check="nonnegative"),
-    _o("plant.i0", "float", 0.0, "initial inductor current (A)"),
+    _o("plant.i0", "float", 0.0, "initial inductor (armature) current (A)"),
     _o("plant.v0", "float", 0.0, "initial capacitor voltage (V)"),
     _o("plant.a", "float", -1.0, "first-order: pole a (1/s)"),
     _o("plant.b", "float", 1.0, "first-order: input gain b"),
     _o("plant.w", "float", 0.0, "first-order: disturbance w"),
-    _o("plant.y0", "float", 0.0, "first-order: initial output"),
+    _o("plant.y0", "float", 0.0, "first-order, dc-motor: initial output (the motor's "
+       "speed, rad/s)"),
+    _o("plant.J", "float", 5e-4, "dc-motor: rotor inertia (kg m^2)", check="positive"),
+    _o("plant.friction", "float", 1e-4, "dc-motor: viscous friction (N m s)",
+       check="nonnegative"),
+    _o("plant.Km", "float", 0.05, "dc-motor: torque and back-emf constant (N m/A)",
+       check="positive"),
+    _o("plant.Ra", "float", 2.0, "dc-motor: armature resistance (ohm)", check="positive"),
+    _o("plant.La", "float", 2e-3, "dc-motor: armature inductance (H)", check="positive"),
+    _o("plant.load", "float", 0.0, "dc-motor: load torque (N m); a schedule steps it"),
     _o("plant.schedule", "events", [], "parameter changes: a list of {t = time (s), name = "
        "parameter, set = value} or {..., add = delta}, applied at the first t_k >= t"),
     # reference
@@ -75,7 +85,8 @@ OPTIONS: tuple[Option, ...] = (
     # controller
     _o("controller.law", "str", "ip", "ip: the paper's recursive i-P (eq. 8); variational: "
        "with the symplectic gamma update (eq. 33); i-P, i-PI, i-PD, i-PID: positional "
-       "intelligent controllers", ("ip", "variational", "i-P", "i-PI", "i-PD", "i-PID")),
+       "intelligent controllers; pid: the discrete PID of Astrom and Hagglund",
+       ("ip", "variational", "i-P", "i-PI", "i-PD", "i-PID", "pid")),
     _o("controller.alpha", "float", 10.0, "key gain alpha of the ultra-local model",
        check="positive"),
     _o("controller.kp", "float", 2.0, "proportional gain K_P"),
@@ -122,8 +133,43 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.p_error", "str", "r-y", "P term error: Kp (r - y) (published) or "
        "Kp (y - r) (printed; positive feedback for Kp > 0)", ("r-y", "y-r")),
     _o("controller.u0", "float", 1.0, "initial control u_0"),
+    _o("controller.N", "float", 10.0, "pid: derivative filter, time constant Td / N",
+       check="positive"),
+    _o("controller.b", "float", 1.0, "pid: setpoint weight of the proportional term"),
+    _o("controller.Tt", "float", None, "pid: tracking time of back-calculation (s); absent: "
+       "sqrt(Ti Td) with an integral and a derivative, else Ti", check="positive"),
+    # sensor, actuator, disturbance
+    _o("sensor.noise", "str", "none", "measurement noise added to y", ("none", "gaussian",
+                                                                        "uniform")),
+    _o("sensor.noise_std", "float", 0.0, "noise standard deviation (output unit)",
+       check="nonnegative"),
+    _o("sensor.seed", "int", 0, "noise seed: the same seed gives the same noise in a single "
+       "run, a sweep member and on a Dask worker", check="nonnegative"),
+    _o("sensor.quantum", "float", 0.0, "measurement resolution: y rounds to the nearest "
+       "multiple (0: none)", check="nonnegative"),
+    _o("sensor.delay", "int", 0, "measurement delay (samples): y_meas[k] = y[k - delay]",
+       check="nonnegative"),
+    _o("actuator.delay", "int", 0, "actuation delay (samples): u_plant[k] = u[k - delay], 0 "
+       "before", check="nonnegative"),
+    _o("actuator.rate_limit", "float", 0.0, "largest rate of change of the plant's input "
+       "(unit/s; 0: none)", check="nonnegative"),
+    _o("disturbance.kind", "str", "none", "step: amplitude from t0 on; ramp: amplitude (t - "
+       "t0); sine: amplitude sin(2 pi frequency (t - t0)); table: linear in times/values",
+       ("none", "step", "ramp", "sine", "table")),
+    _o("disturbance.at", "str", "input", "added to the plant's input, or to its output y",
+       ("input", "output")),
+    _o("disturbance.amplitude", "float", 0.0, "step size, ramp slope (per s) or sine "
+       "amplitude"),
+    _o("disturbance.t0", "float", 0.0, "start (s)", check="nonnegative"),
+    _o("disturbance.frequency", "float", 0.0, "sine frequency (Hz)", check="nonnegative"),
+    _o("disturbance.times", "floats", [], "table: times (s), nondecreasing",
+       check="nonnegative"),
+    _o("disturbance.values", "floats", [], "table: the disturbance at those times"),
     # simulation
-    _o("sim.h", "float", 1e-6, "sample period and RK4 step (s)", check="positive"),
+    _o("sim.h", "float", 1e-6, "sample period of the controller and RK4 step (s)",
+       check="positive"),
+    _o("sim.substeps", "int", 1, "plant integration steps of sim.h / substeps per sample, "
+       "the input held (1: the published loop)", check="positive"),
     _o("sim.integrator", "str", "rk4", "plant integration between samples: one RK4 step "
        "(published) or a compiled adaptive Dormand-Prince 5(4) (scipy's RK45 method, input "
        "held, rtol 1e-9, atol 1e-12)", ("rk4", "rk45")),
@@ -158,7 +204,8 @@ def allowed(o: Option) -> str:
                   "fraction": "must be a number in (0, 1]",
                   "": "must be a finite number"}[o.check],
         "floats": "must be a list of finite numbers" + (" >= 0" if o.check else ""),
-        "int": "must be a whole number" + (" > 0" if o.check else ""),
+        "int": "must be a whole number" + {"positive": " > 0",
+                                           "nonnegative": " >= 0"}.get(o.check, ""),
         "strs": "must be a list of strings",
         "events": "must be a list of tables {t = time >= 0, name = parameter, set = value} "
                   "or {t, name, add = delta}",
@@ -169,7 +216,8 @@ def allowed(o: Option) -> str:
 
 #: parameters a schedule may change, per plant model
 PLANT_PARAMETERS = {"buck": ("E", "L", "R", "C"), "boost": ("E", "L", "R", "C"),
-                    "first-order": ("a", "b", "w")}
+                    "first-order": ("a", "b", "w"),
+                    "dc-motor": ("J", "friction", "Km", "Ra", "La", "load")}
 
 
 #: the positional intelligent laws (the others are the paper's recursive law)

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..elements import noise
 from ..errors import ConfigError
 from ..laws import estimators
 from ..numerics import grid
@@ -72,7 +73,9 @@ def check_value(key: str, value: Any) -> Any:
         return list(value)
     if o.kind == "int":
         if (not isinstance(value, int) or isinstance(value, bool)
-                or (o.check and value <= 0) or (o.choices and str(value) not in o.choices)):
+                or (o.check == "positive" and value <= 0)
+                or (o.check == "nonnegative" and value < 0)
+                or (o.choices and str(value) not in o.choices)):
             raise ConfigError(key, value, allowed(o))
         return value
     if o.kind == "events":
@@ -253,9 +256,31 @@ def _check_consistency(v: dict[str, Any]) -> None:
         raise ConfigError("controller.window", v["controller.window"],
                           f"must be fewer samples than the run's {n:,} (sim.t_end / sim.h) "
                           f"and at most {estimators.MAX_WINDOW:,}")
-    if v["controller.law"] in ("ip", "variational") and v["plant.model"] == "first-order":
+    if v["controller.law"] in ("ip", "variational") and v["plant.model"] not in ("buck",
+                                                                                 "boost"):
         raise ConfigError("controller.law", v["controller.law"], "the paper's recursive law "
-                          "drives a converter's duty cycle: use i-P .. i-PID for first-order")
+                          "drives a converter's duty cycle: use i-P .. i-PID or pid for "
+                          f"{v['plant.model']}")
+    if v["sensor.seed"] >= noise.MAX_SEED:
+        raise ConfigError("sensor.seed", v["sensor.seed"],
+                          f"must be a whole number from 0 to {noise.MAX_SEED - 1:,}")
+    for key in ("sensor.delay", "actuator.delay"):
+        if v[key] >= n:
+            raise ConfigError(key, v[key], f"must be fewer samples than the run's {n:,} "
+                              "(sim.t_end / sim.h)")
+    if v["sim.substeps"] > MAX_SUBSTEPS:
+        raise ConfigError("sim.substeps", v["sim.substeps"],
+                          f"must be a whole number from 1 to {MAX_SUBSTEPS:,}")
+    if v["disturbance.kind"] == "table":
+        times, values = v["disturbance.times"], v["disturbance.values"]
+        if not times or len(times) != len(values):
+            raise ConfigError("disturbance.values", values, "must have one value per time of "
+                              f"disturbance.times ({len(times)}), at least one")
+        if any(b < a for a, b in zip(times, times[1:], strict=False)):
+            raise ConfigError("disturbance.times", times, "must be nondecreasing")
+    if v["controller.law"] == "pid":
+        _check_pid(v["controller.kp"], v["controller.ki"], v["controller.kd"],
+                   v["controller.Tt"], "controller.")
     if (v["sweep.key"] is None) != (v["sweep.values"] is None):
         raise ConfigError("sweep.values", v["sweep.values"],
                           "sweep.key and sweep.values go together")
@@ -269,6 +294,22 @@ def _check_consistency(v: dict[str, Any]) -> None:
             x = axis_value(o.key, x)
             check_value(o.key, x)
             _check_consistency({**v, o.key: x, "sweep.key": None, "sweep.values": None})
+
+
+#: integration steps per control period at most (the plant's grid stays within the
+#: integers a float counts exactly for any run length the checks allow)
+MAX_SUBSTEPS = 100_000
+
+
+def _check_pid(kp: float, ki: float, kd: float, Tt: float | None, prefix: str = "") -> None:
+    """The PID's gains define its time constants: Td = kd / kp needs kp != 0 and, for a
+    filter that decays, Td >= 0; the default tracking time needs Ti = kp / ki > 0."""
+    if kd != 0.0 and (kp == 0.0 or kd / kp < 0.0):
+        raise ConfigError(f"{prefix}kd", kd, f"must have the sign of {prefix}kp (Td = kd / kp "
+                          f">= 0; kp = {kp!r})")
+    if ki != 0.0 and Tt is None and (kp == 0.0 or kp / ki < 0.0):
+        raise ConfigError(f"{prefix}ki", ki, f"must have the sign of {prefix}kp (Ti = kp / ki "
+                          f"> 0; kp = {kp!r}), or give {prefix}Tt")
 
 
 #: options every member of one scenario shares: they set the time grid

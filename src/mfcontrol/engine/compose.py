@@ -44,7 +44,8 @@ from numba.core import config as numba_config
 from numba.core.errors import NumbaError
 
 from .. import _jit
-from ..laws import intelligent, recursive_ip, reference, variational_gain
+from ..elements import actuator, delay, disturbance, layout, sensor
+from ..laws import intelligent, pid, recursive_ip, reference, variational_gain
 from ..numerics import blocks, dopri45, grid, rk4
 from ..numerics import signatures as sig
 from . import metrics as engine_metrics
@@ -53,6 +54,7 @@ from . import paper_single, trajectory
 # law kinds
 RECURSIVE_IP = paper_single.RECURSIVE_IP
 INTELLIGENT = 1
+PID = 2
 # integrators
 RK4 = 0
 DP45 = 1
@@ -126,8 +128,8 @@ def _make_loop(fast):
     FAST = fast
 
     def member_loop(law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt,
-                    X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT, j0, j1,
-                    traj, comp_rows):
+                    X, P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT, j0,
+                    j1, traj, comp_rows):
         """Members j0 .. j1-1 from their present state, for n_steps samples.
 
         ``X[j]``/``P[j]``: plant state/parameters of member j; ``CP[:, j]``/``CS[:, j]``:
@@ -135,9 +137,12 @@ def _make_loop(fast):
         ``reference.value(RP, j, t)``; ``AL[j or 0, k]``, when AL has rows, the alpha of an
         external gain (written to the law's ``ALPHA_EXT`` row before it runs); event e sets
         (or adds, ``ev_add[e]``) ``ev_val[e, j]`` to ``P[j, ev_col[e]]`` at sample
-        ``ev_k[e, j]``; ``M[:, j]`` the metrics;
+        ``ev_k[e, j]``; ``LP[:, j]`` the loop's elements (rows of
+        :mod:`mfcontrol.elements.layout`: the law sees the sensor's reading of y, the
+        plant receives the actuator's output plus an input disturbance, over ``substeps``
+        integration steps of h / substeps); ``M[:, j]`` the metrics, of the true y;
         ``DT[j]`` the adaptive integrator's carried step. When ``traj`` has n_steps columns,
-        member j0's trajectory is recorded there (rows as ``trajectory.T_REF`` .. ``T_GAIN``,
+        member j0's trajectory is recorded there (rows as ``trajectory.T_REF`` .. ``T_U_PLANT``,
         the CS rows ``comp_rows`` from :data:`T_COMP` on, then the states).
         """
         rhs = sig.as_rhs(rhs)
@@ -161,6 +166,14 @@ def _make_loop(fast):
         cp = np.empty((CP.shape[0], 1))
         cs = np.empty((CS.shape[0], 1))
         mj = np.empty((M.shape[0], 1))
+        DP = LP[layout.DISTURBANCE:]
+        # the delays' rings, sized for the longest delay of these members
+        d_max = np.zeros(2, dtype=np.int64)
+        for j in range(j0, j1):
+            d_max[0] = max(d_max[0], int(LP[layout.SENSOR + sensor.DELAY, j]))
+            d_max[1] = max(d_max[1], int(LP[layout.ACTUATOR + actuator.DELAY, j]))
+        ring_y = np.empty(d_max[0] + 1)
+        ring_u = np.empty(d_max[1] + 1)
         for j in range(j0, j1):
             for i in range(CP.shape[0]):
                 cp[i, 0] = CP[i, j]
@@ -170,7 +183,21 @@ def _make_loop(fast):
                 mj[i, 0] = M[i, j]
             x = X[j]
             p = P[j]
-            prepare(sig.pointer(p), h, n_x, n_p)
+            s_kind = LP[layout.SENSOR + sensor.NOISE, j]
+            s_std = LP[layout.SENSOR + sensor.STD, j]
+            s_seed = LP[layout.SENSOR + sensor.SEED, j]
+            s_q = LP[layout.SENSOR + sensor.QUANTUM, j]
+            s_d = int(LP[layout.SENSOR + sensor.DELAY, j])
+            a_d = int(LP[layout.ACTUATOR + actuator.DELAY, j])
+            rate = LP[layout.ACTUATOR + actuator.RATE, j]
+            dist = DP[disturbance.KIND, j] != disturbance.NONE
+            d_out = dist and DP[disturbance.AT, j] == disturbance.OUTPUT
+            d_in = dist and not d_out
+            sub = int(LP[layout.SUBSTEPS, j])
+            hs = h / sub if sub > 1 else h  # the plant's step
+            y_first = 0.0
+            u_act = 0.0
+            prepare(sig.pointer(p), hs, n_x, n_p)
             next_ev = _events_at(-1, j, ev_k, ev_col, ev_add, ev_val, P.T, j, n_steps)
             a_prev = 0.0
             dt_carry = DT[j]
@@ -179,8 +206,10 @@ def _make_loop(fast):
                 t = grid.time(k, t_end, n_steps)
                 if k == next_ev:
                     next_ev = _events_at(k, j, ev_k, ev_col, ev_add, ev_val, P.T, j, n_steps)
-                    prepare(sig.pointer(p), h, n_x, n_p)
+                    prepare(sig.pointer(p), hs, n_x, n_p)
                 y = output(sig.pointer(x), sig.pointer(p), n_x, n_p)
+                if d_out:
+                    y = y + disturbance.value(DP, j, t)
                 if use_series:
                     r = R[ref_row, k]
                 else:
@@ -190,26 +219,44 @@ def _make_loop(fast):
                 if not engine_metrics.measurement_ok(y, r, bound):
                     engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
                     break
+                ym = sensor.read(s_kind, s_std, s_seed, s_q, k, y)
+                if k == 0:
+                    y_first = ym
+                ym = delay.delayed(ring_y, s_d, k, ym, y_first)
                 if law_kind == INTELLIGENT:
                     if external:
                         cs[variational_gain.ALPHA_EXT, 0] = AL[j if own_alpha else 0, k]
-                    a = intelligent.step(cp, cs, 0, y, r, law_dt)
+                    a = intelligent.step(cp, cs, 0, ym, r, law_dt)
                     u = cs[intelligent.C_UNLIM, 0]
                     gamma = cs[variational_gain.G1, 0]
                     g = gamma
+                elif law_kind == PID:
+                    a = pid.step(cp, cs, 0, ym, r, law_dt)
+                    u = cs[pid.C_UNLIM, 0]
+                    gamma = g = np.nan  # no adaptive gain
                 else:
-                    u, a, g, gamma = recursive_ip.step(cp, cs, 0, y, r)
+                    u, a, g, gamma = recursive_ip.step(cp, cs, 0, ym, r)
                 if not engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
                     break
                 a_prev = a
+                u_act = actuator.rate_limited(delay.delayed(ring_u, a_d, k, a, 0.0), u_act,
+                                              rate, h)
+                u_plant = u_act + disturbance.value(DP, j, t) if d_in else u_act
                 if record and j == j0:
                     trajectory.record(traj, k, r, y, u, a, gamma, g)
+                    trajectory.record_io(traj, k, ym, u_plant)
                     for c in range(comp_rows.size):
                         traj[T_COMP + c, k] = cs[comp_rows[c], 0]
                     for i in range(n_x):
                         traj[t_x0 + i, k] = x[i]
-                dt_carry = _advance(integ, rhs, advance, t, x, a, p, h, rtol, atol, dt_carry,
-                                    w)
+                if sub == 1:
+                    dt_carry = _advance(integ, rhs, advance, t, x, u_plant, p, h, rtol, atol,
+                                        dt_carry, w)
+                else:  # at the times of the grid of h / sub (bit for bit a run at that h)
+                    for i in range(sub):
+                        dt_carry = _advance(integ, rhs, advance,
+                                            grid.time(k * sub + i, t_end, n_steps * sub), x,
+                                            u_plant, p, hs, rtol, atol, dt_carry, w)
             DT[j] = dt_carry
             for i in range(CS.shape[0]):
                 CS[i, j] = cs[i, 0]
@@ -227,7 +274,7 @@ _i1 = types.int64[::1]
 SIGNATURE = types.boolean(
     types.int64, types.int64, types.intp, types.intp, types.intp, types.intp,
     types.int64, types.float64, types.float64, types.float64,
-    _m, _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v,
+    _m, _m, _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v,
     types.int64, types.int64, _m, _i1)
 
 
@@ -392,6 +439,14 @@ def _fold_lanes(D, k, t, h, settle, final_start):
             D[M + EM.M_MAX_E_SETTLED, i], D[M + EM.M_MAX_E_FINAL, i],
             D[M + EM.M_MAX_ABS_R, i], D[M + EM.M_TV, i], k, t, h, D[_Y, i], D[_R, i], a,
             D[_AP, i], settle, final_start)
+        (D[M + EM.M_ENERGY, i], D[M + EM.M_PEAK, i], D[M + EM.M_T10, i], D[M + EM.M_T90, i],
+         D[M + EM.M_T_IN, i], D[M + EM.M_T_LAST, i], D[M + EM.M_E_FINAL, i],
+         D[M + EM.M_N_FINAL, i], D[M + EM.M_IAE_LOAD, i]) = EM.loop_sums(
+            D[M + EM.M_ENERGY, i], D[M + EM.M_PEAK, i], D[M + EM.M_T10, i], D[M + EM.M_T90, i],
+            D[M + EM.M_T_IN, i], D[M + EM.M_T_LAST, i], D[M + EM.M_E_FINAL, i],
+            D[M + EM.M_N_FINAL, i], D[M + EM.M_IAE_LOAD, i], t, h, D[_Y, i], D[_R, i], a,
+            D[M + EM.M_STEP_T0, i], D[M + EM.M_STEP_FROM, i], D[M + EM.M_STEP_TO, i],
+            D[M + EM.M_LOAD_T0, i], final_start)
         D[M + EM.M_N_SAMPLES, i] = k + 1.0
         D[M + EM.M_FINAL_GAMMA, i] = D[_G, i]
         D[_AP, i] = a
@@ -649,12 +704,14 @@ def block_kernel():
 
 
 def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
-             vectorise: bool | None, fast: bool = False) -> str:
+             vectorise: bool | None, fast: bool = False, plain: bool = True) -> str:
     """Which loop runs a batch: ``"member"`` (:func:`member_kernel`), or the vectorised
     loop (:func:`block_kernel`) with each member's plant on its own functions,
     ``"lanes"``, or with the plant's block functions, ``"block"``.
 
-    The vectorised loop runs exact arithmetic, no trajectory, two members or more, and
+    The vectorised loop runs the ideal loop of either intelligent law (``plain``: no
+    sensor, actuator or disturbance elements, one integration step per sample, not the
+    PID) in exact arithmetic, no trajectory, two members or more, and
     ``vectorise`` True, or None (automatic): for at least a quarter block of members,
     once the loop is compiled on this machine (in numba's disk cache), or from
     :data:`BLOCK_WORTH_COLD` member-samples on. It takes the block functions (built for
@@ -665,7 +722,7 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     under Intel SVML (whose vector sin, exp, ... differ from the scalar ones in the last
     bits: a loop over a block's members, even of the reference, could change a member's
     bits)."""
-    if record or fast or n_members < 2 or vectorise is False:
+    if record or fast or n_members < 2 or vectorise is False or not plain:
         return "member"
     has_block = (block is not None and INTEGRATORS[block.integrator] == integ
                  and not block.step.failed and not block.output.failed)
@@ -700,14 +757,15 @@ def threads_for(n_members: int, n_samples: int) -> int:
     return min(len(os.sched_getaffinity(0)), n_members)  # the cores this process may use
 
 
-def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL,
+def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL, LP,
         events, S, M, tol, DT, traj, comp_rows, *, fast=False, threads=None, block=None,
         vectorise=None):
     """Run every member (all columns) through the member loop or the vectorised loop
     (:func:`loop_for`; ``vectorise`` True, False or None, automatic); arrays in place.
 
-    ``plant_fns`` is (rhs, output, prepare, advance); ``events`` (ev_k, ev_col, ev_add,
-    ev_val). ``traj`` with n_steps columns records member 0 (then only one member runs).
+    ``plant_fns`` is (rhs, output, prepare, advance); ``LP`` the loop elements' columns
+    (:mod:`mfcontrol.elements.layout`); ``events`` (ev_k, ev_col, ev_add, ev_val). ``traj`` with
+    n_steps columns records member 0 (then only one member runs).
     ``block``: the plant's block functions (:class:`mfcontrol.numerics.blocks.Block`),
     or None. The vectorised loop leaves P as it was (the member loop writes the scheduled
     changes and what ``prepare`` derives into it; nothing reads P after a run). Returns
@@ -717,7 +775,8 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
     m = X.shape[0]
     record = traj.shape[1] == n_steps
     n_threads = threads_for(m, n_steps) if threads is None else threads
-    which = loop_for(block, integ, m, n_steps, record, vectorise, fast)
+    plain = law_kind != PID and layout.plain(LP)
+    which = loop_for(block, integ, m, n_steps, record, vectorise, fast, plain)
     block_fns = (0, 0)
     if which == "block":
         try:
@@ -738,7 +797,7 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
     else:
         fn = member_kernel(fast)
         args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X,
-                P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
+                P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
         tail = (traj, comp_rows)
         bounds = np.linspace(0, m, n_threads + 1).astype(int)
     if n_threads <= 1 or record:

@@ -6,8 +6,23 @@ costs little more than numba's own dispatch.
 
 import numpy as np
 
-from .._jit import kernel_jit
-from ..laws import intelligent, recursive_ip, variational_gain
+from .._jit import kernel_jit, step_jit
+from ..laws import intelligent, pid, recursive_ip, variational_gain
+
+
+@step_jit
+def _copy(src, dst):
+    for i in range(src.size):
+        dst[i] = src[i]
+
+
+@step_jit
+def _kept_if_finite(u, CS, backup):
+    """u, or NaN with the state restored from ``backup`` when u is not finite."""
+    if np.isfinite(u):
+        return u
+    _copy(backup, CS[:, 0])
+    return np.nan
 
 
 @kernel_jit
@@ -15,18 +30,11 @@ def intelligent_step(CP, CS, backup, y, r, dt, alpha):
     """One sample of an intelligent controller (member 0); ``alpha`` is used in external
     gain mode only. A non-finite result (finite but huge inputs can overflow) leaves the
     state as it was and returns NaN, for the caller to hold its last output."""
-    n = CS.shape[0]
-    for i in range(n):
-        backup[i] = CS[i, 0]
+    _copy(CS[:, 0], backup)
     # read in that mode only: the state stays the engine's
     if CP[variational_gain.MODE, 0] == variational_gain.EXTERNAL:
         CS[variational_gain.ALPHA_EXT, 0] = alpha
-    u = intelligent.step(CP, CS, 0, y, r, dt)
-    if not np.isfinite(u):
-        for i in range(n):
-            CS[i, 0] = backup[i]
-        return np.nan
-    return u
+    return _kept_if_finite(intelligent.step(CP, CS, 0, y, r, dt), CS, backup)
 
 
 @kernel_jit
@@ -38,13 +46,9 @@ def intelligent_reset(CP, CS):
 def recursive_step(CP, CS, backup, y, r):
     """One sample of the paper's recursive i-P (member 0): (u_raw, applied, gain, gamma);
     a non-finite raw control restores the state and returns NaNs, as above."""
-    n = CS.shape[0]
-    for i in range(n):
-        backup[i] = CS[i, 0]
+    _copy(CS[:, 0], backup)
     u, applied, g, gamma = recursive_ip.step(CP, CS, 0, y, r)
-    if not (np.isfinite(u) and np.isfinite(applied)):
-        for i in range(n):
-            CS[i, 0] = backup[i]
+    if np.isnan(_kept_if_finite(u * 0.0 + applied, CS, backup)):  # u or applied not finite
         return np.nan, np.nan, np.nan, np.nan
     return u, applied, g, gamma
 
@@ -52,6 +56,19 @@ def recursive_step(CP, CS, backup, y, r):
 @kernel_jit
 def recursive_reset(CP, CS):
     recursive_ip.reset(CP, CS, 0)
+
+
+@kernel_jit
+def pid_step(CP, CS, backup, y, r, dt):
+    """One sample of a PID (member 0); a non-finite output restores the state and
+    returns NaN, as above."""
+    _copy(CS[:, 0], backup)
+    return _kept_if_finite(pid.step(CP, CS, 0, y, r, dt), CS, backup)
+
+
+@kernel_jit
+def pid_reset(CS, start):
+    pid.reset(CS, 0, start)
 
 
 @kernel_jit

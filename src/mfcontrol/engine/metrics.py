@@ -21,7 +21,26 @@ M_MAX_ABS_R = 7
 M_DIVERGED = 8
 M_T_DIVERGE = 9
 M_N_SAMPLES = 10
-N_METRICS = 11
+# the loop metrics (:func:`loop_sums`): what any plant's loop is judged by besides the
+# error integrals; the paper's tuned kernels do not fold them (:func:`without_loop_sums`)
+M_ENERGY = 11  # sum u_k^2 h
+# the step window: from the reference step's t0 to the load step (a load step starts
+# another response, which iae_load judges)
+M_PEAK = 12  # max over the step window of sign(step) (y - final): the overshoot's peak
+M_T10 = 13  # first t in the step window with y 10 % of the step on (inf: never)
+M_T90 = 14  # ... 90 %
+M_T_IN = 15  # t + h after the last sample outside 2 % of the step around its final value
+M_E_FINAL = 16  # sum of r - y over the stability window
+M_N_FINAL = 17  # its samples
+M_IAE_LOAD = 18  # sum |e| h from the load step on
+M_T_LAST = 19  # the step window's last sample time (-inf: none yet)
+# what the loop metrics are measured against, written before a run (:func:`start`)
+M_STEP_T0 = 20  # the reference step's time (a step from STEP_FROM to STEP_TO)
+M_STEP_FROM = 21
+M_STEP_TO = 22  # NaN: the reference is no step
+M_LOAD_T0 = 23  # the load (disturbance) step's time; inf: none
+LOOP_ROWS = tuple(range(M_ENERGY, M_T_LAST + 1))
+N_METRICS = 24
 
 # metric settings
 S_SETTLE = 0
@@ -69,6 +88,58 @@ def accumulate(iae, ise, itae, max_e_s, max_e_f, max_r, tv, k, t, h, y, r, a, a_
     return iae, ise, itae, max_e_s, max_e_f, max_r, tv
 
 
+def start(M: np.ndarray, step_t0, step_from, step_to, load_t0) -> None:
+    """The loop metrics' start and what they are measured against (one value, or one per
+    member, each): a reference step from ``step_from`` to ``step_to`` at ``step_t0``
+    (``step_to`` NaN: none), a load step at ``load_t0`` (inf: none)."""
+    M[M_T10] = M[M_T90] = np.inf
+    M[M_T_IN] = M[M_T_LAST] = -np.inf
+    M[M_STEP_T0] = step_t0
+    M[M_STEP_FROM] = step_from
+    M[M_STEP_TO] = step_to
+    M[M_LOAD_T0] = load_t0
+
+
+def without_loop_sums(M: np.ndarray) -> None:
+    """Mark the loop metrics as not folded (NaN), for the paper's tuned kernels."""
+    M[list(LOOP_ROWS)] = np.nan
+
+
+@step_jit
+def loop_sums(energy, peak, t10, t90, t_in, t_last, e_final, n_final, iae_load, t, h, y, r,
+              a, step_t0, step_from, step_to, load_t0, final_start):
+    """Sample (t, y, r, a) folded into the loop metrics: the control's energy, a step
+    response's peak, 10 % and 90 % times and settling (2 %) time, the mean error over the
+    stability window, the IAE after a load step. Selects on values shared or weighted,
+    as :func:`accumulate`, so a loop over members vectorises."""
+    energy = energy + a * a * h
+    delta = step_to - step_from  # NaN without a step: every test below is false
+    size = abs(delta)
+    sign = 1.0 if delta >= 0.0 else -1.0
+    after = t >= step_t0 and t < load_t0  # in the step window
+    peak = np.fmax(peak, sign * (y - step_to) if after else 0.0)
+    rise = sign * (y - step_from)
+    t10 = np.fmin(t10, t if (after and rise >= 0.1 * size) else np.inf)
+    t90 = np.fmin(t90, t if (after and rise >= 0.9 * size) else np.inf)
+    t_in = np.fmax(t_in, t + h if (after and abs(y - step_to) > 0.02 * size) else -np.inf)
+    t_last = np.fmax(t_last, t if after else -np.inf)
+    w = 1.0 if t >= final_start else 0.0
+    e_final = e_final + (r - y) * w
+    n_final = n_final + w
+    iae_load = iae_load + abs(y - r) * h * (1.0 if t >= load_t0 else 0.0)
+    return energy, peak, t10, t90, t_in, t_last, e_final, n_final, iae_load
+
+
+@step_jit
+def fold_loop_sums(M, j, t, h, y, r, a, final_start):
+    """:func:`loop_sums` on member j's rows of M."""
+    (M[M_ENERGY, j], M[M_PEAK, j], M[M_T10, j], M[M_T90, j], M[M_T_IN, j], M[M_T_LAST, j],
+     M[M_E_FINAL, j], M[M_N_FINAL, j], M[M_IAE_LOAD, j]) = loop_sums(
+        M[M_ENERGY, j], M[M_PEAK, j], M[M_T10, j], M[M_T90, j], M[M_T_IN, j],
+        M[M_T_LAST, j], M[M_E_FINAL, j], M[M_N_FINAL, j], M[M_IAE_LOAD, j], t, h, y, r, a,
+        M[M_STEP_T0, j], M[M_STEP_FROM, j], M[M_STEP_TO, j], M[M_LOAD_T0, j], final_start)
+
+
 @step_jit
 def measurement_ok(y, r, bound):
     """y_k is finite and within the bound, and the error's metrics stay finite: the
@@ -110,6 +181,8 @@ def member_metrics(M, S, j, k, t, h, y, r, u, a, a_prev, gamma):
         M[M_MAX_ABS_R, j], M[M_TV, j], M[M_FINAL_GAMMA, j], k, t, h, y, r, u, a, a_prev,
         gamma, S[S_SETTLE], S[S_FINAL_START], S[S_DIVERGE_ABOVE])
     M[M_DIVERGED, j] = 1.0 - alive
+    if alive != 0.0:
+        fold_loop_sums(M, j, t, h, y, r, a, S[S_FINAL_START])
     return alive != 0.0
 
 

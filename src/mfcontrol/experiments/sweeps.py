@@ -26,7 +26,7 @@ import numpy as np
 
 from .._version import __version__
 from ..api import batch
-from ..api.simulate import compiled, simulate
+from ..api.simulate import simulate
 from ..api.sweep import keep_members
 from ..config.resolve import Config
 from ..errors import ConfigError
@@ -123,7 +123,7 @@ def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str,
     if dask:
         done = _run_dask(dask, spec, todo, chunk_dir, done, progress)
     else:
-        changes = batch._cell_changes(grid) if compiled(cfg) else None
+        changes = batch._cell_changes(grid) if batch.paper_grid(grid) else None
         for i, a, b in todo:
             frame = pd.DataFrame(batch.run_range(grid, a, b, changes, fast=fast))
             _write_atomic(frame, chunk_dir / f"chunk-{i:06d}.parquet")

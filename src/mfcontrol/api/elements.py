@@ -1,0 +1,128 @@
+"""The loop's elements as Python objects: the sensor, the actuator and the disturbance
+that :func:`mfcontrol.simulate_loop` and :func:`mfcontrol.sweep` put around a plant and a
+controller, with the options and checks of the case keys ``[sensor]``, ``[actuator]``
+and ``[disturbance]`` (the README's option table); the engine runs them
+(:mod:`mfcontrol.elements`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from ..config.resolve import check_value
+from ..elements import disturbance, layout, noise
+from ..errors import ConfigError
+
+
+def _checked(obj, section: str) -> None:
+    """Every field through its case key's check (one-line errors naming the key)."""
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        if isinstance(value, np.ndarray):
+            value = value.tolist()
+        object.__setattr__(obj, f.name, check_value(f"{section}.{f.name}", value))
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """What the controller receives of the plant's output y: ``y_meas[k] = s_{k - delay}``
+    with ``s_k = Q(y_k + n_k)`` (:mod:`mfcontrol.elements.sensor`).
+
+    Parameters
+    ----------
+    noise : {"none", "gaussian", "uniform"}
+        Noise n_k, zero mean, standard deviation ``noise_std`` (output units).
+    seed : int
+        The noise's seed (0 .. 2**53 - 1): the same seed, the same noise, wherever the
+        run happens (:mod:`mfcontrol.elements.noise`).
+    quantum : float
+        Resolution: the reading rounds to the nearest multiple (0: none).
+    delay : int
+        Samples between the reading and the controller.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> s = mfcontrol.Sensor(noise="gaussian", noise_std=0.01, seed=3, delay=2)
+    >>> s.delay
+    2
+    """
+
+    noise: str = "none"
+    noise_std: float = 0.0
+    seed: int = 0
+    quantum: float = 0.0
+    delay: int = 0
+
+    def __post_init__(self):
+        _checked(self, "sensor")
+        if self.seed >= noise.MAX_SEED:
+            raise ConfigError("sensor.seed", self.seed,
+                              f"must be a whole number from 0 to {noise.MAX_SEED - 1:,}")
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """What reaches the plant of the controller's output u: delayed by ``delay`` samples
+    (0 before the first command arrives), then moved at most ``rate_limit`` (units per
+    second; 0: none) from the last value (:mod:`mfcontrol.elements.actuator`)."""
+
+    delay: int = 0
+    rate_limit: float = 0.0
+
+    def __post_init__(self):
+        _checked(self, "actuator")
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    """d(t) added to the plant's input (``at="input"``, after the actuator) or to its
+    output y (``at="output"``; the metrics judge that y): ``kind`` step (``amplitude``
+    from ``t0`` on), ramp (``amplitude (t - t0)``), sine (``amplitude sin(2 pi
+    frequency (t - t0))``) or table (linear in ``times``/``values``, held outside;
+    :mod:`mfcontrol.elements.disturbance`).
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> load = mfcontrol.Disturbance("step", amplitude=-0.5, t0=1.0, at="input")
+    >>> load.kind, load.at
+    ('step', 'input')
+    """
+
+    kind: str = "none"
+    amplitude: float = 0.0
+    t0: float = 0.0
+    frequency: float = 0.0
+    times: Sequence[float] = field(default_factory=list)
+    values: Sequence[float] = field(default_factory=list)
+    at: str = "input"
+
+    def __post_init__(self):
+        _checked(self, "disturbance")
+        times, values = list(self.times), list(self.values)
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "values", values)
+        if self.kind == "table":
+            if not times or len(times) != len(values):
+                raise ConfigError("disturbance.values", values, "must have one value per time "
+                                  f"of disturbance.times ({len(times)}), at least one")
+            if any(b < a for a, b in zip(times, times[1:], strict=False)):
+                raise ConfigError("disturbance.times", times, "must be nondecreasing")
+
+
+def column(sensor: Sensor | None = None, actuator: Actuator | None = None,
+           disturbance_: Disturbance | None = None, substeps: int = 1) -> np.ndarray:
+    """One member's elements as the engine's LP column
+    (:mod:`mfcontrol.elements.layout`)."""
+    s = sensor or Sensor()
+    a = actuator or Actuator()
+    d = disturbance_ or Disturbance()
+    return layout.column(
+        noise=noise.KINDS[s.noise], noise_std=s.noise_std, seed=s.seed, quantum=s.quantum,
+        sensor_delay=s.delay, actuator_delay=a.delay, rate_limit=a.rate_limit,
+        substeps=substeps, kind=disturbance.KINDS[d.kind], at=disturbance.PLACES[d.at],
+        amplitude=d.amplitude, t0=d.t0, frequency=d.frequency, times=d.times,
+        values=d.values)

@@ -1,0 +1,179 @@
+"""The loop's elements in the compiled engine: the delay identities, quantisation, rate
+limit, disturbances, the plant's substeps against a run at the fine step, the step and
+load metrics against the trajectory, and sweeps of the new keys bit for bit."""
+
+import math
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol import (
+    IPI,
+    LTI,
+    PID,
+    Actuator,
+    ConfigError,
+    DCMotor,
+    Disturbance,
+    FirstOrder,
+    Sensor,
+)
+from mfcontrol.api import batch
+from mfcontrol.experiments.cases import resolve_case
+
+
+def _ipi(h=1e-3):
+    return IPI(alpha=50.0, kp=20.0, ki=50.0, sample_time=h, output_limits=(-24, 24))
+
+
+def _run(**kw):
+    kw.setdefault("t_end", 0.5)
+    return mfcontrol.simulate_loop(DCMotor(), _ipi(), 60.0, **kw)
+
+
+@pytest.mark.parametrize("d", [1, 7])
+def test_an_actuator_delay_shifts_u_by_whole_samples(d):
+    s = _run(actuator=Actuator(delay=d)).signals
+    assert np.array_equal(s["u_plant"][d:], s["u"][:-d])
+    assert np.all(s["u_plant"][:d] == 0.0)
+    assert np.array_equal(s["y_meas"], s["y"])
+
+
+@pytest.mark.parametrize("d", [1, 7])
+def test_a_sensor_delay_shifts_y_by_whole_samples(d):
+    s = _run(sensor=Sensor(delay=d), t_end=0.5).signals
+    assert np.array_equal(s["y_meas"][d:], s["y"][:-d])
+    assert np.all(s["y_meas"][:d] == s["y"][0])
+    assert np.array_equal(s["u_plant"], s["u"])
+
+
+def test_without_elements_the_loop_is_the_ideal_one_bit_for_bit():
+    plain = _run()
+    same = _run(sensor=Sensor(), actuator=Actuator(), disturbance=Disturbance(), substeps=1)
+    for key in plain.signals:
+        assert np.array_equal(plain.signals[key], same.signals[key], equal_nan=True), key
+    assert np.array_equal(plain.signals["y_meas"], plain.signals["y"])
+
+
+def test_noise_is_what_the_seed_draws_and_the_measurement_lies_on_the_quantum_grid():
+    q = 0.25
+    a = _run(sensor=Sensor("gaussian", 0.5, seed=4, quantum=q))
+    b = _run(sensor=Sensor("gaussian", 0.5, seed=4, quantum=q))
+    c = _run(sensor=Sensor("gaussian", 0.5, seed=5, quantum=q))
+    assert np.array_equal(a.signals["y_meas"], b.signals["y_meas"])
+    assert not np.array_equal(a.signals["y_meas"], c.signals["y_meas"])
+    n = a.signals["y_meas"] / q
+    assert np.array_equal(n, np.round(n))
+    # the noise is the sensor's: the plant's y is not on the grid
+    assert not np.array_equal(a.signals["y"] / q, np.round(a.signals["y"] / q))
+
+
+def test_a_rate_limit_bounds_every_step_of_the_plant_input():
+    rate, h = 200.0, 1e-3
+    s = _run(actuator=Actuator(rate_limit=rate)).signals
+    steps = np.abs(np.diff(np.concatenate([[0.0], s["u_plant"]])))
+    assert steps.max() <= rate * h * (1 + 1e-12)
+    assert steps.max() == pytest.approx(rate * h)  # it binds
+    assert np.any(s["u_plant"] != s["u"])
+
+
+def test_an_input_disturbance_adds_after_the_actuator_and_an_output_one_to_y():
+    dist = Disturbance("step", amplitude=-2.0, t0=0.2, at="input")
+    s = _run(disturbance=dist, actuator=Actuator(delay=2)).signals
+    t = np.arange(s["u"].size) * 1e-3
+    expected = np.concatenate([[0.0, 0.0], s["u"][:-2]]) + np.where(t >= 0.2, -2.0, 0.0)
+    assert np.array_equal(s["u_plant"], expected)
+    out = _run(disturbance=Disturbance("sine", amplitude=3.0, frequency=10.0, at="output"))
+    d = 3.0 * np.sin(2 * math.pi * 10.0 * out.time)
+    np.testing.assert_allclose(out.signals["y"] - out.states["omega"], d, atol=1e-12)
+    assert np.array_equal(out.signals["y_meas"], out.signals["y"])
+
+
+@pytest.mark.parametrize("plant", [
+    DCMotor(),
+    FirstOrder(-3.0, 2.0, integrator="exact"),
+    LTI([[0.0, 1.0], [-40.0, -2.0]], [[0.0], [40.0]], [[1.0, 0.0]], integrator="exact"),
+    DCMotor(integrator="rk45"),
+], ids=["rk4", "first-order exact", "LTI exact", "rk45"])
+def test_substeps_integrate_at_the_fine_step_on_its_grid(plant):
+    """substeps = m at h is the run at h / m sampled every m-th sample when the
+    controller's output is the same: here pinned by its limits."""
+    m, h, t_end = 5, 1e-3, 0.2
+    kw = dict(t_end=t_end, changes=[mfcontrol.Change(0.1, list(plant.params)[0], 1.0,
+                                                     add=True)])
+
+    def pinned(step):
+        return PID(1.0, sample_time=step, output_limits=(0.7, 0.7))
+
+    coarse = mfcontrol.simulate_loop(plant, pinned(h), 1.0, h=h, substeps=m, **kw)
+    fine = mfcontrol.simulate_loop(plant, pinned(h / m), 1.0, h=h / m, **kw)
+    assert np.array_equal(coarse.signals["y"], fine.signals["y"][::m])
+    for name in coarse.states:
+        assert np.array_equal(coarse.states[name], fine.states[name][::m])
+
+
+def test_the_loop_metrics_are_those_of_the_trajectory():
+    res = _run(t_end=2.0, changes=[mfcontrol.Change(1.0, "load", 0.05)],
+               sensor=Sensor("uniform", 0.2, seed=2))
+    m, s, t, h = res.metrics, res.signals, res.time, 1e-3
+    y, r, u = s["y"], s["y_ref"], s["u"]
+    assert m["energy_u"] == pytest.approx(np.sum(u * u * h), rel=1e-12)
+    e = np.abs(y - r)
+    assert m["iae_load"] == pytest.approx(np.sum(e[t >= 1.0] * h), rel=1e-12)
+    # a step from the motor at rest (0) to 60 at t = 0, judged until the load step
+    w = t < 1.0
+    assert m["overshoot"] == pytest.approx(max(0.0, (y[w] - 60).max()) / 60 * 100, rel=1e-12)
+    t10, t90 = t[w][np.argmax(y[w] >= 6.0)], t[w][np.argmax(y[w] >= 54.0)]
+    assert m["rise_time"] == pytest.approx(t90 - t10, abs=1e-12)
+    outside = np.flatnonzero(w & (np.abs(y - 60) > 0.02 * 60))
+    assert m["settling_time"] == pytest.approx(t[outside[-1]] + h, abs=1e-12)
+    final = t >= 2.0 * 0.8
+    assert m["steady_state_error"] == pytest.approx(np.mean((r - y)[final]), rel=1e-10)
+
+
+def test_step_metrics_are_nan_without_a_step_and_a_run_that_never_settles_says_so():
+    ramp = mfcontrol.simulate_loop(DCMotor(), _ipi(), lambda t: 10 * t, t_end=0.5)
+    assert all(math.isnan(ramp.metrics[k]) for k in ("overshoot", "rise_time",
+                                                     "settling_time", "iae_load"))
+    slow = mfcontrol.simulate_loop(DCMotor(), PID(0.01, sample_time=1e-3), 60.0, t_end=0.2)
+    assert math.isnan(slow.metrics["settling_time"]) and slow.metrics["overshoot"] == 0.0
+
+
+def test_the_python_driver_refuses_elements_in_one_line():
+    class Mine:
+        def __call__(self, y, setpoint=0.0):
+            return 0.0
+
+    with pytest.raises(ConfigError, match="only the compiled engine runs them"):
+        mfcontrol.simulate_loop(DCMotor(), Mine(), 1.0, t_end=0.1, h=1e-3,
+                                sensor=Sensor(delay=1))
+    with pytest.raises(ConfigError, match="^sensor.delay = 100: must be fewer samples"):
+        _run(t_end=0.1, sensor=Sensor(delay=100))
+    with pytest.raises(ConfigError, match="^substeps = 0: must be a whole number > 0"):
+        _run(substeps=0)
+    with pytest.raises(ConfigError, match="^sensor.noise = 'pink': must be one of"):
+        Sensor("pink")
+
+
+SWEEPS = [
+    ("motor-noise-ipi", {"sensor.seed": [1.0, 2.0, 3.0], "sensor.noise_std": [0.0, 0.5]}),
+    ("motor-noise-pid", {"actuator.delay": [0.0, 3.0], "actuator.rate_limit": [0.0, 500.0]}),
+    ("buck-50khz-noise", {"sim.substeps": [1.0, 4.0], "sensor.quantum": [0.0, 0.01]}),
+    ("motor-noise-ipi-algebraic", {"disturbance.amplitude": [0.5, -1.0]}),
+]
+
+
+@pytest.mark.parametrize(("case", "axes"), SWEEPS, ids=[c for c, _ in SWEEPS])
+def test_sweeps_of_the_new_keys_equal_their_single_runs(case, axes):
+    over = {"sim.t_end": 0.002} if case.startswith("buck") else {"sim.t_end": 0.6}
+    if "disturbance.amplitude" in axes:
+        over.update({"disturbance.kind": "step", "disturbance.t0": 0.3})
+    _, base = resolve_case(case, over)
+    grid = batch.make_grid(base, {k: np.array(v) for k, v in axes.items()})
+    cols = batch.run_grid(grid)
+    for m in range(grid.n_members):
+        single = mfcontrol.simulate(grid.config(m)).metrics
+        for name in batch.METRIC_COLUMNS:
+            a, b = cols[name][m], single[name]
+            assert a == b or (a != a and b != b), (m, name, a, b)

@@ -1,0 +1,133 @@
+"""The PID against its difference equations written out here, against the closed form of
+the discrete loop on a first-order plant, and its live API."""
+
+import math
+
+import numpy as np
+import pytest
+import scipy.signal
+
+import mfcontrol
+from mfcontrol import PID, FirstOrder
+
+
+def reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, lo, hi):
+    """Astrom and Hagglund's discrete PID, as the issue writes it, in plain Python."""
+    Td = kd / kp if kp != 0 else 0.0
+    if Tt is None and ki != 0:
+        Ti = kp / ki
+        Tt = math.sqrt(Ti * Td) if kd != 0 else Ti
+    ad = Td / (Td + N * h)
+    bd = kp * Td * N / (Td + N * h)
+    I = D = 0.0  # noqa: E741
+    y_old = ys[0]
+    out = []
+    for y, r in zip(ys, rs, strict=True):
+        P = kp * (b * r - y)
+        D = ad * D - bd * (y - y_old)
+        v = P + I + D
+        u = min(max(v, lo), hi)
+        I = I + ki * h * (r - y) + ((h / Tt) * (u - v) if ki != 0 else 0.0)  # noqa: E741
+        y_old = y
+        out.append(u)
+    return np.array(out)
+
+
+@pytest.mark.parametrize(("gains", "limits"), [
+    ((2.0, 1.5, 0.3, 10.0, 1.0, None), (-1.0, 1.0)),  # saturating, default Tt = sqrt(Ti Td)
+    ((2.0, 1.5, 0.0, 10.0, 0.5, None), (-1.0, 1.0)),  # PI: Tt = Ti, setpoint weight
+    ((1.0, 0.0, 0.2, 5.0, 1.0, None), (-np.inf, np.inf)),  # PD, no limits
+    ((3.0, 2.0, 0.1, 8.0, 1.0, 0.05), (-0.5, 2.0)),  # a given tracking time
+])
+def test_the_live_pid_is_its_difference_equations(gains, limits):
+    kp, ki, kd, N, b, Tt = gains
+    h = 0.01
+    rng = np.random.default_rng(3)
+    ys = np.cumsum(rng.normal(0, 0.05, 400))
+    rs = np.where(np.arange(400) < 200, 1.0, -0.5)
+    ctrl = PID(kp, ki, kd, sample_time=h, N=N, b=b, Tt=Tt,
+               output_limits=tuple(None if math.isinf(x) else x for x in limits))
+    got = np.array([ctrl(y, setpoint=r) for y, r in zip(ys, rs, strict=True)])
+    want = reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, *limits)
+    np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
+    assert np.any(got != np.clip(got, -0.5, 0.5)) or math.isinf(limits[0])
+
+
+def test_on_a_first_order_plant_the_loop_is_its_closed_form():
+    """y' = a y + b u sampled exactly with u held: y+ = phi y + g u. With the PID's state
+    (I, D, y_old) the loop is linear; scipy's dlsim of its state space is the closed
+    form to compare with (no saturation)."""
+    a, bu, h, kp, ki, kd, N, b = -2.0, 3.0, 0.01, 1.2, 4.0, 0.05, 10.0, 0.7
+    phi, g = math.exp(a * h), (math.exp(a * h) - 1) / a * bu
+    Td = kd / kp
+    Tt = math.sqrt(kp / ki * Td)
+    ad, bd, tr = Td / (Td + N * h), kp * Td * N / (Td + N * h), h / Tt  # tr: unused, no sat
+    del tr
+    # state s = (y, I, D, y_old) before sample k; input r; u = kp (b r - y) + I + D' with
+    # D' = ad D - bd (y - y_old)
+    #   u = -kp y + I + ad D - bd y + bd y_old + kp b r
+    cu = np.array([-kp - bd, 1.0, ad, bd])
+    du = kp * b
+    A = np.zeros((4, 4))
+    B = np.zeros((4, 1))
+    A[0] = phi * np.eye(4)[0] + g * cu  # y+ = phi y + g u
+    B[0] = g * du
+    A[1] = np.array([-ki * h, 1.0, 0.0, 0.0])  # I+ = I + ki h (r - y)
+    B[1] = ki * h
+    A[2] = np.array([-bd, 0.0, ad, bd])  # D+ = D'
+    A[3] = np.array([1.0, 0.0, 0.0, 0.0])  # y_old+ = y
+    C = np.array([[1.0, 0.0, 0.0, 0.0]])
+    n = 300
+    # y_old starts at the first measurement (y0 = 0.4)
+    _, y_closed, _ = scipy.signal.dlsim((A, B, C, np.zeros((1, 1)), h), np.ones(n),
+                                         x0=[0.4, 0.0, 0.0, 0.4])
+    res = mfcontrol.simulate_loop(FirstOrder(a, bu, x0=0.4, integrator="exact"),
+                                  PID(kp, ki, kd, sample_time=h, N=N, b=b), 1.0, t_end=n * h)
+    np.testing.assert_allclose(res.signals["y"], y_closed[:, 0], rtol=1e-12, atol=1e-12)
+
+
+def test_the_engine_runs_what_the_live_pid_computes():
+    plant = FirstOrder(-1.0, 2.0, integrator="exact")
+    kw = dict(sample_time=1e-2, N=8.0, output_limits=(-1.0, 1.0))
+    res = mfcontrol.simulate_loop(plant, PID(1.5, 2.0, 0.1, **kw), 1.0, t_end=3.0)
+    assert res.engine == "compiled"
+    live, x = PID(1.5, 2.0, 0.1, **kw), plant.x0
+    us = []
+    for k in range(res.time.size):
+        u = live(plant.output(x), setpoint=1.0)
+        us.append(u)
+        x = plant.step(k * 1e-2, x, u, 1e-2)
+    assert np.array_equal(res.signals["u"], us)
+    assert set(res.signals) >= {"P", "I", "D", "u_raw"}
+    assert math.isnan(res.metrics["final_gamma"])
+
+
+def test_live_api_snapshot_bumpless_nan_and_components():
+    ctrl = PID(2.0, 1.0, 0.2, sample_time=0.1, output_limits=(0.0, 10.0))
+    for y in (0.0, 0.2, 0.5):
+        ctrl(y, setpoint=1.0)
+    snap = ctrl.snapshot()
+    after = [ctrl(y, setpoint=1.0) for y in (0.6, 0.7)]
+    again = PID.from_snapshot(snap)
+    assert [again(y, setpoint=1.0) for y in (0.6, 0.7)] == after
+    assert set(ctrl.components) == {"P", "I", "D", "unlimited"}
+    # a NaN measurement holds the output and is counted
+    held = ctrl(float("nan"))
+    assert held == after[-1] and ctrl.nan_count == 1
+    # manual at 3.0, back to automatic: the first output is 3.0 (no bump)
+    ctrl.set_auto_mode(False, last_output=3.0)
+    assert ctrl(0.9) == 3.0
+    ctrl.set_auto_mode(True)
+    assert ctrl(0.9, setpoint=1.0) == pytest.approx(3.0, abs=1e-15)
+    assert ctrl(0.9, setpoint=1.0) != 3.0
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    (dict(kp=0.0, kd=1.0), "kd = 1.0: must have the sign of kp"),
+    (dict(kp=1.0, ki=-1.0), "ki = -1.0: must have the sign of kp"),
+    (dict(kp=1.0, N=0.0), "N = 0.0: must be a finite number > 0"),
+    (dict(kp=1.0, Tt=-1.0), "Tt = -1.0: must be a finite number > 0"),
+])
+def test_bad_options_get_one_line(kwargs, message):
+    with pytest.raises(ValueError, match="^" + message.replace("(", r"\(")):
+        PID(sample_time=0.1, **kwargs)
