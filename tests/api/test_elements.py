@@ -2,6 +2,7 @@
 limit, disturbances, the plant's substeps against a run at the fine step, the step and
 load metrics against the trajectory, and sweeps of the new keys bit for bit."""
 
+import hashlib
 import math
 
 import numpy as np
@@ -48,12 +49,27 @@ def test_a_sensor_delay_shifts_y_by_whole_samples(d):
     assert np.array_equal(s["u_plant"], s["u"])
 
 
-def test_without_elements_the_loop_is_the_ideal_one_bit_for_bit():
-    plain = _run()
-    same = _run(sensor=Sensor(), actuator=Actuator(), disturbance=Disturbance(), substeps=1)
-    for key in plain.signals:
-        assert np.array_equal(plain.signals[key], same.signals[key], equal_nan=True), key
-    assert np.array_equal(plain.signals["y_meas"], plain.signals["y"])
+#: the general engine's runs before the loop's elements existed (commit 69445f7): y, u and
+#: u_raw hashed, IAE and TV(u) in full; the elements at their defaults change no bit
+BEFORE = [
+    ("buck-ipi", {"sim.t_end": 2e-3}, "408b641fc0ef598f", 1.4324317834225378e-06,
+     0.17166357147933642),
+    ("boost-ipd", {"sim.t_end": 0.01}, "9f81486ee883cc04", 0.0034817240776807146,
+     0.1224536098012948),
+    ("first-order-ip-algebraic", {"sim.t_end": 1.0}, "69a23bee0ad31ff4",
+     0.003571969976349426, 6.33029937748667),
+]
+
+
+@pytest.mark.parametrize(("case", "over", "digest", "iae", "tv"), BEFORE,
+                         ids=[b[0] for b in BEFORE])
+def test_without_elements_the_general_engine_runs_as_before(case, over, digest, iae, tv):
+    r = mfcontrol.run_case(case, over)
+    got = hashlib.sha256(np.concatenate([r.signals["y"], r.signals["u"],
+                                         r.signals["u_raw"]]).tobytes()).hexdigest()[:16]
+    assert (got, r.metrics["iae"], r.metrics["tv_u"]) == (digest, iae, tv)
+    assert np.array_equal(r.signals["y_meas"], r.signals["y"])
+    assert np.array_equal(r.signals["u_plant"], r.signals["u"])
 
 
 def test_noise_is_what_the_seed_draws_and_the_measurement_lies_on_the_quantum_grid():
@@ -145,7 +161,7 @@ def test_the_python_driver_refuses_elements_in_one_line():
         def __call__(self, y, setpoint=0.0):
             return 0.0
 
-    with pytest.raises(ConfigError, match="only the compiled engine runs them"):
+    with pytest.raises(ConfigError, match="^sensor = Sensor.*only the compiled engine runs"):
         mfcontrol.simulate_loop(DCMotor(), Mine(), 1.0, t_end=0.1, h=1e-3,
                                 sensor=Sensor(delay=1))
     with pytest.raises(ConfigError, match="^sensor.delay = 100: must be fewer samples"):
@@ -157,6 +173,9 @@ def test_the_python_driver_refuses_elements_in_one_line():
 
 
 SWEEPS = [
+    # a paper case: the ideal member runs the paper's kernel alone, the sweep the general
+    # engine (both fold every metric)
+    ("voltage-stable-standard", {"sensor.delay": [0.0, 1.0], "sim.substeps": [1.0, 2.0]}),
     ("motor-noise-ipi", {"sensor.seed": [1.0, 2.0, 3.0], "sensor.noise_std": [0.0, 0.5]}),
     ("motor-noise-pid", {"actuator.delay": [0.0, 3.0], "actuator.rate_limit": [0.0, 500.0]}),
     ("buck-50khz-noise", {"sim.substeps": [1.0, 4.0], "sensor.quantum": [0.0, 0.01]}),
@@ -166,7 +185,7 @@ SWEEPS = [
 
 @pytest.mark.parametrize(("case", "axes"), SWEEPS, ids=[c for c, _ in SWEEPS])
 def test_sweeps_of_the_new_keys_equal_their_single_runs(case, axes):
-    over = {"sim.t_end": 0.002} if case.startswith("buck") else {"sim.t_end": 0.6}
+    over = {"sim.t_end": 0.6} if case.startswith("motor") else {"sim.t_end": 0.002}
     if "disturbance.amplitude" in axes:
         over.update({"disturbance.kind": "step", "disturbance.t0": 0.3})
     _, base = resolve_case(case, over)
@@ -177,3 +196,42 @@ def test_sweeps_of_the_new_keys_equal_their_single_runs(case, axes):
         for name in batch.METRIC_COLUMNS:
             a, b = cols[name][m], single[name]
             assert a == b or (a != a and b != b), (m, name, a, b)
+
+
+def test_a_step_window_without_samples_gives_no_step_metrics():
+    # the load step at t = 0 comes before the reference's step at 0.2 s
+    _, cfg = resolve_case("motor-noise-pid", {"sim.t_end": 0.5, "disturbance.kind": "step",
+                                              "disturbance.amplitude": -1.0})
+    m = mfcontrol.simulate(cfg).metrics
+    assert all(math.isnan(m[k]) for k in ("overshoot", "rise_time", "settling_time"))
+    assert math.isfinite(m["iae_load"])
+
+
+def test_an_input_disturbance_is_evaluated_at_every_substep():
+    """With substeps, a sine at the input changes within a control period: the run equals
+    the run at the fine step whose controller is pinned, sample for sample."""
+    m, h = 4, 1e-3
+    dist = Disturbance("sine", amplitude=0.3, frequency=40.0)
+
+    def run(step, sub):
+        return mfcontrol.simulate_loop(
+            DCMotor(), PID(1.0, sample_time=step, output_limits=(2.0, 2.0)), 1.0, h=step,
+            t_end=0.1, substeps=sub, disturbance=dist)
+
+    coarse, fine = run(h, m), run(h / m, 1)
+    assert np.array_equal(coarse.states["omega"], fine.states["omega"][::m])
+
+
+def test_the_object_sweep_takes_elements_and_equals_its_single_runs():
+    plant, ctrl = DCMotor(), _ipi()
+    sw = mfcontrol.sweep(plant, ctrl, 60.0, t_end=0.5, keep=4,
+                         sensor=Sensor("gaussian", 0.5), actuator=Actuator(rate_limit=5e3),
+                         grid={"sensor.seed": [1, 2], "actuator.delay": [0, 3]})
+    table = sw.to_pandas()
+    assert len(table) == 4 and table["overshoot"].notna().all()
+    for m, res in sw.kept.items():
+        for name in batch.METRIC_COLUMNS:
+            a, b = table[name][m], res.metrics[name]
+            assert a == b or (a != a and b != b), (m, name, a, b)
+    with pytest.raises(ConfigError, match="not a numeric option of the Sensor"):
+        mfcontrol.sweep(plant, ctrl, 60.0, t_end=0.1, grid={"sensor.noise": [1.0]})

@@ -189,7 +189,9 @@ MALFORMED = [
     ("disturbance.times", [1.0, "x"], "must be a list of finite numbers >= 0"),
     ("disturbance.values", 3.0, "must be a list of finite numbers"),
     ("sim.substeps", 0, "must be a whole number > 0"),
-    ("sim.substeps", 100_001, "must be a whole number from 1 to 100,000"),
+    ("sim.substeps", 10_001, "must be a whole number from 1 to 10,000 (at most "
+                             "100,000,000 plant steps in a run)"),
+    ("sensor.delay", 1_000_001, "must be a whole number from 0 to 1,000,000"),
     ("controller.N", 0.0, "must be a finite number > 0"),
     ("controller.b", "one", "must be a finite number"),
     ("controller.Tt", -1.0, "must be a finite number > 0"),

@@ -157,7 +157,8 @@ def build_members(grid: Grid, start: int, stop: int,
         n_steps=scn.n_steps, h=scn.h, t_end=scn.t_end, plant_kind=scn.plant_kind,
         PP=tiled["PP"], X0=tiled["X0"], law_kind=scn.law_kind, CP=tiled["CP"], RP=tiled["RP"],
         ev_steps=steps.astype(np.int64), ev_k=ev_k, ev_row=scn.ev_row, ev_add=scn.ev_add,
-        ev_val=tiled["ev_val"], S=scn.S, state_names=scn.state_names)
+        ev_val=tiled["ev_val"], S=scn.S, state_names=scn.state_names,
+        load_t0=np.repeat(scn.load_t0, n))
 
 
 def _varying(changes: dict, scn: scenario.Scenario) -> tuple[set[int], bool]:
@@ -228,7 +229,7 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         CS = np.zeros((recursive_ip.N_STATE, n))
         paper_single.reset_members(scn.law_kind, scn.CP, CS)
         paper_single.plant_prepare_all(scn.plant_kind, scn.PP, n)
-        rows = np.vstack([scn.PP, scn.X0, scn.CP, CS, np.zeros((engine_metrics.N_METRICS, n)),
+        rows = np.vstack([scn.PP, scn.X0, scn.CP, CS, scenario.start_metrics(scn),
                           np.zeros((paper_sweep.P_ROWS - paper_sweep.P_APREV, n))])
         varying, ref_varies = _varying(changes, scn)
         if specialise is None:
@@ -242,7 +243,6 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         first = paper_sweep.P_M
         M = D[:, first:first + engine_metrics.N_METRICS].transpose(1, 0, 2).reshape(
             engine_metrics.N_METRICS, -1)[:, :n]
-        engine_metrics.without_loop_sums(M)
         met = _metrics.table(M, tol)
     else:  # the general engine, every member of the range in one batch
         met = _metrics.table(_general_batch(grid, start, stop, fast), tol)

@@ -11,18 +11,21 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from ..config.resolve import check_value
+from ..config.resolve import check_elements, check_value
 from ..elements import disturbance, layout, noise
-from ..errors import ConfigError
 
 
 def _checked(obj, section: str) -> None:
-    """Every field through its case key's check (one-line errors naming the key)."""
+    """Every field through its case key's check, then the checks across them, as a case
+    file's (one-line errors naming the key)."""
+    keys = {}
     for f in fields(obj):
         value = getattr(obj, f.name)
         if isinstance(value, np.ndarray):
             value = value.tolist()
-        object.__setattr__(obj, f.name, check_value(f"{section}.{f.name}", value))
+        keys[f"{section}.{f.name}"] = check_value(f"{section}.{f.name}", value)
+        object.__setattr__(obj, f.name, keys[f"{section}.{f.name}"])
+    check_elements(keys)
 
 
 @dataclass(frozen=True)
@@ -58,9 +61,6 @@ class Sensor:
 
     def __post_init__(self):
         _checked(self, "sensor")
-        if self.seed >= noise.MAX_SEED:
-            raise ConfigError("sensor.seed", self.seed,
-                              f"must be a whole number from 0 to {noise.MAX_SEED - 1:,}")
 
 
 @dataclass(frozen=True)
@@ -102,15 +102,7 @@ class Disturbance:
 
     def __post_init__(self):
         _checked(self, "disturbance")
-        times, values = list(self.times), list(self.values)
-        object.__setattr__(self, "times", times)
-        object.__setattr__(self, "values", values)
-        if self.kind == "table":
-            if not times or len(times) != len(values):
-                raise ConfigError("disturbance.values", values, "must have one value per time "
-                                  f"of disturbance.times ({len(times)}), at least one")
-            if any(b < a for a, b in zip(times, times[1:], strict=False)):
-                raise ConfigError("disturbance.times", times, "must be nondecreasing")
+
 
 
 def column(sensor: Sensor | None = None, actuator: Actuator | None = None,

@@ -250,8 +250,8 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     LP = layout.column() if LP is None else LP
     LP = np.ascontiguousarray(LP if LP.shape[1] == m else np.repeat(LP, m, axis=1))
     M = np.zeros((engine_metrics.N_METRICS, m))
-    engine_metrics.start(M, *_step_metrics_of(RP, step),
-                         _load_step_of(LP, changes_per_member))
+    engine_metrics.start(M, *step_metrics_of(RP, step),
+                         load_step_of(LP, changes_per_member, t_end))
     comp_rows = np.array(l0.rows, dtype=np.int64)
     traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
     tol = np.array(p0.tol, dtype=np.float64)
@@ -264,7 +264,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     return M, traj, CS
 
 
-def _step_metrics_of(RP: np.ndarray, step) -> tuple:
+def step_metrics_of(RP: np.ndarray, step=None) -> tuple:
     """(t0, from, to) of every member's reference step, as the step metrics take them:
     a smooth-step reference's, else ``step`` (the same for all), else none (to = NaN)."""
     smooth = RP[reference.KIND] == reference.SMOOTH_STEP
@@ -273,15 +273,16 @@ def _step_metrics_of(RP: np.ndarray, step) -> tuple:
             np.where(smooth, RP[reference.FINAL], y1))
 
 
-def _load_step_of(LP: np.ndarray, changes_per_member) -> np.ndarray:
+def load_step_of(LP: np.ndarray, changes_per_member, t_end: float) -> np.ndarray:
     """Every member's first load step, from which ``iae_load`` counts: a step
-    disturbance's t0 or its first scheduled plant change, whichever comes first (inf for
-    neither)."""
+    disturbance's t0 or its first scheduled plant change, whichever comes first, within
+    the run (inf for neither)."""
     d = LP[layout.DISTURBANCE:]
     step = np.where(d[disturbance_law.KIND] == disturbance_law.STEP, d[disturbance_law.T0],
                     np.inf)
-    first = np.array([min((c.time for c in ch), default=np.inf) for ch in changes_per_member])
-    return np.minimum(step, first)
+    first = np.array([min((c.time for c in ch if c.time < t_end), default=np.inf)
+                      for ch in changes_per_member])
+    return np.where(np.minimum(step, first) < t_end, np.minimum(step, first), np.inf)
 
 
 def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_window,
@@ -411,9 +412,14 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         if fast:
             raise ConfigError("fast", True, f"only the compiled engine has a fast mode; this "
                               f"loop runs in Python ({note})")
-        if not layout.plain(LP):
-            raise ConfigError("sensor/actuator/disturbance/substeps", "given", "only the "
-                              f"compiled engine runs them; this loop runs in Python ({note})")
+        given = {k: v for k, v in (("sensor", sensor), ("actuator", actuator),
+                                    ("disturbance", disturbance)) if v is not None}
+        if substeps != 1:
+            given["substeps"] = substeps
+        if given and not layout.plain(LP):
+            key, value = next(iter(given.items()))
+            raise ConfigError(key, value, "only the compiled engine runs the loop's "
+                              f"elements and substeps; this loop runs in Python ({note})")
         return _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol,
                               name, note, al, step)
     return compiled_run(plant, ep, controller, law, r[None, :], None, changes, t, h, t_end, S,
@@ -421,25 +427,22 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
 
 
 def _elements(sensor, actuator, disturbance, substeps, n: int) -> np.ndarray:
-    """The elements' LP column, checked (the objects' types; delays shorter than the run;
-    substeps as ``sim.substeps``)."""
-    from ..config.resolve import MAX_SUBSTEPS, check_value
+    """The elements' LP column, checked: the objects' types, and their options against the
+    run's n samples as a case file's (:func:`mfcontrol.config.resolve.check_elements`)."""
+    from ..config.resolve import check_elements, check_value
     from .elements import Actuator, Disturbance, Sensor, column
 
     for name, obj, kind in (("sensor", sensor, Sensor), ("actuator", actuator, Actuator),
                             ("disturbance", disturbance, Disturbance)):
         if obj is not None and not isinstance(obj, kind):
             raise ConfigError(name, type(obj).__name__, f"must be a mfcontrol.{kind.__name__}")
-        if obj is not None and getattr(obj, "delay", 0) >= n:
-            raise ConfigError(f"{name}.delay", obj.delay, f"must be fewer samples than the "
-                              f"run's {n:,}")
     try:
-        check_value("sim.substeps", substeps)
+        substeps = check_value("sim.substeps", substeps)
+        check_elements({"sim.substeps": substeps,
+                        **({"sensor.delay": sensor.delay} if sensor else {}),
+                        **({"actuator.delay": actuator.delay} if actuator else {})}, n)
     except ConfigError as exc:
-        raise ConfigError("substeps", substeps, exc.allowed) from None
-    if substeps > MAX_SUBSTEPS:
-        raise ConfigError("substeps", substeps, f"must be a whole number from 1 to "
-                          f"{MAX_SUBSTEPS:,}")
+        raise ConfigError(exc.key.replace("sim.", ""), exc.value, exc.allowed) from None
     return column(sensor, actuator, disturbance, substeps)
 
 
@@ -508,8 +511,8 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
             x = plant.step(t[k], x, uk, h)
     gamma = comps.get("gamma", np.full(n, np.nan))
     M = np.zeros((engine_metrics.N_METRICS, 1))
-    engine_metrics.start(M, *_step_metrics_of(np.zeros((reference_law.N_PARAMS, 1)), step),
-                         _load_step_of(layout.column(), [changes]))
+    engine_metrics.start(M, *step_metrics_of(np.zeros((reference_law.N_PARAMS, 1)), step),
+                         load_step_of(layout.column(), [changes], t_end))
     engine_metrics.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]

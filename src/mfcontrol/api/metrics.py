@@ -15,7 +15,8 @@ t_diverge          time of the first such sample (NaN if none)
 max_abs_e_final    max |e_k| over the stability window (last 20 % of the horizon)
 max_abs_ref        max |y*_k| over the run
 stable             see :func:`is_stable`
-energy_u           sum u_k^2 h, the control's energy
+energy_u           sum u_k^2 h, the energy of the controller's (limited) output u, as
+                   tv_u (not of u_plant, what an actuator passed on)
 steady_state_error mean of y*_k - y_k over the stability window
 overshoot          on a step reference (from y0 to y1 at t0): the largest excursion past
                    y1, in % of |y1 - y0| (0 if none)
@@ -30,9 +31,10 @@ The step metrics (overshoot, rise_time, settling_time) need a step reference: a 
 ``smooth-step`` reference, or a constant one given to :func:`mfcontrol.simulate_loop`
 (a step from the plant's initial output at t = 0); NaN otherwise. They judge the step
 window, from the step to the first load step (which starts a response of its own, judged
-by ``iae_load``) or the end. The loop metrics
-(``energy_u`` to ``iae_load``) are folded by the general engine; the paper's tuned
-kernels (its buck cases under the recursive laws) report them as NaN.
+by ``iae_load``) or the end; a step window without a sample (a load step at or before
+the reference step) gives NaN. Times count from the step's t0: a smooth-step's duration is
+part of the rise and settling times (``duration = 0`` is a plain step). Every kernel folds
+every metric, the paper's tuned ones too.
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ STABILITY_RULE = (
 )
 
 
-#: the loop metrics (:func:`_loop_metrics`), NaN from the paper's tuned kernels
+#: the loop metrics (:func:`_loop_metrics`)
 LOOP_METRICS = ("energy_u", "steady_state_error", "overshoot", "rise_time", "settling_time",
                 "iae_load")
 #: the metric columns of a sweep table, in order
@@ -92,7 +94,8 @@ def _loop_metrics(M: np.ndarray) -> dict[str, np.ndarray]:
     """The loop metrics from their folded rows (:func:`mfcontrol.engine.metrics.loop_sums`)."""
     em = engine_metrics
     size = np.abs(M[em.M_STEP_TO] - M[em.M_STEP_FROM])
-    step = np.isfinite(size) & (size > 0)
+    # a step, and a step window that holds a sample
+    step = np.isfinite(size) & (size > 0) & np.isfinite(M[em.M_T_LAST])
     t10, t90, t_in = M[em.M_T10], M[em.M_T90], M[em.M_T_IN]
     with np.errstate(invalid="ignore", divide="ignore"):
         rise = np.where(step & np.isfinite(t10) & np.isfinite(t90), t90 - t10, math.nan)

@@ -13,11 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config.resolve import Config
+from ..elements import layout
 from ..engine import metrics, paper_single, trajectory
 from ..laws import recursive_ip
 from ..numerics import grid
 from ..plants import buck
-from . import params
+from . import loop, params
 
 
 @dataclass
@@ -38,6 +39,8 @@ class Scenario:
     ev_val: np.ndarray
     S: np.ndarray
     state_names: tuple[str, ...]
+    #: every member's first load step (``iae_load`` counts from it; inf: none)
+    load_t0: np.ndarray | None = None
 
     @property
     def n_members(self) -> int:
@@ -112,7 +115,18 @@ def build(configs: Sequence[Config]) -> Scenario:
         S=params.metric_settings(first),
         ev_steps=ev_steps.astype(np.int64), ev_k=ev_k, ev_row=ev_row, ev_add=ev_add,
         ev_val=ev_val, state_names=buck.STATE_NAMES,
+        load_t0=np.concatenate([loop.load_step_of(layout.column(), [params.changes(c)],
+                                                  c["sim.t_end"]) for c in configs]),
     )
+
+
+def start_metrics(scn: Scenario) -> np.ndarray:
+    """The members' metric rows at the start: zeros, and the loop metrics' start and what
+    they measure (the reference step of RP, the first load step)."""
+    M = np.zeros((metrics.N_METRICS, scn.n_members))
+    load = np.full(scn.n_members, np.inf) if scn.load_t0 is None else scn.load_t0
+    metrics.start(M, *loop.step_metrics_of(scn.RP), load)
+    return M
 
 
 def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = False):
@@ -126,7 +140,7 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
     n = scn.n_members
     keep_arr = list(range(n)) if keep is None else list(keep)
     n_rows = trajectory.T_X0 + scn.X0.shape[0]
-    M = np.zeros((metrics.N_METRICS, n))
+    M = start_metrics(scn)
     CS = np.zeros((recursive_ip.N_STATE, n))
     paper_single.reset_members(scn.law_kind, scn.CP, CS)
     if n == 1 and keep_arr == [0]:  # the common case: the kernel writes the result itself
@@ -135,19 +149,17 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
                    scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,
                    scn.ev_k, scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M, traj[:, 0, :])
         traj[:, 0, int(M[metrics.M_N_SAMPLES, 0]):] = np.nan  # never written: diverged
-        metrics.without_loop_sums(M)
         return M, traj
     traj = np.full((n_rows, len(keep_arr), scn.n_steps), np.nan)
     one = np.empty((n_rows, scn.n_steps))
     X = scn.X0.copy()
     for j in range(n):
-        Mj = np.zeros((metrics.N_METRICS, 1))
+        Mj = M[:, j:j + 1].copy()
         run_member(scn, j, X, CS, Mj, one, fast=fast)
         M[:, j] = Mj[:, 0]
         if j in keep_arr:
             done = int(Mj[metrics.M_N_SAMPLES, 0])
             traj[:, keep_arr.index(j), :done] = one[:, :done]
-    metrics.without_loop_sums(M)
     return M, traj
 
 

@@ -3,6 +3,7 @@ every member in the compiled engine (:func:`sweep`)."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -13,14 +14,18 @@ import numpy as np
 
 from .._version import __version__
 from ..config.options import BY_KEY, OPTIONS
+from ..elements import layout
 from ..errors import ConfigError
 from . import metrics as _metrics
 from .controllers import RecursiveIP
+from .elements import Actuator, Disturbance, Sensor
 from .loop import (
     Change,
     Reference,
     _alpha,
     _check_changes,
+    _constant_step,
+    _elements,
     _setup,
     law_arrays,
     restored,
@@ -63,6 +68,10 @@ class LoopSweepResult:
                 f"{int(np.sum(self.table['diverged']))} diverged>")
 
 
+#: the loop elements a grid key may name, by section
+_ELEMENTS = {"sensor": Sensor, "actuator": Actuator, "disturbance": Disturbance}
+
+
 def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, np.ndarray]:
     if not grid:
         raise ConfigError("grid", grid, "give at least one 'plant.NAME' or "
@@ -90,8 +99,17 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
             if unread:
                 raise ConfigError(key, values, f"this controller never reads it ({unread}): "
                                   "every member would be the same")
+        elif where in _ELEMENTS:
+            kind = _ELEMENTS[where]
+            numeric = [f.name for f in dataclasses.fields(kind)
+                       if f.type in ("float", "int")]
+            if name not in numeric:
+                raise ConfigError(key, values, "not a numeric option of the "
+                                  f"{kind.__name__}; allowed: "
+                                  + ", ".join(f"{where}.{k}" for k in numeric))
         else:
-            raise ConfigError(key, values, "must start with 'plant.' or 'controller.'")
+            raise ConfigError(key, values, "must start with 'plant.', 'controller.', "
+                              "'sensor.', 'actuator.' or 'disturbance.'")
         try:
             arr = np.atleast_1d(np.asarray(values, dtype=float))
         except (TypeError, ValueError):
@@ -130,19 +148,25 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
           changes: Sequence[Change] = (), fast: bool = False, keep: int = 0,
           settle_time: float = 0.0, final_window: float = 0.2, stable_tol: float = 0.1,
           diverge_above: float = 1e12, alpha: Reference | None = None,
-          vectorise: bool | None = None) -> LoopSweepResult:
+          vectorise: bool | None = None, sensor=None, actuator=None, disturbance=None,
+          substeps: int = 1) -> LoopSweepResult:
     """Run ``controller`` on ``plant`` for every combination of the grid's values.
 
     Parameters
     ----------
     plant, controller, reference, t_end, h, changes, settle_time, final_window,
-    stable_tol, diverge_above, alpha
+    stable_tol, diverge_above, alpha, sensor, actuator, disturbance, substeps
         As for :func:`mfcontrol.simulate_loop` (``alpha``: one schedule, the same for
-        every member). Every member starts from the plant's ``x0`` and from a fresh
+        every member; the elements the same for every member but for their swept
+        options). Every member starts from the plant's ``x0`` and from a fresh
         controller (a controller's present memory is not used).
     grid : mapping
         ``{"plant.NAME": values, "controller.NAME": values, ...}``: plant parameters (as in
-        ``plant.params``) and numeric controller options (as its constructor takes them).
+        ``plant.params``), numeric controller options (as its constructor takes them)
+        and numeric options of the loop's elements (``sensor.seed``,
+        ``actuator.delay``, ``disturbance.amplitude``, ...: the fields of
+        :class:`~mfcontrol.Sensor`, :class:`~mfcontrol.Actuator`,
+        :class:`~mfcontrol.Disturbance`).
         The axes combine as a product, member m the m-th combination, the last key
         fastest.
     fast : bool
@@ -193,7 +217,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     if law_arrays(controller) is None:
         raise ConfigError("controller", type(controller).__name__, "a sweep runs in the "
                           "compiled engine: a library controller (IP, IPI, IPD, IPID, "
-                          "RecursiveIP) in automatic mode")
+                          "PID, RecursiveIP) in automatic mode")
     axes = _axes(grid, plant, controller)
     R = r[None, :]
     al = _alpha(controller, alpha, t)
@@ -206,12 +230,18 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     combos = list(itertools.product(*(range(v.size) for v in axes.values())))
     plant_keys = [k for k in keys if k.startswith("plant.")]
     ctrl_keys = [k for k in keys if k.startswith("controller.")]
+    element_keys = [k for k in keys if k.partition(".")[0] in _ELEMENTS]
+    given = {"sensor": sensor, "actuator": actuator, "disturbance": disturbance}
+    base_lp = _elements(sensor, actuator, disturbance, substeps, t.size)
     params = dict(controller._params)
     # one engine plant per distinct plant setting and one law per distinct controller
     # setting: a grid of n x m values builds n + m of them, not n m
     engines: dict[tuple, Any] = {}
+    steps: dict[tuple, Any] = {}
     laws: dict[tuple, Any] = {}
-    plants, member_laws = [], []
+    columns: dict[tuple, np.ndarray] = {}
+    plants, member_laws, member_steps, member_lp = [], [], [], []
+    members_elements = []
     with restored(plant):  # each member's values set in turn, the plant left as given
         for combo in combos:
             values = {k: float(axes[k][i]) for k, i in zip(keys, combo, strict=True)}
@@ -222,14 +252,27 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                 if plant_keys:  # and the schedule on this member's parameters
                     _check_changes(plant, changes)
                 engines[pkey] = plant.engine() if plant_keys else base_ep
+                # the step the step metrics measure starts at this plant's initial output
+                steps[pkey] = _constant_step(plant, reference)
             plants.append(engines[pkey])
+            member_steps.append(steps[pkey])
             ckey = tuple(values[k] for k in ctrl_keys)
             if ckey not in laws:
                 laws[ckey] = law_arrays(_controller(controller, params, ctrl_keys, values))
             member_laws.append(laws[ckey])
+            ekey = tuple(values[k] for k in element_keys)
+            if ekey not in columns:
+                elements = _member_elements(given, element_keys, values)
+                columns[ekey] = (base_lp if not element_keys else _elements(
+                    *elements, substeps, t.size), elements)
+            member_lp.append(columns[ekey][0])
+            members_elements.append(columns[ekey][1])
+    step = (None if member_steps[0] is None
+            else tuple(np.array(v) for v in zip(*member_steps, strict=True)))
     M, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
                           t_end=t_end, h=h, S=S, fast=fast,
-                          AL=None if al is None else al[None, :], vectorise=vectorise)
+                          AL=None if al is None else al[None, :], vectorise=vectorise,
+                          LP=layout.stack(member_lp), step=step)
     met = _metrics.table(M, stable_tol)
     table: dict[str, np.ndarray] = {"member": np.arange(len(combos), dtype=np.int64)}
     idx = np.array(combos, dtype=np.int64).reshape(len(combos), len(keys))
@@ -249,9 +292,33 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                     t_end=t_end, h=h, changes=changes, settle_time=settle_time,
                     final_window=final_window, stable_tol=stable_tol,
                     diverge_above=diverge_above, name=f"member {m}", fast=fast,
-                    alpha=alpha)
+                    alpha=alpha, sensor=members_elements[m][0],
+                    actuator=members_elements[m][1], disturbance=members_elements[m][2],
+                    substeps=substeps)
     return LoopSweepResult(axes=axes, table=table, kept=kept,
                            arithmetic="fast" if fast else "exact")
+
+
+def _member_elements(given: Mapping[str, Any], keys: Sequence[str],
+                     values: Mapping[str, float]) -> tuple:
+    """(sensor, actuator, disturbance) of a member: the ones given, with its values of the
+    swept element options (each object checks them)."""
+    out = []
+    for where, kind in _ELEMENTS.items():
+        mine = {k.partition(".")[2]: values[k] for k in keys if k.startswith(where + ".")}
+        obj = given[where]
+        if mine:
+            base = obj if obj is not None else kind()
+            fields = {f.name: f for f in dataclasses.fields(kind)}
+            mine = {k: int(v) if fields[k].type == "int" and float(v).is_integer() else v
+                    for k, v in mine.items()}
+            try:
+                obj = dataclasses.replace(base, **mine)
+            except ConfigError as exc:
+                raise ConfigError("grid", {f"{where}.{k}": v for k, v in mine.items()},
+                                  str(exc)) from None
+        out.append(obj)
+    return tuple(out)
 
 
 def _controller(controller, params, ctrl_keys, values):

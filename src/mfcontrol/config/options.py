@@ -90,8 +90,8 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.alpha", "float", 10.0, "key gain alpha of the ultra-local model",
        check="positive"),
     _o("controller.kp", "float", 2.0, "proportional gain K_P"),
-    _o("controller.ki", "float", 0.0, "i-PI, i-PID: integral gain K_I"),
-    _o("controller.kd", "float", 0.0, "i-PD, i-PID: derivative gain K_D"),
+    _o("controller.ki", "float", 0.0, "i-PI, i-PID, pid: integral gain K_I"),
+    _o("controller.kd", "float", 0.0, "i-PD, i-PID, pid: derivative gain K_D"),
     _o("controller.order", "int", 1, "positional laws: order n of y^(n) = F + alpha u",
        ("1", "2")),
     _o("controller.estimator", "str", "backward-difference", "positional laws: estimator of "
@@ -126,8 +126,9 @@ OPTIONS: tuple[Option, ...] = (
        "(published 1e-3; the paper writes h)", check="positive"),
     _o("controller.output_gain", "float", 1 / 2000, "duty = clip(output_gain * u)",
        check="positive"),
-    _o("controller.duty_min", "float", 1e-3, "lower output (duty) limit"),
-    _o("controller.duty_max", "float", 0.9, "upper output (duty) limit"),
+    _o("controller.duty_min", "float", 1e-3, "lower output limit (the converters' duty; set "
+       "it for any other plant: a motor's voltage, say)"),
+    _o("controller.duty_max", "float", 0.9, "upper output limit (as duty_min)"),
     _o("controller.p_sample", "str", "previous", "measurement in the P term: y_{k-1} "
        "(published) or y_k (printed)", ("previous", "current")),
     _o("controller.p_error", "str", "r-y", "P term error: Kp (r - y) (published) or "

@@ -72,6 +72,8 @@ def check_value(key: str, value: Any) -> Any:
             raise ConfigError(key, value, allowed(o))
         return list(value)
     if o.kind == "int":
+        if isinstance(value, np.integer):
+            value = int(value)
         if (not isinstance(value, int) or isinstance(value, bool)
                 or (o.check == "positive" and value <= 0)
                 or (o.check == "nonnegative" and value < 0)
@@ -261,23 +263,7 @@ def _check_consistency(v: dict[str, Any]) -> None:
         raise ConfigError("controller.law", v["controller.law"], "the paper's recursive law "
                           "drives a converter's duty cycle: use i-P .. i-PID or pid for "
                           f"{v['plant.model']}")
-    if v["sensor.seed"] >= noise.MAX_SEED:
-        raise ConfigError("sensor.seed", v["sensor.seed"],
-                          f"must be a whole number from 0 to {noise.MAX_SEED - 1:,}")
-    for key in ("sensor.delay", "actuator.delay"):
-        if v[key] >= n:
-            raise ConfigError(key, v[key], f"must be fewer samples than the run's {n:,} "
-                              "(sim.t_end / sim.h)")
-    if v["sim.substeps"] > MAX_SUBSTEPS:
-        raise ConfigError("sim.substeps", v["sim.substeps"],
-                          f"must be a whole number from 1 to {MAX_SUBSTEPS:,}")
-    if v["disturbance.kind"] == "table":
-        times, values = v["disturbance.times"], v["disturbance.values"]
-        if not times or len(times) != len(values):
-            raise ConfigError("disturbance.values", values, "must have one value per time of "
-                              f"disturbance.times ({len(times)}), at least one")
-        if any(b < a for a, b in zip(times, times[1:], strict=False)):
-            raise ConfigError("disturbance.times", times, "must be nondecreasing")
+    check_elements(v, n)
     if v["controller.law"] == "pid":
         _check_pid(v["controller.kp"], v["controller.ki"], v["controller.kd"],
                    v["controller.Tt"], "controller.")
@@ -299,6 +285,41 @@ def _check_consistency(v: dict[str, Any]) -> None:
 #: integration steps per control period at most (the plant's grid stays within the
 #: integers a float counts exactly for any run length the checks allow)
 MAX_SUBSTEPS = 100_000
+
+
+#: delays longer than this many samples are refused (their ring is allocated per thread)
+MAX_DELAY = 1_000_000
+
+
+def check_elements(v: Mapping[str, Any], n: int | None = None) -> None:
+    """The checks across the loop elements' options, on whichever of their dotted keys
+    ``v`` holds (a configuration, or what an element object sets): the seed's range, the
+    delays and integration substeps against the run's n samples (when known), a table's
+    times and values. The one place for a case file and the Python objects alike."""
+    if "sensor.seed" in v and v["sensor.seed"] >= noise.MAX_SEED:
+        raise ConfigError("sensor.seed", v["sensor.seed"],
+                          f"must be a whole number from 0 to {noise.MAX_SEED - 1:,}")
+    for key in ("sensor.delay", "actuator.delay"):
+        if key not in v:
+            continue
+        if v[key] > MAX_DELAY:
+            raise ConfigError(key, v[key], f"must be a whole number from 0 to {MAX_DELAY:,}")
+        if n is not None and v[key] >= n:
+            raise ConfigError(key, v[key], f"must be fewer samples than the run's {n:,} "
+                              "(sim.t_end / sim.h)")
+    if "sim.substeps" in v:
+        most = MAX_SUBSTEPS if n is None else min(MAX_SUBSTEPS, grid.MAX_STEPS // n)
+        if v["sim.substeps"] > most:
+            raise ConfigError("sim.substeps", v["sim.substeps"], f"must be a whole number "
+                              f"from 1 to {most:,} (at most {grid.MAX_STEPS:,} plant steps "
+                              "in a run)")
+    if v.get("disturbance.kind") == "table":
+        times, values = v["disturbance.times"], v["disturbance.values"]
+        if not times or len(times) != len(values):
+            raise ConfigError("disturbance.values", values, "must have one value per time of "
+                              f"disturbance.times ({len(times)}), at least one")
+        if any(b < a for a, b in zip(times, times[1:], strict=False)):
+            raise ConfigError("disturbance.times", times, "must be nondecreasing")
 
 
 def _check_pid(kp: float, ki: float, kd: float, Tt: float | None, prefix: str = "") -> None:

@@ -3,8 +3,9 @@
 Sample k of the noise with seed s is a hash of (s, k) (SplitMix64's finaliser, the
 mixing function of Steele, Lea and Flood, 2014), turned into a uniform variate on (0, 1)
 from its top 53 bits and into a Gaussian one by the Box-Muller transform. Nothing is
-carried from sample to sample, so a member of a sweep, its single run, a run resumed
-halfway and a run on another Dask worker draw the same noise for the same seed, and
+carried from sample to sample, so a member of a sweep, its single run, a sweep resumed
+from its finished chunks and a run on another Dask worker draw the same noise for the
+same seed, and
 members never share a stream by accident (a different seed gives an unrelated sequence).
 """
 

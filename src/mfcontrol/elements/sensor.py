@@ -28,5 +28,9 @@ def read(kind, std, seed, quantum, k, y):
     if kind != noise.NONE:
         v = v + noise.sample(kind, std, seed, k)
     if quantum > 0.0:
-        v = quantum * np.floor(v / quantum + 0.5)
+        n = v / quantum
+        # from 2^52 on every float is a whole number: rounding is the identity (and a
+        # tiny quantum would overflow n to inf)
+        if abs(n) < 4503599627370496.0:
+            v = quantum * np.floor(n + 0.5)
     return v

@@ -252,11 +252,13 @@ def _make_loop(fast):
                 if sub == 1:
                     dt_carry = _advance(integ, rhs, advance, t, x, u_plant, p, h, rtol, atol,
                                         dt_carry, w)
-                else:  # at the times of the grid of h / sub (bit for bit a run at that h)
+                else:  # at the times of the grid of h / sub (bit for bit a run at that h),
+                    # an input disturbance evaluated at each of them
                     for i in range(sub):
-                        dt_carry = _advance(integ, rhs, advance,
-                                            grid.time(k * sub + i, t_end, n_steps * sub), x,
-                                            u_plant, p, hs, rtol, atol, dt_carry, w)
+                        ti = grid.time(k * sub + i, t_end, n_steps * sub)
+                        ui = u_act + disturbance.value(DP, j, ti) if d_in else u_act
+                        dt_carry = _advance(integ, rhs, advance, ti, x, ui, p, hs, rtol, atol,
+                                            dt_carry, w)
             DT[j] = dt_carry
             for i in range(CS.shape[0]):
                 CS[i, j] = cs[i, 0]

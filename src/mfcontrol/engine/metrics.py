@@ -22,7 +22,7 @@ M_DIVERGED = 8
 M_T_DIVERGE = 9
 M_N_SAMPLES = 10
 # the loop metrics (:func:`loop_sums`): what any plant's loop is judged by besides the
-# error integrals; the paper's tuned kernels do not fold them (:func:`without_loop_sums`)
+# error integrals
 M_ENERGY = 11  # sum u_k^2 h
 # the step window: from the reference step's t0 to the load step (a load step starts
 # another response, which iae_load judges)
@@ -39,7 +39,6 @@ M_STEP_T0 = 20  # the reference step's time (a step from STEP_FROM to STEP_TO)
 M_STEP_FROM = 21
 M_STEP_TO = 22  # NaN: the reference is no step
 M_LOAD_T0 = 23  # the load (disturbance) step's time; inf: none
-LOOP_ROWS = tuple(range(M_ENERGY, M_T_LAST + 1))
 N_METRICS = 24
 
 # metric settings
@@ -98,11 +97,6 @@ def start(M: np.ndarray, step_t0, step_from, step_to, load_t0) -> None:
     M[M_STEP_FROM] = step_from
     M[M_STEP_TO] = step_to
     M[M_LOAD_T0] = load_t0
-
-
-def without_loop_sums(M: np.ndarray) -> None:
-    """Mark the loop metrics as not folded (NaN), for the paper's tuned kernels."""
-    M[list(LOOP_ROWS)] = np.nan
 
 
 @step_jit

@@ -4,7 +4,7 @@ Each sample: scheduled parameter changes due at t_k (before that sample's plant 
 published), the measurement y_k (before the plant step) and the reference r_k, the control
 law, streaming metrics and divergence flags, then one plant step with the applied input
 held, with the scalar functions every kernel calls (``recursive_ip.advance``,
-``buck.rk4``, :func:`mfcontrol.engine.metrics.fold_metrics`).
+``buck.rk4``, :func:`mfcontrol.engine.metrics.fold_metrics` and ``loop_sums``).
 
 :func:`run_single` runs one member from SoA columns (``X[row, j]`` plant state, ``PP``
 plant parameters, ``CS``/``CP`` controller state/parameters, ``RP`` reference, ``M``
@@ -21,20 +21,34 @@ from ..numerics import grid
 from ..plants import buck
 from .metrics import (
     M_DIVERGED,
+    M_E_FINAL,
+    M_ENERGY,
     M_FINAL_GAMMA,
     M_IAE,
+    M_IAE_LOAD,
     M_ISE,
     M_ITAE,
+    M_LOAD_T0,
     M_MAX_ABS_R,
     M_MAX_E_FINAL,
     M_MAX_E_SETTLED,
+    M_N_FINAL,
     M_N_SAMPLES,
+    M_PEAK,
+    M_STEP_FROM,
+    M_STEP_T0,
+    M_STEP_TO,
+    M_T10,
+    M_T90,
     M_T_DIVERGE,
+    M_T_IN,
+    M_T_LAST,
     M_TV,
     S_DIVERGE_ABOVE,
     S_FINAL_START,
     S_SETTLE,
     fold_metrics,
+    loop_sums,
 )
 from .trajectory import T_X0, record
 
@@ -83,6 +97,11 @@ def _single_loop(fast):
         iae, ise, itae = M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0]
         max_e_s, max_e_f, max_r = M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0]
         tv, g_final = M[M_TV, 0], M[M_FINAL_GAMMA, 0]
+        energy, peak, t10, t90, t_in, t_last, e_fin, n_fin, iae_load = (
+            M[M_ENERGY, 0], M[M_PEAK, 0], M[M_T10, 0], M[M_T90, 0], M[M_T_IN, 0],
+            M[M_T_LAST, 0], M[M_E_FINAL, 0], M[M_N_FINAL, 0], M[M_IAE_LOAD, 0])
+        step_t0, step_from, step_to, load_t0 = (M[M_STEP_T0, 0], M[M_STEP_FROM, 0],
+                                                M[M_STEP_TO, 0], M[M_LOAD_T0, 0])
         settle, final_start, bound = S[S_SETTLE], S[S_FINAL_START], S[S_DIVERGE_ABOVE]
         a_prev = 0.0
         n_run = 0
@@ -115,6 +134,9 @@ def _single_loop(fast):
                                      settle, final_start, bound)
             if alive == 0.0:
                 break
+            (energy, peak, t10, t90, t_in, t_last, e_fin, n_fin, iae_load) = loop_sums(
+                energy, peak, t10, t90, t_in, t_last, e_fin, n_fin, iae_load, t, h, y, r, a,
+                step_t0, step_from, step_to, load_t0, final_start)
             a_prev = a
             record(traj, k, r, y, u, a, gamma, g)
             traj[T_X0 + buck.I_L, k] = i
@@ -131,6 +153,9 @@ def _single_loop(fast):
         M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0] = iae, ise, itae
         M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0] = max_e_s, max_e_f, max_r
         M[M_TV, 0], M[M_FINAL_GAMMA, 0] = tv, g_final
+        (M[M_ENERGY, 0], M[M_PEAK, 0], M[M_T10, 0], M[M_T90, 0], M[M_T_IN, 0], M[M_T_LAST, 0],
+         M[M_E_FINAL, 0], M[M_N_FINAL, 0], M[M_IAE_LOAD, 0]) = (
+            energy, peak, t10, t90, t_in, t_last, e_fin, n_fin, iae_load)
 
     return run_single
 

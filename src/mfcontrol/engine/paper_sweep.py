@@ -4,7 +4,7 @@ Every per-member quantity lives in one array ``D[row, j]`` (a block of :data:`BL
 members), so the member loop addresses one block of memory at compile-time offsets: the
 compiler needs no run-time alias checks, and the loop of the scalar step functions
 (``recursive_ip.advance``, ``buck.rk4``, ``metrics.accumulate``/``metrics.fold_metrics``,
-the ones a single run inlines) vectorises over members.
+``metrics.loop_sums``, the ones a single run inlines) vectorises over members.
 
 Tiles. The samples run in tiles of :data:`TILE`, which also end where a metric window
 starts (so that a tile lies wholly inside or outside each window) and before a scheduled
@@ -85,6 +85,21 @@ _UP, _YP, _RP, _G1, _G2 = (_row(P_CS + r) for r in (
     metrics.M_ITAE, metrics.M_MAX_E_SETTLED, metrics.M_MAX_E_FINAL, metrics.M_MAX_ABS_R,
     metrics.M_TV, metrics.M_FINAL_GAMMA))
 _AP, _BAD, _MXT = _row(P_APREV), _row(P_BAD), _row(P_MXT)
+(_EN, _PK, _T10, _T90, _TIN, _TL, _EF, _NF, _IL, _ST0, _SFR, _STO, _LT0) = (
+    _row(P_M + r) for r in (
+        metrics.M_ENERGY, metrics.M_PEAK, metrics.M_T10, metrics.M_T90, metrics.M_T_IN,
+        metrics.M_T_LAST, metrics.M_E_FINAL, metrics.M_N_FINAL, metrics.M_IAE_LOAD,
+        metrics.M_STEP_T0, metrics.M_STEP_FROM, metrics.M_STEP_TO, metrics.M_LOAD_T0))
+
+
+@njit(inline="always", error_model="numpy")
+def _loop_sums(D, j, t, h, y, r, a, final_start):
+    """:func:`metrics.loop_sums` on member j's packed rows."""
+    (D[_EN + j], D[_PK + j], D[_T10 + j], D[_T90 + j], D[_TIN + j], D[_TL + j], D[_EF + j],
+     D[_NF + j], D[_IL + j]) = metrics.loop_sums(
+        D[_EN + j], D[_PK + j], D[_T10 + j], D[_T90 + j], D[_TIN + j], D[_TL + j],
+        D[_EF + j], D[_NF + j], D[_IL + j], t, h, y, r, a, D[_ST0 + j], D[_SFR + j],
+        D[_STO + j], D[_LT0 + j], final_start)
 _F11, _F12, _F21, _F22, _G1D, _G2D = (_row(P_RK + r) for r in range(6))
 #: samples per tile: the unchecked loop runs a tile, then looks for a member gone bad
 TILE = 256
@@ -231,6 +246,8 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                             D[_GF + j], k, t, h, y, r, u, a, D[_AP + j], gamma, settle, final_start,
                             bound)
                         D[_DIV + j] = 1.0 - alive
+                        if alive != 0.0:
+                            _loop_sums(D, j, t, h, y, r, a, final_start)
                     else:
                         # the tile lies wholly inside or outside each metric window
                         # (run_block splits tiles at their starts): one max |e| for the
@@ -248,6 +265,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                         # that is not finite stays so (NaN and inf absorb): the tile's
                         # end sees it in the sums or in the carried u
                         D[_BAD + j] += 1.0 if abs(y) > bound else 0.0
+                        _loop_sums(D, j, t, h, y, r, a, final_start)
                     D[_AP + j] = a
                     if MATRIX:
                         D[_I + j], D[_V + j] = buck.rk4_linear(
