@@ -149,7 +149,7 @@ ERRORS = [
                  ["controller.law", "'PID'",
                   "must be one of ip, variational, i-P, i-PI, i-PD, i-PID, pid"], id="bad-law"),
     pytest.param([S, CASE, "--set", "sensor.delay=99999999"],
-                 ["sensor.delay", "99999999", "must be fewer samples than the run's"],
+                 ["sensor.delay", "99999999", "must be a whole number from 0 to 1,000,000"],
                  id="sensor-delay-past-the-run"),
     pytest.param([S, CASE, "--set", "sensor.noise=pink"],
                  ["sensor.noise", "'pink'", "must be one of none, gaussian, uniform"],

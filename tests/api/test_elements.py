@@ -224,14 +224,60 @@ def test_an_input_disturbance_is_evaluated_at_every_substep():
 
 def test_the_object_sweep_takes_elements_and_equals_its_single_runs():
     plant, ctrl = DCMotor(), _ipi()
-    sw = mfcontrol.sweep(plant, ctrl, 60.0, t_end=0.5, keep=4,
+    sw = mfcontrol.sweep(plant, ctrl, 60.0, t_end=0.5,
                          sensor=Sensor("gaussian", 0.5), actuator=Actuator(rate_limit=5e3),
                          grid={"sensor.seed": [1, 2], "actuator.delay": [0, 3]})
     table = sw.to_pandas()
     assert len(table) == 4 and table["overshoot"].notna().all()
-    for m, res in sw.kept.items():
+    for m in range(4):  # each member's single run, built here from its values
+        seed, d = int(table["sensor.seed"][m]), int(table["actuator.delay"][m])
+        res = mfcontrol.simulate_loop(DCMotor(), _ipi(), 60.0, t_end=0.5,
+                                      sensor=Sensor("gaussian", 0.5, seed=seed),
+                                      actuator=Actuator(delay=d, rate_limit=5e3))
         for name in batch.METRIC_COLUMNS:
             a, b = table[name][m], res.metrics[name]
             assert a == b or (a != a and b != b), (m, name, a, b)
+    assert len(set(table["iae"])) == 4
     with pytest.raises(ConfigError, match="not a numeric option of the Sensor"):
         mfcontrol.sweep(plant, ctrl, 60.0, t_end=0.1, grid={"sensor.noise": [1.0]})
+
+
+@pytest.mark.parametrize(("grid", "why"), [
+    ({"sensor.seed": [1, 2]}, "sensor.noise is none"),
+    ({"disturbance.amplitude": [1.0, 2.0]}, "disturbance.kind is none"),
+])
+def test_sweeping_an_element_option_without_effect_is_refused(grid, why):
+    with pytest.raises(ConfigError, match=f"has no effect here \\({why}\\)"):
+        mfcontrol.sweep(DCMotor(), _ipi(), 60.0, t_end=0.1, grid=grid)
+    _, base = resolve_case("motor-noise-pid", {"sensor.noise": "none"})
+    with pytest.raises(ConfigError, match=f"has no effect here \\({why}\\)"):
+        batch.make_grid(base, {k: np.array(v, dtype=float) for k, v in grid.items()})
+
+
+def test_edge_values_of_the_elements():
+    # a quantum so small that y / quantum overflows: rounding is the identity there
+    tiny = _run(t_end=0.05, sensor=Sensor(quantum=1e-320))
+    assert not tiny.metrics["diverged"]
+    assert np.array_equal(tiny.signals["y_meas"], tiny.signals["y"])
+    # NumPy integers and floats are numbers
+    s = Sensor("uniform", np.float32(0.5), seed=np.int64(3), delay=np.int64(2))
+    assert (s.seed, s.delay) == (3, 2) and isinstance(s.noise_std, float)
+    assert _run(t_end=0.05, sensor=s, substeps=np.int64(2)).metrics["n_samples"] == 50
+    # at most 1e8 plant steps in a run
+    with pytest.raises(ConfigError, match="^substeps = 20000: must be a whole number from "
+                                          "1 to 10,000"):
+        _run(t_end=10.0, substeps=20_000)
+    # the refusal names the element that acts, not an idle one before it
+    class Mine:
+        def __call__(self, y, setpoint=0.0):
+            return 0.0
+
+    with pytest.raises(ConfigError, match="^actuator = Actuator"):
+        mfcontrol.simulate_loop(DCMotor(), Mine(), 1.0, t_end=0.1, h=1e-3, sensor=Sensor(),
+                                actuator=Actuator(delay=2))
+
+
+def test_a_load_change_no_sample_sees_gives_no_load_iae():
+    # after the last sample (0.499 s) but before t_end
+    res = _run(changes=[mfcontrol.Change(0.4995, "load", 0.05)])
+    assert math.isnan(res.metrics["iae_load"])

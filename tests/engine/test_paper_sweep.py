@@ -12,8 +12,7 @@ from mfcontrol.engine import paper_sweep
 from mfcontrol.experiments.cases import resolve_case
 from mfcontrol.laws import recursive_ip
 
-ALL = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_final",
-       "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable")
+ALL = batch.METRIC_COLUMNS  # the loop metrics too
 
 
 def _same(a, b):
@@ -48,6 +47,25 @@ def test_a_member_dead_early_keeps_its_metrics_through_later_plain_tiles():
     assert single["n_samples"] < paper_sweep.TILE
     for name in ALL:
         assert _same(cols[name][1], single[name]), name
+
+
+def test_the_loop_metrics_of_members_through_a_load_change_equal_their_single_runs():
+    # a step reference (step metrics) and the load change at 1.5 ms (iae_load), a member
+    # that blows up after the change (dead: it keeps what it had) and one that never
+    # settles
+    base = resolve_case("voltage-stable-standard", {
+        "sim.t_end": 3e-3, "plant.change_times": [1.5e-3], "reference.kind": "smooth-step",
+        "reference.initial": 0.0, "reference.final": 2.5, "reference.t0": 1e-4,
+        "reference.duration": 0.0, "controller.duty_min": -1e300,
+        "controller.duty_max": 1e300, "sim.diverge_above": 1e6})[1]
+    grid = batch.make_grid(base, {"controller.kp": np.array([2.0, 0.5, -3e2, 40.0])})
+    cols = batch.run_grid(grid)
+    assert cols["diverged"].any() and np.isfinite(cols["iae_load"]).sum() >= 2
+    assert np.isfinite(cols["settling_time"]).any()
+    for m in range(grid.n_members):
+        single = mfcontrol.simulate(grid.config(m)).metrics
+        for name in ALL:
+            assert _same(cols[name][m], single[name]), (m, name, cols[name][m], single[name])
 
 
 def _blow_ups():

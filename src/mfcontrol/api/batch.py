@@ -105,8 +105,15 @@ def make_grid(base: Config, axes: Mapping[str, np.ndarray]) -> Grid:
     """Validate every axis value against the base configuration: the option's own check
     on the whole axis at once, and the checks across options for each value of the keys
     they involve (:func:`mfcontrol.config.resolve.check_axis`)."""
+    from .elements import unread
+
     for key, values in axes.items():
         check_axis(base, key, np.asarray(values, dtype=float))
+        why = unread(key, base)
+        if why:
+            raise ConfigError(key, values.tolist() if isinstance(values, np.ndarray)
+                              else values, f"has no effect here ({why}): every member "
+                              "would be the same")
     return Grid(base=base, axes={k: np.asarray(v, dtype=float) for k, v in axes.items()})
 
 

@@ -105,6 +105,25 @@ class Disturbance:
 
 
 
+def unread(key: str, settings) -> str:
+    """Why an element option ``key`` (``"sensor.seed"``, ...) has no effect under the
+    other options ``settings`` (a mapping of the dotted keys), "" when it has one: a
+    sweep over it would give identical members."""
+    section, _, name = key.partition(".")
+    if section == "sensor" and name in ("noise_std", "seed") \
+            and settings["sensor.noise"] == "none":
+        return "sensor.noise is none"
+    if section == "disturbance":
+        kind = settings["disturbance.kind"]
+        if kind == "none":
+            return "disturbance.kind is none"
+        if name == "frequency" and kind != "sine":
+            return f"only a sine has a frequency (disturbance.kind is {kind})"
+        if name in ("amplitude", "t0") and kind == "table":
+            return "a table has times and values"
+    return ""
+
+
 def column(sensor: Sensor | None = None, actuator: Actuator | None = None,
            disturbance_: Disturbance | None = None, substeps: int = 1) -> np.ndarray:
     """One member's elements as the engine's LP column

@@ -251,7 +251,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     LP = np.ascontiguousarray(LP if LP.shape[1] == m else np.repeat(LP, m, axis=1))
     M = np.zeros((engine_metrics.N_METRICS, m))
     engine_metrics.start(M, *step_metrics_of(RP, step),
-                         load_step_of(LP, changes_per_member, t_end))
+                         load_step_of(LP, changes_per_member, t_end, n))
     comp_rows = np.array(l0.rows, dtype=np.int64)
     traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
     tol = np.array(p0.tol, dtype=np.float64)
@@ -273,16 +273,18 @@ def step_metrics_of(RP: np.ndarray, step=None) -> tuple:
             np.where(smooth, RP[reference.FINAL], y1))
 
 
-def load_step_of(LP: np.ndarray, changes_per_member, t_end: float) -> np.ndarray:
+def load_step_of(LP: np.ndarray, changes_per_member, t_end: float, n: int) -> np.ndarray:
     """Every member's first load step, from which ``iae_load`` counts: a step
-    disturbance's t0 or its first scheduled plant change, whichever comes first, within
-    the run (inf for neither)."""
+    disturbance's t0 or its first scheduled plant change, whichever comes first, if a
+    sample of the n over t_end sees it (inf for neither)."""
     d = LP[layout.DISTURBANCE:]
     step = np.where(d[disturbance_law.KIND] == disturbance_law.STEP, d[disturbance_law.T0],
                     np.inf)
-    first = np.array([min((c.time for c in ch if c.time < t_end), default=np.inf)
-                      for ch in changes_per_member])
-    return np.where(np.minimum(step, first) < t_end, np.minimum(step, first), np.inf)
+    first = np.array([min((c.time for c in ch), default=np.inf) for ch in changes_per_member])
+    load = np.minimum(step, first)
+    seen = np.array([math.isfinite(x) and grid.first_sample_at(x, t_end, n) < n
+                     for x in load])
+    return np.where(seen, load, np.inf)
 
 
 def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_window,
@@ -403,7 +405,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
                                final_window, stable_tol, diverge_above)
     al = _alpha(controller, alpha, t)
-    LP = _elements(sensor, actuator, disturbance, substeps, t.size)
+    LP = _elements(sensor, actuator, disturbance, substeps, n=t.size)
     step = _constant_step(plant, reference)
     ep = plant.engine() if hasattr(plant, "engine") else None
     law = law_arrays(controller)
@@ -412,12 +414,11 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         if fast:
             raise ConfigError("fast", True, f"only the compiled engine has a fast mode; this "
                               f"loop runs in Python ({note})")
-        given = {k: v for k, v in (("sensor", sensor), ("actuator", actuator),
-                                    ("disturbance", disturbance)) if v is not None}
-        if substeps != 1:
-            given["substeps"] = substeps
-        if given and not layout.plain(LP):
-            key, value = next(iter(given.items()))
+        acting = {k: v for k, v in (("sensor", sensor), ("actuator", actuator),
+                                     ("disturbance", disturbance), ("substeps", substeps))
+                  if not layout.plain(_elements(**{k: v}, n=t.size))}
+        if acting:
+            key, value = next(iter(acting.items()))
             raise ConfigError(key, value, "only the compiled engine runs the loop's "
                               f"elements and substeps; this loop runs in Python ({note})")
         return _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol,
@@ -426,7 +427,8 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
                         stable_tol, name, fast, None if al is None else al[None, :], LP, step)
 
 
-def _elements(sensor, actuator, disturbance, substeps, n: int) -> np.ndarray:
+def _elements(sensor=None, actuator=None, disturbance=None, substeps=1, *,
+              n: int) -> np.ndarray:
     """The elements' LP column, checked: the objects' types, and their options against the
     run's n samples as a case file's (:func:`mfcontrol.config.resolve.check_elements`)."""
     from ..config.resolve import check_elements, check_value
@@ -512,7 +514,7 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
     gamma = comps.get("gamma", np.full(n, np.nan))
     M = np.zeros((engine_metrics.N_METRICS, 1))
     engine_metrics.start(M, *step_metrics_of(np.zeros((reference_law.N_PARAMS, 1)), step),
-                         load_step_of(layout.column(), [changes], t_end))
+                         load_step_of(layout.column(), [changes], t_end, n))
     engine_metrics.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]

@@ -40,7 +40,7 @@ class Scenario:
     S: np.ndarray
     state_names: tuple[str, ...]
     #: every member's first load step (``iae_load`` counts from it; inf: none)
-    load_t0: np.ndarray | None = None
+    load_t0: np.ndarray
 
     @property
     def n_members(self) -> int:
@@ -116,7 +116,7 @@ def build(configs: Sequence[Config]) -> Scenario:
         ev_steps=ev_steps.astype(np.int64), ev_k=ev_k, ev_row=ev_row, ev_add=ev_add,
         ev_val=ev_val, state_names=buck.STATE_NAMES,
         load_t0=np.concatenate([loop.load_step_of(layout.column(), [params.changes(c)],
-                                                  c["sim.t_end"]) for c in configs]),
+                                                  c["sim.t_end"], n) for c in configs]),
     )
 
 
@@ -124,8 +124,7 @@ def start_metrics(scn: Scenario) -> np.ndarray:
     """The members' metric rows at the start: zeros, and the loop metrics' start and what
     they measure (the reference step of RP, the first load step)."""
     M = np.zeros((metrics.N_METRICS, scn.n_members))
-    load = np.full(scn.n_members, np.inf) if scn.load_t0 is None else scn.load_t0
-    metrics.start(M, *loop.step_metrics_of(scn.RP), load)
+    metrics.start(M, *loop.step_metrics_of(scn.RP), scn.load_t0)
     return M
 
 

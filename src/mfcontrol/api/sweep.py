@@ -18,7 +18,7 @@ from ..elements import layout
 from ..errors import ConfigError
 from . import metrics as _metrics
 from .controllers import RecursiveIP
-from .elements import Actuator, Disturbance, Sensor
+from .elements import Actuator, Disturbance, Sensor, unread
 from .loop import (
     Change,
     Reference,
@@ -72,11 +72,13 @@ class LoopSweepResult:
 _ELEMENTS = {"sensor": Sensor, "actuator": Actuator, "disturbance": Disturbance}
 
 
-def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, np.ndarray]:
+def _axes(grid: Mapping[str, Sequence[float]], plant, controller,
+          elements: Mapping[str, Any] | None = None) -> dict[str, np.ndarray]:
     if not grid:
         raise ConfigError("grid", grid, "give at least one 'plant.NAME' or "
                           "'controller.NAME' with its values")
     params = getattr(controller, "_params", {})
+    elements = elements or {}
     out = {}
     for key, values in grid.items():
         where, _, name = key.partition(".")
@@ -95,9 +97,9 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
             if name not in numeric:
                 raise ConfigError(key, values, "not a numeric controller option; allowed: "
                                   + ", ".join(f"controller.{k}" for k in numeric))
-            unread = _unread(params, name, isinstance(controller, RecursiveIP))
-            if unread:
-                raise ConfigError(key, values, f"this controller never reads it ({unread}): "
+            never = _unread(params, name, isinstance(controller, RecursiveIP))
+            if never:
+                raise ConfigError(key, values, f"this controller never reads it ({never}): "
                                   "every member would be the same")
         elif where in _ELEMENTS:
             kind = _ELEMENTS[where]
@@ -107,6 +109,11 @@ def _axes(grid: Mapping[str, Sequence[float]], plant, controller) -> dict[str, n
                 raise ConfigError(key, values, "not a numeric option of the "
                                   f"{kind.__name__}; allowed: "
                                   + ", ".join(f"{where}.{k}" for k in numeric))
+            why = unread(key, {f"{sec}.{f.name}": getattr(elements.get(sec) or k(), f.name)
+                               for sec, k in _ELEMENTS.items() for f in dataclasses.fields(k)})
+            if why:
+                raise ConfigError(key, values, f"has no effect here ({why}): every member "
+                                  "would be the same")
         else:
             raise ConfigError(key, values, "must start with 'plant.', 'controller.', "
                               "'sensor.', 'actuator.' or 'disturbance.'")
@@ -218,7 +225,8 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         raise ConfigError("controller", type(controller).__name__, "a sweep runs in the "
                           "compiled engine: a library controller (IP, IPI, IPD, IPID, "
                           "PID, RecursiveIP) in automatic mode")
-    axes = _axes(grid, plant, controller)
+    given = {"sensor": sensor, "actuator": actuator, "disturbance": disturbance}
+    axes = _axes(grid, plant, controller, given)
     R = r[None, :]
     al = _alpha(controller, alpha, t)
     base_ep = plant.engine() if hasattr(plant, "engine") else None
@@ -231,8 +239,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     plant_keys = [k for k in keys if k.startswith("plant.")]
     ctrl_keys = [k for k in keys if k.startswith("controller.")]
     element_keys = [k for k in keys if k.partition(".")[0] in _ELEMENTS]
-    given = {"sensor": sensor, "actuator": actuator, "disturbance": disturbance}
-    base_lp = _elements(sensor, actuator, disturbance, substeps, t.size)
+    base_lp = _elements(sensor, actuator, disturbance, substeps, n=t.size)
     params = dict(controller._params)
     # one engine plant per distinct plant setting and one law per distinct controller
     # setting: a grid of n x m values builds n + m of them, not n m
@@ -264,7 +271,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
             if ekey not in columns:
                 elements = _member_elements(given, element_keys, values)
                 columns[ekey] = (base_lp if not element_keys else _elements(
-                    *elements, substeps, t.size), elements)
+                    *elements, substeps, n=t.size), elements)
             member_lp.append(columns[ekey][0])
             members_elements.append(columns[ekey][1])
     step = (None if member_steps[0] is None

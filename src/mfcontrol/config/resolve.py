@@ -25,7 +25,9 @@ from .toml import to_toml
 
 
 def _is_number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool)
+    """A real number: Python's, or NumPy's (np.int64, np.float32, ...); not a bool."""
+    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(
+        v, bool | np.bool_)
 
 
 def _as_float(v: Any) -> float:
