@@ -104,23 +104,26 @@ def loop_sums(energy, peak, t10, t90, t_in, t_last, e_final, n_final, iae_load, 
               a, step_t0, step_from, step_to, load_t0, final_start):
     """Sample (t, y, r, a) folded into the loop metrics: the control's energy, a step
     response's peak, 10 % and 90 % times and settling (2 %) time, the mean error over the
-    stability window, the IAE after a load step. Selects on values shared or weighted,
-    as :func:`accumulate`, so a loop over members vectorises."""
+    stability window, the IAE after a load step. The tests on the step, the window and
+    the load are the same for a member at every sample (a scalar loop predicts them, a
+    loop over members turns them into selects); a sum left alone keeps its bits, as a
+    sum weighted by 0 would."""
     energy = energy + a * a * h
-    delta = step_to - step_from  # NaN without a step: every test below is false
-    size = abs(delta)
-    sign = 1.0 if delta >= 0.0 else -1.0
-    after = t >= step_t0 and t < load_t0  # in the step window
-    peak = np.fmax(peak, sign * (y - step_to) if after else 0.0)
-    rise = sign * (y - step_from)
-    t10 = np.fmin(t10, t if (after and rise >= 0.1 * size) else np.inf)
-    t90 = np.fmin(t90, t if (after and rise >= 0.9 * size) else np.inf)
-    t_in = np.fmax(t_in, t + h if (after and abs(y - step_to) > 0.02 * size) else -np.inf)
-    t_last = np.fmax(t_last, t if after else -np.inf)
-    w = 1.0 if t >= final_start else 0.0
-    e_final = e_final + (r - y) * w
-    n_final = n_final + w
-    iae_load = iae_load + abs(y - r) * h * (1.0 if t >= load_t0 else 0.0)
+    if step_to == step_to and t >= step_t0 and t < load_t0:  # a step, in its window
+        delta = step_to - step_from
+        size = abs(delta)
+        sign = 1.0 if delta >= 0.0 else -1.0
+        peak = np.fmax(peak, sign * (y - step_to))
+        rise = sign * (y - step_from)
+        t10 = np.fmin(t10, t if rise >= 0.1 * size else np.inf)
+        t90 = np.fmin(t90, t if rise >= 0.9 * size else np.inf)
+        t_in = np.fmax(t_in, t + h if abs(y - step_to) > 0.02 * size else -np.inf)
+        t_last = t
+    if t >= final_start:
+        e_final = e_final + (r - y)
+        n_final = n_final + 1.0
+    if t >= load_t0:
+        iae_load = iae_load + abs(y - r) * h
     return energy, peak, t10, t90, t_in, t_last, e_final, n_final, iae_load
 
 
