@@ -24,7 +24,7 @@ from ..config.resolve import Config, axis_value, check_axis
 from ..engine import metrics as engine_metrics
 from ..engine import paper_single, paper_sweep
 from ..errors import ConfigError
-from ..laws import recursive_ip
+from ..laws import recursive_ip, reference
 from . import metrics as _metrics
 from . import scenario
 from .simulate import batch_metrics, compiled, general_metrics, member_parts
@@ -242,7 +242,8 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         if specialise is None:
             specialise = grid.n_members * scn.n_steps >= SPECIALISE_ABOVE
         constants = paper_sweep.shared_constants(rows, varying) if (specialise or fast) else None
-        run = paper_sweep.block_kernel(constants, not ref_varies, fast)
+        steps = bool(np.any(scn.RP[reference.KIND] == reference.SMOOTH_STEP))
+        run = paper_sweep.block_kernel(constants, not ref_varies, fast, steps)
         D = _blocks(rows, n_blocks)
         run(scn.n_steps, scn.h, scn.t_end, D, _blocks(scn.RP, n_blocks), scn.ev_steps,
             _blocks(scn.ev_k, n_blocks), scn.ev_row, scn.ev_add, _blocks(scn.ev_val, n_blocks),
