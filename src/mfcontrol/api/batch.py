@@ -261,11 +261,12 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
 
 def paper_grid(grid: Grid) -> bool:
     """Whether the paper's sweep kernel runs every member of the grid: its base is a
-    configuration it covers (:func:`mfcontrol.api.simulate.compiled`) and no axis sets a
-    loop element (the kernel has none)."""
-    return compiled(grid.base) and not any(
-        k.partition(".")[0] in ("sensor", "actuator", "disturbance") or k == "sim.substeps"
-        for k in grid.axes)
+    configuration it covers (:func:`mfcontrol.api.simulate.compiled`) and no axis is read
+    by the translator of the loop's elements (the kernel has none)."""
+    from ..config.resolve import keys_read
+    from .params import elements
+
+    return compiled(grid.base) and not set(grid.axes) & keys_read(elements, grid.base)
 
 
 def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:

@@ -104,7 +104,6 @@ class Disturbance:
         _checked(self, "disturbance")
 
 
-
 def unread(key: str, settings) -> str:
     """Why an element option ``key`` (``"sensor.seed"``, ...) has no effect under the
     other options ``settings`` (a mapping of the dotted keys), "" when it has one: a

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..config.options import POSITIONAL
 from ..config.resolve import Config, keys_read
+from ..elements import layout
 from ..engine import metrics as engine_metrics
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
@@ -95,10 +96,7 @@ def elements(cfg: Config) -> np.ndarray:
 def ideal_loop(cfg: Config) -> bool:
     """No sensor, actuator or disturbance element, one integration step per sample: the
     loop the paper's kernels run."""
-    return (cfg["sensor.noise"] == "none" and cfg["sensor.quantum"] == 0.0
-            and cfg["sensor.delay"] == 0 and cfg["actuator.delay"] == 0
-            and cfg["actuator.rate_limit"] == 0.0 and cfg["disturbance.kind"] == "none"
-            and cfg["sim.substeps"] == 1)
+    return layout.plain(elements(cfg))
 
 
 def changes(cfg: Config) -> list[Change]:

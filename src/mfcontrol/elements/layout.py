@@ -5,6 +5,7 @@ this module places them)."""
 
 import numpy as np
 
+from .._jit import step_jit
 from . import actuator, disturbance, sensor
 
 SENSOR = 0
@@ -18,14 +19,29 @@ def n_rows(n_table: int = 0) -> int:
     return DISTURBANCE + disturbance.n_params(n_table)
 
 
+#: the rows whose value, when not 0, makes an element act on a member's loop (each is
+#: >= 0 by its option's check): noise, quantum, the two delays, the rate limit, a
+#: disturbance
+ACTING_ROWS = (SENSOR + sensor.NOISE, SENSOR + sensor.QUANTUM, SENSOR + sensor.DELAY,
+               ACTUATOR + actuator.DELAY, ACTUATOR + actuator.RATE,
+               DISTURBANCE + disturbance.KIND)
+
+
+@step_jit
+def acting(LP, j):
+    """Whether a sensor, actuator or disturbance acts on member j's loop (the test the
+    engine makes once per member; substeps are apart)."""
+    for r in ACTING_ROWS:
+        if LP[r, j] != 0.0:
+            return True
+    return False
+
+
 def plain(LP: np.ndarray) -> bool:
-    """Whether every member's loop is the ideal one (no noise, quantum, delays, rate
-    limit or disturbance; one integration step per sample): the loop of the paper and of
-    the engine's vectorised sweeps, which read none of these rows."""
-    rows = (SENSOR + sensor.NOISE, SENSOR + sensor.QUANTUM, SENSOR + sensor.DELAY,
-            ACTUATOR + actuator.DELAY, ACTUATOR + actuator.RATE,
-            DISTURBANCE + disturbance.KIND)
-    return bool(np.all(LP[list(rows)] == 0.0) and np.all(LP[SUBSTEPS] == 1.0))
+    """Whether every member's loop is the ideal one (no element acts, one integration step
+    per sample): the loop of the paper's kernels and of the engine's vectorised sweeps,
+    which read none of these rows."""
+    return bool(np.all(LP[list(ACTING_ROWS)] == 0.0) and np.all(LP[SUBSTEPS] == 1.0))
 
 
 def column(*, noise: float = 0.0, noise_std: float = 0.0, seed: float = 0.0,

@@ -197,8 +197,7 @@ def _make_loop(fast):
             hs = h / sub if sub > 1 else h  # the plant's step
             # the same test at every sample, which the processor predicts: the ideal loop
             # costs next to nothing more than before the elements existed
-            acting = (s_kind != 0.0 or s_q > 0.0 or s_d > 0 or a_d > 0 or rate > 0.0
-                      or dist)
+            acting = layout.acting(LP, j)
             y_first = 0.0
             u_act = 0.0
             prepare(sig.pointer(p), hs, n_x, n_p)
