@@ -39,6 +39,8 @@ ALL_CASES = (
     "buck-ipi", "boost-ipd", "first-order-ip-algebraic",
     "map-alpha-dR-standard", "map-alpha-dR-variational", "map-Gamma-epsM",
     "motor-noise-ipi", "motor-noise-ipi-algebraic", "motor-noise-pid", "buck-50khz-noise",
+    "bench-boost", "bench-buck", "bench-dc-motor", "bench-delay-lag-t1", "bench-delay-lag-t10",
+    "bench-fourpole", "bench-integrating-delay", "bench-lag3", "bench-lag8", "bench-nonminimum",
 )
 
 
@@ -95,7 +97,35 @@ FILES: dict[str, bytes] = {
 }
 
 S = "show"
+T = ["tune", "first-order-ip-algebraic"]
 ERRORS = [
+    # tune, compare, benchmark
+    pytest.param([*T, "--param", "controller.kp"], ["--param", "KEY=LO:HI"],
+                 id="tune-param-without-range"),
+    pytest.param([*T, "--param", "controller.kp=5:1"], ["--param", "LO < HI"],
+                 id="tune-empty-range"),
+    pytest.param([*T, "--param", "controller.alpha=0:2"], ["controller.alpha", "> 0"],
+                 id="tune-range-outside-the-option"),
+    pytest.param([*T, "--param", "controller.kp=1:2", "--objective", "iea"],
+                 ["--objective", "'iea'", "iae"], id="tune-bad-objective"),
+    pytest.param([*T, "--param", "controller.kp=1:2", "--budget", "3"], ["--budget", ">= 10"],
+                 id="tune-small-budget"),
+    pytest.param([*T, "--param", "controller.kp=1:2", "--log", "controller.alpha"],
+                 ["--log", "controller.alpha", "tuned key"], id="tune-log-of-untuned-key"),
+    pytest.param([*T, "--param", "controller.kp=1:2", "--scenarios", "plant.a=x"],
+                 ["plant.a", "linspace"], id="tune-bad-scenarios"),
+    pytest.param([*T, "--param", "controller.kp=1:2", "--aggregate", "median"],
+                 ["--aggregate", "median"], id="tune-bad-aggregate"),
+    pytest.param(["tune", "nope", "--param", "controller.kp=1:2"], ["'nope'", "unknown case"],
+                 id="tune-unknown-case"),
+    pytest.param(["compare", "motor-noise-pid"], ["at least two"], id="compare-one-case"),
+    pytest.param(["compare", "motor-noise-pid", "nope"], ["'nope'", "unknown case"],
+                 id="compare-unknown-case"),
+    pytest.param(["benchmark", "--plants", "first-order-ip-algebraic"],
+                 ["benchmark.pid", "a benchmark case must give it"],
+                 id="benchmark-plant-without-table"),
+    pytest.param(["benchmark", "--plants", "nope"], ["'nope'", "unknown case"],
+                 id="benchmark-unknown-plant"),
     # unknown case or file
     pytest.param([S, "nope"], ["'nope'", "unknown case", "built-in cases are",
                                "voltage-stable-standard", ".toml"], id="unknown-case"),
@@ -564,3 +594,28 @@ def test_a_reader_that_goes_away_gets_no_traceback():
     err = proc.stderr.read().decode()
     proc.wait(timeout=60)
     assert "Traceback" not in err and "BrokenPipeError" not in err
+
+
+def test_tune_writes_its_four_files_and_beats_the_shipped_gains(tmp_path):
+    proc = cli("tune", "first-order-ip-algebraic", "--param", "controller.kp=1:100",
+               "--param", "controller.alpha=0.2:5", "--budget", "40", "--set",
+               "sim.t_end=1.0", "--out", str(tmp_path / "t"))
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "t" / "summary.json").read_text())
+    assert summary["best"] <= summary["start"]["value"]
+    assert summary["best"] == summary["nominal"]
+    assert "[tune]" in proc.stderr and "best iae" in proc.stdout
+    for name in ("best.toml", "history.parquet", "convergence.png"):
+        assert (tmp_path / "t" / name).is_file()
+    run = cli("run", str(tmp_path / "t" / "best.toml"), "--out", str(tmp_path / "r"))
+    assert run.returncode == 0, run.stderr
+    m = json.loads((tmp_path / "r" / "metrics.json").read_text())
+    assert m["iae"] == summary["best"]
+
+
+def test_compare_prints_its_table(tmp_path):
+    proc = cli("compare", "motor-noise-pid", "motor-noise-ipi-algebraic", "--set",
+               "sim.t_end=1.5", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert "| motor-noise-pid | PI (kp 0.2, ki 0.54) |" in proc.stdout
+    assert (tmp_path / "comparison.csv").is_file()

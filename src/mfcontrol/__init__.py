@@ -20,6 +20,8 @@ from .config.resolve import Config, resolve
 from .errors import CaseError, ConfigError
 from .experiments.cases import names as case_names
 from .experiments.cases import run_case
+from .experiments.compare import Comparison, compare
+from .experiments.tune import TuneResult, tune
 
 __all__ = [
     "IP", "IPD", "IPI", "IPID", "PID", "IntelligentController", "RecursiveIP",
@@ -28,4 +30,5 @@ __all__ = [
     "Plant", "Buck", "Boost", "DCMotor", "FirstOrder", "LTI", "ODE",
     "Change", "LoopResult", "LoopSweepResult", "simulate_loop", "sweep",
     "case_names", "resolve", "run_case", "simulate", "simulate_many", "simulate_sweep",
+    "Comparison", "TuneResult", "compare", "tune",
 ]

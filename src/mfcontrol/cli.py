@@ -1,4 +1,5 @@
-"""Command line: ``mfcontrol cases | show | run | sweep | map | reproduce``.
+"""Command line: ``mfcontrol cases | show | run | sweep | map | reproduce | tune | compare |
+benchmark``.
 
 Thin by design: parse, call the library, print. Bad input ends with one line on stderr and
 exit code 2; an interrupted command ends with exit code 130.
@@ -9,6 +10,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
 
 from ._version import __version__
@@ -140,6 +142,67 @@ def _cmd_reproduce(args) -> int:
     return 0
 
 
+def _cmd_tune(args) -> int:
+    from .experiments import cases
+    from .experiments.tune import DEFAULT_BUDGET, tune
+
+    name, _ = cases.resolve_case(args.case, _overrides(args.set))  # bad input before work
+    out = _out_dir(args.out) if args.out else Path("results") / "tune" / name
+    t_start = time.perf_counter()
+
+    def progress(done: int, budget: int, best: float) -> None:
+        rate = done / max(time.perf_counter() - t_start, 1e-9)
+        sys.stderr.write(f"\r[tune] {done:,}/{budget:,} points ({100 * done / budget:.0f} %), "
+                         f"best {args.objective} = {best:.6g}, {rate:,.0f} points/s   ")
+        sys.stderr.flush()
+
+    result = tune(args.case, args.param or [], objective=args.objective,
+                  scenarios=args.scenarios, aggregate_by=args.aggregate,
+                  budget=DEFAULT_BUDGET if args.budget is None else args.budget,
+                  seed=args.seed, log=args.log or [], overrides=_overrides(args.set),
+                  out=out, progress=progress)
+    sys.stderr.write("\n")
+    best = ", ".join(f"{k} = {v:.6g}" for k, v in result.best.items())
+    start = ", ".join(f"{k} = {v:.6g}" for k, v in result.start.items())
+    own = ("outside the bounds" if result.start_value != result.start_value
+           else f"{result.start_value:.6g}")
+    print(f"{name}: best {args.objective} = {result.value:.6g} at {best} "
+          f"({result.evaluations} points, {result.runs} runs, {result.seconds:.1f} s, "
+          f"{result.stopped}); the case's own {start}: {own}")
+    print(f"wrote {out}/best.toml, summary.json, history.parquet, convergence.png")
+    if result.stopped == "interrupted":
+        print("mfcontrol: interrupted; the best so far is written", file=sys.stderr)
+        return 130
+    return 0
+
+
+def _cmd_compare(args) -> int:
+    from .experiments.compare import compare
+
+    out = _out_dir(args.out) if args.out else Path("results") / "compare"
+    comp = compare(args.cases, _overrides(args.set), out=out)
+    sys.stdout.write(comp.markdown())
+    print(f"wrote {out}/comparison.csv, comparison.md, comparison.png")
+    return 0
+
+
+def _cmd_benchmark(args) -> int:
+    from .experiments.benchmark import DEFAULT_BUDGET, benchmark, print_progress
+
+    out = _out_dir(args.out) if args.out else Path("results") / "benchmark"
+    budget = DEFAULT_BUDGET if args.budget is None else args.budget
+    try:
+        benchmark(args.plants, budget=budget, seed=args.seed, out=out,
+                  progress=print_progress())
+    except KeyboardInterrupt:
+        print(f"\nmfcontrol: interrupted; finished tunings are kept in {out}: run the same "
+              "command again to resume", file=sys.stderr)
+        return 130
+    sys.stderr.write("\n")
+    print(f"wrote {out}/report.md, results.csv, robustness.png and a folder per plant")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="mfcontrol", description="Model-free control: intelligent controllers, "
                 "variational gain tuning and a buck converter test bench.")
@@ -196,6 +259,44 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="results", help="output folder (default results)")
     s.add_argument("--fidelity", choices=("published", "paper", "both"), default="both")
     s.set_defaults(func=_cmd_reproduce)
+
+    s = sub.add_parser("tune", help="tune a case's gains by simulation (differential "
+                       "evolution, a population per batch): best.toml, summary.json, "
+                       "history.parquet, convergence.png")
+    s.add_argument("case", help="built-in case name or path of a .toml file")
+    s.add_argument("--param", action="append", metavar="KEY=LO:HI", required=True,
+                   help="a tuned key and its bounds (repeatable), e.g. controller.kp=1:100")
+    s.add_argument("--log", action="append", metavar="KEY",
+                   help="search this tuned key on a log scale (its LO must be > 0)")
+    s.add_argument("--objective", default="iae", help="a metric or a weighted sum such as "
+                   "'iae+0.01*tv_u' (default iae); a diverged or unstable run scores inf")
+    s.add_argument("--scenarios", action="append", metavar="KEY=SPEC",
+                   help="run every point on each member of this grid (as sweep --grid: "
+                        "a,b,c | linspace(a,b,n) | logspace(a,b,n)), e.g. plant.a=-2,-1,-0.5")
+    s.add_argument("--aggregate", choices=("max", "mean"), default="max",
+                   help="a point's value over its scenarios: the worst (default) or the mean")
+    s.add_argument("--budget", type=int, help="points to evaluate at most (default 600)")
+    s.add_argument("--seed", type=int, default=0, help="the optimiser's seed (default 0)")
+    s.add_argument("--set", **setting)
+    s.add_argument("--out", help="output folder (default results/tune/CASE)")
+    s.set_defaults(func=_cmd_tune)
+
+    s = sub.add_parser("compare", help="run several cases on one scenario: comparison.csv, "
+                       "comparison.md, comparison.png")
+    s.add_argument("cases", nargs="+", help="two or more built-in case names or .toml files")
+    s.add_argument("--set", **setting)
+    s.add_argument("--out", help="output folder (default results/compare)")
+    s.set_defaults(func=_cmd_compare)
+
+    s = sub.add_parser("benchmark", help="tune a PID, an i-P and an i-PI alike on every plant "
+                       "of the benchmark set (bench-* cases) and write report.md")
+    s.add_argument("--plants", nargs="+", metavar="CASE",
+                   help="benchmark cases to run (default: every bench-* case)")
+    s.add_argument("--budget", type=int, help="points per tuning, the same for every "
+                   "controller (default 1500)")
+    s.add_argument("--seed", type=int, default=0, help="the tuner's seed (default 0)")
+    s.add_argument("--out", help="output folder (default results/benchmark)")
+    s.set_defaults(func=_cmd_benchmark)
     return p
 
 

@@ -223,3 +223,34 @@ def test_a_general_grid_whose_keys_cannot_be_split_by_part_runs_a_configuration_
     assert plain == [grid.n_members]
     for m in range(grid.n_members):
         assert cols["iae"][m] == mfcontrol.simulate(grid.config(m)).metrics["iae"]
+
+
+@pytest.mark.parametrize(("case", "points", "axes"), [
+    # the paper's kernel: a list of (alpha, kp) points times a load axis
+    ("voltage-stable-standard", {"controller.alpha": [5.0, 10.0, 20.0],
+                                 "controller.kp": [1.0, 2.0, 3.0]}, {"plant.dR": [1.0, 2.0]}),
+    # the general engine: a tuner's population of (kp, ki) times plant variations
+    ("motor-noise-pid", {"controller.kp": [0.1, 0.2, 0.4], "controller.ki": [0.3, 0.54, 1.0]},
+     {"plant.J": [4e-4, 6e-4]}),
+])
+def test_a_grid_of_points_times_axes_equals_each_members_single_run(case, points, axes):
+    _, cfg = resolve_case(case, {"sim.t_end": 2e-3 if case.startswith("voltage") else 1.0})
+    grid = batch.make_grid(cfg, {k: np.array(v) for k, v in {**points, **axes}.items()},
+                           points=tuple(points))
+    assert grid.shape == (3, 2) and grid.n_members == 6
+    cols = batch.run_range(grid, 0, grid.n_members)
+    for m in range(grid.n_members):
+        i, j = divmod(m, 2)  # the points vary slowest, then the axis
+        setting = {**{k: v[i] for k, v in points.items()},
+                   **{k: v[j] for k, v in axes.items()}}
+        assert {k: cols[k][m] for k in setting} == setting
+        single = mfcontrol.simulate(cfg.with_overrides(setting)).metrics
+        assert cols["iae"][m] == single["iae"] and cols["tv_u"][m] == single["tv_u"]
+
+
+def test_points_must_have_values_of_one_length():
+    _, cfg = resolve_case("first-order-ip-algebraic")
+    with pytest.raises(ValueError, match="one length"):
+        batch.make_grid(cfg, {"controller.kp": np.array([1.0, 2.0]),
+                              "controller.alpha": np.array([1.0])},
+                        points=("controller.kp", "controller.alpha"))

@@ -80,33 +80,62 @@ def parse_grid(items: list[str] | Mapping[str, str]) -> dict[str, np.ndarray]:
 
 @dataclass
 class Grid:
+    """Members over axes of swept keys, in C order (the last dimension varies fastest).
+
+    Each key of ``axes`` is a dimension of its own, except the keys of ``points``: their
+    values, of one length, are read together as a list of points (point i sets each of
+    them to its i-th value) and form the first dimension, which the other axes multiply
+    (a tuner's population times its scenarios)."""
+
     base: Config
     axes: dict[str, np.ndarray]
+    points: tuple[str, ...] = ()
+
+    @property
+    def dims(self) -> dict[str, int]:
+        """The dimension each key indexes."""
+        out = dict.fromkeys(self.points, 0)
+        first = 1 if self.points else 0
+        for k in self.axes:
+            if k not in out:
+                out[k] = first
+                first += 1
+        return out
 
     @property
     def shape(self) -> tuple[int, ...]:
-        return tuple(v.size for v in self.axes.values())
+        lead = (self.axes[self.points[0]].size,) if self.points else ()
+        return lead + tuple(v.size for k, v in self.axes.items() if k not in self.points)
 
     @property
     def n_members(self) -> int:
         return math.prod(self.shape)
 
+    def indices(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Each key's value index for members start .. stop-1."""
+        idx = np.unravel_index(np.arange(start, stop), self.shape)
+        return {k: idx[d] for k, d in self.dims.items()}
+
     def values(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Each swept key's value for members start .. stop-1."""
-        idx = np.unravel_index(np.arange(start, stop), self.shape)
-        return {k: v[i] for (k, v), i in zip(self.axes.items(), idx, strict=True)}
+        return {k: self.axes[k][i] for k, i in self.indices(start, stop).items()}
 
     def config(self, member: int) -> Config:
         return self.base.with_overrides({k: axis_value(k, v[0]) for k, v in
                                          self.values(member, member + 1).items()})
 
 
-def make_grid(base: Config, axes: Mapping[str, np.ndarray]) -> Grid:
+def make_grid(base: Config, axes: Mapping[str, np.ndarray],
+              points: tuple[str, ...] = ()) -> Grid:
     """Validate every axis value against the base configuration: the option's own check
     on the whole axis at once, and the checks across options for each value of the keys
-    they involve (:func:`mfcontrol.config.resolve.check_axis`)."""
+    they involve (:func:`mfcontrol.config.resolve.check_axis`); ``points`` as
+    :class:`Grid` takes them (the checks across options see one key's value at a time:
+    a caller that needs each point's combination checked builds its configuration)."""
     from .elements import unread
 
+    if points and len({np.size(axes[k]) for k in points}) != 1:
+        raise ValueError("the keys of points must have values of one length")
     for key, values in axes.items():
         check_axis(base, key, np.asarray(values, dtype=float))
         why = unread(key, base)
@@ -114,7 +143,8 @@ def make_grid(base: Config, axes: Mapping[str, np.ndarray]) -> Grid:
             raise ConfigError(key, values.tolist() if isinstance(values, np.ndarray)
                               else values, f"has no effect here ({why}): every member "
                               "would be the same")
-    return Grid(base=base, axes={k: np.asarray(v, dtype=float) for k, v in axes.items()})
+    return Grid(base=base, axes={k: np.asarray(v, dtype=float) for k, v in axes.items()},
+                points=tuple(points))
 
 
 _ARRAYS = ("PP", "X0", "CP", "RP", "ev_k", "ev_val")
@@ -152,8 +182,7 @@ def build_members(grid: Grid, start: int, stop: int,
     n = stop - start
     scn = scenario.build([grid.base])
     tiled = {name: np.repeat(getattr(scn, name), n, axis=1) for name in _ARRAYS}
-    idx = np.unravel_index(np.arange(start, stop), grid.shape)
-    for key, axis_index in zip(grid.axes, idx, strict=True):
+    for key, axis_index in grid.indices(start, stop).items():
         # one row write per changed cell for all members at once (a loop over members or
         # values costs microseconds per member, more than simulating it)
         for (name, row), per_value in changes[key].items():
@@ -301,7 +330,8 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
     if not owner or len({owner[k] for k in grid.axes if k in checked}) > 1:
         return general_metrics([grid.config(m) for m in range(start, stop)], fast=fast)
     keys = list(grid.axes)
-    idx = np.unravel_index(np.arange(start, stop), grid.shape)
+    ix = grid.indices(start, stop)
+    idx = [ix[k] for k in keys]
     members: dict[str, list] = {}
     for part, build in parts.items():
         mine = [c for c, k in enumerate(keys) if owner[k] == part]

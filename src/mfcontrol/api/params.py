@@ -28,13 +28,15 @@ from .loop import Change
 
 
 def plant(cfg: Config):
-    from .plants import Boost, Buck, DCMotor, FirstOrder
+    from .plants import LTI, Boost, Buck, DCMotor, FirstOrder
 
     model, integ = cfg["plant.model"], cfg["sim.integrator"]
     if model == "dc-motor":
         return DCMotor(**{k: cfg[f"plant.{k}"] for k in ("J", "friction", "Km", "Ra", "La",
                                                           "load")},
                        x0=(cfg["plant.y0"], cfg["plant.i0"]), integrator=integ)
+    if model == "lti":
+        return LTI(*transfer_function_state_space(cfg), integrator=integ)
     if model == "first-order":
         return FirstOrder(cfg["plant.a"], cfg["plant.b"], cfg["plant.w"],
                           x0=cfg["plant.y0"], integrator=integ)
@@ -44,6 +46,22 @@ def plant(cfg: Config):
         return Boost(**electrical, x0=x0, integrator=integ)
     return Buck(**electrical, coupling=cfg["plant.coupling"], output=cfg["plant.output"],
                 x0=x0, integrator=integ)
+
+
+def transfer_function_state_space(cfg: Config) -> tuple[np.ndarray, np.ndarray,
+                                                         np.ndarray]:
+    """(A, B, C) of K G(time_scale s) for the lti model: scipy's controllable canonical
+    realisation of the (strictly proper) transfer function ``plant.num / plant.den``, with
+    the coefficient of s^i scaled by time_scale^i (every time constant multiplied)."""
+    from scipy import signal
+
+    tau = cfg["plant.time_scale"]
+    num, den = (np.trim_zeros(np.asarray(cfg[k], dtype=float), "f")
+                for k in ("plant.num", "plant.den"))
+    num = cfg["plant.gain"] * num * tau ** np.arange(num.size - 1, -1, -1.0)
+    den = den * tau ** np.arange(den.size - 1, -1, -1.0)
+    A, B, C, _ = signal.tf2ss(num, den)
+    return A, B.reshape(-1), C.reshape(-1)
 
 
 def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:

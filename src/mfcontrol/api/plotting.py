@@ -25,6 +25,7 @@ _OUTPUT = {
 #: (quantity, symbol, unit) of the output and the input's axis label, per plant model
 _MODELS = {
     "first-order": (("output", "y", "1"), "control $u$ (1)"),
+    "lti": (("output", "y", "1"), "control $u$ (1)"),
     "dc-motor": (("speed", r"\omega", "rad/s"), "armature voltage $u$ (V)"),
 }
 
@@ -215,4 +216,130 @@ def plot_long_horizon(rows, path: str | Path | None = None, fidelity: str = "") 
         a.grid(True, which="both", alpha=0.3)
     ax[0].legend(fontsize=8)
     fig.suptitle(f"variational i-P over {rows[0][2].time[-1] * 1e3:.0f} ms ({fidelity})")
+    return _save(fig, path)
+
+
+def convergence(point: np.ndarray, value: np.ndarray, params: dict[str, np.ndarray],
+                objective: str, title: str, path: str | Path | None = None,
+                log: tuple[str, ...] = ()) -> Figure:
+    """A tuner's search: every evaluated point's objective value and the best so far
+    against the points evaluated, then each tuned key's values (one row each, on a log
+    axis for the keys in ``log``)."""
+    order = np.argsort(point, kind="stable")
+    point, value = np.asarray(point)[order], np.asarray(value, dtype=float)[order]
+    fig = Figure(figsize=(8, 3.2 + 1.3 * len(params)), layout="constrained")
+    axes = fig.subplots(1 + len(params), 1, sharex=True, squeeze=False)[:, 0]
+    ax = axes[0]
+    finite = np.isfinite(value)
+    ax.plot(point[finite] + 1, value[finite], ".", color="0.55", ms=3,
+            label="a point's value")
+    best = np.minimum.accumulate(np.where(finite, value, np.inf))
+    shown = np.isfinite(best)
+    ax.step(point[shown] + 1, best[shown], where="post", color="tab:red", lw=1.6,
+            label="best so far")
+    n_inf = int((~finite).sum())
+    if n_inf:
+        ax.plot([], [], " ", label=f"{n_inf} of {value.size} points scored inf "
+                "(invalid, diverged or unstable)")
+    if finite.any() and value[finite].min() > 0 and value[finite].max() > 10 * value[finite].min():
+        ax.set_yscale("log")
+    ax.set_ylabel(f"objective\n{objective}")
+    ax.legend(loc="upper right", fontsize="small")
+    ax.set_title(title)
+    best_at = int(np.argmin(np.where(finite, value, np.inf))) if finite.any() else None
+    for ax, (key, v) in zip(axes[1:], params.items(), strict=True):
+        v = np.asarray(v, dtype=float)[order]
+        ax.plot(point + 1, v, ".", color="tab:blue", ms=3)
+        if best_at is not None:
+            ax.plot(point[best_at] + 1, v[best_at], "*", color="tab:red", ms=11,
+                    label=f"best: {v[best_at]:.4g}")
+            ax.legend(loc="upper right", fontsize="small")
+        ax.set_ylabel(key)
+        if key in log:
+            ax.set_yscale("log")
+    axes[-1].set_xlabel("points evaluated")
+    return _save(fig, path)
+
+
+def comparison(results: list[Result], labels: list[str], table: list[list[str]],
+               header: list[str], title: str, path: str | Path | None = None) -> Figure:
+    """Several runs of one scenario: their outputs on one axis with the reference, their
+    controls below, and the metrics table beside."""
+    fig = Figure(figsize=(14, 6.4), layout="constrained")
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.35, 1))
+    top = fig.add_subplot(grid[0, 0])
+    bottom = fig.add_subplot(grid[1, 0], sharex=top)
+    side = fig.add_subplot(grid[:, 1])
+    first = results[0]
+    quantity, sym, unit = _labels(first)
+    scale, time_label = _time_scale(first.time)
+    colors = [f"C{i}" for i in range(10)]
+    top.plot(first.time * scale, first.signals["y_ref"], color="k", lw=1.0, ls="--",
+             label=f"reference ${sym}^*$")
+    for i, (r, label) in enumerate(zip(results, labels, strict=True)):
+        c = colors[i % 10]
+        top.plot(r.time * scale, r.signals["y"], color=c, lw=1.2, label=label)
+        bottom.plot(r.time * scale, r.signals["u"], color=c, lw=0.7, alpha=0.85, label=label)
+    top.set_ylabel(f"{quantity} ${sym}$ ({unit})")
+    bottom.set_ylabel(_input_label(first))
+    bottom.set_xlabel(time_label)
+    top.legend(loc="best", fontsize=8)
+    for a in (top, bottom):
+        a.grid(True, alpha=0.3)
+        _mark_changes(a, first, scale)
+    side.axis("off")
+    first_width = min(0.4, 0.1 + 0.012 * max(len(row[0]) for row in table))
+    rest = (1.0 - first_width) / max(1, len(header) - 1)
+    cells = side.table(cellText=table, colLabels=header, loc="upper center",
+                       cellLoc="right", colLoc="center",
+                       colWidths=[first_width] + [rest] * (len(header) - 1))
+    cells.auto_set_font_size(False)
+    cells.set_fontsize(7)
+    cells.scale(1.0, 1.4)
+    for i in range(len(table)):
+        cells[i + 1, 0].get_text().set_color(colors[i % 10])
+    side.set_title("metrics (true output y)", fontsize=10)
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def robustness_maps(maps: list[list[np.ndarray]], rows: list[str], columns: list[str],
+                    axes: list[dict[str, np.ndarray]], objectives: list[str],
+                    path: str | Path | None = None,
+                    title: str = "Robustness: the tuned objective over plant changes"
+                    ) -> Figure:
+    """A grid of small heatmaps (one row per plant, one column per controller) of an
+    objective over two swept keys; one colour scale per row (log), crosses on members
+    that scored inf (diverged or unstable)."""
+    from matplotlib.colors import LogNorm
+
+    fig = Figure(figsize=(3.3 * len(columns) + 1.2, 2.5 * len(rows) + 0.8),
+                 layout="constrained")
+    grid = fig.subplots(len(rows), len(columns), squeeze=False)
+    for i, (name, row_maps, ax_values, objective) in enumerate(
+            zip(rows, maps, axes, objectives, strict=True)):
+        (ky, vy), (kx, vx) = list(ax_values.items())[:2]
+        finite = np.concatenate([m[np.isfinite(m)].ravel() for m in row_maps])
+        finite = finite[finite > 0]
+        norm = (LogNorm(finite.min(), max(finite.max(), finite.min() * 1.0001))
+                if finite.size else None)
+        image = None
+        for j, m in enumerate(row_maps):
+            ax = grid[i, j]
+            m = np.asarray(m, dtype=float).reshape(vy.size, vx.size)
+            shown = np.where(np.isfinite(m) & (m > 0), m, np.nan)
+            image = ax.imshow(shown, origin="lower", aspect="auto", cmap="viridis", norm=norm)
+            bad = np.argwhere(~np.isfinite(m))
+            if bad.size:
+                ax.plot(bad[:, 1], bad[:, 0], "x", color="tab:red", ms=9, mew=2)
+            ax.set_xticks(range(vx.size), [f"{v:.3g}" for v in vx], fontsize=7)
+            ax.set_yticks(range(vy.size), [f"{v:.3g}" for v in vy], fontsize=7)
+            ax.set_title(f"{name}: {columns[j]}", fontsize=9)
+            ax.set_xlabel(kx, fontsize=8)
+            if j == 0:
+                ax.set_ylabel(ky, fontsize=8)
+        if image is not None and norm is not None:
+            fig.colorbar(image, ax=list(grid[i]), label=f"{objective}\n(log scale)",
+                         shrink=0.9)
+    fig.suptitle(f"{title} (red x: diverged or unstable)")
     return _save(fig, path)

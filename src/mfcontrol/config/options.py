@@ -35,8 +35,9 @@ OPTIONS: tuple[Option, ...] = (
        "published code and the printed equations", FIDELITIES),
     # plant
     _o("plant.model", "str", "buck", "plant model: averaged buck or boost converter, "
-       "y' = a y + b u + w, or a DC motor's speed under its armature voltage",
-       ("buck", "boost", "first-order", "dc-motor")),
+       "y' = a y + b u + w, a DC motor's speed under its armature voltage, or a transfer "
+       "function (lti: plant.num / plant.den)", ("buck", "boost", "first-order", "dc-motor",
+                                                  "lti")),
     _o("plant.output", "str", "voltage", "converters' measured output: v_C, or v_C * i_L "
        "(buck)", ("voltage", "power")),
     _o("plant.coupling", "str", None, "buck input coupling: the published code adds E d/L to "
@@ -65,6 +66,13 @@ OPTIONS: tuple[Option, ...] = (
     _o("plant.Ra", "float", 2.0, "dc-motor: armature resistance (ohm)", check="positive"),
     _o("plant.La", "float", 2e-3, "dc-motor: armature inductance (H)", check="positive"),
     _o("plant.load", "float", 0.0, "dc-motor: load torque (N m); a schedule steps it"),
+    _o("plant.num", "floats", [1.0], "lti: numerator of G(s), coefficients in descending "
+       "powers of s (strictly proper: fewer than plant.den's)"),
+    _o("plant.den", "floats", [1.0, 1.0], "lti: denominator of G(s), descending powers of s, "
+       "the first nonzero"),
+    _o("plant.gain", "float", 1.0, "lti: static gain K multiplying G(s) (a robustness axis)"),
+    _o("plant.time_scale", "float", 1.0, "lti: every time constant multiplied by this, "
+       "G(time_scale s) (a robustness axis)", check="positive"),
     _o("plant.schedule", "events", [], "parameter changes: a list of {t = time (s), name = "
        "parameter, set = value} or {..., add = delta}, applied at the first t_k >= t"),
     # reference
@@ -173,7 +181,8 @@ OPTIONS: tuple[Option, ...] = (
        "the input held (1: the published loop)", check="positive"),
     _o("sim.integrator", "str", "rk4", "plant integration between samples: one RK4 step "
        "(published) or a compiled adaptive Dormand-Prince 5(4) (scipy's RK45 method, input "
-       "held, rtol 1e-9, atol 1e-12)", ("rk4", "rk45")),
+       "held, rtol 1e-9, atol 1e-12), or exact: the zero-order-hold discretisation (lti and "
+       "first-order)", ("rk4", "rk45", "exact")),
     _o("sim.t_end", "float", 0.01, "horizon (s); samples t_k = (k t_end)/N, N = t_end/h",
        check="positive"),
     _o("sim.diverge_above", "float", 1e12, "|y| above this (or any NaN/inf) ends a run as "
@@ -186,6 +195,15 @@ OPTIONS: tuple[Option, ...] = (
     _o("metrics.stable_tol", "float", 0.1, "stable if max |e| over the window <= this "
        "times max |y*|", check="positive"),
     # sweeps
+    # benchmark set (mfcontrol benchmark)
+    _o("benchmark.objective", "str", "iae", "what the benchmark's tuning of every controller "
+       "on this plant minimises (a metric or a weighted sum, as mfcontrol tune --objective)"),
+    _o("benchmark.pid", "strs", None, "benchmark: the PID's search space, KEY=LO:HI each"),
+    _o("benchmark.ip", "strs", None, "benchmark: the i-P's search space, KEY=LO:HI each"),
+    _o("benchmark.ipi", "strs", None, "benchmark: the i-PI's search space, KEY=LO:HI each"),
+    _o("benchmark.log", "strs", [], "benchmark: tuned keys searched on a log scale"),
+    _o("benchmark.robustness", "strs", None, "benchmark: the plant changes of the robustness "
+       "map, two KEY=SPEC axes (as mfcontrol sweep --grid)"),
     _o("sweep.key", "str", None, "sweep cases: the option every member varies"),
     _o("sweep.values", "floats", None, "sweep cases: its values, one member each"),
     _o("sweep.grid", "strs", None, "map cases: the grid `mfcontrol sweep` runs when given no "
@@ -218,7 +236,7 @@ def allowed(o: Option) -> str:
 #: parameters a schedule may change, per plant model
 PLANT_PARAMETERS = {"buck": ("E", "L", "R", "C"), "boost": ("E", "L", "R", "C"),
                     "first-order": ("a", "b", "w"),
-                    "dc-motor": ("J", "friction", "Km", "Ra", "La", "load")}
+                    "dc-motor": ("J", "friction", "Km", "Ra", "La", "load"), "lti": ()}
 
 
 #: the positional intelligent laws (the others are the paper's recursive law)

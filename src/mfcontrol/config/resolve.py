@@ -249,7 +249,15 @@ def _check_consistency(v: dict[str, Any]) -> None:
     for e in v["plant.schedule"]:
         if e["name"] not in names:
             raise ConfigError("plant.schedule", e, f"name must be a parameter of the "
-                              f"{v['plant.model']} plant: {', '.join(names)}")
+                              f"{v['plant.model']} plant: {', '.join(names)}" if names else
+                              f"must be empty: the {v['plant.model']} plant has no named "
+                              "parameter (step a load with [disturbance])")
+    if v["plant.model"] == "lti":
+        _check_transfer_function(v["plant.num"], v["plant.den"])
+    if v["sim.integrator"] == "exact" and v["plant.model"] not in ("lti", "first-order"):
+        raise ConfigError("sim.integrator", "exact", "is the zero-order hold of a linear "
+                          f"plant (lti, first-order), not of {v['plant.model']}: use rk4 or "
+                          "rk45")
     algebraic = v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
     if algebraic and v["controller.order"] == 2 and v["controller.window"] % 2:
         raise ConfigError("controller.window", v["controller.window"],
@@ -282,6 +290,22 @@ def _check_consistency(v: dict[str, Any]) -> None:
             x = axis_value(o.key, x)
             check_value(o.key, x)
             _check_consistency({**v, o.key: x, "sweep.key": None, "sweep.values": None})
+
+
+def _check_transfer_function(num: list[float], den: list[float]) -> None:
+    """G(s) = num / den must be strictly proper (a sampled loop measures y_k before it
+    computes u_k, so a direct feedthrough would need u_k before it exists) and nonzero."""
+    if not den or den[0] == 0:
+        raise ConfigError("plant.den", den, "must be a nonempty list of coefficients in "
+                          "descending powers of s whose first is nonzero")
+    if len(den) < 2:
+        raise ConfigError("plant.den", den, "must have degree >= 1 (at least two coefficients)")
+    if not any(num):
+        raise ConfigError("plant.num", num, "must have a nonzero coefficient")
+    first = next(i for i, c in enumerate(num) if c != 0)
+    if len(num) - first >= len(den):
+        raise ConfigError("plant.num", num, f"must be of lower degree than plant.den = {den} "
+                          "(strictly proper: a sampled loop has no direct feedthrough)")
 
 
 #: integration steps per control period at most (the plant's grid stays within the

@@ -1,0 +1,170 @@
+"""``mfcontrol compare``: several cases on one scenario, side by side.
+
+Each case runs as ``mfcontrol run`` runs it (``--set`` applies to all of them, so one
+noise seed or plant change reaches every case). The cases should differ in their
+controller only; any other key they differ in is listed in the report, since the
+comparison is then not of controllers alone.
+
+Layout of ``OUT``::
+
+    comparison.csv   one row per case: every metric column
+    comparison.md    the main metrics as a table, and what differs between the cases
+    comparison.png   outputs on one axis, controls below, the metrics table beside
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..api.metrics import COLUMNS
+from ..api.result import Result
+from ..config.resolve import Config
+from ..errors import ConfigError
+
+#: the columns of the markdown table and the figure's table: (metric, header)
+SHOWN = (("iae", "IAE"), ("iae_load", "IAE load"), ("tv_u", "TV(u)"),
+         ("overshoot", "overshoot %"), ("settling_time", "settling (s)"), ("stable", "stable"))
+#: keys that may differ between compared cases without changing the scenario
+_OWN = ("description", "controller.", "sweep.")
+
+
+@dataclass
+class Comparison:
+    """The runs of :func:`compare` and what they share."""
+
+    names: list[str]
+    configs: list[Config]
+    results: list[Result] = field(repr=False)
+
+    def differences(self) -> dict[str, list[Any]]:
+        """Keys outside ``controller.*`` whose values differ between the cases."""
+        keys = sorted({k for c in self.configs for k in c.public()})
+        out = {}
+        for k in keys:
+            if k.startswith(_OWN):
+                continue
+            vals = [c.public().get(k) for c in self.configs]
+            if any(v != vals[0] for v in vals[1:]):
+                out[k] = vals
+        return out
+
+    def rows(self) -> list[dict[str, Any]]:
+        return [{"case": n, "controller": controller_label(c),
+                 **{k: r.metrics[k] for k in COLUMNS}}
+                for n, c, r in zip(self.names, self.configs, self.results, strict=True)]
+
+    def to_pandas(self):
+        import pandas as pd
+
+        return pd.DataFrame(self.rows())
+
+    def markdown(self) -> str:
+        head = ["case", "controller", *(h for _, h in SHOWN)]
+        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for row in self.rows():
+            lines.append("| " + " | ".join([row["case"], row["controller"],
+                                             *(_cell(row[k]) for k, _ in SHOWN)]) + " |")
+        diff = self.differences()
+        text = "\n".join(lines) + "\n"
+        if diff:
+            text += ("\nThe cases also differ outside their controllers, so this compares "
+                     "more than controllers:\n\n" + "\n".join(
+                         f"- `{k}`: " + ", ".join(f"{n} = {v!r}" for n, v in
+                                                 zip(self.names, vals, strict=True))
+                         for k, vals in diff.items()) + "\n")
+        else:
+            text += "\nThe cases share every plant, reference, loop and simulation key.\n"
+        return text
+
+    def save(self, out: str | Path, title: str | None = None) -> Path:
+        """Write comparison.csv, comparison.md and comparison.png into ``out``."""
+        from ..api.plotting import comparison
+
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        self.to_pandas().to_csv(out / "comparison.csv", index=False)
+        (out / "comparison.md").write_text(
+            f"# Comparison: {', '.join(self.names)}\n\nMetrics of the true output y "
+            "(`mfcontrol run` on each case).\n\n" + self.markdown())
+        table = [[n, *(_cell(r.metrics[k], 3) for k, _ in SHOWN)]
+                 for n, r in zip(self.names, self.results, strict=True)]
+        labels = [controller_label(c) if controller_label(c).startswith(n)
+                  else f"{n}: {controller_label(c)}"
+                  for n, c in zip(self.names, self.configs, strict=True)]
+        comparison(self.results, labels, table,
+                   ["case", *(h.replace("overshoot", "oversh.") for _, h in SHOWN)],
+                   title or f"{len(self.names)} controllers on one scenario",
+                   out / "comparison.png")
+        return out
+
+
+def _cell(v: Any, digits: int = 4) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return "n/a" if math.isnan(v) else f"{v:.{digits}g}"
+    return str(v)
+
+
+def controller_label(cfg: Config) -> str:
+    """The controller in a few words: its law and gains, e.g. ``i-PI (alpha 50, kp 10,
+    ki 30)``."""
+    law = cfg["controller.law"]
+    keys = {"pid": ("kp", "ki", "kd"), "i-P": ("alpha", "kp"), "i-PI": ("alpha", "kp", "ki"),
+            "i-PD": ("alpha", "kp", "kd"), "i-PID": ("alpha", "kp", "ki", "kd")}.get(
+                law, ("alpha", "kp"))
+    gains = ", ".join(f"{k} {cfg[f'controller.{k}']:.4g}" for k in keys
+                      if not (law == "pid" and k != "kp" and cfg[f"controller.{k}"] == 0))
+    name = {"pid": "PID" if cfg["controller.kd"] else "PI" if cfg["controller.ki"] else "P",
+            "ip": "paper's i-P", "variational": "variational i-P"}.get(law, law)
+    return f"{name} ({gains})"
+
+
+def compare(cases: Sequence[str | Path | Config],
+            overrides: Mapping[str, Any] | None = None,
+            out: str | Path | None = None) -> Comparison:
+    """Run several cases on one scenario and compare them.
+
+    Parameters
+    ----------
+    cases : list of str, Path or Config
+        Built-in cases, case files or resolved configurations (at least two).
+    overrides : mapping, optional
+        Keys set on every case (as ``--set``).
+    out : str or Path, optional
+        Write comparison.csv, comparison.md and comparison.png there.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> c = mfcontrol.compare(["motor-noise-pid", "motor-noise-ipi-algebraic"],
+    ...                       {"sim.t_end": 2.0})
+    >>> [row["case"] for row in c.rows()], c.differences()
+    (['motor-noise-pid', 'motor-noise-ipi-algebraic'], {})
+    """
+    from ..api.simulate import simulate
+    from . import cases as _cases
+
+    if len(cases) < 2:
+        raise ConfigError("cases", list(cases), "give at least two cases to compare")
+    names, configs = [], []
+    for c in cases:
+        if isinstance(c, Config):
+            name, cfg = f"config {len(names) + 1}", c.with_overrides(dict(overrides or {}))
+        else:
+            name, cfg = _cases.resolve_case(c, overrides)
+        if cfg["sweep.key"] is not None:
+            raise ConfigError("cases", name, "is a sweep case: compare runs single cases")
+        names.append(name)
+        configs.append(cfg)
+    if len(set(names)) < len(names):
+        names = [f"{n} ({i + 1})" for i, n in enumerate(names)]
+    results = [simulate(c, name=n) for n, c in zip(names, configs, strict=True)]
+    comp = Comparison(names, configs, results)
+    if out is not None:
+        comp.save(out)
+    return comp

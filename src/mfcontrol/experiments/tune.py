@@ -1,0 +1,417 @@
+"""``mfcontrol tune``: gains found by simulation, a whole population per batch call.
+
+The search is scipy's differential evolution with ``vectorized=True``: every generation
+is one call of the batch engine (:func:`mfcontrol.api.batch.run_range`) on a grid whose
+first dimension is the population (:class:`mfcontrol.api.batch.Grid`'s ``points``) and
+whose other dimensions are the scenarios. Each member's score is the objective
+(:mod:`mfcontrol.api.objective`) of its run; a point's value is the worst or the mean over
+its scenarios. A point whose configuration is invalid (the checks across options) or
+whose run diverged scores ``inf``. The case's own values of the tuned keys start in the
+first population when they lie within the bounds (unless ``start_from_case=False``), so
+the result is never worse than them on the same scenarios.
+
+Layout of ``OUT``::
+
+    best.toml            the case with the best values: ``mfcontrol run`` reproduces its
+                         nominal objective, ``mfcontrol sweep`` its scenarios (sweep.grid)
+    summary.json         objective, best value, the best parameters, evaluations, time
+    history.parquet      every run: generation, point, scenario, parameters, metrics, score
+    convergence.png      every point's value and the best so far against evaluations
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._version import __version__
+from ..api import batch
+from ..api.objective import AGGREGATES, Objective, aggregate
+from ..config.options import BY_KEY
+from ..config.resolve import Config, axis_value
+from ..errors import ConfigError
+
+#: evaluations (points) when no budget is given
+DEFAULT_BUDGET = 600
+_RANGE = re.compile(r"^\s*([^=\s]+)\s*=\s*([^:]+):([^:]+)\s*$")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A tuned key, its bounds and how it is searched (log10 of it, whole numbers)."""
+
+    key: str
+    low: float
+    high: float
+    log: bool = False
+
+    @property
+    def integer(self) -> bool:
+        return BY_KEY[self.key].kind == "int"
+
+    def bounds(self) -> tuple[float, float]:
+        return (math.log10(self.low), math.log10(self.high)) if self.log else (self.low,
+                                                                               self.high)
+
+    def value(self, x: np.ndarray) -> np.ndarray:
+        """The key's values from the optimiser's coordinates."""
+        v = 10.0 ** x if self.log else np.asarray(x, dtype=float)
+        return np.round(v) if self.integer else np.clip(v, self.low, self.high)
+
+    def coordinate(self, v: float) -> float:
+        return math.log10(v) if self.log else float(v)
+
+
+def parse_parameters(items: Sequence[str] | Mapping[str, tuple[float, float]],
+                     log: Sequence[str] = ()) -> list[Parameter]:
+    """``["KEY=LO:HI", ...]`` (or ``{KEY: (LO, HI)}``) and the keys searched on a log
+    scale, checked: each key once, a numeric option, LO < HI finite, LO > 0 on a log
+    scale."""
+    pairs: list[tuple[str, Any, Any, str]] = []
+    if isinstance(items, Mapping):
+        pairs = [(k, *tuple(v), f"{k}={v}") for k, v in items.items()]
+    else:
+        for text in items:
+            m = _RANGE.match(str(text))
+            if not m:
+                raise ConfigError("--param", text, "expected KEY=LO:HI, e.g. controller.kp=1:100")
+            pairs.append((m[1], m[2], m[3], text))
+    out: list[Parameter] = []
+    for key, lo, hi, text in pairs:
+        o = BY_KEY.get(key)
+        if o is None or o.kind not in ("float", "int") or key.startswith(("sweep.", "metrics.")) \
+                or key in ("sim.h", "sim.t_end", "sim.diverge_above"):
+            raise ConfigError("--param", text, "must name a numeric option that keeps the "
+                              "time grid (not sim.h, sim.t_end, metrics.* or sweep.*)")
+        try:
+            low, high = float(lo), float(hi)
+        except (TypeError, ValueError):
+            raise ConfigError("--param", text, "LO and HI must be numbers") from None
+        if not (math.isfinite(low) and math.isfinite(high) and low < high):
+            raise ConfigError("--param", text, "must have finite LO < HI")
+        if any(p.key == key for p in out):
+            raise ConfigError("--param", key, "is given twice")
+        out.append(Parameter(key, low, high, key in log))
+    for key in log:
+        p = next((p for p in out if p.key == key), None)
+        if p is None:
+            raise ConfigError("--log", key, "must name a tuned key (give it with --param)")
+        if p.low <= 0:
+            raise ConfigError("--log", key, f"needs LO > 0 (got {p.low:g})")
+    if not out:
+        raise ConfigError("--param", "", "give at least one KEY=LO:HI")
+    return out
+
+
+@dataclass
+class TuneResult:
+    """What :func:`tune` found.
+
+    Attributes
+    ----------
+    best : dict
+        The best values of the tuned keys.
+    value : float
+        Their objective value (the aggregate over the scenarios; ``inf`` if no point was
+        valid and stable).
+    nominal : float
+        The objective of the best configuration's own run (no scenario set): what
+        ``mfcontrol run best.toml`` reproduces.
+    start, start_value : dict, float
+        The case's own values of the tuned keys and their value (NaN when they were not
+        evaluated: outside the bounds, or ``start_from_case=False``).
+    config : Config
+        The case with the best values.
+    history : pandas.DataFrame
+        Every run: generation, point, scenario, the tuned and scenario keys, the metric
+        columns, the run's score and its point's value.
+    """
+
+    case: str
+    objective: Objective
+    aggregate: str
+    parameters: list[Parameter]
+    scenarios: dict[str, np.ndarray]
+    best: dict[str, float]
+    value: float
+    nominal: float
+    start: dict[str, float]
+    start_value: float
+    config: Config
+    evaluations: int
+    runs: int
+    seconds: float
+    stopped: str
+    budget: int
+    seed: int
+    history: Any = field(repr=False)
+
+    def summary(self) -> dict[str, Any]:
+        return {"case": self.case, "objective": self.objective.text,
+                "aggregate": self.aggregate, "best": _json_number(self.value),
+                "nominal": _json_number(self.nominal),
+                "parameters": {k: v for k, v in self.best.items()},
+                "bounds": {p.key: [p.low, p.high] for p in self.parameters},
+                "log": [p.key for p in self.parameters if p.log],
+                "start": {"parameters": self.start, "value": _json_number(self.start_value)},
+                "scenarios": {k: v.tolist() for k, v in self.scenarios.items()},
+                "n_scenarios": _n_scenarios(self.scenarios),
+                "evaluations": self.evaluations, "runs": self.runs, "budget": self.budget,
+                "seed": self.seed, "stopped": self.stopped,
+                "seconds": round(self.seconds, 3), "mfcontrol": __version__}
+
+    def save(self, out: str | Path) -> Path:
+        """Write best.toml, summary.json, history.parquet and convergence.png into
+        ``out``; return the folder."""
+        from ..api.plotting import convergence
+
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        scen = [f"{k}={','.join(repr(float(x)) for x in v)}"
+                for k, v in self.scenarios.items()]
+        cfg = self.config.with_overrides({"sweep.grid": scen or None})
+        values = ", ".join(f"{k} = {v!r}" for k, v in self.best.items())
+        head = (f"# tuned by mfcontrol {__version__} from {self.case}: {values}\n"
+                f"# objective {self.objective.text}: {self.nominal!r} for this case's own run "
+                "(mfcontrol run)")
+        if self.scenarios:
+            head += (f";\n# {self.aggregate} over the {_n_scenarios(self.scenarios)} "
+                     f"scenarios of sweep.grid (mfcontrol sweep): {self.value!r}")
+        (out / "best.toml").write_text(head + "\n" + cfg.to_toml())
+        (out / "summary.json").write_text(json.dumps(self.summary(), indent=2) + "\n")
+        self.history.to_parquet(out / "history.parquet", index=False)
+        per_point = self.history.drop_duplicates("point")
+        where = (f", {self.aggregate} over {_n_scenarios(self.scenarios)} scenarios"
+                 if self.scenarios else "")
+        convergence(per_point["point"].to_numpy(), per_point["value"].to_numpy(),
+                    {p.key: per_point[p.key].to_numpy() for p in self.parameters},
+                    self.objective.text, f"Tuning {self.case}: {self.evaluations} of "
+                    f"{self.budget} points by differential evolution{where} "
+                    f"({_STOPPED[self.stopped]})", out / "convergence.png",
+                    log=tuple(p.key for p in self.parameters if p.log))
+        return out
+
+
+_STOPPED = {"budget": "budget spent", "converged": "population converged",
+            "interrupted": "interrupted"}
+
+
+def _json_number(v: float) -> float | str | None:
+    """A value for JSON: inf as "inf", NaN (not evaluated) as null."""
+    return None if math.isnan(v) else v if math.isfinite(v) else "inf"
+
+
+def _n_scenarios(scenarios: Mapping[str, np.ndarray]) -> int:
+    return math.prod(v.size for v in scenarios.values()) if scenarios else 1
+
+
+def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[float, float]],
+         *, objective: str = "iae", scenarios: Sequence[str] | Mapping[str, Any] | None = None,
+         aggregate_by: str = "max", budget: int = DEFAULT_BUDGET, seed: int = 0,
+         log: Sequence[str] = (), overrides: Mapping[str, Any] | None = None,
+         out: str | Path | None = None,
+         progress: Callable[[int, int, float], None] | None = None,
+         start_from_case: bool = True) -> TuneResult:
+    """Minimise an objective over some keys of a case by simulation.
+
+    Parameters
+    ----------
+    case : str, Path or Config
+        A built-in case, a case file or a resolved configuration.
+    params : list of "KEY=LO:HI", or {KEY: (LO, HI)}
+        The tuned keys and their bounds.
+    objective : str
+        A metric or a weighted sum (:mod:`mfcontrol.api.objective`), default ``"iae"``.
+    scenarios : list of "KEY=SPEC", or {KEY: SPEC or values}, optional
+        Every point runs on each member of this grid (as ``mfcontrol sweep --grid`` takes
+        it): plant variations, noise seeds. None: the case alone.
+    aggregate_by : {"max", "mean"}
+        A point's value over its scenarios: the worst or the mean.
+    budget : int
+        Points to evaluate at most (each runs every scenario); the search may stop
+        earlier when its population has converged.
+    seed : int
+        The optimiser's seed: the same seed gives the same search.
+    log : list of str
+        Tuned keys searched on a log scale (their LO must be > 0).
+    overrides : mapping, optional
+        Keys set on the case first (as ``--set``).
+    out : str or Path, optional
+        Write best.toml, summary.json, history.parquet and convergence.png there.
+    progress : callable, optional
+        Called after each generation with (points evaluated, budget, best value).
+    start_from_case : bool
+        Put the case's own values of the tuned keys (when within the bounds) in the first
+        population, so that the result is never worse than them. A comparison of
+        controllers turns it off: no controller starts from a point chosen for it.
+
+    Returns
+    -------
+    TuneResult
+        Also when interrupted (Ctrl-C): the best so far, ``stopped = "interrupted"``.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> r = mfcontrol.tune("first-order-ip-algebraic", ["controller.kp=1:50"],
+    ...                    budget=40, overrides={"sim.t_end": 1.0})
+    >>> r.value <= r.start_value, r.value == r.nominal
+    (True, True)
+    """
+    import pandas as pd
+    from scipy.optimize import differential_evolution
+
+    from . import cases
+
+    t0 = time.perf_counter()
+    if isinstance(case, Config):
+        name, base = "config", case.with_overrides(dict(overrides or {}))
+    else:
+        name, base = cases.resolve_case(case, overrides)
+    base = base.with_overrides({"sweep.key": None, "sweep.values": None, "sweep.grid": None})
+    obj = Objective.parse(objective)
+    if aggregate_by not in AGGREGATES:
+        raise ConfigError("--aggregate", aggregate_by, f"must be one of {', '.join(AGGREGATES)}")
+    if not isinstance(budget, int | np.integer) or isinstance(budget, bool) or budget < 10:
+        raise ConfigError("--budget", budget, "must be a whole number >= 10")
+    if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
+        raise ConfigError("--seed", seed, "must be a whole number >= 0")
+    pars = parse_parameters(params, log)
+    scen = batch.parse_grid(scenarios) if scenarios else {}
+    for k in scen:
+        if any(p.key == k for p in pars):
+            raise ConfigError("--scenarios", k, "is also a tuned key (--param)")
+    keys = tuple(p.key for p in pars)
+    # the bounds and the scenarios, checked once as a grid would check them
+    batch.make_grid(base, {**{p.key: np.array([p.low, p.high]) for p in pars}, **scen},
+                    points=keys)
+    n_scen = _n_scenarios(scen)
+
+    rows: list[pd.DataFrame] = []
+    state = {"evals": 0, "runs": 0, "gen": 0, "best": math.inf, "best_x": None}
+
+    def evaluate(X: np.ndarray) -> np.ndarray:
+        X = np.atleast_2d(np.asarray(X, dtype=float).T).T  # (D, S) even for one point
+        values = {p.key: p.value(X[i]) for i, p in enumerate(pars)}
+        n = X.shape[1]
+        ok = np.zeros(n, dtype=bool)
+        for j in range(n):  # each point's combination through the checks across options
+            try:
+                base.with_overrides({k: axis_value(k, v[j]) for k, v in values.items()})
+                ok[j] = True
+            except ConfigError:
+                pass
+        scores = np.full(n, np.inf)
+        seen = np.ones(n)  # what the optimiser sees of a failed point (see _PENALTY)
+        if ok.any():
+            grid = batch.Grid(base=base, axes={**{k: v[ok] for k, v in values.items()},
+                                               **scen}, points=keys)
+            cols = batch.run_range(grid, 0, grid.n_members)
+            per_run = obj.score(cols)
+            scores[ok] = aggregate(per_run.reshape(-1, n_scen), aggregate_by)
+            seen[ok] = _badness(cols, n_scen, base["metrics.stable_tol"])
+            point = np.flatnonzero(ok)[cols["member"] // n_scen] + state["evals"]
+            frame = pd.DataFrame({"generation": state["gen"], "point": point,
+                                  "scenario": cols["member"] % n_scen,
+                                  **{k: v for k, v in cols.items() if k != "member"},
+                                  "score": per_run,
+                                  "value": np.repeat(scores[ok], n_scen)})
+            rows.append(frame)
+            state["runs"] += grid.n_members
+        bad = np.flatnonzero(~ok)
+        if bad.size:
+            rows.append(pd.DataFrame({"generation": state["gen"], "point": bad + state["evals"],
+                                      "scenario": -1, **{k: v[bad] for k, v in values.items()},
+                                      "score": np.inf, "value": np.inf}))
+        j = int(np.argmin(scores))
+        if scores[j] < state["best"]:
+            state["best"], state["best_x"] = float(scores[j]), X[:, j].copy()
+        state["evals"] += n
+        state["gen"] += 1
+        if progress:
+            progress(state["evals"], budget, state["best"])
+        return np.where(np.isfinite(scores), scores, _PENALTY * (1.0 + seen))
+
+    # the case's own values first: the result is never worse than them
+    start = {p.key: float(base[p.key]) for p in pars}
+    x_start = np.array([p.coordinate(min(max(start[p.key], p.low), p.high)) if not p.log or
+                        start[p.key] > 0 else p.bounds()[0] for p in pars])
+    inside = start_from_case and all(p.low <= start[p.key] <= p.high for p in pars)
+    d = len(pars)
+    # scipy's default population (15 per dimension), fewer when the budget would allow
+    # fewer than four generations
+    per_dim = max(1, min(15 * d, budget // 4) // d)
+    size = max(5, per_dim * d)  # scipy's population has at least five members
+    maxiter = max(0, budget // size - 1)
+    stopped = "budget"
+    try:
+        res = differential_evolution(
+            evaluate, [p.bounds() for p in pars], popsize=per_dim, maxiter=maxiter,
+            rng=np.random.default_rng(seed), polish=False, vectorized=True,
+            updating="deferred", init="latinhypercube", x0=x_start if inside else None,
+            integrality=[p.integer for p in pars])
+        if res.success:
+            stopped = "converged"
+    except KeyboardInterrupt:
+        stopped = "interrupted"
+    history = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    start_value = math.nan  # not evaluated: outside the bounds, or not asked for
+    if inside and not history.empty:
+        first = history[history["point"] == 0]
+        start_value = float(first["value"].iloc[0]) if len(first) else math.nan
+    if state["best_x"] is None:  # nothing evaluated (interrupted at once)
+        best = start
+        best_cfg = base
+        nominal = value = math.inf
+    else:
+        best = {p.key: axis_value(p.key, float(p.value(state["best_x"][i])))
+                for i, p in enumerate(pars)}
+        best_cfg = base.with_overrides(best)
+        value = state["best"]
+        nominal = _nominal(best_cfg, obj)
+    result = TuneResult(
+        case=name, objective=obj, aggregate=aggregate_by, parameters=pars, scenarios=scen,
+        best=best, value=value, nominal=nominal, start=start, start_value=start_value,
+        config=best_cfg, evaluations=state["evals"], runs=state["runs"],
+        seconds=time.perf_counter() - t0, stopped=stopped, budget=budget, seed=seed,
+        history=history)
+    if out is not None:
+        result.save(out)
+    return result
+
+
+#: what the optimiser sees of a point that scored inf: this times (1 + its badness). Not
+#: inf, because a population that failed everywhere would stall scipy's search (it
+#: evaluates an all-inf population again, the same points); graded, so that such a
+#: population still moves towards points that fail less, and above any real objective
+_PENALTY = 1e100
+
+
+def _badness(cols: dict[str, np.ndarray], n_scen: int, tol: float) -> np.ndarray:
+    """How badly each point's worst scenario failed, in [0, 1]: a run unstable by the
+    rule 0 .. 0.5 (its final error over the tolerance), a diverged run 0.5 .. 1 (the
+    earlier, the worse), a finite run whose objective is not a number 0.25."""
+    n_done = cols["n_samples"] / np.max(cols["n_samples"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = cols["max_abs_e_final"] / (tol * cols["max_abs_ref"])
+    unstable = 0.5 * (1.0 - 1.0 / np.where(np.isfinite(ratio) & (ratio > 1), ratio, 1.0))
+    bad = np.where(cols["diverged"], 1.0 - 0.5 * n_done,
+                   np.where(cols["stable"], 0.25, unstable))
+    return bad.reshape(-1, n_scen).max(axis=1)
+
+
+def _nominal(cfg: Config, obj: Objective) -> float:
+    """The objective of the configuration's single run, the way ``mfcontrol run`` runs it."""
+    from ..api.simulate import simulate
+
+    m = simulate(cfg).metrics
+    return float(obj.score({k: np.array([m[k]]) for k in (*obj.metrics, "diverged",
+                                                           "stable")})[0])

@@ -1,0 +1,165 @@
+"""``mfcontrol.tune``: the known optimum of a closed-form problem, exact reproduction of
+what it reports, diverging and invalid regions, scenarios, Ctrl-C, bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import mfcontrol
+from mfcontrol.api.objective import Objective
+from mfcontrol.experiments import cases
+from mfcontrol.experiments.tune import parse_parameters, tune
+
+#: y' = -y + u under an i-P with alpha = b = 1 and a unit step at t = 0: F = -y is
+#: estimated (backward differences, h = 1e-4) almost exactly, so e' = -kp e,
+#: ISE = 1 / (2 kp) and the control u = 1 + (kp - 1) e^(-kp t) jumps to kp and falls to
+#: 1, TV(u) = 2 kp - 1. ISE + lam TV(u) is least at kp* = 1 / (2 sqrt(lam)): 50 for
+#: lam = 1e-4.
+CLOSED_FORM = {
+    "plant.model": "first-order", "plant.a": -1.0, "plant.b": 1.0,
+    "reference.kind": "smooth-step", "reference.initial": 0.0, "reference.final": 1.0,
+    "reference.t0": 0.0, "reference.duration": 0.0,
+    "controller.law": "i-P", "controller.alpha": 1.0, "controller.kp": 5.0,
+    "controller.duty_min": -1e5, "controller.duty_max": 1e5,
+    "metrics.settle_time": 0.0, "sim.h": 1e-4, "sim.t_end": 0.5, "sim.integrator": "exact",
+}
+
+
+@pytest.fixture(scope="module")
+def closed_form():
+    return mfcontrol.resolve(CLOSED_FORM)
+
+
+def test_tune_finds_the_closed_form_optimum(closed_form):
+    r = tune(closed_form, ["controller.kp=1:500"], objective="ise+0.0001*tv_u",
+             log=["controller.kp"], budget=150)
+    # the sampled loop's ISE carries an offset of about h / 2 (the first sample's error)
+    # and O(kp h) terms: the discrete optimum is within 1 % of kp*, the search within 3 %
+    assert abs(r.best["controller.kp"] / 50.0 - 1) < 0.03
+    assert r.value < r.start_value
+    assert 0 < r.evaluations <= 150
+
+
+def test_best_toml_reproduces_the_reported_value_exactly(closed_form, tmp_path):
+    r = tune(closed_form, ["controller.kp=10:200", "controller.alpha=0.5:2"],
+             objective="ise+0.0001*tv_u", budget=40, out=tmp_path)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    _, cfg = cases.resolve_case(tmp_path / "best.toml")
+    m = cases.run_config(cfg).metrics
+    again = Objective.parse(summary["objective"]).score(
+        {k: np.array([m[k]]) for k in ("ise", "tv_u", "diverged", "stable")})[0]
+    assert again == summary["best"] == summary["nominal"] == r.value
+    assert summary["parameters"] == {k: cfg[k] for k in summary["parameters"]}
+    history = pd.read_parquet(tmp_path / "history.parquet")
+    assert len(history) == r.runs == r.evaluations  # one scenario: a run per point
+    assert history["value"].min() == r.value
+    assert (tmp_path / "convergence.png").stat().st_size > 10_000
+
+
+def test_a_diverging_region_scores_inf_and_the_search_goes_on(closed_form):
+    # kp h > 2 makes e_{k+1} = (1 - kp h) e_k grow: kp above 20,000 diverges (with limits
+    # that do not hold u back)
+    cfg = closed_form.with_overrides({"controller.duty_min": -1e300,
+                                      "controller.duty_max": 1e300})
+    r = tune(cfg, ["controller.kp=1:60000"], objective="ise", budget=60, seed=3)
+    diverged = r.history[r.history["diverged"]]
+    assert len(diverged) > 0 and np.isinf(diverged["score"]).all()
+    assert math.isfinite(r.value) and r.best["controller.kp"] < 20_000
+    assert r.evaluations <= 60
+
+
+def test_points_the_checks_across_options_refuse_score_inf(closed_form):
+    # each bound is valid on its own; a point whose lower limit is above its upper one
+    # is not
+    r = tune(closed_form, ["controller.duty_min=-100:100", "controller.duty_max=-100:100"],
+             objective="ise", budget=40)
+    refused = r.history[r.history["scenario"] == -1]
+    assert len(refused) > 0
+    assert (refused["controller.duty_min"] > refused["controller.duty_max"]).all()
+    assert np.isinf(refused["value"]).all()
+    ran = r.history[r.history["scenario"] == 0]
+    assert (ran["controller.duty_min"] <= ran["controller.duty_max"]).all()
+    assert r.best["controller.duty_min"] <= r.best["controller.duty_max"]
+
+
+@pytest.mark.parametrize("how", ["max", "mean"])
+def test_scenarios_aggregate_each_scenarios_own_run(closed_form, how):
+    r = tune(closed_form, ["controller.kp=10:100"], objective="ise",
+             scenarios=["plant.a=-2,-1,-0.5", "plant.b=1,1.5"], aggregate_by=how, budget=20)
+    assert r.runs == 6 * r.evaluations
+    obj = Objective.parse("ise")
+    scores = []
+    for a in (-2.0, -1.0, -0.5):
+        for b in (1.0, 1.5):
+            m = mfcontrol.simulate(r.config.with_overrides({"plant.a": a, "plant.b": b})).metrics
+            scores.append(obj.score({k: np.array([m[k]]) for k in
+                                     ("ise", "diverged", "stable")})[0])
+    assert r.value == (max(scores) if how == "max" else np.mean(scores))
+
+
+def test_ctrl_c_keeps_the_best_so_far(closed_form, tmp_path):
+    calls = []
+
+    def progress(done, budget, best):
+        calls.append(done)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    r = tune(closed_form, ["controller.kp=10:100"], objective="ise", budget=100,
+             progress=progress, out=tmp_path)
+    assert r.stopped == "interrupted" and r.evaluations == calls[-1]
+    assert math.isfinite(r.value) and r.value == r.history["value"].min()
+    assert json.loads((tmp_path / "summary.json").read_text())["stopped"] == "interrupted"
+
+
+def test_the_same_seed_gives_the_same_search(closed_form):
+    a, b = (tune(closed_form, ["controller.kp=10:100"], objective="ise", budget=30, seed=7)
+            for _ in range(2))
+    assert a.best == b.best and a.history["value"].tolist() == b.history["value"].tolist()
+
+
+@pytest.mark.parametrize(("items", "log", "needle"), [
+    (["controller.kp"], (), "expected KEY=LO:HI"),
+    (["controller.kp=5:1"], (), "LO < HI"),
+    (["controller.kp=a:b"], (), "must be numbers"),
+    (["controller.kp=1:nan"], (), "LO < HI"),
+    (["plant.modell=1:2"], (), "numeric option"),
+    (["sim.h=1:2"], (), "numeric option"),
+    (["controller.law=1:2"], (), "numeric option"),
+    (["controller.kp=1:2", "controller.kp=3:4"], (), "given twice"),
+    (["controller.kp=-1:2"], ("controller.kp",), "LO > 0"),
+    (["controller.kp=1:2"], ("controller.alpha",), "tuned key"),
+    ([], (), "at least one"),
+])
+def test_bad_parameters_are_named(items, log, needle):
+    with pytest.raises(mfcontrol.ConfigError, match=needle):
+        parse_parameters(items, log)
+
+
+@pytest.mark.parametrize(("kwargs", "needle"), [
+    ({"budget": 5}, "--budget"), ({"budget": 10.5}, "--budget"), ({"seed": -1}, "--seed"),
+    ({"aggregate_by": "median"}, "--aggregate"), ({"objective": "iea"}, "--objective"),
+    ({"scenarios": ["controller.kp=1,2"]}, "--scenarios"),
+    ({"params": ["controller.alpha=0:2"]}, "controller.alpha"),
+])
+def test_bad_settings_are_refused_before_any_run(closed_form, kwargs, needle):
+    args = {"params": ["controller.kp=1:2"], **kwargs}
+    with pytest.raises(mfcontrol.ConfigError, match=needle):
+        tune(closed_form, **args)
+
+
+def test_the_cases_own_values_start_the_search_unless_asked_not_to(closed_form):
+    cfg = closed_form.with_overrides({"sim.t_end": 2.0})  # kp = 5 settles: a finite value
+    own = tune(cfg, ["controller.kp=1:100"], objective="ise", budget=20)
+    first = own.history[own.history["point"] == 0].iloc[0]
+    assert first["controller.kp"] == 5.0 and own.start_value == first["value"]
+    assert own.value <= own.start_value
+    fresh = tune(cfg, ["controller.kp=1:100"], objective="ise", budget=20,
+                 start_from_case=False)
+    assert math.isnan(fresh.start_value)
+    assert 5.0 not in fresh.history["controller.kp"].tolist()
