@@ -122,7 +122,7 @@ ERRORS = [
     pytest.param(["compare", "motor-noise-pid", "nope"], ["'nope'", "unknown case"],
                  id="compare-unknown-case"),
     pytest.param(["benchmark", "--plants", "first-order-ip-algebraic"],
-                 ["benchmark.pid", "a benchmark case must give it"],
+                 ["benchmark.", "a benchmark case must give it"],
                  id="benchmark-plant-without-table"),
     pytest.param(["benchmark", "--plants", "nope"], ["'nope'", "unknown case"],
                  id="benchmark-unknown-plant"),

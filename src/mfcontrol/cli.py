@@ -8,6 +8,7 @@ exit code 2; an interrupted command ends with exit code 130.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -149,26 +150,42 @@ def _cmd_tune(args) -> int:
     name, _ = cases.resolve_case(args.case, _overrides(args.set))  # bad input before work
     out = _out_dir(args.out) if args.out else Path("results") / "tune" / name
     t_start = time.perf_counter()
+    shown = []
 
     def progress(done: int, budget: int, best: float) -> None:
+        shown.append(done)
         rate = done / max(time.perf_counter() - t_start, 1e-9)
         sys.stderr.write(f"\r[tune] {done:,}/{budget:,} points ({100 * done / budget:.0f} %), "
                          f"best {args.objective} = {best:.6g}, {rate:,.0f} points/s   ")
         sys.stderr.flush()
 
-    result = tune(args.case, args.param or [], objective=args.objective,
-                  scenarios=args.scenarios, aggregate_by=args.aggregate,
-                  budget=DEFAULT_BUDGET if args.budget is None else args.budget,
-                  seed=args.seed, log=args.log or [], overrides=_overrides(args.set),
-                  out=out, progress=progress)
-    sys.stderr.write("\n")
+    try:
+        result = tune(args.case, args.param or [], objective=args.objective,
+                      scenarios=args.scenarios, aggregate_by=args.aggregate,
+                      budget=DEFAULT_BUDGET if args.budget is None else args.budget,
+                      seed=args.seed, log=args.log or [], overrides=_overrides(args.set),
+                      out=out, progress=progress)
+    finally:
+        if shown:  # the progress line ends; an error's line starts on its own
+            sys.stderr.write("\n")
+    if result.evaluations == 0:
+        print("mfcontrol: interrupted before any point was evaluated", file=sys.stderr)
+        return 130
     best = ", ".join(f"{k} = {v:.6g}" for k, v in result.best.items())
-    start = ", ".join(f"{k} = {v:.6g}" for k, v in result.start.items())
-    own = ("outside the bounds" if result.start_value != result.start_value
-           else f"{result.start_value:.6g}")
-    print(f"{name}: best {args.objective} = {result.value:.6g} at {best} "
-          f"({result.evaluations} points, {result.runs} runs, {result.seconds:.1f} s, "
-          f"{result.stopped}); the case's own {start}: {own}")
+    own = ", ".join(f"{k} = {v:.6g}" if v is not None else f"{k} unset"
+                    for k, v in result.start.items())
+    own += (": not evaluated" if result.start_value != result.start_value
+            else f": {result.start_value:.6g}")
+    where = (f" ({args.aggregate} over {result.summary()['n_scenarios']} scenarios; this "
+             f"case's own run, which mfcontrol run best.toml gives: {result.nominal:.6g})"
+             if result.scenarios else "")
+    if math.isinf(result.value):
+        print(f"{name}: no point was valid and stable in {result.evaluations} points: widen "
+              "or move the bounds")
+    else:
+        print(f"{name}: best {args.objective} = {result.value:.6g}{where} at {best} "
+              f"({result.evaluations} points, {result.runs} runs, {result.seconds:.1f} s, "
+              f"{result.stopped}); the case's own {own}")
     print(f"wrote {out}/best.toml, summary.json, history.parquet, convergence.png")
     if result.stopped == "interrupted":
         print("mfcontrol: interrupted; the best so far is written", file=sys.stderr)
@@ -191,14 +208,16 @@ def _cmd_benchmark(args) -> int:
 
     out = _out_dir(args.out) if args.out else Path("results") / "benchmark"
     budget = DEFAULT_BUDGET if args.budget is None else args.budget
+    bar = print_progress()
     try:
-        benchmark(args.plants, budget=budget, seed=args.seed, out=out,
-                  progress=print_progress())
+        benchmark(args.plants, budget=budget, seed=args.seed, out=out, progress=bar)
     except KeyboardInterrupt:
         print(f"\nmfcontrol: interrupted; finished tunings are kept in {out}: run the same "
               "command again to resume", file=sys.stderr)
         return 130
-    sys.stderr.write("\n")
+    finally:
+        if bar.drawn:  # type: ignore[attr-defined]
+            sys.stderr.write("\n")
     print(f"wrote {out}/report.md, results.csv, robustness.png and a folder per plant")
     return 0
 

@@ -145,6 +145,11 @@ def test_bad_parameters_are_named(items, log, needle):
     ({"budget": 5}, "--budget"), ({"budget": 10.5}, "--budget"), ({"seed": -1}, "--seed"),
     ({"aggregate_by": "median"}, "--aggregate"), ({"objective": "iea"}, "--objective"),
     ({"scenarios": ["controller.kp=1,2"]}, "--scenarios"),
+    ({"scenarios": ["plant.a=x"]}, "plant.a"),
+    ({"params": ["controller.ki=0:1"]}, "no effect"),
+    ({"budget": 9}, "--budget"),
+    ({"params": ["controller.window=2.2:2.8"]}, "whole number"),
+    ({"objective": "iae_load", "params": ["controller.kp=10:100"]}, "load step"),
     ({"params": ["controller.alpha=0:2"]}, "controller.alpha"),
 ])
 def test_bad_settings_are_refused_before_any_run(closed_form, kwargs, needle):
@@ -163,3 +168,68 @@ def test_the_cases_own_values_start_the_search_unless_asked_not_to(closed_form):
                  start_from_case=False)
     assert math.isnan(fresh.start_value)
     assert 5.0 not in fresh.history["controller.kp"].tolist()
+
+
+def test_history_rows_are_the_runs_they_name(closed_form):
+    r = tune(closed_form, ["controller.kp=10:100"], objective="ise",
+             scenarios={"plant.a": [-2.0, -0.5], "plant.b": [1.0, 1.5]}, budget=20)
+    scen = [(a, b) for a in (-2.0, -0.5) for b in (1.0, 1.5)]  # C order, b fastest
+    for _, row in r.history.sample(6, random_state=0).iterrows():
+        a, b = scen[int(row["scenario"])]
+        assert (row["plant.a"], row["plant.b"]) == (a, b)
+        m = mfcontrol.simulate(closed_form.with_overrides(
+            {"controller.kp": row["controller.kp"], "plant.a": a, "plant.b": b})).metrics
+        assert (row["ise"], row["tv_u"]) == (m["ise"], m["tv_u"])
+
+
+def test_a_whole_number_key_on_a_log_scale(closed_form):
+    cfg = closed_form.with_overrides({"controller.estimator": "algebraic",
+                                      "controller.window": 20, "sim.t_end": 2.0})
+    r = tune(cfg, ["controller.window=4:100"], log=["controller.window"], objective="ise",
+             budget=30)
+    tried = r.history["controller.window"].to_numpy()
+    assert (tried == np.round(tried)).all() and tried.min() >= 4 and tried.max() <= 100
+    assert len(set(tried)) > 5  # not only the powers of ten
+    assert r.history[r.history["point"] == 0]["controller.window"].iloc[0] == 20
+    assert isinstance(r.best["controller.window"], int)
+
+
+def test_a_key_whose_default_is_unset(closed_form):
+    cfg = closed_form.with_overrides({"controller.law": "pid", "controller.ki": 50.0,
+                                      "controller.kp": 20.0, "sim.t_end": 2.0})
+    r = tune(cfg, ["controller.Tt=0.001:1"], objective="ise", budget=20)
+    assert r.start == {"controller.Tt": None} and math.isnan(r.start_value)
+    assert 0.001 <= r.best["controller.Tt"] <= 1
+
+
+def test_a_population_that_fails_everywhere_is_not_converged(closed_form):
+    # a negative gain: every point unstable or diverged
+    r = tune(closed_form, ["controller.kp=-100:-1"], objective="ise", budget=30)
+    # a population of 7 (at most a quarter of the budget): four generations
+    assert math.isinf(r.value) and r.stopped == "budget" and r.evaluations == 28
+
+
+def test_ctrl_c_during_the_first_batch_writes_what_it_can(closed_form, tmp_path,
+                                                          monkeypatch):
+    from mfcontrol.api import batch
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch, "run_range", interrupted)
+    r = tune(closed_form, ["controller.kp=10:100"], objective="ise", budget=30, out=tmp_path)
+    assert r.stopped == "interrupted" and r.evaluations == 0 and math.isnan(r.value)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["best"] is None and summary["stopped"] == "interrupted"
+    assert (tmp_path / "convergence.png").is_file()
+
+
+def test_an_error_inside_the_search_is_the_error_not_scipys(closed_form, monkeypatch):
+    from mfcontrol.api import batch
+
+    def refused(*args, **kwargs):
+        raise mfcontrol.ConfigError("plant.a", 1.0, "a message of ours")
+
+    monkeypatch.setattr(batch, "run_range", refused)
+    with pytest.raises(mfcontrol.ConfigError, match="a message of ours"):
+        tune(closed_form, ["controller.kp=10:100"], objective="ise", budget=30)

@@ -16,6 +16,7 @@ import math
 import re
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -53,28 +54,41 @@ def parse_spec(key: str, spec: str) -> np.ndarray:
     return values
 
 
-def parse_grid(items: list[str] | Mapping[str, str]) -> dict[str, np.ndarray]:
-    """``["KEY=SPEC", ...]`` (or a mapping) to axes; each key once, each a numeric option."""
+def check_member_key(key: str, flag: str = "--grid") -> None:
+    """Refuse a key that members of one batch cannot differ in: not a numeric option, or
+    one that changes the time grid (sim.h, sim.t_end, sweep.*) or a setting all members
+    share (metrics.*, sim.diverge_above). For sweep axes, tuned keys and scenarios."""
+    o = BY_KEY.get(key)
+    if o is None or o.kind not in ("float", "int") or key.startswith("sweep.") or key in (
+            "sim.h", "sim.t_end"):
+        raise ConfigError(flag, key, "must name a numeric option that keeps the time "
+                          "grid (not sim.h, sim.t_end or sweep.*)")
+    if key.startswith("metrics.") or key == "sim.diverge_above":
+        raise ConfigError(flag, key, "is a setting shared by all members of a sweep; "
+                          "set it with --set")
+
+
+def parse_grid(items: list[str] | Mapping[str, str | Any],
+               flag: str = "--grid") -> dict[str, np.ndarray]:
+    """``["KEY=SPEC", ...]`` (or a mapping of keys to specs or to lists of values) to
+    axes; each key once, each one :func:`check_member_key` allows (``flag`` names the
+    option in messages)."""
     pairs = items.items() if isinstance(items, Mapping) else [
         tuple(s.split("=", 1)) if "=" in s else (s, None) for s in items]
     grid: dict[str, np.ndarray] = {}
     for key, spec in pairs:
         key = key.strip()
         if spec is None:
-            raise ConfigError("--grid", key, "expected KEY=SPEC")
-        o = BY_KEY.get(key)
-        if o is None or o.kind not in ("float", "int") or key.startswith("sweep.") or key in (
-                "sim.h", "sim.t_end"):
-            raise ConfigError("--grid", key, "must name a numeric option that keeps the time "
-                              "grid (not sim.h, sim.t_end or sweep.*)")
-        if key.startswith("metrics.") or key == "sim.diverge_above":
-            raise ConfigError("--grid", key, "is a setting shared by all members of a sweep; "
-                              "set it with --set")
+            raise ConfigError(flag, key, "expected KEY=SPEC")
+        check_member_key(key, flag)
         if key in grid:
-            raise ConfigError("--grid", key, "is given twice")
+            raise ConfigError(flag, key, "is given twice")
+        if isinstance(spec, list | tuple | np.ndarray):  # values given as such
+            spec = ",".join(repr(float(v)) if isinstance(v, int | float | np.number)
+                            else str(v) for v in np.ravel(np.asarray(spec, dtype=object)))
         grid[key] = parse_spec(key, str(spec))
     if not grid:
-        raise ConfigError("--grid", "", "give at least one KEY=SPEC")
+        raise ConfigError(flag, "", "give at least one KEY=SPEC")
     return grid
 
 

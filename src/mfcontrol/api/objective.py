@@ -91,6 +91,12 @@ class Objective:
         return value
 
 
+    def score_run(self, metrics: Mapping[str, object]) -> float:
+        """The score of one run from its metrics (``Result.metrics``)."""
+        return float(self.score({k: np.array([metrics[k]]) for k in
+                                 (*self.metrics, "diverged", "stable")})[0])
+
+
 def aggregate(scores: np.ndarray, how: str) -> np.ndarray:
     """Combine a (members, scenarios) array of scores into one per member: the worst
     (``"max"``) or the mean (``"mean"``); a member with an infinite score anywhere is

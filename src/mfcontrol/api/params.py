@@ -91,14 +91,15 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
         "gamma0": cfg["controller.gamma0"], "Gamma": cfg["controller.Gamma"],
         "eps_M": cfg["controller.eps_M"], "integrator": cfg["controller.integrator"],
     }
-    a, kp, ki, kd = (cfg[f"controller.{k}"] for k in ("alpha", "kp", "ki", "kd"))
+    # each law reads only its own gains (a translator's reads say what a key affects)
+    a, kp = cfg["controller.alpha"], cfg["controller.kp"]
     if law == "i-P":
         return IP(a, kp, **options)
     if law == "i-PI":
-        return IPI(a, kp, ki, **options)
+        return IPI(a, kp, cfg["controller.ki"], **options)
     if law == "i-PD":
-        return IPD(a, kp, kd, **options)
-    return IPID(a, kp, ki, kd, **options)
+        return IPD(a, kp, cfg["controller.kd"], **options)
+    return IPID(a, kp, cfg["controller.ki"], cfg["controller.kd"], **options)
 
 
 def elements(cfg: Config) -> np.ndarray:

@@ -30,6 +30,7 @@ again: an interrupted benchmark resumes where it stopped.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import sys
@@ -69,6 +70,7 @@ class Entry:
     controller: str
     config: Config
     tuned: dict[str, float]
+    evaluations: int
     objective: float
     iae_setpoint: float
     iae_load: float
@@ -84,10 +86,11 @@ class Entry:
         return {"plant": self.plant, "controller": self.controller,
                 "gains": ", ".join(f"{k.removeprefix('controller.')} {v:.3g}"
                                    for k, v in self.tuned.items()),
-                "objective": self.objective, "iae_setpoint": self.iae_setpoint,
-                "iae_load": self.iae_load, "tv_u_noise": self.tv_u_noise,
-                "worst_map": self.worst, "stable_map": f"{self.n_stable}/{self.n_map}",
-                "stable": self.stable, "tuning_s": round(self.tuning_seconds, 1)}
+                "points": self.evaluations, "objective": self.objective,
+                "iae_setpoint": self.iae_setpoint, "iae_load": self.iae_load,
+                "tv_u_noise": self.tv_u_noise, "worst_map_stable": self.worst,
+                "stable_map": f"{self.n_stable}/{self.n_map}", "stable": self.stable,
+                "tuning_s": round(self.tuning_seconds, 1)}
 
 
 def _setting(cfg: Config, key: str) -> list[str]:
@@ -97,69 +100,130 @@ def _setting(cfg: Config, key: str) -> list[str]:
     return list(value)
 
 
-def _tuned(plant: str, cfg: Config, name: str, law: str, key: str, budget: int, seed: int,
-           out: Path, progress: Callable[[float, str], None] | None,
-           at: tuple[int, int]) -> tuple[Config, dict, float]:
-    """Tune one controller (or take a finished tuning from ``out``)."""
+@dataclass(frozen=True)
+class _Plant:
+    """A plant of the benchmark as checked before any work: its case and what each
+    controller's tuning takes."""
+
+    label: str
+    config: Config
+    spaces: dict[str, tuple[list[str], list[str]]]  # controller -> (params, log keys)
+    robustness: dict[str, np.ndarray]
+
+
+def _check_plant(plant: str | Path) -> _Plant:
+    """Everything a plant's tunings and evaluation will check, checked now (a mistake in
+    the last plant's table must not end a long run)."""
+    label, cfg = cases.resolve_case(plant)
+    obj = cfg["benchmark.objective"]
+    Objective.parse(obj, "benchmark.objective")
+    log = list(cfg["benchmark.log"])
+    spaces: dict[str, tuple[list[str], list[str]]] = {}
+    tuned: set[str] = set()
+    axes = batch.parse_grid(_setting(cfg, "benchmark.robustness"), "benchmark.robustness")
+    if len(axes) != 2:
+        raise ConfigError("benchmark.robustness", cfg["benchmark.robustness"],
+                          "must give exactly two KEY=SPEC axes (a map)")
+    for name, law, key in CONTROLLERS:
+        params = _setting(cfg, key)
+        base = cfg.with_overrides({"controller.law": law})
+        try:  # the bounds as the tuning will check them
+            pars = parse_parameters(params)
+            mine = [k for k in log if any(p.key == k for p in pars)]
+            pars = parse_parameters(params, mine)
+            batch.make_grid(base, {p.key: np.array([p.low, p.high]) for p in pars},
+                            points=tuple(p.key for p in pars))
+        except ConfigError as exc:
+            raise ConfigError(key, params, f"{exc.key} = {exc.value!r}: {exc.allowed}") \
+                from None
+        try:
+            batch.make_grid(base, axes)
+        except ConfigError as exc:
+            raise ConfigError("benchmark.robustness", f"{exc.key} = {exc.value}",
+                              f"{exc.allowed} (under {name})") from None
+        spaces[name] = (params, mine)
+        tuned |= {p.key for p in pars}
+    unused = [k for k in log if k not in tuned]
+    if unused:
+        raise ConfigError("benchmark.log", unused, "must name keys of benchmark.pid, "
+                          "benchmark.ip or benchmark.ipi")
+    return _Plant(label, cfg, spaces, axes)
+
+
+def _inputs(plant: _Plant, name: str, budget: int, seed: int) -> dict[str, Any]:
+    """What a tuning depends on: a finished tuning with the same inputs is reused."""
+    params, log = plant.spaces[name]
+    case = plant.config.to_toml()
+    return {"case_sha256": hashlib.sha256(case.encode()).hexdigest(), "params": params,
+            "log": log, "objective": plant.config["benchmark.objective"], "budget": budget,
+            "seed": seed, "mfcontrol": __version__}
+
+
+def _tuned(plant: _Plant, name: str, law: str, budget: int, seed: int, out: Path,
+           progress: Callable[[float, str], None] | None,
+           at: tuple[int, int]) -> tuple[Config, dict, int, float]:
+    """Tune one controller (or take a finished tuning with the same inputs from
+    ``out``): its best configuration, values, points evaluated and seconds."""
     from .tune import tune
 
-    params = _setting(cfg, key)
-    try:
-        tuned_keys = [p.key for p in parse_parameters(params)]
-    except ConfigError as exc:
-        raise ConfigError(key, params, exc.allowed) from None
-    log = [k for k in cfg["benchmark.log"] if k in tuned_keys]
-    objective = cfg["benchmark.objective"]
-    base = cfg.with_overrides({"controller.law": law})
-    summary = out / "summary.json"
-    if summary.is_file() and (out / "best.toml").is_file():
-        old = json.loads(summary.read_text())
-        if (old.get("budget"), old.get("seed"), old.get("objective")) == (
-                budget, seed, objective) and old.get("stopped") != "interrupted":
+    params, log = plant.spaces[name]
+    inputs = _inputs(plant, name, budget, seed)
+    marker = out / "benchmark.json"
+    if marker.is_file() and (out / "best.toml").is_file() and (out / "summary.json").is_file():
+        try:
+            same = json.loads(marker.read_text()) == inputs
+        except (OSError, ValueError):
+            same = False
+        if same:
+            old = json.loads((out / "summary.json").read_text())
             _, best = cases.resolve_case(out / "best.toml")
             return (best.with_overrides({"sweep.grid": None}), old["parameters"],
-                    float(old["seconds"]))
+                    int(old["evaluations"]), float(old["seconds"]))
 
     def step(done: int, total: int, best: float) -> None:
         if progress:
             progress((at[0] + done / total) / at[1],
-                     f"{plant} {name}: {done}/{total} points, best {best:.4g}")
+                     f"{plant.label} {name}: {done}/{total} points, best {best:.4g}")
 
     # no controller starts from the case's values: the PID's are a tuning rule's
-    r = tune(base, params, objective=objective, budget=budget, seed=seed, log=log,
+    r = tune(plant.config.with_overrides({"controller.law": law}), params,
+             objective=inputs["objective"], budget=budget, seed=seed, log=log,
              progress=step, start_from_case=False)
-    r.case = f"{plant} ({name})"
+    r.case = f"{plant.label} ({name})"
+    marker.unlink(missing_ok=True)
     r.save(out)
     if r.stopped == "interrupted":
         raise KeyboardInterrupt
-    return r.config, r.best, r.seconds
+    marker.write_text(json.dumps(inputs, indent=2) + "\n")  # last: the tuning is whole
+    return r.config, r.best, r.evaluations, r.seconds
 
 
-def _evaluate(plant: str, name: str, cfg: Config, tuned: dict, seconds: float) -> Entry:
+def _evaluate(plant: _Plant, name: str, cfg: Config, tuned: dict, evaluations: int,
+              seconds: float) -> Entry:
     from ..api.simulate import simulate
 
     obj = Objective.parse(cfg["benchmark.objective"], "benchmark.objective")
     quiet = simulate(cfg.with_overrides({"sensor.noise": "none"})).metrics
     noisy = simulate(cfg).metrics
-    axes = batch.parse_grid(_setting(cfg, "benchmark.robustness"))
-    grid = batch.make_grid(cfg, axes)
+    grid = batch.make_grid(cfg, plant.robustness)
     cols = batch.run_grid(grid)
     scores = obj.score(cols).reshape(grid.shape)
-    nominal = float(obj.score({k: np.array([noisy[k]]) for k in
-                               (*obj.metrics, "diverged", "stable")})[0])
-    return Entry(plant=plant, controller=name, config=cfg, tuned=tuned, objective=nominal,
-                 iae_setpoint=quiet["iae"] - (quiet["iae_load"] if math.isfinite(
-                     quiet["iae_load"]) else 0.0),
-                 iae_load=quiet["iae_load"], tv_u_noise=noisy["tv_u"],
-                 worst=float(scores[np.isfinite(scores)].max()) if np.isfinite(
-                     scores).any() else math.inf,
-                 n_stable=int(np.sum(cols["stable"])),
-                 n_map=grid.n_members, stable=bool(noisy["stable"] and quiet["stable"]),
+    finite = np.isfinite(scores)
+    load = quiet["iae_load"]
+    return Entry(plant=plant.label, controller=name, config=cfg, tuned=tuned,
+                 evaluations=evaluations, objective=obj.score_run(noisy),
+                 # without a load step the whole run is the setpoint's
+                 iae_setpoint=quiet["iae"] - (load if math.isfinite(load) else 0.0),
+                 iae_load=load, tv_u_noise=noisy["tv_u"],
+                 worst=float(scores[finite].max()) if finite.any() else math.inf,
+                 n_stable=int(np.sum(cols["stable"])), n_map=grid.n_members,
+                 stable=bool(noisy["stable"] and quiet["stable"]),
                  tuning_seconds=seconds, map_scores=scores)
 
 
-def benchmark(plant_names: Sequence[str] | None = None, *, budget: int = DEFAULT_BUDGET,
-              seed: int = 0, out: str | Path = "results/benchmark",
+def benchmark(plant_names: Sequence[str | Path] | None = None, *,
+              budget: int = DEFAULT_BUDGET, seed: int = 0,
+              out: str | Path = "results/benchmark",
               progress: Callable[[float, str], None] | None = None) -> list[Entry]:
     """Tune and evaluate a PID, an i-P and an i-PI on plants of the benchmark set.
 
@@ -169,7 +233,8 @@ def benchmark(plant_names: Sequence[str] | None = None, *, budget: int = DEFAULT
         Benchmark cases (``bench-*``, or case files with a ``[benchmark]`` table);
         default: the whole set (:func:`plants`).
     budget : int
-        Points per tuning, the same for every controller.
+        Points per tuning at most, the same for every controller (the tuning of a key
+        set whose population does not divide the budget uses a few points fewer).
     seed : int
         The tuner's seed, the same for every tuning.
     out : str or Path
@@ -192,40 +257,29 @@ def benchmark(plant_names: Sequence[str] | None = None, *, budget: int = DEFAULT
     if not names:
         raise ConfigError("--plants", names, "give at least one plant")
     out = Path(out)
+    checked: dict[str, _Plant] = {}
+    for name in names:  # every plant checked before any work
+        plant = _check_plant(name)
+        if plant.label in checked:
+            raise ConfigError("--plants", str(name), f"has the name {plant.label!r} of "
+                              "another plant: their folders would collide")
+        checked[plant.label] = plant
     entries: list[Entry] = []
     started = time.perf_counter()
-    configs = {}
-    for plant in names:  # every plant's settings checked before any work
-        label, cfg = cases.resolve_case(plant)
-        for _, law, key in CONTROLLERS:
-            try:  # the bounds as the tuning will check them
-                pars = parse_parameters(_setting(cfg, key))
-                batch.make_grid(cfg.with_overrides({"controller.law": law}),
-                                {p.key: np.array([p.low, p.high]) for p in pars},
-                                points=tuple(p.key for p in pars))
-            except ConfigError as exc:
-                raise ConfigError(key, cfg[key], f"{exc.key} = {exc.value!r}: "
-                                  f"{exc.allowed}") from None
-        try:
-            batch.make_grid(cfg, batch.parse_grid(_setting(cfg, "benchmark.robustness")))
-        except ConfigError as exc:
-            raise ConfigError("benchmark.robustness", f"{exc.key} = {exc.value}",
-                              exc.allowed) from None
-        Objective.parse(cfg["benchmark.objective"], "benchmark.objective")
-        configs[label] = cfg
-    total = len(configs) * len(CONTROLLERS)
-    for plant, cfg in configs.items():
+    total = len(checked) * len(CONTROLLERS)
+    for plant in checked.values():
         tuned = []
-        for name, law, key in CONTROLLERS:
-            best, values, seconds = _tuned(plant, cfg, name, law, key, budget, seed,
-                                           out / plant / name, progress,
-                                           (len(entries), total))
-            entry = _evaluate(plant, name, best, values, seconds)
+        for name, law, _ in CONTROLLERS:
+            best, values, evaluations, seconds = _tuned(
+                plant, name, law, budget, seed, out / plant.label / name, progress,
+                (len(entries), total))
+            entry = _evaluate(plant, name, best, values, evaluations, seconds)
             entries.append(entry)
             tuned.append(entry)
-        _plant_figure(plant, tuned, out / plant)
+        _plant_figure(plant.label, tuned, out / plant.label)
     seconds = time.perf_counter() - started
-    write_report(entries, out, budget=budget, seed=seed, seconds=seconds)
+    write_report(entries, out, budget=budget, seed=seed, seconds=seconds,
+                 plants_={p.label: p for p in checked.values()})
     return entries
 
 
@@ -239,60 +293,59 @@ def _plant_figure(plant: str, entries: list[Entry], out: Path) -> None:
 
 
 def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
-                 seconds: float) -> Path:
+                 seconds: float, plants_: dict[str, _Plant]) -> Path:
     """report.md, results.csv and robustness.png from the entries."""
     import pandas as pd
 
     from ..api.plotting import robustness_maps
+    from .compare import format_number as num
 
     out.mkdir(parents=True, exist_ok=True)
     table = pd.DataFrame([e.row() for e in entries])
     table.to_csv(out / "results.csv", index=False)
-    plants_ = list(dict.fromkeys(e.plant for e in entries))
+    labels = list(plants_)
     by = {(e.plant, e.controller): e for e in entries}
-    first = {p: next(e for e in entries if e.plant == p) for p in plants_}
-    axes = {p: batch.parse_grid(_setting(first[p].config, "benchmark.robustness"))
-            for p in plants_}
     robustness_maps(
-        [[by[p, c].map_scores for c, _, _ in CONTROLLERS] for p in plants_],
-        plants_, [c for c, _, _ in CONTROLLERS], [axes[p] for p in plants_],
-        [first[p].config["benchmark.objective"] for p in plants_], out / "robustness.png")
-
-    def num(v: float) -> str:
-        return "inf" if not math.isfinite(v) else f"{v:.4g}"
-
+        [[by[p, c].map_scores for c, _, _ in CONTROLLERS] for p in labels],
+        labels, [c for c, _, _ in CONTROLLERS], [plants_[p].robustness for p in labels],
+        [plants_[p].config["benchmark.objective"] for p in labels], out / "robustness.png")
+    points = sorted({e.evaluations for e in entries})
     lines = [
         "# Benchmark: PID, i-P and i-PI tuned alike on the benchmark set", "",
-        f"mfcontrol {__version__}; {len(plants_)} plants, {len(CONTROLLERS)} controllers; "
-        f"every tuning: differential evolution with {budget} points, seed {seed}, on the "
-        "plant's shipped scenario (setpoint step, load step and sensor noise together), "
-        "minimising the plant's `benchmark.objective`, from a random first population "
-        "(no controller starts from the case's own gains); the search spaces are the case's "
-        "`benchmark.pid`, `benchmark.ip` and `benchmark.ipi` (the i-P and the i-PI also "
-        "tune their algebraic estimator's window, their own filter, as the PID keeps its "
-        "derivative filter N = 10). The whole run took "
-        f"{seconds:.0f} s (compilation included when the cache was cold).", "",
+        f"mfcontrol {__version__}; {len(labels)} plants, {len(CONTROLLERS)} controllers. "
+        f"Every tuning: differential evolution with a budget of {budget} points (used: "
+        f"{points[0]} to {points[-1]}, the column *points*; a population that does not "
+        f"divide the budget leaves a few unused), seed {seed}, from a random first "
+        "population (no controller starts from the case's own gains), minimising the "
+        "plant's `benchmark.objective` on the plant's case as shipped (its reference, "
+        "disturbance and noise together). The search spaces are each case's "
+        "`benchmark.pid`, `benchmark.ip` and `benchmark.ipi` (in each tuning's "
+        "summary.json); keys they leave out keep the case's values. The whole run took "
+        f"{seconds:.0f} s (compilation included when the cache was cold; tunings found "
+        "finished in the folder are not run again).", "",
         "Columns: *objective* is the tuned objective on that scenario; *IAE setpoint* "
-        "and *IAE load* come from the same run without noise, before and after the load "
-        "step; *TV(u) noise* is the total variation of the control with the noise; "
-        "*stable map* is how many members of the robustness map (the plant changes of "
-        "`benchmark.robustness`, noise on) are stable, *worst map* the objective's worst "
-        "value over those that are; *stable* is the nominal run's stability with and "
-        "without noise. inf: no member or run was stable.", "",
-        "| plant | controller | gains | objective | IAE setpoint | IAE load | TV(u) noise "
-        "| worst map | stable map | stable |",
-        "|---|---|---|---|---|---|---|---|---|---|"]
+        "and *IAE load* come from the same run without noise, before and from the load "
+        "step (n/a: the case has none); *TV(u) noise* is the total variation of the "
+        "control with the noise; *stable map* is how many members of the robustness map "
+        "(the plant changes of `benchmark.robustness`, noise on) are stable, *worst "
+        "(stable)* the objective's worst value over those that are (inf: none is); "
+        "*stable* is the nominal run's stability with and without noise. A controller "
+        "that is not stable is never named best below.", "",
+        "| plant | controller | gains | points | objective | IAE setpoint | IAE load | "
+        "TV(u) noise | stable map | worst (stable) | stable |",
+        "|---|---|---|---|---|---|---|---|---|---|---|"]
     for e in entries:
         r = e.row()
-        lines.append(f"| {e.plant} | {e.controller} | {r['gains']} | {num(e.objective)} | "
-                     f"{num(e.iae_setpoint)} | {num(e.iae_load)} | {num(e.tv_u_noise)} | "
-                     f"{num(e.worst)} | {r['stable_map']} | {'yes' if e.stable else 'no'} |")
-    lines += ["", "## What the table shows", "", *_findings(entries, plants_), "",
+        lines.append(f"| {e.plant} | {e.controller} | {r['gains']} | {e.evaluations} | "
+                     f"{num(e.objective)} | {num(e.iae_setpoint)} | {num(e.iae_load)} | "
+                     f"{num(e.tv_u_noise)} | {r['stable_map']} | {num(e.worst)} | "
+                     f"{'yes' if e.stable else 'no'} |")
+    lines += ["", "## What the table shows", "", *_findings(entries, labels), "",
               "## Figures", "",
               "Robustness maps (objective over the plant changes; crosses: unstable or "
               "diverged members):", "", "![robustness maps](robustness.png)", ""]
-    for p in plants_:
-        lines += [f"### {p}", "", f"{cases.describe(p)}.", "",
+    for p in labels:
+        lines += [f"### {p}", "", f"{plants_[p].config['description']}", "",
                   f"![{p}: the three tuned controllers]({p}/comparison.png)", ""]
     path = out / "report.md"
     path.write_text("\n".join(lines))
@@ -300,34 +353,44 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
 
 
 def _findings(entries: list[Entry], plants_: list[str]) -> list[str]:
-    """Plain sentences computed from the table: who wins what, and where the intelligent
-    controllers lose."""
+    """Plain sentences computed from the table: who wins what among the stable
+    controllers, where the intelligent ones lose, and where any is fragile."""
     out = []
     names = [c for c, _, _ in CONTROLLERS]
 
-    def winner(p: str, attr: str) -> str:
-        vals = {e.controller: (-e.n_stable, e.worst) if attr == "robust" else getattr(e, attr)
-                for e in entries if e.plant == p}
-        return min(vals, key=lambda c: (vals[c], names.index(c)))
+    def winner(p: str, attr: str) -> str | None:
+        vals = {e.controller: (-e.n_stable, e.worst) if attr == "robust" else
+                (getattr(e, attr),) for e in entries if e.plant == p and e.stable}
+        vals = {c: v for c, v in vals.items() if all(math.isfinite(x) for x in v[1:]
+                                                     if attr == "robust") and
+                (attr == "robust" or math.isfinite(v[0]))}
+        return min(vals, key=lambda c: (vals[c], names.index(c))) if vals else None
 
     for attr, what in (("objective", "the tuned objective"),
                        ("iae_setpoint", "setpoint tracking (IAE without noise)"),
-                       ("iae_load", "load rejection (IAE after the load step)"),
+                       ("iae_load", "load rejection (IAE from the load step, no noise)"),
                        ("tv_u_noise", "the quietest control under noise (TV(u))"),
                        ("robust", "robustness (most stable members of the map, then the "
                         "lowest worst value)")):
-        wins = {c: [p for p in plants_ if winner(p, attr) == c] for c in names}
+        won = {p: winner(p, attr) for p in plants_}
+        wins = {c: [p for p in plants_ if won[p] == c] for c in names}
         parts = [f"{c} on {len(ps)} ({', '.join(ps)})" if ps else f"{c} on none"
                  for c, ps in wins.items()]
+        nobody = [p for p in plants_ if won[p] is None]
+        if nobody:
+            parts.append(f"no stable controller with a number on {', '.join(nobody)}")
         out.append(f"- Best on {what}: " + "; ".join(parts) + ".")
     lost = []
     for p in plants_:
         pid = next(e for e in entries if e.plant == p and e.controller == "PID")
         for e in entries:
-            if e.plant == p and e.controller != "PID" and e.objective > pid.objective:
-                how = (f"{e.objective / pid.objective:.3g}x the PID's"
-                       if math.isfinite(e.objective) else "unstable")
-                lost.append(f"{e.controller} on {p} ({how})")
+            if e.plant != p or e.controller == "PID":
+                continue
+            if not e.stable and pid.stable:
+                lost.append(f"{e.controller} on {p} (not stable)")
+            elif e.stable and pid.stable and e.objective > pid.objective:
+                lost.append(f"{e.controller} on {p} "
+                            f"({e.objective / pid.objective:.3g}x the PID's)")
     out.append("- Where an intelligent controller loses to the PID on the tuned objective: "
                + (", ".join(lost) if lost else "nowhere") + ".")
     fragile = [f"{e.controller} on {e.plant} ({e.n_stable}/{e.n_map})" for e in entries
@@ -342,6 +405,7 @@ def print_progress(stream=sys.stderr) -> Callable[[float, str], None]:
     t0 = time.perf_counter()
 
     def show(fraction: float, text: str) -> None:
+        show.drawn = True  # type: ignore[attr-defined]
         filled = int(round(24 * fraction))
         bar = "#" * filled + "-" * (24 - filled)
         line = (f"\r[{bar}] {100 * fraction:3.0f} % {time.perf_counter() - t0:,.0f} s  "
@@ -349,4 +413,5 @@ def print_progress(stream=sys.stderr) -> Callable[[float, str], None]:
         stream.write(line.ljust(110))
         stream.flush()
 
+    show.drawn = False  # type: ignore[attr-defined]
     return show

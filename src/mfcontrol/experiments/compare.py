@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..api.metrics import COLUMNS
 from ..api.result import Result
 from ..config.resolve import Config
@@ -67,7 +69,7 @@ class Comparison:
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for row in self.rows():
             lines.append("| " + " | ".join([row["case"], row["controller"],
-                                             *(_cell(row[k]) for k, _ in SHOWN)]) + " |")
+                                             *(format_number(row[k]) for k, _ in SHOWN)]) + " |")
         diff = self.differences()
         text = "\n".join(lines) + "\n"
         if diff:
@@ -90,7 +92,7 @@ class Comparison:
         (out / "comparison.md").write_text(
             f"# Comparison: {', '.join(self.names)}\n\nMetrics of the true output y "
             "(`mfcontrol run` on each case).\n\n" + self.markdown())
-        table = [[n, *(_cell(r.metrics[k], 3) for k, _ in SHOWN)]
+        table = [[n, *(format_number(r.metrics[k], 3) for k, _ in SHOWN)]
                  for n, r in zip(self.names, self.results, strict=True)]
         labels = [controller_label(c) if controller_label(c).startswith(n)
                   else f"{n}: {controller_label(c)}"
@@ -102,8 +104,10 @@ class Comparison:
         return out
 
 
-def _cell(v: Any, digits: int = 4) -> str:
-    if isinstance(v, bool):
+def format_number(v: Any, digits: int = 4) -> str:
+    """A table cell: yes/no, n/a for NaN (not defined), inf, or ``digits`` significant
+    digits."""
+    if isinstance(v, bool | np.bool_):
         return "yes" if v else "no"
     if isinstance(v, float):
         return "n/a" if math.isnan(v) else f"{v:.{digits}g}"

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..api import batch
+from ..api import batch, scenario
 from ..api.objective import AGGREGATES, Objective, aggregate
 from ..config.options import BY_KEY
 from ..config.resolve import Config, axis_value
@@ -63,8 +63,10 @@ class Parameter:
 
     def value(self, x: np.ndarray) -> np.ndarray:
         """The key's values from the optimiser's coordinates."""
-        v = 10.0 ** x if self.log else np.asarray(x, dtype=float)
-        return np.round(v) if self.integer else np.clip(v, self.low, self.high)
+        v = 10.0 ** np.asarray(x, dtype=float) if self.log else np.asarray(x, dtype=float)
+        if self.integer:
+            return np.clip(np.round(v), math.ceil(self.low), math.floor(self.high))
+        return np.clip(v, self.low, self.high)
 
     def coordinate(self, v: float) -> float:
         return math.log10(v) if self.log else float(v)
@@ -77,7 +79,10 @@ def parse_parameters(items: Sequence[str] | Mapping[str, tuple[float, float]],
     scale."""
     pairs: list[tuple[str, Any, Any, str]] = []
     if isinstance(items, Mapping):
-        pairs = [(k, *tuple(v), f"{k}={v}") for k, v in items.items()]
+        for k, v in items.items():
+            if not isinstance(v, tuple | list) or len(v) != 2:
+                raise ConfigError("--param", f"{k}={v!r}", "expected (LO, HI)")
+            pairs.append((k, v[0], v[1], f"{k}={v[0]}:{v[1]}"))
     else:
         for text in items:
             m = _RANGE.match(str(text))
@@ -86,11 +91,7 @@ def parse_parameters(items: Sequence[str] | Mapping[str, tuple[float, float]],
             pairs.append((m[1], m[2], m[3], text))
     out: list[Parameter] = []
     for key, lo, hi, text in pairs:
-        o = BY_KEY.get(key)
-        if o is None or o.kind not in ("float", "int") or key.startswith(("sweep.", "metrics.")) \
-                or key in ("sim.h", "sim.t_end", "sim.diverge_above"):
-            raise ConfigError("--param", text, "must name a numeric option that keeps the "
-                              "time grid (not sim.h, sim.t_end, metrics.* or sweep.*)")
+        batch.check_member_key(key, "--param")
         try:
             low, high = float(lo), float(hi)
         except (TypeError, ValueError):
@@ -100,6 +101,10 @@ def parse_parameters(items: Sequence[str] | Mapping[str, tuple[float, float]],
         if any(p.key == key for p in out):
             raise ConfigError("--param", key, "is given twice")
         out.append(Parameter(key, low, high, key in log))
+    for p in out:
+        if p.integer and math.ceil(p.low) > math.floor(p.high):
+            raise ConfigError("--param", f"{p.key}={p.low:g}:{p.high:g}", "a whole-number "
+                              "key needs a whole number between LO and HI")
     for key in log:
         p = next((p for p in out if p.key == key), None)
         if p is None:
@@ -182,18 +187,22 @@ class TuneResult:
         head = (f"# tuned by mfcontrol {__version__} from {self.case}: {values}\n"
                 f"# objective {self.objective.text}: {self.nominal!r} for this case's own run "
                 "(mfcontrol run)")
-        if self.scenarios:
+        if self.evaluations == 0:
+            head = (f"# tuning of {self.case} interrupted before any point was evaluated: "
+                    "the case as it was")
+        if self.scenarios and self.evaluations:
             head += (f";\n# {self.aggregate} over the {_n_scenarios(self.scenarios)} "
                      f"scenarios of sweep.grid (mfcontrol sweep): {self.value!r}")
         (out / "best.toml").write_text(head + "\n" + cfg.to_toml())
         (out / "summary.json").write_text(json.dumps(self.summary(), indent=2) + "\n")
         self.history.to_parquet(out / "history.parquet", index=False)
-        per_point = self.history.drop_duplicates("point")
+        per_point = self.history.drop_duplicates("point") if len(self.history) else \
+            self.history
         where = (f", {self.aggregate} over {_n_scenarios(self.scenarios)} scenarios"
                  if self.scenarios else "")
         convergence(per_point["point"].to_numpy(), per_point["value"].to_numpy(),
                     {p.key: per_point[p.key].to_numpy() for p in self.parameters},
-                    self.objective.text, f"Tuning {self.case}: {self.evaluations} of "
+                    self.objective.text, f"Tuning {self.case}\n{self.evaluations} of "
                     f"{self.budget} points by differential evolution{where} "
                     f"({_STOPPED[self.stopped]})", out / "convergence.png",
                     log=tuple(p.key for p in self.parameters if p.log))
@@ -276,16 +285,25 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         name, base = "config", case.with_overrides(dict(overrides or {}))
     else:
         name, base = cases.resolve_case(case, overrides)
-    base = base.with_overrides({"sweep.key": None, "sweep.values": None, "sweep.grid": None})
+    if base["sweep.key"] is not None:
+        raise ConfigError("case", name, "is a sweep case (sweep.key): tune a single case")
+    base = base.with_overrides({"sweep.grid": None})
     obj = Objective.parse(objective)
     if aggregate_by not in AGGREGATES:
         raise ConfigError("--aggregate", aggregate_by, f"must be one of {', '.join(AGGREGATES)}")
-    if not isinstance(budget, int | np.integer) or isinstance(budget, bool) or budget < 10:
-        raise ConfigError("--budget", budget, "must be a whole number >= 10")
     if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
         raise ConfigError("--seed", seed, "must be a whole number >= 0")
     pars = parse_parameters(params, log)
-    scen = batch.parse_grid(scenarios) if scenarios else {}
+    d = len(pars)
+    # scipy's default population (15 per dimension), fewer when the budget would allow
+    # fewer than four generations; at least five members (scipy's floor)
+    per_dim = max(1, min(15 * d, (budget if isinstance(budget, int) else 0) // 4) // d)
+    size = max(5, per_dim * d)
+    if not isinstance(budget, int | np.integer) or isinstance(budget, bool) or \
+            budget < max(10, 2 * size):
+        raise ConfigError("--budget", budget, f"must be a whole number >= {max(10, 2 * size)} "
+                          f"(two generations of {size} points for {d} tuned keys)")
+    scen = batch.parse_grid(scenarios, "--scenarios") if scenarios else {}
     for k in scen:
         if any(p.key == k for p in pars):
             raise ConfigError("--scenarios", k, "is also a tuned key (--param)")
@@ -293,90 +311,134 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     # the bounds and the scenarios, checked once as a grid would check them
     batch.make_grid(base, {**{p.key: np.array([p.low, p.high]) for p in pars}, **scen},
                     points=keys)
+    _refuse_keys_without_effect(base, keys)
     n_scen = _n_scenarios(scen)
+    scen_grid = batch.Grid(base=base, axes=scen) if scen else None
+    # scenario keys the checks across options read: each point is checked with each of
+    # their values (else with the base's)
+    from ..config.resolve import _check_consistency, keys_read
+
+    checked = keys_read(_check_consistency, base)
+    scen_settings = ([{k: axis_value(k, v[0]) for k, v in scen_grid.values(m, m + 1).items()
+                       if k in checked} for m in range(n_scen)] if scen_grid else [{}])
+    scen_settings = [dict(t) for t in {tuple(sorted(c.items())) for c in scen_settings}]
 
     rows: list[pd.DataFrame] = []
-    state = {"evals": 0, "runs": 0, "gen": 0, "best": math.inf, "best_x": None}
+    state: dict[str, Any] = {"evals": 0, "runs": 0, "gen": 0, "best": math.inf,
+                             "best_values": None, "converged": False, "error": None}
+
+    def valid(point: dict[str, float]) -> bool:
+        try:
+            for setting in scen_settings:
+                base.with_overrides({**point, **setting})
+            return True
+        except ConfigError:
+            return False
 
     def evaluate(X: np.ndarray) -> np.ndarray:
+        try:
+            return _evaluate(X)
+        except (KeyboardInterrupt, _Abort):
+            raise
+        except Exception as exc:  # noqa: BLE001 - carried past scipy, re-raised below
+            # scipy turns a ValueError (a ConfigError is one) into a RuntimeError about
+            # its map-like callable: carry the original out instead
+            state["error"] = exc
+            raise _Abort from None
+
+    def _evaluate(X: np.ndarray) -> np.ndarray:
         X = np.atleast_2d(np.asarray(X, dtype=float).T).T  # (D, S) even for one point
         values = {p.key: p.value(X[i]) for i, p in enumerate(pars)}
         n = X.shape[1]
-        ok = np.zeros(n, dtype=bool)
-        for j in range(n):  # each point's combination through the checks across options
-            try:
-                base.with_overrides({k: axis_value(k, v[j]) for k, v in values.items()})
-                ok[j] = True
-            except ConfigError:
-                pass
+        ok = np.array([valid({k: axis_value(k, v[j]) for k, v in values.items()})
+                       for j in range(n)], dtype=bool)
         scores = np.full(n, np.inf)
         seen = np.ones(n)  # what the optimiser sees of a failed point (see _PENALTY)
+        frames = []
+        cols = None
         if ok.any():
             grid = batch.Grid(base=base, axes={**{k: v[ok] for k, v in values.items()},
                                                **scen}, points=keys)
             cols = batch.run_range(grid, 0, grid.n_members)
             per_run = obj.score(cols)
             scores[ok] = aggregate(per_run.reshape(-1, n_scen), aggregate_by)
-            seen[ok] = _badness(cols, n_scen, base["metrics.stable_tol"])
+            seen[ok] = _badness(cols, n_scen, base["metrics.stable_tol"],
+                                scenario.n_steps(base))
             point = np.flatnonzero(ok)[cols["member"] // n_scen] + state["evals"]
-            frame = pd.DataFrame({"generation": state["gen"], "point": point,
-                                  "scenario": cols["member"] % n_scen,
-                                  **{k: v for k, v in cols.items() if k != "member"},
-                                  "score": per_run,
-                                  "value": np.repeat(scores[ok], n_scen)})
-            rows.append(frame)
-            state["runs"] += grid.n_members
+            frames.append(pd.DataFrame({"generation": state["gen"], "point": point,
+                                        "scenario": cols["member"] % n_scen,
+                                        **{k: v for k, v in cols.items() if k != "member"},
+                                        "score": per_run,
+                                        "value": np.repeat(scores[ok], n_scen)}))
         bad = np.flatnonzero(~ok)
         if bad.size:
-            rows.append(pd.DataFrame({"generation": state["gen"], "point": bad + state["evals"],
-                                      "scenario": -1, **{k: v[bad] for k, v in values.items()},
-                                      "score": np.inf, "value": np.inf}))
+            frames.append(pd.DataFrame({"generation": state["gen"],
+                                        "point": bad + state["evals"], "scenario": -1,
+                                        **{k: v[bad] for k, v in values.items()},
+                                        "diverged": False, "stable": False,
+                                        "score": np.inf, "value": np.inf}))
+        if state["gen"] == 0 and cols is not None:
+            _refuse_undefined_objective(obj, cols)
+        # the bookkeeping at once, so that an interrupt leaves it whole
         j = int(np.argmin(scores))
+        rows.extend(frames)
+        state["runs"] += int(ok.sum()) * n_scen
         if scores[j] < state["best"]:
-            state["best"], state["best_x"] = float(scores[j]), X[:, j].copy()
+            state["best"] = float(scores[j])
+            state["best_values"] = {k: axis_value(k, v[j]) for k, v in values.items()}
         state["evals"] += n
         state["gen"] += 1
         if progress:
             progress(state["evals"], budget, state["best"])
         return np.where(np.isfinite(scores), scores, _PENALTY * (1.0 + seen))
 
+    def converged(intermediate_result) -> bool:  # the name scipy looks for
+        """Stop when every member of the population has a real value and they agree to
+        1 % (scipy's rule, which would also stop on a population of penalties)."""
+        e = intermediate_result.population_energies
+        if np.all(e < _PENALTY) and np.std(e) <= 0.01 * abs(np.mean(e)):
+            state["converged"] = True
+        return state["converged"]
+
     # the case's own values first: the result is never worse than them
-    start = {p.key: float(base[p.key]) for p in pars}
-    x_start = np.array([p.coordinate(min(max(start[p.key], p.low), p.high)) if not p.log or
-                        start[p.key] > 0 else p.bounds()[0] for p in pars])
-    inside = start_from_case and all(p.low <= start[p.key] <= p.high for p in pars)
-    d = len(pars)
-    # scipy's default population (15 per dimension), fewer when the budget would allow
-    # fewer than four generations
-    per_dim = max(1, min(15 * d, budget // 4) // d)
-    size = max(5, per_dim * d)  # scipy's population has at least five members
-    maxiter = max(0, budget // size - 1)
+    start = {p.key: base[p.key] for p in pars}
+    inside = start_from_case and all(start[p.key] is not None and
+                                     p.low <= start[p.key] <= p.high for p in pars)
+    x_start = np.array([p.coordinate(start[p.key]) for p in pars]) if inside else None
+    maxiter = budget // size - 1
     stopped = "budget"
     try:
-        res = differential_evolution(
+        differential_evolution(
             evaluate, [p.bounds() for p in pars], popsize=per_dim, maxiter=maxiter,
             rng=np.random.default_rng(seed), polish=False, vectorized=True,
-            updating="deferred", init="latinhypercube", x0=x_start if inside else None,
-            integrality=[p.integer for p in pars])
-        if res.success:
+            updating="deferred", init="latinhypercube", x0=x_start, tol=0.0, atol=0.0,
+            callback=converged,
+            # whole numbers: scipy rounds its coordinates, which for a log-scaled key are
+            # log10 of the value; Parameter.value rounds those itself
+            integrality=[p.integer and not p.log for p in pars])
+        if state["converged"]:
             stopped = "converged"
     except KeyboardInterrupt:
         stopped = "interrupted"
-    history = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    except _Abort:
+        raise state["error"] from None
+    history = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(
+        columns=["generation", "point", "scenario", *keys, "score", "value"])
     start_value = math.nan  # not evaluated: outside the bounds, or not asked for
     if inside and not history.empty:
         first = history[history["point"] == 0]
         start_value = float(first["value"].iloc[0]) if len(first) else math.nan
-    if state["best_x"] is None:  # nothing evaluated (interrupted at once)
-        best = start
-        best_cfg = base
-        nominal = value = math.inf
-    else:
-        best = {p.key: axis_value(p.key, float(p.value(state["best_x"][i])))
-                for i, p in enumerate(pars)}
+    best, best_cfg, value, nominal = start, base, math.nan, math.nan
+    if state["best_values"] is not None:  # the values evaluated, not recomputed
+        best = state["best_values"]
         best_cfg = base.with_overrides(best)
         value = state["best"]
-        nominal = _nominal(best_cfg, obj)
+        try:
+            nominal = _nominal(best_cfg, obj)
+        except KeyboardInterrupt:
+            stopped = "interrupted"
+    elif state["evals"]:
+        value = math.inf  # evaluated, nothing valid and stable
     result = TuneResult(
         case=name, objective=obj, aggregate=aggregate_by, parameters=pars, scenarios=scen,
         best=best, value=value, nominal=nominal, start=start, start_value=start_value,
@@ -388,6 +450,44 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     return result
 
 
+class _Abort(Exception):
+    """Carries an error out of scipy's optimiser (see ``evaluate``)."""
+
+
+def _refuse_keys_without_effect(base: Config, keys: tuple[str, ...]) -> None:
+    """A tuned key that nothing a run is built from reads (``controller.ki`` under an
+    i-P) would be a flat dimension of the search: refused."""
+    from ..api.simulate import member_parts
+    from ..config.resolve import keys_read
+
+    read: set[str] = set()
+    for build in member_parts().values():
+        read |= keys_read(build, base)
+    for key in keys:
+        if key not in read:
+            raise ConfigError("--param", key, f"has no effect on a run of this case (law "
+                              f"{base['controller.law']}, plant {base['plant.model']}): "
+                              "tune a key the run reads")
+
+
+def _refuse_undefined_objective(obj: Objective, cols: dict[str, np.ndarray]) -> None:
+    """An objective that is NaN on every stable run of the first generation is not
+    defined for this case (``iae_load`` without a load step, a step metric without a
+    step reference): refused rather than scored inf everywhere."""
+    stable = np.asarray(cols["stable"], dtype=bool)
+    for name in obj.metrics:
+        v = np.asarray(cols[name], dtype=float)
+        if stable.any() and np.isnan(v[stable]).all():
+            why = {"iae_load": "it needs a load step (a step disturbance or a plant "
+                               "schedule) within the horizon",
+                   "overshoot": "it needs a step reference (smooth-step)",
+                   "rise_time": "it needs a step reference (smooth-step)",
+                   "settling_time": "it needs a step reference that settles within its "
+                                    "window"}.get(name, "it is not a number on stable runs")
+            raise ConfigError("--objective", obj.text, f"{name} is not defined for this "
+                              f"case: {why}")
+
+
 #: what the optimiser sees of a point that scored inf: this times (1 + its badness). Not
 #: inf, because a population that failed everywhere would stall scipy's search (it
 #: evaluates an all-inf population again, the same points); graded, so that such a
@@ -395,16 +495,18 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
 _PENALTY = 1e100
 
 
-def _badness(cols: dict[str, np.ndarray], n_scen: int, tol: float) -> np.ndarray:
-    """How badly each point's worst scenario failed, in [0, 1]: a run unstable by the
-    rule 0 .. 0.5 (its final error over the tolerance), a diverged run 0.5 .. 1 (the
-    earlier, the worse), a finite run whose objective is not a number 0.25."""
-    n_done = cols["n_samples"] / np.max(cols["n_samples"])
+def _badness(cols: dict[str, np.ndarray], n_scen: int, tol: float, n: int) -> np.ndarray:
+    """How badly each point's worst scenario failed, in [0, 1]: a stable run whose
+    objective is not a number 0; a run unstable by the rule 0.1 .. 0.5 (its final error
+    over the tolerance; 0.5 where that ratio is not a number); a diverged run 0.5 .. 1
+    (the earlier in its n samples, the worse)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = cols["max_abs_e_final"] / (tol * cols["max_abs_ref"])
-    unstable = 0.5 * (1.0 - 1.0 / np.where(np.isfinite(ratio) & (ratio > 1), ratio, 1.0))
-    bad = np.where(cols["diverged"], 1.0 - 0.5 * n_done,
-                   np.where(cols["stable"], 0.25, unstable))
+    unstable = np.where(np.isfinite(ratio) & (ratio >= 1),
+                        0.5 - 0.4 / np.where(np.isfinite(ratio) & (ratio >= 1), ratio, 1.0),
+                        0.5)
+    bad = np.where(cols["diverged"], 1.0 - 0.5 * cols["n_samples"] / n,
+                   np.where(cols["stable"], 0.0, unstable))
     return bad.reshape(-1, n_scen).max(axis=1)
 
 
@@ -412,6 +514,4 @@ def _nominal(cfg: Config, obj: Objective) -> float:
     """The objective of the configuration's single run, the way ``mfcontrol run`` runs it."""
     from ..api.simulate import simulate
 
-    m = simulate(cfg).metrics
-    return float(obj.score({k: np.array([m[k]]) for k in (*obj.metrics, "diverged",
-                                                           "stable")})[0])
+    return obj.score_run(simulate(cfg).metrics)
