@@ -312,7 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--plants", nargs="+", metavar="CASE",
                    help="benchmark cases to run (default: every bench-* case)")
     s.add_argument("--budget", type=int, help="points per tuning, the same for every "
-                   "controller (default 1500)")
+                   "controller (default 3000)")
     s.add_argument("--seed", type=int, default=0, help="the tuner's seed (default 0)")
     s.add_argument("--out", help="output folder (default results/benchmark)")
     s.set_defaults(func=_cmd_benchmark)

@@ -41,7 +41,7 @@ def test_same_budget_seed_and_objective_for_every_controller(run):
     for e in entries:
         s = json.loads((out / PLANT / e.controller / "summary.json").read_text())
         assert (s["budget"], s["seed"], s["objective"]) == (BUDGET, 1, "iae + 0.01*tv_u")
-        assert BUDGET - 6 < s["evaluations"] <= BUDGET
+        assert BUDGET - 6 < s["evaluations"] <= BUDGET and s["stopped"] == "budget"
 
 
 def test_the_table_is_the_tuned_controllers_runs(run):
@@ -74,6 +74,7 @@ def test_the_table_is_the_tuned_controllers_runs(run):
     for e in entries:
         assert f"| {PLANT} | {e.controller} |" in md
     assert "## What the table shows" in md and "loses to the PID" in md
+    assert "at a bound of their search space" in md
     for png in ("robustness.png", f"{PLANT}/comparison.png",
                 f"{PLANT}/PID/convergence.png"):
         assert (out / png).stat().st_size > 20_000
@@ -147,7 +148,7 @@ def test_a_tuning_with_other_inputs_is_not_reused(tmp_path, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr("mfcontrol.experiments.tune.tune", counted)
-    plant.write_text(plant.read_text().replace('"controller.kd=0.0001:10"',
+    plant.write_text(plant.read_text().replace('"controller.kd=0.000001:10"',
                                                '"controller.kd=0.001:1"'))
     bm.benchmark([str(plant)], budget=12, out=tmp_path / "out")
     assert len(calls) == 3  # the case changed: every tuning runs again

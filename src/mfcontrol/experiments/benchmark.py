@@ -54,7 +54,7 @@ from .tune import parse_parameters
 CONTROLLERS = (("PID", "pid", "benchmark.pid"), ("i-P", "i-P", "benchmark.ip"),
                ("i-PI", "i-PI", "benchmark.ipi"))
 #: points per tuning when no budget is given
-DEFAULT_BUDGET = 1500
+DEFAULT_BUDGET = 3000
 
 
 def plants() -> list[str]:
@@ -185,10 +185,11 @@ def _tuned(plant: _Plant, name: str, law: str, budget: int, seed: int, out: Path
             progress((at[0] + done / total) / at[1],
                      f"{plant.label} {name}: {done}/{total} points, best {best:.4g}")
 
-    # no controller starts from the case's values: the PID's are a tuning rule's
+    # no controller starts from the case's values (the PID's are a tuning rule's), and
+    # every search spends the whole budget (none stops early on a collapsed population)
     r = tune(plant.config.with_overrides({"controller.law": law}), params,
              objective=inputs["objective"], budget=budget, seed=seed, log=log,
-             progress=step, start_from_case=False)
+             progress=step, start_from_case=False, tol=0.0)
     r.case = f"{plant.label} ({name})"
     marker.unlink(missing_ok=True)
     r.save(out)
@@ -314,8 +315,9 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
         "# Benchmark: PID, i-P and i-PI tuned alike on the benchmark set", "",
         f"mfcontrol {__version__}; {len(labels)} plants, {len(CONTROLLERS)} controllers. "
         f"Every tuning: differential evolution with a budget of {budget} points (used: "
-        f"{points[0]} to {points[-1]}, the column *points*; a population that does not "
-        f"divide the budget leaves a few unused), seed {seed}, from a random first "
+        f"{points[0]} to {points[-1]}, the column *points*: every search spends the "
+        "whole budget, but a population that does not divide it leaves a few points "
+        f"unused), seed {seed}, from a random first "
         "population (no controller starts from the case's own gains), minimising the "
         "plant's `benchmark.objective` on the plant's case as shipped (its reference, "
         "disturbance and noise together). The search spaces are each case's "
@@ -340,7 +342,8 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
                      f"{num(e.objective)} | {num(e.iae_setpoint)} | {num(e.iae_load)} | "
                      f"{num(e.tv_u_noise)} | {r['stable_map']} | {num(e.worst)} | "
                      f"{'yes' if e.stable else 'no'} |")
-    lines += ["", "## What the table shows", "", *_findings(entries, labels), "",
+    spaces = {p: plants_[p].spaces for p in labels}
+    lines += ["", "## What the table shows", "", *_findings(entries, labels, spaces), "",
               "## Figures", "",
               "Robustness maps (objective over the plant changes; crosses: unstable or "
               "diverged members):", "", "![robustness maps](robustness.png)", ""]
@@ -352,7 +355,8 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
     return path
 
 
-def _findings(entries: list[Entry], plants_: list[str]) -> list[str]:
+def _findings(entries: list[Entry], plants_: list[str],
+              spaces: dict[str, dict[str, tuple[list[str], list[str]]]]) -> list[str]:
     """Plain sentences computed from the table: who wins what among the stable
     controllers, where the intelligent ones lose, and where any is fragile."""
     out = []
@@ -393,6 +397,20 @@ def _findings(entries: list[Entry], plants_: list[str]) -> list[str]:
                             f"({e.objective / pid.objective:.3g}x the PID's)")
     out.append("- Where an intelligent controller loses to the PID on the tuned objective: "
                + (", ".join(lost) if lost else "nowhere") + ".")
+    at_bound = []
+    for e in entries:
+        params, log = spaces[e.plant][e.controller]
+        for p in parse_parameters(params, log):
+            v = e.tuned.get(p.key)
+            if v is None:
+                continue
+            for bound, side in ((p.low, "lower"), (p.high, "upper")):
+                if (abs(math.log(v / bound)) < 0.01 if p.log
+                        else abs(v - bound) <= 0.001 * (p.high - p.low)):
+                    at_bound.append(f"{e.controller} {p.key.removeprefix('controller.')} on "
+                                    f"{e.plant} ({side}, {bound:g})")
+    out.append("- Tuned values at a bound of their search space (the best may lie beyond "
+               "it): " + (", ".join(at_bound) if at_bound else "none") + ".")
     fragile = [f"{e.controller} on {e.plant} ({e.n_stable}/{e.n_map})" for e in entries
                if e.n_stable < e.n_map]
     out.append("- Unstable somewhere on the robustness map: "

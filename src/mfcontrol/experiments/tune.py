@@ -228,7 +228,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
          log: Sequence[str] = (), overrides: Mapping[str, Any] | None = None,
          out: str | Path | None = None,
          progress: Callable[[int, int, float], None] | None = None,
-         start_from_case: bool = True) -> TuneResult:
+         start_from_case: bool = True, tol: float = 0.01) -> TuneResult:
     """Minimise an objective over some keys of a case by simulation.
 
     Parameters
@@ -261,6 +261,10 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         Put the case's own values of the tuned keys (when within the bounds) in the first
         population, so that the result is never worse than them. A comparison of
         controllers turns it off: no controller starts from a point chosen for it.
+    tol : float
+        Stop once every member of the population has a real value and their spread
+        (standard deviation) is within this fraction of their mean (scipy's default
+        rule); 0 spends the whole budget.
 
     Returns
     -------
@@ -293,6 +297,8 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         raise ConfigError("--aggregate", aggregate_by, f"must be one of {', '.join(AGGREGATES)}")
     if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
         raise ConfigError("--seed", seed, "must be a whole number >= 0")
+    if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 <= tol < 1:
+        raise ConfigError("tol", tol, "must be a number in [0, 1)")
     pars = parse_parameters(params, log)
     d = len(pars)
     # scipy's default population (15 per dimension), fewer when the budget would allow
@@ -394,9 +400,9 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
 
     def converged(intermediate_result) -> bool:  # the name scipy looks for
         """Stop when every member of the population has a real value and they agree to
-        1 % (scipy's rule, which would also stop on a population of penalties)."""
+        ``tol`` (scipy's rule, which would also stop on a population of penalties)."""
         e = intermediate_result.population_energies
-        if np.all(e < _PENALTY) and np.std(e) <= 0.01 * abs(np.mean(e)):
+        if tol > 0 and np.all(e < _PENALTY) and np.std(e) <= tol * abs(np.mean(e)):
             state["converged"] = True
         return state["converged"]
 
