@@ -171,7 +171,6 @@ def _cmd_tune(args) -> int:
     if result.evaluations == 0:
         print("mfcontrol: interrupted before any point was evaluated", file=sys.stderr)
         return 130
-    best = ", ".join(f"{k} = {v:.6g}" for k, v in result.best.items())
     own = ", ".join(f"{k} = {v:.6g}" if v is not None else f"{k} unset"
                     for k, v in result.start.items())
     own += (": not evaluated" if result.start_value != result.start_value
@@ -183,6 +182,7 @@ def _cmd_tune(args) -> int:
         print(f"{name}: no point was valid and stable in {result.evaluations} points: widen "
               "or move the bounds")
     else:
+        best = ", ".join(f"{k} = {v:.6g}" for k, v in result.best.items())
         print(f"{name}: best {args.objective} = {result.value:.6g}{where} at {best} "
               f"({result.evaluations} points, {result.runs} runs, {result.seconds:.1f} s, "
               f"{result.stopped}); the case's own {own}")

@@ -151,4 +151,42 @@ def test_a_tuning_with_other_inputs_is_not_reused(tmp_path, monkeypatch):
     plant.write_text(plant.read_text().replace('"controller.kd=0.000001:10"',
                                                '"controller.kd=0.001:1"'))
     bm.benchmark([str(plant)], budget=12, out=tmp_path / "out")
-    assert len(calls) == 3  # the case changed: every tuning runs again
+    assert len(calls) == 1  # the PID's space changed: its tuning runs again, no other
+
+
+def test_a_search_that_finds_nothing_is_reported_as_such(tmp_path, monkeypatch):
+    plant = _user_plant(tmp_path)
+    real = mfcontrol.experiments.tune.tune
+
+    def nothing_stable(base, params, **kwargs):
+        r = real(base, params, **kwargs)
+        if base["controller.law"] == "i-P":
+            r.value = math.inf
+        return r
+
+    monkeypatch.setattr("mfcontrol.experiments.tune.tune", nothing_stable)
+    entries = bm.benchmark([str(plant)], budget=12, out=tmp_path / "out")
+    ip = next(e for e in entries if e.controller == "i-P")
+    assert not ip.stable and math.isinf(ip.objective) and ip.tuned == {}
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "| my-plant | i-P | no stable point found |" in md
+
+
+def _entry(controller, objective, stable=True, tuned=None):
+    return bm.Entry(plant="p", controller=controller, config=None, tuned=tuned or {},
+                    evaluations=10, objective=objective, iae_setpoint=objective,
+                    iae_load=objective, tv_u_noise=objective, worst=objective, n_stable=25,
+                    n_map=25, stable=stable, tuning_seconds=1.0, map_scores=np.zeros((5, 5)))
+
+
+def test_findings_name_winners_losers_and_bounds():
+    spaces = {"p": {"PID": (["controller.kp=0.1:10"], ["controller.kp"]),
+                    "i-P": (["controller.kp=0.1:10"], []), "i-PI": (["controller.kp=0.1:10"], [])}}
+    entries = [_entry("PID", 2.0, tuned={"controller.kp": 10.0}),
+               _entry("i-P", 1.0, stable=False, tuned={"controller.kp": 5.0}),
+               _entry("i-PI", 3.0, tuned={"controller.kp": 0.1})]
+    text = "\n".join(bm._findings(entries, ["p"], spaces))
+    # the unstable i-P is never best although its numbers are lowest
+    assert "Best on the tuned objective: PID on 1 (p); i-P on none; i-PI on none." in text
+    assert "i-P on p (not stable), i-PI on p (1.5x the PID's)" in text
+    assert "PID kp on p (upper, 10), i-PI kp on p (lower, 0.1)" in text

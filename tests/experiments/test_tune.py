@@ -149,7 +149,9 @@ def test_bad_parameters_are_named(items, log, needle):
     ({"params": ["controller.ki=0:1"]}, "no effect"),
     ({"budget": 9}, "--budget"),
     ({"params": ["controller.window=2.2:2.8"]}, "whole number"),
-    ({"objective": "iae_load", "params": ["controller.kp=10:100"]}, "load step"),
+    ({"objective": "iae_load"}, "load step"),
+    ({"objective": "iae + overshoot", "overrides": {"reference.kind": "ramp-hold-ramp"}},
+     "step reference"),
     ({"params": ["controller.alpha=0:2"]}, "controller.alpha"),
 ])
 def test_bad_settings_are_refused_before_any_run(closed_form, kwargs, needle):
@@ -233,3 +235,21 @@ def test_an_error_inside_the_search_is_the_error_not_scipys(closed_form, monkeyp
     monkeypatch.setattr(batch, "run_range", refused)
     with pytest.raises(mfcontrol.ConfigError, match="a message of ours"):
         tune(closed_form, ["controller.kp=10:100"], objective="ise", budget=30)
+
+
+@pytest.mark.parametrize(("param", "log"), [("controller.kp=5:30", ()),
+                                            ("controller.kp=5:30", ("controller.kp",)),
+                                            ("controller.kp=1:5", ("controller.kp",))])
+def test_the_cases_own_value_on_a_bound_starts_the_search(closed_form, param, log):
+    cfg = closed_form.with_overrides({"sim.t_end": 2.0})  # kp = 5
+    r = tune(cfg, [param], log=log, objective="ise", budget=20)
+    assert r.history[r.history["point"] == 0]["controller.kp"].iloc[0] == 5.0
+
+
+def test_a_population_refused_everywhere_spends_the_whole_budget(closed_form, tmp_path):
+    # each bound is valid against the case; every combination has duty_min > duty_max
+    r = tune(closed_form, ["controller.duty_min=50:100", "controller.duty_max=-100:-50"],
+             objective="ise", budget=30, out=tmp_path)
+    assert r.evaluations == 30 and r.stopped == "budget" and math.isinf(r.value)
+    history = pd.read_parquet(tmp_path / "history.parquet")
+    assert history["refused"].all() and (history["scenario"] == -1).all()

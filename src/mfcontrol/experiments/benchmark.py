@@ -48,7 +48,12 @@ from ..api.objective import Objective
 from ..config.resolve import Config
 from ..errors import ConfigError
 from . import cases
-from .tune import parse_parameters
+from .tune import (
+    _refuse_keys_without_effect,
+    _refuse_undefined_objective,
+    parse_parameters,
+    population,
+)
 
 #: the controllers compared: (name in the report, controller.law, benchmark key)
 CONTROLLERS = (("PID", "pid", "benchmark.pid"), ("i-P", "i-P", "benchmark.ip"),
@@ -85,7 +90,7 @@ class Entry:
     def row(self) -> dict[str, Any]:
         return {"plant": self.plant, "controller": self.controller,
                 "gains": ", ".join(f"{k.removeprefix('controller.')} {v:.3g}"
-                                   for k, v in self.tuned.items()),
+                                   for k, v in self.tuned.items()) or "no stable point found",
                 "points": self.evaluations, "objective": self.objective,
                 "iae_setpoint": self.iae_setpoint, "iae_load": self.iae_load,
                 "tv_u_noise": self.tv_u_noise, "worst_map_stable": self.worst,
@@ -111,7 +116,7 @@ class _Plant:
     robustness: dict[str, np.ndarray]
 
 
-def _check_plant(plant: str | Path) -> _Plant:
+def _check_plant(plant: str | Path, budget: int) -> _Plant:
     """Everything a plant's tunings and evaluation will check, checked now (a mistake in
     the last plant's table must not end a long run)."""
     label, cfg = cases.resolve_case(plant)
@@ -133,11 +138,16 @@ def _check_plant(plant: str | Path) -> _Plant:
             pars = parse_parameters(params, mine)
             batch.make_grid(base, {p.key: np.array([p.low, p.high]) for p in pars},
                             points=tuple(p.key for p in pars))
+            population(budget, len(pars))
+            _refuse_keys_without_effect(base, tuple(p.key for p in pars))
+            _refuse_undefined_objective(Objective.parse(obj), base)
         except ConfigError as exc:
             raise ConfigError(key, params, f"{exc.key} = {exc.value!r}: {exc.allowed}") \
                 from None
         try:
-            batch.make_grid(base, axes)
+            grid = batch.make_grid(base, axes)
+            if batch.paper_grid(grid):  # two keys writing one model quantity are refused
+                batch._cell_changes(grid)
         except ConfigError as exc:
             raise ConfigError("benchmark.robustness", f"{exc.key} = {exc.value}",
                               f"{exc.allowed} (under {name})") from None
@@ -153,8 +163,12 @@ def _check_plant(plant: str | Path) -> _Plant:
 def _inputs(plant: _Plant, name: str, budget: int, seed: int) -> dict[str, Any]:
     """What a tuning depends on: a finished tuning with the same inputs is reused."""
     params, log = plant.spaces[name]
-    case = plant.config.to_toml()
-    return {"case_sha256": hashlib.sha256(case.encode()).hexdigest(), "params": params,
+    # the case without what this tuning does not read (the description, the robustness
+    # map, the other controllers' spaces): editing those does not run it again
+    case = plant.config.with_overrides({k: None for k in plant.config.explicit
+                                        if k == "description" or k.startswith("benchmark.")})
+    return {"case_sha256": hashlib.sha256(case.to_toml().encode()).hexdigest(),
+            "params": params,
             "log": log, "objective": plant.config["benchmark.objective"], "budget": budget,
             "seed": seed, "mfcontrol": __version__}
 
@@ -177,8 +191,9 @@ def _tuned(plant: _Plant, name: str, law: str, budget: int, seed: int, out: Path
         if same:
             old = json.loads((out / "summary.json").read_text())
             _, best = cases.resolve_case(out / "best.toml")
-            return (best.with_overrides({"sweep.grid": None}), old["parameters"],
-                    int(old["evaluations"]), float(old["seconds"]))
+            found = isinstance(old["best"], float | int)
+            return (best.with_overrides({"sweep.grid": None}) if found else None,
+                    old["parameters"], int(old["evaluations"]), float(old["seconds"]))
 
     def step(done: int, total: int, best: float) -> None:
         if progress:
@@ -196,13 +211,21 @@ def _tuned(plant: _Plant, name: str, law: str, budget: int, seed: int, out: Path
     if r.stopped == "interrupted":
         raise KeyboardInterrupt
     marker.write_text(json.dumps(inputs, indent=2) + "\n")  # last: the tuning is whole
-    return r.config, r.best, r.evaluations, r.seconds
+    # a search that found no stable point has no tuned gains to evaluate
+    return (r.config if math.isfinite(r.value) else None), r.best, r.evaluations, r.seconds
 
 
-def _evaluate(plant: _Plant, name: str, cfg: Config, tuned: dict, evaluations: int,
+def _evaluate(plant: _Plant, name: str, cfg: Config | None, tuned: dict, evaluations: int,
               seconds: float) -> Entry:
     from ..api.simulate import simulate
 
+    if cfg is None:  # the search found no stable point: nothing to evaluate
+        shape = tuple(v.size for v in plant.robustness.values())
+        return Entry(plant=plant.label, controller=name, config=plant.config, tuned={},
+                     evaluations=evaluations, objective=math.inf, iae_setpoint=math.nan,
+                     iae_load=math.nan, tv_u_noise=math.nan, worst=math.inf, n_stable=0,
+                     n_map=math.prod(shape), stable=False, tuning_seconds=seconds,
+                     map_scores=np.full(shape, np.inf))
     obj = Objective.parse(cfg["benchmark.objective"], "benchmark.objective")
     quiet = simulate(cfg.with_overrides({"sensor.noise": "none"})).metrics
     noisy = simulate(cfg).metrics
@@ -260,7 +283,7 @@ def benchmark(plant_names: Sequence[str | Path] | None = None, *,
     out = Path(out)
     checked: dict[str, _Plant] = {}
     for name in names:  # every plant checked before any work
-        plant = _check_plant(name)
+        plant = _check_plant(name, budget)
         if plant.label in checked:
             raise ConfigError("--plants", str(name), f"has the name {plant.label!r} of "
                               "another plant: their folders would collide")
@@ -287,8 +310,11 @@ def benchmark(plant_names: Sequence[str | Path] | None = None, *,
 def _plant_figure(plant: str, entries: list[Entry], out: Path) -> None:
     from .compare import compare
 
-    comp = compare([e.config for e in entries])
-    comp.names = [e.controller for e in entries]
+    shown = [e for e in entries if e.tuned]  # those whose search found a stable point
+    if len(shown) < 2:
+        return
+    comp = compare([e.config for e in shown])
+    comp.names = [e.controller for e in shown]
     comp.save(out, title=f"{plant}: {', '.join(comp.names)} tuned alike (the plant's "
               "scenario, with noise)")
 
@@ -402,7 +428,7 @@ def _findings(entries: list[Entry], plants_: list[str],
         params, log = spaces[e.plant][e.controller]
         for p in parse_parameters(params, log):
             v = e.tuned.get(p.key)
-            if v is None:
+            if v is None or not v > 0 and p.log:
                 continue
             for bound, side in ((p.low, "lower"), (p.high, "upper")):
                 if (abs(math.log(v / bound)) < 0.01 if p.log

@@ -301,14 +301,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         raise ConfigError("tol", tol, "must be a number in [0, 1)")
     pars = parse_parameters(params, log)
     d = len(pars)
-    # scipy's default population (15 per dimension), fewer when the budget would allow
-    # fewer than four generations; at least five members (scipy's floor)
-    per_dim = max(1, min(15 * d, (budget if isinstance(budget, int) else 0) // 4) // d)
-    size = max(5, per_dim * d)
-    if not isinstance(budget, int | np.integer) or isinstance(budget, bool) or \
-            budget < max(10, 2 * size):
-        raise ConfigError("--budget", budget, f"must be a whole number >= {max(10, 2 * size)} "
-                          f"(two generations of {size} points for {d} tuned keys)")
+    budget, per_dim, size = population(budget, d)
     scen = batch.parse_grid(scenarios, "--scenarios") if scenarios else {}
     for k in scen:
         if any(p.key == k for p in pars):
@@ -318,6 +311,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     batch.make_grid(base, {**{p.key: np.array([p.low, p.high]) for p in pars}, **scen},
                     points=keys)
     _refuse_keys_without_effect(base, keys)
+    _refuse_undefined_objective(obj, base)
     n_scen = _n_scenarios(scen)
     scen_grid = batch.Grid(base=base, axes=scen) if scen else None
     # scenario keys the checks across options read: each point is checked with each of
@@ -355,6 +349,9 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     def _evaluate(X: np.ndarray) -> np.ndarray:
         X = np.atleast_2d(np.asarray(X, dtype=float).T).T  # (D, S) even for one point
         values = {p.key: p.value(X[i]) for i, p in enumerate(pars)}
+        if state["gen"] == 0 and inside:  # scipy's first point is the case's own values:
+            for p in pars:                # run them exactly (10 ** log10(v) may not be v)
+                values[p.key][0] = start[p.key]
         n = X.shape[1]
         ok = np.array([valid({k: axis_value(k, v[j]) for k, v in values.items()})
                        for j in range(n)], dtype=bool)
@@ -373,6 +370,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
             point = np.flatnonzero(ok)[cols["member"] // n_scen] + state["evals"]
             frames.append(pd.DataFrame({"generation": state["gen"], "point": point,
                                         "scenario": cols["member"] % n_scen,
+                                        "refused": False,
                                         **{k: v for k, v in cols.items() if k != "member"},
                                         "score": per_run,
                                         "value": np.repeat(scores[ok], n_scen)}))
@@ -380,11 +378,10 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         if bad.size:
             frames.append(pd.DataFrame({"generation": state["gen"],
                                         "point": bad + state["evals"], "scenario": -1,
+                                        "refused": True,
                                         **{k: v[bad] for k, v in values.items()},
                                         "diverged": False, "stable": False,
                                         "score": np.inf, "value": np.inf}))
-        if state["gen"] == 0 and cols is not None:
-            _refuse_undefined_objective(obj, cols)
         # the bookkeeping at once, so that an interrupt leaves it whole
         j = int(np.argmin(scores))
         rows.extend(frames)
@@ -410,14 +407,17 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     start = {p.key: base[p.key] for p in pars}
     inside = start_from_case and all(start[p.key] is not None and
                                      p.low <= start[p.key] <= p.high for p in pars)
-    x_start = np.array([p.coordinate(start[p.key]) for p in pars]) if inside else None
+    x_start = np.array([_inside(p, p.coordinate(start[p.key])) for p in pars]) \
+        if inside else None
     maxiter = budget // size - 1
     stopped = "budget"
     try:
         differential_evolution(
             evaluate, [p.bounds() for p in pars], popsize=per_dim, maxiter=maxiter,
             rng=np.random.default_rng(seed), polish=False, vectorized=True,
-            updating="deferred", init="latinhypercube", x0=x_start, tol=0.0, atol=0.0,
+            # scipy's own test, std <= atol + tol |mean|, would stop on a population of
+            # equal penalties: never true with these, only the callback stops the search
+            updating="deferred", init="latinhypercube", x0=x_start, tol=0.0, atol=-1.0,
             callback=converged,
             # whole numbers: scipy rounds its coordinates, which for a log-scaled key are
             # log10 of the value; Parameter.value rounds those itself
@@ -456,6 +456,35 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     return result
 
 
+def population(budget: Any, d: int) -> tuple[int, int, int]:
+    """(budget, population per tuned key, population) of a search over d keys: scipy's
+    default of 15 per key, fewer when the budget would allow fewer than four
+    generations, at least five members (scipy's floor); the budget must hold two
+    generations."""
+    if not isinstance(budget, int | np.integer) or isinstance(budget, bool):
+        raise ConfigError("--budget", budget, "must be a whole number")
+    budget = int(budget)
+    per_dim = max(1, min(15 * d, budget // 4) // d)
+    size = max(5, per_dim * d)
+    if budget < max(10, 2 * size):
+        raise ConfigError("--budget", budget, f"must be a whole number >= {max(10, 2 * size)} "
+                          f"(two generations of {size} points for {d} tuned keys)")
+    return budget, per_dim, size
+
+
+def _inside(p: Parameter, c: float) -> float:
+    """A start coordinate that scipy's scaling of the bounds keeps within them (a value on
+    a bound can land 1e-16 outside, which scipy refuses); ``Parameter.value`` clips the
+    value back onto the bound."""
+    lo, hi = p.bounds()
+    for _ in range(8):
+        scaled = (c - 0.5 * (lo + hi)) * (1.0 / abs(hi - lo)) + 0.5
+        if 0.0 <= scaled <= 1.0:
+            break
+        c = np.nextafter(c, 0.5 * (lo + hi))
+    return float(c)
+
+
 class _Abort(Exception):
     """Carries an error out of scipy's optimiser (see ``evaluate``)."""
 
@@ -476,22 +505,27 @@ def _refuse_keys_without_effect(base: Config, keys: tuple[str, ...]) -> None:
                               "tune a key the run reads")
 
 
-def _refuse_undefined_objective(obj: Objective, cols: dict[str, np.ndarray]) -> None:
-    """An objective that is NaN on every stable run of the first generation is not
-    defined for this case (``iae_load`` without a load step, a step metric without a
-    step reference): refused rather than scored inf everywhere."""
-    stable = np.asarray(cols["stable"], dtype=bool)
-    for name in obj.metrics:
-        v = np.asarray(cols[name], dtype=float)
-        if stable.any() and np.isnan(v[stable]).all():
-            why = {"iae_load": "it needs a load step (a step disturbance or a plant "
-                               "schedule) within the horizon",
-                   "overshoot": "it needs a step reference (smooth-step)",
-                   "rise_time": "it needs a step reference (smooth-step)",
-                   "settling_time": "it needs a step reference that settles within its "
-                                    "window"}.get(name, "it is not a number on stable runs")
-            raise ConfigError("--objective", obj.text, f"{name} is not defined for this "
-                              f"case: {why}")
+def _refuse_undefined_objective(obj: Objective, base: Config) -> None:
+    """An objective that the case leaves undefined (``iae_load`` without a load step
+    within the horizon, a step metric without a step reference) would score inf at every
+    point: refused before the search."""
+    from ..api import params
+    from ..api.loop import load_step_of
+
+    names = set(obj.metrics)
+    if "iae_load" in names:
+        n = scenario.n_steps(base)
+        load = load_step_of(params.elements(base), [params.changes(base)],
+                            base["sim.t_end"], n)[0]
+        if not math.isfinite(load):
+            raise ConfigError("--objective", obj.text, "iae_load is not defined for this "
+                              "case: it needs a load step (a step disturbance or a plant "
+                              "schedule) within the horizon")
+    step = names & {"overshoot", "rise_time", "settling_time"}
+    if step and base["reference.kind"] != "smooth-step":
+        raise ConfigError("--objective", obj.text, f"{', '.join(sorted(step))} is not "
+                          "defined for this case: it needs a step reference "
+                          "(reference.kind = smooth-step)")
 
 
 #: what the optimiser sees of a point that scored inf: this times (1 + its badness). Not
