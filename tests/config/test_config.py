@@ -161,7 +161,7 @@ MALFORMED = [
     ("controller.rate_sign", "+", "must be one of plus, minus"),
     ("controller.p_sample", "next", "must be one of previous, current"),
     ("controller.p_error", "r+y", "must be one of r-y, y-r"),
-    ("plant.model", "tank", "must be one of buck, boost, first-order, dc-motor"),
+    ("plant.model", "tank", "must be one of buck, boost, first-order, dc-motor, lti"),
     ("reference.kind", "step", "must be one of ramp-hold-ramp, smooth-step"),
     ("metrics.final_window", 1.5, "must be a number in (0, 1]"),
     ("metrics.final_window", 0.0, "must be a number in (0, 1]"),
@@ -212,7 +212,10 @@ def test_every_choice_is_accepted():
         for choice in o.choices:
             value = int(choice) if o.kind == "int" else choice
             # a first-order plant only takes the positional laws
-            extra = {"controller.law": "i-P"} if value in ("first-order", "dc-motor") else {}
+            extra = ({"controller.law": "i-P"} if value in ("first-order", "dc-motor", "lti")
+                     else {})
+            if value == "exact":  # the zero-order hold of a linear plant
+                extra = {"plant.model": "lti", "controller.law": "i-P"}
             if value == "table":
                 extra = {"disturbance.times": [0.0], "disturbance.values": [1.0]}
             assert resolve({o.key: value, **extra})[o.key] == value
@@ -585,8 +588,10 @@ CASE_NAMES = sorted(p.stem for p in CASES_DIR.glob("*.toml"))
 
 def test_builtin_cases():
     assert CASE_NAMES == sorted(mfcontrol.case_names())
-    # the paper's eight, three toolkit cases, three maps, four realistic loops
-    assert len(CASE_NAMES) == 18
+    # the paper's eight, three toolkit cases, three maps, four realistic loops, the ten
+    # plants of the benchmark set
+    assert len(CASE_NAMES) == 28
+    assert sum(n.startswith("bench-") for n in CASE_NAMES) == 10
 
 
 @pytest.mark.parametrize("fidelity", ["published", "paper"])
