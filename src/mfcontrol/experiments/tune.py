@@ -327,7 +327,15 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     state: dict[str, Any] = {"evals": 0, "runs": 0, "gen": 0, "best": math.inf,
                              "best_values": None, "converged": False, "error": None}
 
+    # each key's own check is an interval that the bounds, checked above, enclose: only
+    # keys the checks across options read need each point checked (a key they do not
+    # read on this case's path cannot change it, since a key that changes the path is
+    # read on it); that check costs more than the point's run
+    combined = bool((set(keys) | set(scen)) & checked)
+
     def valid(point: dict[str, float]) -> bool:
+        if not combined:
+            return True
         try:
             for setting in scen_settings:
                 base.with_overrides({**point, **setting})
