@@ -18,8 +18,8 @@ from .api.simulate import simulate, simulate_many, simulate_sweep
 from .api.sweep import LoopSweepResult, sweep
 from .config.resolve import Config, resolve
 from .errors import CaseError, ConfigError
+from .experiments.cases import make_controller, run_case
 from .experiments.cases import names as case_names
-from .experiments.cases import run_case
 from .experiments.compare import Comparison, compare
 from .experiments.tune import TuneResult, tune
 
@@ -30,5 +30,5 @@ __all__ = [
     "Plant", "Buck", "Boost", "DCMotor", "FirstOrder", "LTI", "ODE",
     "Change", "LoopResult", "LoopSweepResult", "simulate_loop", "sweep",
     "case_names", "resolve", "run_case", "simulate", "simulate_many", "simulate_sweep",
-    "Comparison", "TuneResult", "compare", "tune",
+    "Comparison", "TuneResult", "compare", "make_controller", "tune",
 ]
