@@ -175,7 +175,7 @@ def _cmd_tune(args) -> int:
                     for k, v in result.start.items())
     own += (": not evaluated" if result.start_value != result.start_value
             else f": {result.start_value:.6g}")
-    where = (f" ({args.aggregate} over {result.summary()['n_scenarios']} scenarios; this "
+    where = (f" ({args.aggregate} over {result.n_scenarios} scenarios; this "
              f"case's own run, which mfcontrol run best.toml gives: {result.nominal:.6g})"
              if result.scenarios else "")
     if math.isinf(result.value):

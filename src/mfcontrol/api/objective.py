@@ -90,7 +90,6 @@ class Objective:
         value[bad] = np.inf
         return value
 
-
     def score_run(self, metrics: Mapping[str, object]) -> float:
         """The score of one run from its metrics (``Result.metrics``)."""
         return float(self.score({k: np.array([metrics[k]]) for k in

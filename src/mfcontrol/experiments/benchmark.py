@@ -48,12 +48,7 @@ from ..api.objective import Objective
 from ..config.resolve import Config
 from ..errors import ConfigError
 from . import cases
-from .tune import (
-    _refuse_keys_without_effect,
-    _refuse_undefined_objective,
-    parse_parameters,
-    population,
-)
+from .tune import check_search, parse_parameters
 
 #: the controllers compared: (name in the report, controller.law, benchmark key)
 CONTROLLERS = (("PID", "pid", "benchmark.pid"), ("i-P", "i-P", "benchmark.ip"),
@@ -136,11 +131,7 @@ def _check_plant(plant: str | Path, budget: int) -> _Plant:
             pars = parse_parameters(params)
             mine = [k for k in log if any(p.key == k for p in pars)]
             pars = parse_parameters(params, mine)
-            batch.make_grid(base, {p.key: np.array([p.low, p.high]) for p in pars},
-                            points=tuple(p.key for p in pars))
-            population(budget, len(pars))
-            _refuse_keys_without_effect(base, tuple(p.key for p in pars))
-            _refuse_undefined_objective(Objective.parse(obj), base)
+            check_search(base, pars, Objective.parse(obj), budget)
         except ConfigError as exc:
             raise ConfigError(key, params, f"{exc.key} = {exc.value!r}: {exc.allowed}") \
                 from None

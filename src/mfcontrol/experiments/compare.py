@@ -44,12 +44,12 @@ class Comparison:
 
     def differences(self) -> dict[str, list[Any]]:
         """Keys outside ``controller.*`` whose values differ between the cases."""
-        keys = sorted({k for c in self.configs for k in c.public()})
+        public = [c.public() for c in self.configs]
         out = {}
-        for k in keys:
+        for k in sorted({k for p in public for k in p}):
             if k.startswith(_OWN):
                 continue
-            vals = [c.public().get(k) for c in self.configs]
+            vals = [p.get(k) for p in public]
             if any(v != vals[0] for v in vals[1:]):
                 out[k] = vals
         return out
@@ -117,10 +117,13 @@ def format_number(v: Any, digits: int = 4) -> str:
 def controller_label(cfg: Config) -> str:
     """The controller in a few words: its law and gains, e.g. ``i-PI (alpha 50, kp 10,
     ki 30)``."""
+    from ..api.params import controller
+    from ..config.resolve import keys_read
+
     law = cfg["controller.law"]
-    keys = {"pid": ("kp", "ki", "kd"), "i-P": ("alpha", "kp"), "i-PI": ("alpha", "kp", "ki"),
-            "i-PD": ("alpha", "kp", "kd"), "i-PID": ("alpha", "kp", "ki", "kd")}.get(
-                law, ("alpha", "kp"))
+    # the gains the law's translator reads (each law reads only its own)
+    read = keys_read(controller, cfg)
+    keys = [k for k in ("alpha", "kp", "ki", "kd") if f"controller.{k}" in read]
     gains = ", ".join(f"{k} {cfg[f'controller.{k}']:.4g}" for k in keys
                       if not (law == "pid" and k != "kp" and cfg[f"controller.{k}"] == 0))
     name = {"pid": "PID" if cfg["controller.kd"] else "PI" if cfg["controller.ki"] else "P",

@@ -159,6 +159,11 @@ class TuneResult:
     seed: int
     history: Any = field(repr=False)
 
+    @property
+    def n_scenarios(self) -> int:
+        """Scenarios each point ran on (1 without a scenario grid)."""
+        return _n_scenarios(self.scenarios)
+
     def summary(self) -> dict[str, Any]:
         return {"case": self.case, "objective": self.objective.text,
                 "aggregate": self.aggregate, "best": _json_number(self.value),
@@ -168,7 +173,7 @@ class TuneResult:
                 "log": [p.key for p in self.parameters if p.log],
                 "start": {"parameters": self.start, "value": _json_number(self.start_value)},
                 "scenarios": {k: v.tolist() for k, v in self.scenarios.items()},
-                "n_scenarios": _n_scenarios(self.scenarios),
+                "n_scenarios": self.n_scenarios,
                 "evaluations": self.evaluations, "runs": self.runs, "budget": self.budget,
                 "seed": self.seed, "stopped": self.stopped,
                 "seconds": round(self.seconds, 3), "mfcontrol": __version__}
@@ -191,14 +196,14 @@ class TuneResult:
             head = (f"# tuning of {self.case} interrupted before any point was evaluated: "
                     "the case as it was")
         if self.scenarios and self.evaluations:
-            head += (f";\n# {self.aggregate} over the {_n_scenarios(self.scenarios)} "
+            head += (f";\n# {self.aggregate} over the {self.n_scenarios} "
                      f"scenarios of sweep.grid (mfcontrol sweep): {self.value!r}")
         (out / "best.toml").write_text(head + "\n" + cfg.to_toml())
         (out / "summary.json").write_text(json.dumps(self.summary(), indent=2) + "\n")
         self.history.to_parquet(out / "history.parquet", index=False)
         per_point = self.history.drop_duplicates("point") if len(self.history) else \
             self.history
-        where = (f", {self.aggregate} over {_n_scenarios(self.scenarios)} scenarios"
+        where = (f", {self.aggregate} over {self.n_scenarios} scenarios"
                  if self.scenarios else "")
         convergence(per_point["point"].to_numpy(), per_point["value"].to_numpy(),
                     {p.key: per_point[p.key].to_numpy() for p in self.parameters},
@@ -300,18 +305,12 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 <= tol < 1:
         raise ConfigError("tol", tol, "must be a number in [0, 1)")
     pars = parse_parameters(params, log)
-    d = len(pars)
-    budget, per_dim, size = population(budget, d)
     scen = batch.parse_grid(scenarios, "--scenarios") if scenarios else {}
     for k in scen:
         if any(p.key == k for p in pars):
             raise ConfigError("--scenarios", k, "is also a tuned key (--param)")
+    budget, per_dim, size = check_search(base, pars, obj, budget, scen)
     keys = tuple(p.key for p in pars)
-    # the bounds and the scenarios, checked once as a grid would check them
-    batch.make_grid(base, {**{p.key: np.array([p.low, p.high]) for p in pars}, **scen},
-                    points=keys)
-    _refuse_keys_without_effect(base, keys)
-    _refuse_undefined_objective(obj, base)
     n_scen = _n_scenarios(scen)
     scen_grid = batch.Grid(base=base, axes=scen) if scen else None
     # scenario keys the checks across options read: each point is checked with each of
@@ -464,6 +463,21 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     return result
 
 
+def check_search(base: Config, pars: list[Parameter], obj: Objective, budget: Any,
+                 scenarios: Mapping[str, np.ndarray] | None = None) -> tuple[int, int, int]:
+    """The checks of a search made before any run, for :func:`tune` and for a caller that
+    checks many searches up front (the benchmark): the budget against the population
+    (:func:`population`, whose result it returns), the bounds and scenarios as a grid
+    checks its axes, keys without effect, an objective the case leaves undefined."""
+    sizes = population(budget, len(pars))
+    keys = tuple(p.key for p in pars)
+    batch.make_grid(base, {**{p.key: np.array([p.low, p.high]) for p in pars},
+                           **dict(scenarios or {})}, points=keys)
+    _refuse_keys_without_effect(base, keys)
+    _refuse_undefined_objective(obj, base)
+    return sizes
+
+
 def population(budget: Any, d: int) -> tuple[int, int, int]:
     """(budget, population per tuned key, population) of a search over d keys: scipy's
     default of 15 per key, fewer when the budget would allow fewer than four
@@ -550,9 +564,8 @@ def _badness(cols: dict[str, np.ndarray], n_scen: int, tol: float, n: int) -> np
     (the earlier in its n samples, the worse)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = cols["max_abs_e_final"] / (tol * cols["max_abs_ref"])
-    unstable = np.where(np.isfinite(ratio) & (ratio >= 1),
-                        0.5 - 0.4 / np.where(np.isfinite(ratio) & (ratio >= 1), ratio, 1.0),
-                        0.5)
+    graded = np.isfinite(ratio) & (ratio >= 1)
+    unstable = np.where(graded, 0.5 - 0.4 / np.where(graded, ratio, 1.0), 0.5)
     bad = np.where(cols["diverged"], 1.0 - 0.5 * cols["n_samples"] / n,
                    np.where(cols["stable"], 0.0, unstable))
     return bad.reshape(-1, n_scen).max(axis=1)
