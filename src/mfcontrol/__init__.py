@@ -16,6 +16,7 @@ from .api.plants import LTI, ODE, Boost, Buck, DCMotor, FirstOrder, Plant
 from .api.result import Result, SweepResult
 from .api.simulate import simulate, simulate_many, simulate_sweep
 from .api.sweep import LoopSweepResult, sweep
+from .cexport import export_c
 from .config.resolve import Config, resolve
 from .errors import CaseError, ConfigError
 from .experiments.cases import make_controller, run_case
@@ -30,5 +31,5 @@ __all__ = [
     "Plant", "Buck", "Boost", "DCMotor", "FirstOrder", "LTI", "ODE",
     "Change", "LoopResult", "LoopSweepResult", "simulate_loop", "sweep",
     "case_names", "resolve", "run_case", "simulate", "simulate_many", "simulate_sweep",
-    "Comparison", "TuneResult", "compare", "make_controller", "tune",
+    "Comparison", "TuneResult", "compare", "make_controller", "tune", "export_c",
 ]

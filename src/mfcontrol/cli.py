@@ -1,5 +1,5 @@
 """Command line: ``mfcontrol cases | show | run | sweep | map | reproduce | tune | compare |
-benchmark``.
+benchmark | export-c``.
 
 Thin by design: parse, call the library, print. Bad input ends with one line on stderr and
 exit code 2; an interrupted command ends with exit code 130.
@@ -222,6 +222,20 @@ def _cmd_benchmark(args) -> int:
     return 0
 
 
+def _cmd_export_c(args) -> int:
+    from .cexport import export_c
+    from .experiments import cases
+
+    name, cfg = cases.resolve_case(args.case, _overrides(args.set))
+    out = _out_dir(args.out) if args.out else Path("results") / name / "c"
+    sets = "".join(f" --set {text}" for text in args.set or [])
+    header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
+                              description=f"case {args.case}{sets}")
+    print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}); compile "
+          f"with: cc -std=c99 -O2 -ffp-contract=off -c {source}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="mfcontrol", description="Model-free control: intelligent controllers, "
                 "variational gain tuning and a buck converter test bench.")
@@ -316,6 +330,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0, help="the tuner's seed (default 0)")
     s.add_argument("--out", help="output folder (default results/benchmark)")
     s.set_defaults(func=_cmd_benchmark)
+
+    s = sub.add_parser("export-c", help="write a case's controller as C99 (PREFIX.h, PREFIX.c): "
+                       "no dependency but <math.h>, bit for bit the Python controller in double")
+    s.add_argument("case", help="built-in case name or path of a .toml file")
+    s.add_argument("--set", **setting)
+    s.add_argument("--out", help="output folder (default results/CASE/c)")
+    s.add_argument("--prefix", default="mfc", help="file name and prefix of every C name "
+                   "(default mfc: mfc.h, mfc_step...)")
+    s.add_argument("--float", choices=("double", "float"), default="double",
+                   help="floating-point type of the C (default double)")
+    s.set_defaults(func=_cmd_export_c)
     return p
 
 

@@ -45,11 +45,11 @@ left the window (at most 2M samples, against M + 1 for a direct sum).
 
 State rows (``CS[base + row, j]``)
 ----------------------------------
-``COUNT`` samples pushed since reset; ``Y_MOM + N_YMOM * parity + p`` and
-``U_MOM + N_UMOM * parity + p`` the moments over samples of that index parity; ``RING``
-then M + 1 rows of y history and M + 1 rows of u history. Sample m lives in slot
-m % (M + 1): y_m, and the u pushed with it, u_{m-1}. The estimator has no parameter rows:
-the law embedding it passes M, h, alpha and n.
+``COUNT`` samples pushed since reset (wrapped by M (M + 1) past the first M + 1);
+``Y_MOM + N_YMOM * parity + p`` and ``U_MOM + N_UMOM * parity + p`` the moments over
+samples of that index parity; ``RING`` then M + 1 rows of y history and M + 1 rows of u
+history. Sample m lives in slot m % (M + 1): y_m, and the u pushed with it, u_{m-1}. The
+estimator has no parameter rows: the law embedding it passes M, h, alpha and n.
 """
 
 import numpy as np
@@ -57,7 +57,7 @@ import numpy as np
 from .._jit import step_jit
 
 # state rows, relative to the caller's base row
-COUNT = 0  # samples pushed since reset; the newest is sample k = COUNT - 1
+COUNT = 0  # samples pushed since reset (wrapped, see push); the newest is k = COUNT - 1
 N_YMOM = 3  # y moments p = 0..2
 N_UMOM = 5  # u moments p = 0..4
 Y_MOM = 1
@@ -156,7 +156,14 @@ def push(CS, j, base, M, y, u_prev):
     _add(CS, j, base + U_MOM + N_UMOM * ((n + 1) % 2), N_UMOM, half - 1.0, u_prev)
     CS[base + RING + slot, j] = y
     CS[base + RING + m1 + slot, j] = u_prev
-    CS[base + COUNT, j] = n + 1.0
+    count = n + 1
+    # Every reader takes the count modulo M + 1, M or 2 (all divide M (M + 1)) or asks
+    # whether the window has filled; so once past full it wraps by M (M + 1) without
+    # changing anything, and stays exact in a float32 (M <= 4095) and a 32-bit C integer
+    # (M <= 46339) however long the controller runs (:mod:`mfcontrol.cexport`)
+    if count >= M + 1 + M * (M + 1):
+        count -= M * (M + 1)
+    CS[base + COUNT, j] = count
     if (n + 1) % M == 0:
         resync(CS, j, base, M)
 

@@ -1,0 +1,297 @@
+"""A live controller as a C99 header and source file.
+
+The law is translated from :mod:`mfcontrol.laws` (:mod:`mfcontrol.cexport.translate`); this
+module adds what the live controller of :mod:`mfcontrol.api.controllers` adds around it:
+the measurement guard (a NaN or infinite measurement returns the last output and is
+counted; so is a step whose output is not finite, which leaves the state as it was), the
+manual mode with its bumpless return to automatic, and the parameter table baked in.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._version import __version__
+from ..api.controllers import PID, IntelligentController, RecursiveIP
+from ..errors import ConfigError
+from ..laws import estimators, intelligent, pid, recursive_ip
+from ..laws import variational_gain as gain_law
+from .translate import CP, CS, REAL, J, Options, Translator
+
+REALS = ("double", "float")
+#: the estimator's sample count wraps by M (M + 1) (:func:`mfcontrol.laws.estimators.push`);
+#: it must stay exact in a C ``long`` (32 bits at least) and, in a float build, in a float
+MAX_WINDOW = {"double": 46_339, "float": 4_095}
+_FLOAT_MAX = float(np.finfo(np.float32).max)
+
+
+@dataclass
+class CSource:
+    """The exported files' text: ``header`` (``PREFIX.h``) and ``source`` (``PREFIX.c``)."""
+
+    prefix: str
+    real: str
+    header: str
+    source: str
+    law: str  # the law family: "intelligent", "recursive" or "pid"
+    n_state: int
+
+
+def check_prefix(prefix: str) -> str:
+    if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,30}", prefix):
+        raise ConfigError("prefix", prefix, "must be a C identifier of 1 to 31 letters, "
+                          "digits and underscores, starting with a letter")
+    return prefix
+
+
+def c_source(ctrl, *, prefix: str = "mfc", real: str = "double",
+             description: str = "") -> CSource:
+    """Translate a live controller (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID`` or
+    ``RecursiveIP``, fresh or not: its parameters are what counts) into C99.
+
+    ``description`` goes into the files' leading comment (the case it came from)."""
+    check_prefix(prefix)
+    if real not in REALS:
+        raise ConfigError("real", real, f"must be one of {', '.join(REALS)}")
+    cp = ctrl._CP[:, 0]
+    too_big = [float(v) for v in cp if math.isfinite(v) and abs(v) > _FLOAT_MAX]
+    if real == "float" and too_big:
+        raise ConfigError("real", real, f"a parameter of the law ({too_big[0]!r}) does not "
+                          "fit in a float: export in double")
+    law = law_of(ctrl, real)
+    table = f"{prefix}_params"
+    tr = Translator(Options(prefix, real, table, law.state_rows))
+    step = tr.function(law.step, law.step_kinds)
+    reset = tr.function(law.reset, law.reset_kinds)
+    lit = Options(prefix, real, table, {}).literal
+    n_cs = ctrl._CS.shape[0] + len(law.state_rows)
+    subs = {
+        "P": prefix, "R": f"{prefix}_real", "NS": str(n_cs), "NB": str(law.n_backup(n_cs)),
+        "STEP": step.name, "RESET": reset.name, "DT": lit(getattr(ctrl, "_dt", 0.0) or 0.0),
+        "LAW": law.name,
+    }
+    banner = _banner(prefix, real, law, ctrl, description)
+    header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"{prefix.upper()}_H",
+                             "REAL": real, "PU": prefix.upper(),
+                             "DTD": repr(float(getattr(ctrl, "_dt", 0.0) or 0.0))})
+    rows = ",\n".join(f"    {lit(float(v))} /* {i} */" for i, v in enumerate(cp))
+    driver = _fill(_DRIVER, subs).replace("@SAVE@", _fill(law.save, subs)).replace(
+        "@RESTORE@", _fill(law.restore, subs)).replace("@INIT@", _fill(law.init, subs)) \
+        .replace("@BUMPLESS@", _fill(law.bumpless, subs)).replace(
+        "@CALL@", _fill(law.call, subs))
+    source = (f"{banner}\n"
+              f"#include <math.h>\n#include \"{prefix}.h\"\n\n"
+              f"/* the law's parameters, rows of mfcontrol.laws ({law.name}) */\n"
+              f"static const {prefix}_real {table}[{len(cp)}] = {{\n{rows}\n}};\n\n"
+              f"{tr.source()}\n\n{driver}")
+    return CSource(prefix, real, header, source, law.name, n_cs)
+
+
+def law_of(ctrl, real: str = "double") -> _Law:
+    """The law family of a live controller: its step and reset functions (roots of the
+    translation) and the C around them."""
+    if isinstance(ctrl, IntelligentController):
+        return _intelligent(ctrl, real)
+    if isinstance(ctrl, RecursiveIP):
+        return _recursive()
+    if isinstance(ctrl, PID):
+        return _pid()
+    raise TypeError(f"cannot export a {type(ctrl).__name__}: export an IP, IPI, IPD, IPID, "
+                    "PID or RecursiveIP")
+
+
+@dataclass
+class _Law:
+    name: str
+    step: object
+    step_kinds: tuple
+    reset: object
+    reset_kinds: tuple
+    init: str  # C statements of init after the state is zeroed
+    bumpless: str  # C statements: restart the law from `start`
+    call: str  # C statements: run the law; set `u` and `ok`
+    state_rows: dict
+    backup_rows: int | None = None  # rows the step may write (None: all)
+    save: str = "    for (i = 0; i < @NS@; i++) s->backup[i] = s->cs[i];\n"
+    restore: str = "    for (i = 0; i < @NS@; i++) s->cs[i] = s->backup[i];\n"
+
+    def n_backup(self, n_cs: int) -> int:
+        return n_cs if self.backup_rows is None else self.backup_rows
+
+
+def _clamp(lo: int, hi: int) -> str:
+    return (f"    if (start < @P@_params[{lo}]) start = @P@_params[{lo}];\n"
+            f"    if (start > @P@_params[{hi}]) start = @P@_params[{hi}];\n")
+
+
+def _intelligent(ctrl, real: str) -> _Law:
+    cp = ctrl._CP[:, 0]
+    if cp[gain_law.MODE] == gain_law.EXTERNAL:
+        raise ConfigError("gain", "external", "the exported step has no alpha argument: "
+                          "export a constant or variational gain")
+    law = _Law(
+        "intelligent", intelligent.step, (CP, CS, J, REAL, REAL, REAL),
+        intelligent.reset, (CP, CS, J),
+        init=f"    @RESET@(s->cs);\n    s->last_output = @P@_params[{intelligent.U_INIT}];\n",
+        bumpless=(f"    @RESET@(s->cs);\n{_clamp(intelligent.OUT_MIN, intelligent.OUT_MAX)}"
+                  f"    s->cs[{intelligent.U1}] = start;\n    s->last_output = start;\n"),
+        call="    u = @STEP@(s->cs, y, setpoint, @DT@);\n    ok = isfinite(u);\n",
+        state_rows={})
+    if cp[intelligent.EST] == intelligent.ALGEBRAIC:
+        M = int(cp[intelligent.M_WIN])
+        if M > MAX_WINDOW[real]:
+            raise ConfigError("controller.window", M, f"at most {MAX_WINDOW[real]:,} samples "
+                              f"in a {real} export (the estimator's sample count must stay "
+                              "exact)")
+        # a step writes every row before the ring, and one y and one u slot of the ring:
+        # back up those (O(1)), not the whole window
+        head = intelligent.EST_BASE + estimators.RING
+        count = intelligent.EST_BASE + estimators.COUNT
+        slot = f"((long)s->cs[{count}] % {M + 1})"
+        law.backup_rows = head + 2
+        law.save = (f"    for (i = 0; i < {head}; i++) s->backup[i] = s->cs[i];\n"
+                    f"    s->backup[{head}] = s->cs[{head} + {slot}];\n"
+                    f"    s->backup[{head + 1}] = s->cs[{head + M + 1} + {slot}];\n")
+        # the rows before the ring first: the slots are found from the count they hold
+        law.restore = (f"    for (i = 0; i < {head}; i++) s->cs[i] = s->backup[i];\n"
+                       f"    s->cs[{head} + {slot}] = s->backup[{head}];\n"
+                       f"    s->cs[{head + M + 1} + {slot}] = s->backup[{head + 1}];\n")
+    return law
+
+
+def _recursive() -> _Law:
+    # the live controller restarts the law from the manual output by rewriting its u0
+    # parameter: in C that one row lives in the state, after the law's own rows
+    u0 = recursive_ip.N_STATE
+    return _Law(
+        "recursive", recursive_ip.step, (CP, CS, J, REAL, REAL),
+        recursive_ip.reset, (CP, CS, J),
+        init=(f"    s->cs[{u0}] = @P@_params[{recursive_ip.U0}];\n    @RESET@(s->cs);\n"
+              "    s->last_output = 0;\n"),
+        bumpless=(f"    @RESET@(s->cs);\n"
+                  f"    s->cs[{u0}] = start / @P@_params[{recursive_ip.OUT_GAIN}];\n"
+                  "    s->last_output = start;\n"),
+        call=("    {\n        @R@ raw = 0, gain = 0, gamma = 0;\n"
+              "        @STEP@(s->cs, y, setpoint, &raw, &u, &gain, &gamma);\n"
+              "        ok = isfinite(raw * 0 + u);\n    }\n"),
+        state_rows={recursive_ip.U0: u0})
+
+
+def _pid() -> _Law:
+    return _Law(
+        "pid", pid.step, (CP, CS, J, REAL, REAL, REAL), pid.reset, (CS, J, REAL),
+        init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
+        bumpless=(f"{_clamp(pid.OUT_MIN, pid.OUT_MAX)}    @RESET@(s->cs, start);\n"
+                  "    s->last_output = start;\n"),
+        call="    u = @STEP@(s->cs, y, setpoint, @DT@);\n    ok = isfinite(u);\n",
+        state_rows={})
+
+
+def _fill(text: str, subs: dict) -> str:
+    for key, value in subs.items():
+        text = text.replace(f"@{key}@", value)
+    return text
+
+
+def _banner(prefix, real, law, ctrl, description) -> str:
+    params = "\n".join(f" *   {k} = {v!r}" for k, v in ctrl._params.items())
+    what = f" * {description}\n" if description else ""
+    return (f"/* {prefix}: {type(ctrl).__name__} controller exported by mfcontrol "
+            f"{__version__} ({law.name} law, {real}).\n{what}"
+            f" * Parameters (baked in):\n{params}\n"
+            " * C99, no dynamic memory, no global state, only <math.h>. Compile without\n"
+            " * floating-point contraction (gcc/clang: -ffp-contract=off) and without\n"
+            " * -ffast-math to compute, in double, exactly what mfcontrol computes.\n */")
+
+
+_HEADER = """@BANNER@
+#ifndef @GUARD@
+#define @GUARD@
+
+typedef @REAL@ @R@;
+
+/* sample period (s) the law was built for: call @P@_step once per period */
+#define @PU@_SAMPLE_TIME @DTD@
+#define @PU@_N_STATE @NS@
+
+typedef struct {
+    @R@ cs[@NS@];          /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
+    @R@ backup[@NB@];      /* the memory before the current step */
+    @R@ last_output;       /* returned in manual mode and after a rejected sample */
+    unsigned long nan_count; /* rejected samples: non-finite measurement or output */
+    int auto_mode;           /* 1 automatic, 0 manual */
+} @P@_state;
+
+/* Start (or restart) the controller: automatic mode, no history. */
+void @P@_init(@P@_state *s);
+/* One sample: the measurement y and the setpoint in, the limited control out. A
+ * non-finite y (or a step whose output would not be finite) returns the last output,
+ * leaves the memory as it was and counts in nan_count. */
+@R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint);
+/* Manual mode: every step returns u until @P@_set_auto. */
+void @P@_set_manual(@P@_state *s, @R@ u);
+/* Back to automatic, restarting the law from the last output (bumpless). */
+void @P@_set_auto(@P@_state *s);
+
+#endif
+"""
+
+_DRIVER = """/* the live controller around the law (as mfcontrol.api.controllers) */
+static void @P@_save(@P@_state *s)
+{
+    long i;
+@SAVE@}
+
+static void @P@_restore(@P@_state *s)
+{
+    long i;
+@RESTORE@}
+
+void @P@_init(@P@_state *s)
+{
+    long i;
+    for (i = 0; i < @NS@; i++) s->cs[i] = 0;
+    for (i = 0; i < @NB@; i++) s->backup[i] = 0;
+@INIT@    s->nan_count = 0;
+    s->auto_mode = 1;
+}
+
+@R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint)
+{
+    @R@ u = 0;
+    int ok = 0;
+    if (!s->auto_mode) return s->last_output;
+    if (!isfinite(y)) {
+        s->nan_count++;
+        return s->last_output;
+    }
+    @P@_save(s);
+@CALL@    if (!ok) {
+        @P@_restore(s);
+        s->nan_count++;
+        return s->last_output;
+    }
+    s->last_output = u;
+    return u;
+}
+
+void @P@_set_manual(@P@_state *s, @R@ u)
+{
+    s->auto_mode = 0;
+    s->last_output = u;
+}
+
+static void @P@_bumpless(@P@_state *s, @R@ start)
+{
+@BUMPLESS@}
+
+void @P@_set_auto(@P@_state *s)
+{
+    if (!s->auto_mode) @P@_bumpless(s, s->last_output);
+    s->auto_mode = 1;
+}
+"""

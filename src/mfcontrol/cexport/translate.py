@@ -1,0 +1,589 @@
+"""Python law functions to C99: the exported C is the laws' own source, translated.
+
+The step functions of :mod:`mfcontrol.laws` are written in a small subset of Python over
+plain floats and the SoA columns ``CP[row, j]`` (parameters) and ``CS[row, j]`` (state) of
+member ``j`` (numba compiles the same source for the engines). This module turns that
+subset into C, one function at a time, reachable from a root function:
+
+* a ``CP[row, j]`` read (or ``P[row]`` of the parameter tuple that
+  :func:`mfcontrol.laws.recursive_ip.parameters` returns) becomes an element of the file's
+  ``static const`` parameter table, which the compiler folds into the code; rows listed in
+  ``state_rows`` are read from the state instead (parameters a live controller rewrites);
+* a ``CS[row, j]`` access becomes ``cs[row]``, ``cs`` being the controller's state array;
+* ``j`` disappears; every function takes ``cs`` first;
+* module constants (row numbers, mode codes) become literals;
+* a function returning a tuple becomes a void function with one out-pointer per element;
+* a variable is ``long`` where Python holds an int (``int()``, ``range``, ``%`` of ints)
+  and the floating type otherwise.
+
+Python's operation order is kept by full parenthesisation (compile without contraction:
+``-ffp-contract=off``), so in double the C computes what numba computes, bit for bit.
+Anything outside the subset raises :class:`TranslationError` naming the function and line.
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import math
+import re
+import textwrap
+import types
+from dataclasses import dataclass, field
+
+import numpy as np
+
+INT, REAL, BOOL = "int", "real", "bool"
+# kinds of the column arguments, which the C drops or replaces
+CP, CS, J, PTUPLE = "CP", "CS", "j", "P"
+_COLUMNS = (CP, CS, J, PTUPLE)
+_C_KEYWORDS = {
+    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
+    "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
+    "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch",
+    "typedef", "union", "unsigned", "void", "volatile", "while", "cs",
+}
+_BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Mod: "%",
+           ast.FloorDiv: "/"}
+_CMPOPS = {ast.Eq: "==", ast.NotEq: "!=", ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">",
+           ast.GtE: ">="}
+
+
+class TranslationError(Exception):
+    """The Python source uses something the C translation does not support."""
+
+
+@dataclass
+class Function:
+    """One translated function: its C name, return kinds and text."""
+
+    name: str
+    returns: tuple[str, ...] | None  # None: void; one kind; several: out-pointers
+    params: list[tuple[str, str]] = field(default_factory=list)  # (C name, kind)
+    text: str = ""
+    ptuple: bool = False  # returns the parameter tuple: calls to it vanish
+
+
+@dataclass
+class Options:
+    """How the columns map to C for one export."""
+
+    prefix: str
+    real: str  # "double" or "float"
+    param_table: str  # the C name of the static const parameter table
+    state_rows: dict[int, int]  # parameter row -> state row holding it
+
+    def literal(self, value: float | int | bool) -> str:
+        if isinstance(value, bool | np.bool_):
+            return "1" if value else "0"
+        if isinstance(value, int | np.integer):
+            return str(int(value))
+        value = float(value)
+        if math.isnan(value):
+            return f"(({self.real})NAN)"
+        if math.isinf(value):
+            return f"(({self.real})INFINITY)" if value > 0 else f"(-({self.real})INFINITY)"
+        text = repr(value)
+        return text + "f" if self.real == "float" else text
+
+
+def _merge(a: str, b: str) -> str:
+    if a == b:
+        return a
+    if REAL in (a, b):
+        return REAL
+    return INT  # int and bool
+
+
+class Translator:
+    """Translate the functions reachable from the roots; :meth:`source` joins them."""
+
+    def __init__(self, options: Options):
+        self.options = options
+        self.done: dict[tuple, Function] = {}
+        self.order: list[Function] = []  # callees before callers
+        self._names: set[str] = set()
+
+    def function(self, fn, kinds: tuple[str, ...]) -> Function:
+        """The C function for ``fn`` (a numba dispatcher or plain function) called with
+        arguments of ``kinds``; translated once per signature."""
+        py = getattr(fn, "py_func", fn)
+        key = (py, kinds)
+        if key not in self.done:
+            self.done[key] = _FunctionTranslator(self, py, kinds).run()
+            if not self.done[key].ptuple:
+                self.order.append(self.done[key])
+        return self.done[key]
+
+    def unique_name(self, py) -> str:
+        module = py.__module__.rsplit(".", 1)[-1]
+        base = f"{self.options.prefix}_{module}_{py.__name__.lstrip('_')}"
+        name, i = base, 2
+        while name in self._names:
+            name, i = f"{base}{i}", i + 1
+        self._names.add(name)
+        return name
+
+    def source(self) -> str:
+        protos = [self.prototype(f) + ";" for f in self.order]
+        return "\n".join(protos) + "\n\n" + "\n\n".join(f.text for f in self.order)
+
+    def ctype(self, kind: str) -> str:
+        return {INT: "long", BOOL: "int", REAL: f"{self.options.prefix}_real"}[kind]
+
+    def prototype(self, f: Function) -> str:
+        params = [f"{self.options.prefix}_real *cs"]
+        params += [f"{self.ctype(k)} {n}" for n, k in f.params]
+        if f.returns is None or len(f.returns) == 1:
+            ret = "void" if f.returns is None else self.ctype(f.returns[0])
+        else:
+            ret = "void"
+            params += [f"{self.ctype(k)} *out{i}" for i, k in enumerate(f.returns)]
+        return f"static {ret} {f.name}({', '.join(params)})"
+
+
+class _FunctionTranslator:
+    def __init__(self, tr: Translator, py, kinds: tuple[str, ...]):
+        self.tr = tr
+        self.opt = tr.options
+        self.py = py
+        self.globals = py.__globals__
+        source = textwrap.dedent(inspect.getsource(py))
+        self.node = ast.parse(source).body[0]
+        self.line0 = py.__code__.co_firstlineno - 1
+        args = [a.arg for a in self.node.args.args]
+        if len(args) != len(kinds):
+            self.fail(self.node, f"called with {len(kinds)} arguments, takes {len(args)}")
+        self.args = dict(zip(args, kinds, strict=True))
+        self.locals: dict[str, str] = {}
+        self.returns: tuple[str, ...] | None = None
+        self.returns_seen = False
+        self.ptuple = False
+        self.tmp = 0
+
+    # -- errors -------------------------------------------------------------------------
+    def fail(self, node, what: str):
+        line = self.line0 + getattr(node, "lineno", 1)
+        raise TranslationError(f"{self.py.__module__}.{self.py.__name__} (line {line}): "
+                               f"{what}")
+
+    # -- driver -------------------------------------------------------------------------
+    def run(self) -> Function:
+        body = [s for s in self.node.body
+                if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))]
+        # infer local kinds to a fixed point (a variable first int may later hold a float)
+        for _ in range(5):
+            before = dict(self.locals), self.returns
+            self.lines: list[str] = []
+            self.tmp = 0
+            self.block(body, 1)
+            if (dict(self.locals), self.returns) == before:
+                break
+        f = Function(self.tr.unique_name(self.py), self.returns, ptuple=self.ptuple)
+        f.params = [(self.cname(a), k) for a, k in self.args.items() if k not in _COLUMNS]
+        if self.ptuple:
+            return f
+        self.lines = []
+        self.tmp = 0
+        self.block(body, 1)
+        body_text = "\n".join(self.lines)
+        decls = [f"    (void){n};" for n in ["cs"] + [n for n, _ in f.params]
+                 if not _read(n, body_text)]
+        for name, kind in sorted(self.locals.items()):
+            c = self.cname(name)
+            decls.append(f"    {self.tr.ctype(kind)} {c} = 0;")
+            if not _read(c, body_text):  # set but never read (an unpacked value unused)
+                decls.append(f"    (void){c};")
+        f.text = (f"/* {self.py.__module__}.{self.py.__name__} */\n"
+                  + self.tr.prototype(f) + "\n{\n" + "\n".join(decls + self.lines) + "\n}")
+        return f
+
+    def cname(self, name: str) -> str:
+        return name + "_" if name in _C_KEYWORDS else name
+
+    def local(self, name: str, kind: str):
+        if name in self.args:
+            if self.args[name] in _COLUMNS:
+                self.fail(self.node, f"assigns the column argument {name}")
+            # a parameter assigned: C passes by value, so it may be assigned as in Python
+            self.args[name] = _merge(self.args[name], kind)
+            return
+        self.locals[name] = _merge(self.locals.get(name, kind), kind)
+
+    def temp(self, kind: str) -> str:
+        self.tmp += 1
+        name = f"tmp{self.tmp}_"
+        self.locals[name] = kind
+        return name
+
+    # -- statements -----------------------------------------------------------------------
+    def emit(self, depth: int, text: str):
+        self.lines.append("    " * depth + text)
+
+    def block(self, stmts, depth: int):
+        for s in stmts:
+            self.statement(s, depth)
+
+    def statement(self, s, depth: int):
+        if isinstance(s, ast.Assign):
+            if len(s.targets) != 1:
+                self.fail(s, "chained assignment")
+            self.assign(s.targets[0], s.value, depth, s)
+        elif isinstance(s, ast.AugAssign):
+            op = _BINOPS.get(type(s.op))
+            if op is None:
+                self.fail(s, f"operator {type(s.op).__name__}")
+            value = ast.BinOp(left=_load(s.target), op=s.op, right=s.value)
+            ast.copy_location(value, s)
+            self.assign(s.target, value, depth, s)
+        elif isinstance(s, ast.If):
+            cond, _ = self.expr(s.test)
+            self.emit(depth, f"if ({cond}) {{")
+            self.block(s.body, depth + 1)
+            while len(s.orelse) == 1 and isinstance(s.orelse[0], ast.If):  # elif
+                s = s.orelse[0]
+                self.emit(depth, f"}} else if ({self.expr(s.test)[0]}) {{")
+                self.block(s.body, depth + 1)
+            if s.orelse:
+                self.emit(depth, "} else {")
+                self.block(s.orelse, depth + 1)
+            self.emit(depth, "}")
+        elif isinstance(s, ast.For):
+            self.loop(s, depth)
+        elif isinstance(s, ast.Return):
+            self.ret(s, depth)
+        elif isinstance(s, ast.Expr):
+            if isinstance(s.value, ast.Constant):
+                return
+            if not isinstance(s.value, ast.Call):
+                self.fail(s, "an expression statement that is not a call")
+            code = self.call(s.value, statement=True)
+            self.emit(depth, code + ";")
+        elif isinstance(s, ast.Pass):
+            pass
+        elif isinstance(s, ast.Break | ast.Continue):
+            self.emit(depth, "break;" if isinstance(s, ast.Break) else "continue;")
+        else:
+            self.fail(s, f"statement {type(s).__name__}")
+
+    def assign(self, target, value, depth: int, s):
+        if isinstance(target, ast.Tuple):
+            names = target.elts
+            if isinstance(value, ast.Tuple):
+                if len(value.elts) != len(names):
+                    self.fail(s, "tuple assignment of unequal lengths")
+                temps = []
+                for v in value.elts:  # Python evaluates the whole right side first
+                    code, kind = self.expr(v)
+                    t = self.temp(kind)
+                    self.emit(depth, f"{t} = {code};")
+                    temps.append((t, kind))
+                for tgt, (t, kind) in zip(names, temps, strict=True):
+                    self.store(tgt, t, kind, depth, s)
+                return
+            if isinstance(value, ast.Call):
+                callee, args = self.callee(value)
+                if callee.returns is None or len(callee.returns) != len(names):
+                    self.fail(s, f"unpacks {len(names)} values from {callee.name}")
+                temps = [self.temp(k) for k in callee.returns]
+                ptrs = ", ".join(f"&{t}" for t in temps)
+                self.emit(depth, f"{callee.name}({', '.join(['cs'] + args + [ptrs])});")
+                for tgt, t, k in zip(names, temps, callee.returns, strict=True):
+                    if not (isinstance(tgt, ast.Name) and tgt.id == "_"):
+                        self.store(tgt, t, k, depth, s)
+                return
+            self.fail(s, "tuple assignment from something other than a tuple or a call")
+        code, kind = self.expr(value)
+        if kind == PTUPLE:
+            if not isinstance(target, ast.Name):
+                self.fail(s, "the parameter tuple assigned to a non-name")
+            self.args[target.id] = PTUPLE
+            return
+        self.store(target, code, kind, depth, s)
+
+    def store(self, target, code: str, kind: str, depth: int, s):
+        if isinstance(target, ast.Name):
+            self.local(target.id, kind)
+            self.emit(depth, f"{self.cname(target.id)} = {code};")
+        elif isinstance(target, ast.Subscript):
+            ref, col = self.subscript(target)
+            if col != CS:
+                self.fail(s, "writes a parameter")
+            self.emit(depth, f"{ref} = {code};")
+        else:
+            self.fail(s, f"assignment to {type(target).__name__}")
+
+    def loop(self, s: ast.For, depth: int):
+        it = s.iter
+        if not (isinstance(it, ast.Call) and isinstance(it.func, ast.Name)
+                and it.func.id == "range" and isinstance(s.target, ast.Name) and not s.orelse):
+            self.fail(s, "a loop other than `for name in range(...)`")
+        args = [self.expr(a) for a in it.args]
+        step = 1
+        if len(args) == 3:
+            step = self.constant(it.args[2])
+            if not isinstance(step, int) or step == 0:
+                self.fail(s, "a range step that is not a non-zero integer constant")
+        start, stop = ("0", args[0][0]) if len(args) == 1 else (args[0][0], args[1][0])
+        var = self.cname(s.target.id)
+        self.local(s.target.id, INT)
+        end = self.temp(INT)  # Python evaluates the bounds once
+        self.emit(depth, f"{end} = {stop};")
+        cmp = "<" if step > 0 else ">"
+        self.emit(depth, f"for ({var} = {start}; {var} {cmp} {end}; {var} += {step}) {{")
+        self.block(s.body, depth + 1)
+        self.emit(depth, "}")
+
+    def ret(self, s: ast.Return, depth: int):
+        value = s.value
+        if value is None:
+            self.set_returns(None, s)
+            self.emit(depth, "return;")
+            return
+        if isinstance(value, ast.Tuple):
+            codes = [self.expr(v) for v in value.elts]
+            self.set_returns(tuple(k for _, k in codes), s)
+            if len(codes) == 1:
+                self.emit(depth, f"return {codes[0][0]};")
+                return
+            # the out-pointers point at the caller's variables, never at these locals
+            for i, (code, _) in enumerate(codes):
+                self.emit(depth, f"*out{i} = {code};")
+            self.emit(depth, "return;")
+            return
+        if (isinstance(value, ast.Call) and isinstance(value.func, ast.Name)
+                and value.func.id == "to_fixed_tuple"):
+            self.ptuple = True  # the member's parameter column as a tuple
+            return
+        if isinstance(value, ast.Call) and self._builtin(value, self.resolve(value.func)) is None:
+            callee, args = self.callee(value)
+            if callee.ptuple:
+                self.ptuple = True
+                return
+            if callee.returns is not None and len(callee.returns) > 1:
+                self.set_returns(callee.returns, s)
+                outs = [f"out{i}" for i in range(len(callee.returns))]
+                self.emit(depth, f"{callee.name}({', '.join(['cs'] + args + outs)});")
+                self.emit(depth, "return;")
+                return
+        code, kind = self.expr(value)
+        self.set_returns((kind,), s)
+        self.emit(depth, f"return {code};")
+
+    def set_returns(self, kinds, s):
+        if not self.returns_seen:
+            self.returns_seen = True
+            self.returns = kinds
+            return
+        if (self.returns is None) != (kinds is None):
+            self.fail(s, "returns a value on one path and none on another")
+        if kinds is None:
+            return
+        if len(kinds) != len(self.returns):
+            self.fail(s, "returns tuples of different lengths")
+        self.returns = tuple(_merge(a, b) for a, b in zip(self.returns, kinds, strict=True))
+
+    # -- expressions ----------------------------------------------------------------------
+    def resolve(self, node):
+        """The Python object a global name or module attribute refers to, or None."""
+        if isinstance(node, ast.Name):
+            if node.id in self.args or node.id in self.locals:
+                return None
+            if node.id in self.globals:
+                return self.globals[node.id]
+            import builtins
+            return getattr(builtins, node.id, None)
+        if isinstance(node, ast.Attribute):
+            base = self.resolve(node.value)
+            if isinstance(base, types.ModuleType):
+                return getattr(base, node.attr)
+        return None
+
+    def constant(self, node):
+        """The value of an expression of constants only, or None."""
+        if isinstance(node, ast.Constant) and isinstance(node.value, int | float | bool):
+            return node.value
+        if isinstance(node, ast.Name | ast.Attribute):
+            value = self.resolve(node)
+            if isinstance(value, int | float | bool | np.integer | np.floating):
+                return value
+            return None
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+            v = self.constant(node.operand)
+            return None if v is None else -v
+        if isinstance(node, ast.BinOp) and type(node.op) in (ast.Add, ast.Sub, ast.Mult):
+            a, b = self.constant(node.left), self.constant(node.right)
+            if a is None or b is None:
+                return None
+            return {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b}[type(node.op)]
+        return None
+
+    def expr(self, node) -> tuple[str, str]:
+        value = self.constant(node)
+        if value is not None:
+            kind = BOOL if isinstance(value, bool) else (
+                INT if isinstance(value, int | np.integer) else REAL)
+            return self.opt.literal(value), kind
+        if isinstance(node, ast.Name):
+            if node.id in self.args:
+                return self.cname(node.id), self.args[node.id]
+            if node.id in self.locals:
+                return self.cname(node.id), self.locals[node.id]
+            self.fail(node, f"name {node.id!r} is neither local nor a numeric constant")
+        if isinstance(node, ast.Attribute):
+            obj = self.resolve(node)
+            if isinstance(obj, float) and math.isnan(obj):
+                return self.opt.literal(obj), REAL
+            self.fail(node, f"attribute {ast.unparse(node)}")
+        if isinstance(node, ast.Subscript):
+            ref, _ = self.subscript(node)
+            return ref, REAL
+        if isinstance(node, ast.BinOp):
+            return self.binop(node)
+        if isinstance(node, ast.UnaryOp):
+            code, kind = self.expr(node.operand)
+            if isinstance(node.op, ast.USub):
+                return f"(-{code})", kind
+            if isinstance(node.op, ast.Not):
+                return f"(!{code})", BOOL
+            self.fail(node, f"unary {type(node.op).__name__}")
+        if isinstance(node, ast.Compare):
+            parts, left = [], node.left
+            for op, right in zip(node.ops, node.comparators, strict=True):
+                c = _CMPOPS.get(type(op))
+                if c is None:
+                    self.fail(node, f"comparison {type(op).__name__}")
+                a, b = self.expr(left)[0], self.expr(right)[0]
+                parts.append(f"({a} {c} {b})")
+                left = right
+            return ("(" + " && ".join(parts) + ")" if len(parts) > 1 else parts[0]), BOOL
+        if isinstance(node, ast.BoolOp):
+            op = " && " if isinstance(node.op, ast.And) else " || "
+            return "(" + op.join(self.expr(v)[0] for v in node.values) + ")", BOOL
+        if isinstance(node, ast.IfExp):
+            c = self.expr(node.test)[0]
+            a, ka = self.expr(node.body)
+            b, kb = self.expr(node.orelse)
+            return f"({c} ? {a} : {b})", _merge(ka, kb)
+        if isinstance(node, ast.Call):
+            return self.call(node)
+        self.fail(node, f"expression {type(node).__name__}")
+
+    def binop(self, node) -> tuple[str, str]:
+        op = _BINOPS.get(type(node.op))
+        if op is None:
+            self.fail(node, f"operator {type(node.op).__name__}")
+        a, ka = self.expr(node.left)
+        b, kb = self.expr(node.right)
+        ints = ka != REAL and kb != REAL
+        if isinstance(node.op, ast.Div):
+            # true division: at least one side in floating point
+            if ints:
+                a = f"(({self.tr.ctype(REAL)}){a})"
+            return f"({a} / {b})", REAL
+        if isinstance(node.op, ast.Mod | ast.FloorDiv):
+            if not ints:
+                self.fail(node, "% or // of floating-point values")
+            # C truncates where Python floors: the laws take these of non-negative ints only
+            return f"({a} {op} {b})", INT
+        return f"({a} {op} {b})", INT if ints else REAL
+
+    def subscript(self, node) -> tuple[str, str]:
+        base = node.value
+        if not isinstance(base, ast.Name) or base.id not in self.args:
+            self.fail(node, f"subscript of {ast.unparse(base)}")
+        col = self.args[base.id]
+        idx = node.slice
+        if col in (CP, CS):
+            if not (isinstance(idx, ast.Tuple) and len(idx.elts) == 2
+                    and isinstance(idx.elts[1], ast.Name)
+                    and self.args.get(idx.elts[1].id) == J):
+                self.fail(node, f"{base.id} indexed other than [row, j]")
+            row = idx.elts[0]
+        elif col == PTUPLE:
+            row = idx
+        else:
+            self.fail(node, f"subscript of the {col} argument {base.id}")
+        if col == CS:
+            return f"cs[{self.expr(row)[0]}]", CS
+        value = self.constant(row)
+        if value is None:
+            self.fail(node, "a parameter row that is not a constant")
+        row_n = int(value)
+        if row_n in self.opt.state_rows:
+            return f"cs[{self.opt.state_rows[row_n]}]", CS
+        return f"{self.opt.param_table}[{row_n}]", CP
+
+    def callee(self, node) -> tuple[Function, list[str]]:
+        fn = self.resolve(node.func)
+        if fn is None or not (hasattr(fn, "py_func") or inspect.isfunction(fn)):
+            self.fail(node, f"call of {ast.unparse(node.func)}")
+        if node.keywords:
+            self.fail(node, "keyword arguments")
+        kinds, codes = [], []
+        for a in node.args:
+            if isinstance(a, ast.Name) and self.args.get(a.id) in _COLUMNS:
+                kinds.append(self.args[a.id])
+                continue
+            code, kind = self.expr(a)
+            kinds.append(kind)
+            if kind not in _COLUMNS:
+                codes.append(code)
+        return self.tr.function(fn, tuple(kinds)), codes
+
+    def call(self, node, statement: bool = False) -> tuple[str, str] | str:
+        fn = self.resolve(node.func)
+        builtin = self._builtin(node, fn)
+        if builtin is not None:
+            return builtin
+        callee, args = self.callee(node)
+        if callee.ptuple:
+            return "", PTUPLE
+        if callee.returns is not None and len(callee.returns) > 1:
+            if not statement:
+                self.fail(node, f"uses the tuple {callee.name} returns as one value")
+            temps = [self.temp(k) for k in callee.returns]
+            args = args + [f"&{t}" for t in temps]
+        code = f"{callee.name}({', '.join(['cs'] + args)})"
+        if statement:
+            return code
+        if callee.returns is None:
+            self.fail(node, f"uses the result of {callee.name}, which returns nothing")
+        return code, callee.returns[0]
+
+    def _builtin(self, node, fn):
+        args = node.args
+        if fn is int:
+            return f"((long)({self.expr(args[0])[0]}))", INT
+        if fn is float:
+            return f"(({self.tr.ctype(REAL)})({self.expr(args[0])[0]}))", REAL
+        if fn in (max, min) and len(args) == 2:
+            (a, ka), (b, kb) = self.expr(args[0]), self.expr(args[1])
+            c = ">" if fn is max else "<"
+            return f"(({a} {c} {b}) ? {a} : {b})", _merge(ka, kb)
+        if fn in (math.isnan, np.isnan):
+            return f"isnan({self.expr(args[0])[0]})", BOOL
+        if fn in (math.isfinite, np.isfinite):
+            return f"isfinite({self.expr(args[0])[0]})", BOOL
+        if fn in (math.sqrt, np.sqrt):
+            suffix = "f" if self.opt.real == "float" else ""
+            return f"sqrt{suffix}({self.expr(args[0])[0]})", REAL
+        if fn in (abs, math.fabs, np.abs):
+            suffix = "f" if self.opt.real == "float" else ""
+            code, kind = self.expr(args[0])
+            return (f"fabs{suffix}({code})", REAL) if kind == REAL else (
+                f"(({code} < 0) ? -{code} : {code})", INT)
+        return None
+
+
+def _read(name: str, text: str) -> bool:
+    """Whether C ``text`` reads ``name`` (uses it other than as an assignment's target)."""
+    uses = len(re.findall(rf"\b{name}\b", text))
+    stores = len(re.findall(rf"^\s*{name} = ", text, flags=re.M))
+    return uses > stores
+
+
+def _load(target):
+    """``target`` read back (the left side of an augmented assignment)."""
+    node = ast.parse(ast.unparse(target), mode="eval").body
+    return ast.copy_location(node, target)

@@ -1,0 +1,100 @@
+"""Compile an exported controller and drive it with the same operations as the Python one.
+
+An operation is a row ``(op, a, b)``: op 0 steps with y = a and setpoint = b, op 1 switches
+to manual with output a, op 2 back to automatic. The binary reads the rows from stdin as
+doubles and writes, as doubles, the output of every step and finally the nan_count.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-ffp-contract=off"]
+STEP, MANUAL, AUTO = 0.0, 1.0, 2.0
+
+_MAIN = r"""
+#include <stdio.h>
+#include "@P@.h"
+
+int main(void)
+{
+    static @P@_state s;
+    double row[3];
+    @P@_init(&s);
+    while (fread(row, sizeof row, 1, stdin) == 1) {
+        if (row[0] == 0.0) {
+            double u = (double)@P@_step(&s, (@P@_real)row[1], (@P@_real)row[2]);
+            fwrite(&u, sizeof u, 1, stdout);
+        } else if (row[0] == 1.0) {
+            @P@_set_manual(&s, (@P@_real)row[1]);
+        } else {
+            @P@_set_auto(&s);
+        }
+    }
+    {
+        double count = (double)s.nan_count;
+        fwrite(&count, sizeof count, 1, stdout);
+    }
+    return 0;
+}
+"""
+
+
+def compiler() -> str:
+    """The system C compiler; CI sets MFCONTROL_REQUIRE_CC=1 so that its absence fails."""
+    cc = shutil.which(os.environ.get("CC", "cc"))
+    if cc is None:
+        if os.environ.get("MFCONTROL_REQUIRE_CC"):
+            pytest.fail("no C compiler (cc) on this machine")
+        pytest.skip("no C compiler (cc) on this machine")
+    return cc
+
+
+def build(src, folder: Path, *, shared: bool = False) -> Path:
+    """Write the files, compile them (with the harness's main, or as a shared library)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{src.prefix}.h").write_text(src.header)
+    (folder / f"{src.prefix}.c").write_text(src.source)
+    files = [str(folder / f"{src.prefix}.c")]
+    if shared:
+        out = folder / f"lib{src.prefix}.so"
+        extra = ["-shared", "-fPIC"]
+    else:
+        (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix))
+        files.append(str(folder / "main.c"))
+        out = folder / src.prefix
+        extra = []
+    subprocess.run([compiler(), *CFLAGS, *extra, "-I", str(folder), *files, "-o", str(out),
+                    "-lm"], check=True, capture_output=True, text=True)
+    return out
+
+
+def run_binary(exe: Path, ops: np.ndarray) -> tuple[np.ndarray, int]:
+    """The outputs of every step and the final nan_count."""
+    done = subprocess.run([str(exe)], input=np.ascontiguousarray(ops, float).tobytes(),
+                          capture_output=True, check=True)
+    out = np.frombuffer(done.stdout, dtype=float)
+    return out[:-1], int(out[-1])
+
+
+def run_python(ctrl, ops: np.ndarray) -> tuple[np.ndarray, int]:
+    """The same operations on the live Python controller."""
+    out = []
+    for op, a, b in ops:
+        if op == STEP:
+            out.append(ctrl(float(a), setpoint=float(b)))
+        elif op == MANUAL:
+            ctrl.set_auto_mode(False, last_output=float(a))
+        else:
+            ctrl.set_auto_mode(True)
+    return np.array(out, dtype=float), ctrl.nan_count
+
+
+def steps(y, r) -> np.ndarray:
+    return np.column_stack([np.full(len(y), STEP), y, r])
