@@ -11,6 +11,7 @@ import mfcontrol.api.objective
 import mfcontrol.api.plants
 import mfcontrol.api.simulate
 import mfcontrol.api.sweep
+import mfcontrol.cexport.export
 import mfcontrol.experiments.benchmark
 import mfcontrol.experiments.cases
 import mfcontrol.experiments.compare
@@ -18,8 +19,9 @@ import mfcontrol.experiments.tune
 
 MODULES = [mfcontrol.api.controllers, mfcontrol.api.interop, mfcontrol.api.loop,
            mfcontrol.api.objective, mfcontrol.api.plants, mfcontrol.api.simulate,
-           mfcontrol.api.sweep, mfcontrol.experiments.benchmark, mfcontrol.experiments.cases,
-           mfcontrol.experiments.compare, mfcontrol.experiments.tune]
+           mfcontrol.api.sweep, mfcontrol.cexport.export, mfcontrol.experiments.benchmark,
+           mfcontrol.experiments.cases, mfcontrol.experiments.compare,
+           mfcontrol.experiments.tune]
 
 
 @pytest.mark.parametrize("module", MODULES, ids=lambda m: m.__name__)

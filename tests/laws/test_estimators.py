@@ -282,3 +282,24 @@ def test_moments_are_carried_and_recomputed_only_every_M_samples():
             np.testing.assert_allclose(CS[rows], fresh[rows], rtol=1e-12, atol=1e-12)
             if count % M == 0:
                 np.testing.assert_array_equal(CS[rows], fresh[rows])
+
+
+@pytest.mark.parametrize("M", [2, 3, 8])
+def test_the_sample_count_wraps_and_the_estimates_do_not_notice(M):
+    # The count must stay exact in a float32 and a 32-bit C long however long a controller
+    # runs (the float export): it wraps by M (M + 1), a multiple of every modulus it is
+    # read with, once the window is full. Before, it grew without bound.
+    period = M * (M + 1)
+    n = 7 * period + 5
+    rng = np.random.default_rng(M)
+    y, u = rng.standard_normal(n), rng.standard_normal(n)
+    CS = make_state(M)
+    counts = []
+    for k in range(n):
+        est.push(CS, 0, 0, M, y[k], u[k - 1] if k else U_BEFORE)
+        counts.append(CS[est.COUNT, 0])
+    counts = np.array(counts)
+    assert counts.max() < M + 1 + period
+    assert (counts[M:] >= M + 1).all()  # a full window stays full
+    assert (counts[: M + 1] == np.arange(1, M + 2)).all()
+    check_equals_direct(2 if M % 2 == 0 else 1, M, 1e-3, 3.0, y, u)

@@ -52,10 +52,10 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
     >>> h, c = mfcontrol.export_c("motor-noise-ipi-algebraic", out=folder, prefix="motor")
     >>> h.name, c.name
     ('motor.h', 'motor.c')
-    >>> "float motor_step(motor_state *s, float y, float setpoint);" in \\
-    ...     mfcontrol.cexport.c_source(mfcontrol.make_controller("lag-ip"), prefix="motor",
-    ...                                real="float").header
-    True
+    >>> print(h.read_text().split("/* One sample")[1].splitlines()[3])
+    motor_real motor_step(motor_state *s, motor_real y, motor_real setpoint);
+
+    ``motor_real`` is ``double`` here and ``float`` with ``real="float"``.
     """
     src = source_of(case, overrides, prefix=prefix, real=real, description=description)
     folder = Path(out)

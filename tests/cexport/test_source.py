@@ -1,0 +1,244 @@
+"""The exported C is the Python controller: bit for bit in double, within a derived bound
+in float, and the float build keeps the paper's voltage loop stable.
+
+Every case below is compiled with the system C compiler under
+``-std=c99 -O2 -Wall -Wextra -Werror -pedantic -ffp-contract=off`` and driven with the
+measurements and references of a closed-loop run of its case, then noisy samples, NaN,
+infinities, values that overflow the law, a manual period and the bumpless return to
+automatic: the same operations as the live Python controller.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol.cexport import c_source
+from mfcontrol.cexport.source import MAX_WINDOW, law_of
+from mfcontrol.errors import ConfigError
+
+from . import harness as H
+from . import running_error as RE
+
+N_RUN = 1500  # samples of the closed-loop run fed to both controllers
+
+
+@functools.cache
+def closed_loop(case: str) -> tuple[np.ndarray, np.ndarray]:
+    """The measurements and references of the first N_RUN samples of the case's run."""
+    _, cfg = mfcontrol.experiments.cases.resolve_case(case)
+    res = mfcontrol.run_case(case, {"sim.t_end": N_RUN * cfg["sim.h"]})
+    return res.signals["y_meas"][:N_RUN], res.signals["y_ref"][:N_RUN]
+
+
+def operations(case: str) -> np.ndarray:
+    y, r = closed_loop(case)
+    rng = np.random.default_rng(7)
+    scale = max(float(np.abs(y).max()), 1e-3)
+    noisy = y[-1] + 0.05 * scale * rng.standard_normal(300)
+    ref = np.full(300, r[-1])
+    tail = y[-1] + 0.01 * scale * rng.standard_normal(50)
+    special = [
+        (H.STEP, np.nan, r[-1]), (H.STEP, np.inf, r[-1]), (H.STEP, -np.inf, r[-1]),
+        (H.STEP, 1e300, r[-1]), (H.STEP, -1e300, 1e300),  # the law overflows: held
+        (H.STEP, y[-1], np.nan),  # a NaN setpoint gives a NaN output: held
+        (H.MANUAL, 0.5 * r[-1] + 0.1, 0.0), (H.STEP, y[-1], r[-1]), (H.STEP, y[-2], r[-1]),
+        (H.AUTO, 0.0, 0.0),
+    ]
+    return np.vstack([H.steps(y, r), H.steps(noisy, ref), np.array(special, float),
+                      H.steps(tail, ref[:50]), [(H.MANUAL, -1e9, 0.0), (H.AUTO, 0.0, 0.0)],
+                      H.steps(tail[::-1], ref[:50])])
+
+
+RECURSIVE = "voltage-stable-standard"
+INTELLIGENT = "motor-noise-ipi-algebraic"
+# (case whose run drives the controller, overrides that build the controller): every law
+# family and option the live controllers have
+VARIANTS = [
+    (RECURSIVE, {}),
+    (RECURSIVE, {"controller.law": "variational"}),
+    (RECURSIVE, {"controller.law": "variational", "controller.integrator": "second-order"}),
+    (RECURSIVE, {"controller.law": "variational", "controller.rate_term": True,
+                 "controller.rate_sign": "minus", "controller.k_gamma": 0.5}),
+    (RECURSIVE, {"controller.law": "variational", "controller.gain": "alpha"}),
+    (RECURSIVE, {"controller.p_error": "y-r", "controller.p_sample": "current"}),
+    (RECURSIVE, {"controller.anti_windup": "clamp", "controller.duty_max": 0.3}),
+    (RECURSIVE, {"controller.anti_windup": "back-calculation", "controller.k_aw": 2e5,
+                 "controller.duty_max": 0.3}),
+    (RECURSIVE, {"controller.output_gain": 0.5, "controller.u0": 0.2}),
+    (INTELLIGENT, {}),
+    (INTELLIGENT, {"controller.law": "i-P", "controller.estimator": "backward-difference"}),
+    (INTELLIGENT, {"controller.law": "i-PD", "controller.order": 2, "controller.kd": 1.0}),
+    (INTELLIGENT, {"controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5,
+                   "controller.estimator": "backward-difference",
+                   "controller.anti_windup": "back-calculation"}),
+    (INTELLIGENT, {"controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5,
+                   "controller.window": 20, "controller.adapt": "variational",
+                   "controller.gamma0": 0.02, "controller.Gamma": 1e-9,
+                   "controller.integrator": "second-order"}),
+    (INTELLIGENT, {"controller.anti_windup": "none", "controller.duty_min": -2.0,
+                   "controller.duty_max": 2.0}),
+    (INTELLIGENT, {"controller.anti_windup": "back-calculation", "controller.k_aw": 5.0,
+                   "controller.duty_min": -2.0, "controller.duty_max": 2.0}),
+    (INTELLIGENT, {"controller.law": "i-P", "controller.window": 7}),
+    ("motor-noise-pid", {}),
+    ("motor-noise-pid", {"controller.kd": 0.05, "controller.N": 5.0, "controller.b": 0.5,
+                         "controller.Tt": 0.2, "controller.duty_min": -2.0,
+                         "controller.duty_max": 2.0}),
+    ("buck-ipi", {}),
+    ("boost-ipd", {}),
+    ("first-order-ip-algebraic", {}),
+]
+
+
+def _id(variant) -> str:
+    case, over = variant
+    return case + "".join(f"-{k.split('.')[-1]}={v}" for k, v in over.items())
+
+
+@pytest.mark.parametrize("variant", VARIANTS, ids=[_id(v) for v in VARIANTS])
+def test_double_export_is_bit_for_bit_the_python_controller(variant, tmp_path):
+    case, overrides = variant
+    ops = operations(case)
+    exe = H.build(c_source(mfcontrol.make_controller(case, overrides)), tmp_path)
+    u_c, nan_c = H.run_binary(exe, ops)
+    u_py, nan_py = H.run_python(mfcontrol.make_controller(case, overrides), ops)
+    assert u_c.shape == u_py.shape
+    differ = np.flatnonzero(u_c.view(np.int64) != u_py.view(np.int64))
+    assert differ.size == 0, f"first difference at step {differ[0]}: " \
+                             f"C {u_c[differ[0]]!r}, Python {u_py[differ[0]]!r}"
+    assert nan_c == nan_py >= 4  # NaN, two infinities, the overflows, the NaN setpoint
+
+
+def test_a_controller_built_in_python_exports_too(tmp_path):
+    ctrl = mfcontrol.IPID(alpha=2.0, kp=4.0, ki=1.0, kd=2.0, sample_time=0.01,
+                          estimator="algebraic", window=10, output_limits=(-5, 5))
+    rng = np.random.default_rng(2)
+    y = np.cumsum(0.01 * rng.standard_normal(400))
+    ops = H.steps(y, np.where(np.arange(400) > 40, 1.0, 0.0))
+    u_c, _ = H.run_binary(H.build(c_source(ctrl), tmp_path), ops)
+    u_py, _ = H.run_python(ctrl, ops)
+    assert np.array_equal(u_c, u_py)
+
+
+# --- float ------------------------------------------------------------------------------
+
+FLOAT_VARIANTS = [
+    (RECURSIVE, {}),
+    (RECURSIVE, {"controller.law": "variational"}),
+    (INTELLIGENT, {}),
+    ("boost-ipd", {}),
+    (INTELLIGENT, {"controller.law": "i-P", "controller.estimator": "backward-difference",
+                   "controller.adapt": "variational", "controller.gamma0": 0.02,
+                   "controller.Gamma": 1e-9}),
+    ("motor-noise-pid", {"controller.kd": 0.05}),
+]
+N_FLOAT = 600  # samples; the bound is checked at every CHECK-th
+CHECK = 25
+
+
+@pytest.mark.parametrize("variant", FLOAT_VARIANTS, ids=[_id(v) for v in FLOAT_VARIANTS])
+def test_float_export_stays_within_the_first_order_rounding_bound(variant, tmp_path):
+    """|u_float - u_double| <= 2^-24 sum |d u / d z| |z| over every rounded value z
+    (:mod:`running_error`), evaluated along the run."""
+    case, overrides = variant
+    y, r = (a[:N_FLOAT] for a in closed_loop(case))
+    ops = H.steps(y, r)
+    src = c_source(mfcontrol.make_controller(case, overrides), real="float")
+    u_f, nan_count = H.run_binary(H.build(src, tmp_path), ops)
+    u_d, _ = H.run_python(mfcontrol.make_controller(case, overrides), ops)
+    ctrl = mfcontrol.make_controller(case, overrides)
+    values, bound = RE.carried_outputs(ctrl, law_of(ctrl), y, r, every=CHECK)
+    assert np.array_equal(values, u_d)  # the tape ran the law itself
+    assert nan_count == 0
+    checked = ~np.isnan(bound)
+    err, limit = np.abs(u_f - u_d)[checked], RE.U_FLOAT * bound[checked]
+    ratio = err / np.maximum(limit, 1e-300)
+    print(f"{_id(variant)}: max |u_float - u_double| {err.max():.3g}, "
+          f"largest share of the bound {ratio.max():.3f}")
+    assert (err <= limit).all()
+    assert err.max() > 0  # float really differs: the check is not vacuous
+
+
+class _CController:
+    """A compiled controller called through ctypes, shaped like a live controller."""
+
+    def __init__(self, path, src):
+        self.lib = ctypes.CDLL(str(path))
+        real = ctypes.c_float if src.real == "float" else ctypes.c_double
+        self.step = self.lib[f"{src.prefix}_step"]
+        self.step.restype = real
+        self.step.argtypes = [ctypes.c_void_p, real, real]
+        # the struct: the state, its backup, three scalars; generously sized
+        self.state = ctypes.create_string_buffer(8 * (2 * src.n_state + 8))
+        self.lib[f"{src.prefix}_init"](self.state)
+
+    def __call__(self, y, setpoint=0.0):
+        return float(self.step(self.state, y, setpoint))
+
+
+def test_float_build_keeps_the_paper_voltage_loop_stable(tmp_path):
+    case = "voltage-stable-standard"
+    _, cfg = mfcontrol.experiments.cases.resolve_case(case)
+    exact = mfcontrol.run_case(case)
+    src = c_source(mfcontrol.make_controller(case), real="float")
+    ctrl = _CController(H.build(src, tmp_path, shared=True), src)
+    plant, changes = mfcontrol.api.params.plant_and_changes(cfg)
+    res = mfcontrol.simulate_loop(plant, ctrl, exact.signals["y_ref"], t_end=cfg["sim.t_end"],
+                                  h=cfg["sim.h"], changes=changes)
+    assert res.engine == "python"
+    assert res.metrics["stable"] and not res.metrics["diverged"]
+    assert exact.metrics["stable"]
+    gap = np.abs(res.signals["y"] - exact.signals["y"]).max()
+    print(f"float C in the loop: IAE {res.metrics['iae']:.6g} (double {exact.metrics['iae']:.6g}),"
+          f" max |y_float - y_double| {gap:.3g} V")
+    assert res.metrics["iae"] == pytest.approx(exact.metrics["iae"], rel=1e-3)
+
+
+# --- refusals -----------------------------------------------------------------------------
+
+def test_refusals_name_the_key_and_what_is_allowed():
+    ip = mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01)
+    with pytest.raises(ConfigError, match="prefix = '9lives': must be a C identifier"):
+        c_source(ip, prefix="9lives")
+    with pytest.raises(ConfigError, match="real = 'half': must be one of double, float"):
+        c_source(ip, real="half")
+    with pytest.raises(ConfigError, match="gain = 'external'"):
+        c_source(mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01, gain="external"))
+    big = mfcontrol.IP(alpha=1.0, kp=1e300, sample_time=0.01)
+    with pytest.raises(ConfigError, match="does not fit in a float"):
+        c_source(big, real="float")
+    c_source(big)  # fine in double
+    for real, M in MAX_WINDOW.items():
+        ok = mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01, estimator="algebraic", window=M)
+        c_source(ok, real=real)
+        over = mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01, estimator="algebraic",
+                            window=M + 1)
+        with pytest.raises(ConfigError, match=f"at most {M:,} samples in a {real} export"):
+            c_source(over, real=real)
+    with pytest.raises(TypeError, match="cannot export a str"):
+        c_source("IP")
+
+
+def test_the_files_say_what_they_hold():
+    src = c_source(mfcontrol.make_controller("motor-noise-ipi-algebraic"), prefix="motor",
+                   real="float", description="case motor-noise-ipi-algebraic")
+    for text in (src.header, src.source):
+        assert f"mfcontrol {mfcontrol.__version__}" in text
+        assert "case motor-noise-ipi-algebraic" in text and "window = 40" in text
+    assert "typedef float motor_real;" in src.header
+    assert "#define MOTOR_SAMPLE_TIME 0.001" in src.header
+    assert "motor_real motor_step(motor_state *s, motor_real y, motor_real setpoint);" \
+        in src.header
+    # the law comes from its Python source: each translated function names it
+    assert "/* mfcontrol.laws.estimators.push */" in src.source
+    assert "#include <math.h>" in src.source
+    assert "malloc" not in src.source and "static mfc" not in src.source
+    # no file-scope state: the only static data is the const parameter table
+    for line in src.source.splitlines():
+        if line.startswith("static") and "(" not in line:
+            assert line.startswith("static const motor_real motor_params[")
