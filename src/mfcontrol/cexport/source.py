@@ -57,12 +57,12 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double",
     check_prefix(prefix)
     if real not in REALS:
         raise ConfigError("real", real, f"must be one of {', '.join(REALS)}")
+    law = law_of(ctrl, real)
     cp = ctrl._CP[:, 0]
     too_big = [float(v) for v in cp if math.isfinite(v) and abs(v) > _FLOAT_MAX]
     if real == "float" and too_big:
         raise ConfigError("real", real, f"a parameter of the law ({too_big[0]!r}) does not "
                           "fit in a float: export in double")
-    law = law_of(ctrl, real)
     table = f"{prefix}_params"
     tr = Translator(Options(prefix, real, table, law.state_rows))
     step = tr.function(law.step, law.step_kinds)
