@@ -126,6 +126,14 @@ ERRORS = [
                  id="benchmark-plant-without-table"),
     pytest.param(["benchmark", "--plants", "nope"], ["'nope'", "unknown case"],
                  id="benchmark-unknown-plant"),
+    # export-c
+    pytest.param(["export-c", CASE, "--prefix", "9lives", "--out", "{d}/c-prefix"],
+                 ["prefix = '9lives'", "must be a C identifier"], id="export-c-bad-prefix"),
+    pytest.param(["export-c", "motor-noise-ipi-algebraic", "--float", "float",
+                  "--set", "controller.window=5000", "--out", "{d}/c-window"],
+                 ["controller.window = 5000", "at most 4,095 samples in a float export"],
+                 id="export-c-float-window"),
+    pytest.param(["export-c", "nope"], ["'nope'", "unknown case"], id="export-c-unknown-case"),
     # unknown case or file
     pytest.param([S, "nope"], ["'nope'", "unknown case", "built-in cases are",
                                "voltage-stable-standard", ".toml"], id="unknown-case"),
@@ -327,7 +335,7 @@ CORE = {
     "t_end-not-whole-steps", "nan-kp", "inf-E", "nan-in-list", "file-nan", "file-inf",
     "run-file-nan", "toml-unclosed-table", "run-malformed-toml", "show-without-case",
     "reproduce-bad-fidelity", "huge-integer", "t_end-over-h-overflows", "sweep-over-sim.h",
-    "unknown-key-names-its-value",
+    "unknown-key-names-its-value", "export-c-float-window",
 }
 CORE_ERRORS = [p for p in ERRORS if p.id in CORE]
 assert len(CORE_ERRORS) == len(CORE)
@@ -619,3 +627,20 @@ def test_compare_prints_its_table(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "| motor-noise-pid | PI (kp 0.2, ki 0.54) |" in proc.stdout
     assert (tmp_path / "comparison.csv").is_file()
+
+
+def test_export_c_writes_a_header_and_a_source_that_compile(tmp_path):
+    from tests.cexport.harness import CFLAGS, compiler
+
+    proc = cli("export-c", "motor-noise-ipi-algebraic", "--set", "controller.kp=7",
+               "--float", "float", "--prefix", "motor", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    folder = tmp_path / "results" / "motor-noise-ipi-algebraic" / "c"
+    assert sorted(p.name for p in folder.iterdir()) == ["motor.c", "motor.h"]
+    assert "wrote" in proc.stdout and "-ffp-contract=off" in proc.stdout
+    header = (folder / "motor.h").read_text()
+    assert "typedef float motor_real;" in header
+    assert "case motor-noise-ipi-algebraic --set controller.kp=7" in header
+    assert "kp = 7.0" in header
+    subprocess.run([compiler(), *CFLAGS, "-c", str(folder / "motor.c"), "-o",
+                    str(tmp_path / "motor.o")], check=True)

@@ -15,6 +15,8 @@ import functools
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import mfcontrol
 from mfcontrol.cexport import c_source
@@ -123,6 +125,45 @@ def test_a_controller_built_in_python_exports_too(tmp_path):
     u_c, _ = H.run_binary(H.build(c_source(ctrl), tmp_path), ops)
     u_py, _ = H.run_python(ctrl, ops)
     assert np.array_equal(u_c, u_py)
+
+
+@st.composite
+def intelligent_controllers(draw):
+    order = draw(st.sampled_from([1, 2]))
+    estimator = draw(st.sampled_from(["backward-difference", "algebraic"]))
+    window = None
+    if estimator == "algebraic":
+        window = draw(st.integers(1, 15)) * 2 if order == 2 else draw(st.integers(2, 30))
+    gains = st.floats(-50.0, 50.0, allow_subnormal=False)
+    lo = draw(st.none() | st.floats(-10.0, 0.0))
+    hi = draw(st.none() | st.floats(0.0, 10.0))
+    gain = draw(st.sampled_from(["constant", "variational"]))
+    return mfcontrol.IPID(
+        alpha=draw(st.floats(0.1, 100.0)), kp=draw(gains), ki=draw(gains), kd=draw(gains),
+        sample_time=draw(st.sampled_from([1e-6, 1e-3, 0.01, 0.1])), order=order,
+        estimator=estimator, window=window, output_limits=(lo, hi),
+        anti_windup=draw(st.sampled_from(["clamp", "back-calculation", "none"])),
+        k_aw=draw(st.none() | st.floats(0.0, 1e3)), gain=gain,
+        gamma0=draw(st.none() | st.floats(0.01, 10.0)), Gamma=draw(st.floats(-1e-3, 1e-3)),
+        eps_M=draw(st.floats(-1.0, 1.0)),
+        integrator=draw(st.sampled_from(["first-order", "second-order"])),
+        starting_output=draw(st.floats(-5.0, 5.0)))
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(ctrl=intelligent_controllers(), seed=st.integers(0, 2**32 - 1))
+def test_any_intelligent_controller_is_bit_for_bit(tmp_path_factory, ctrl, seed):
+    rng = np.random.default_rng(seed)
+    n = 200
+    y = np.cumsum(rng.normal(0.0, 0.05, n))
+    y[rng.random(n) < 0.03] = np.nan  # dropouts
+    r = np.repeat(rng.normal(0.0, 1.0, 4), n // 4)
+    ops = np.vstack([H.steps(y, r), [(H.MANUAL, 0.7, 0.0), (H.AUTO, 0.0, 0.0)],
+                     H.steps(y[::-1], r)])
+    exe = H.build(c_source(ctrl), tmp_path_factory.mktemp("c"))
+    u_c, nan_c = H.run_binary(exe, ops)
+    u_py, nan_py = H.run_python(type(ctrl).from_snapshot(ctrl.snapshot()), ops)
+    assert np.array_equal(u_c.view(np.int64), u_py.view(np.int64)) and nan_c == nan_py
 
 
 # --- float ------------------------------------------------------------------------------

@@ -219,11 +219,16 @@ typedef @REAL@ @R@;
 #define @PU@_N_STATE @NS@
 
 typedef struct {
-    @R@ cs[@NS@];          /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
-    @R@ backup[@NB@];      /* the memory before the current step */
-    @R@ last_output;       /* returned in manual mode and after a rejected sample */
-    unsigned long nan_count; /* rejected samples: non-finite measurement or output */
-    int auto_mode;           /* 1 automatic, 0 manual */
+    /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
+    @R@ cs[@NS@];
+    /* the memory the current step may overwrite, as it was before the step */
+    @R@ backup[@NB@];
+    /* returned in manual mode and after a rejected sample */
+    @R@ last_output;
+    /* rejected samples: non-finite measurement or output */
+    unsigned long nan_count;
+    /* 1 automatic, 0 manual */
+    int auto_mode;
 } @P@_state;
 
 /* Start (or restart) the controller: automatic mode, no history. */

@@ -1,0 +1,106 @@
+"""What an exported controller costs on a target: code size and instructions per call.
+
+Each controller is exported (``mfcontrol.export_c``), compiled as the tests compile it
+(``cc -std=c99 -O2 -ffp-contract=off``), its object's ``text`` size read with ``size``,
+and its step driven with the case's own closed-loop measurements (10,000 samples) under
+``valgrind --tool=callgrind --toggle-collect=PREFIX_step``: instructions counted inside
+the step only, which repeat exactly from run to run (times on this shared machine do not).
+The Python live controller's time per call on the same samples is printed beside it for
+scale. Needs cc, size and valgrind. Run::
+
+    python benchmarks/bench_c_export.py
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import mfcontrol
+from mfcontrol.cexport import c_source
+
+CFLAGS = ["-std=c99", "-O2", "-ffp-contract=off"]
+N = 10_000
+IPID = {"controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5,
+        "controller.ki": 50.0}
+#: (label, case, overrides): the i-PID with the algebraic estimator first
+CONTROLLERS = [
+    ("i-PID, algebraic estimator (window 40), order 2", "motor-noise-ipi-algebraic", IPID),
+    ("i-PI, algebraic estimator (window 40), order 1", "motor-noise-ipi-algebraic", {}),
+    ("i-PID, backward difference, order 2", "motor-noise-ipi-algebraic",
+     {**IPID, "controller.estimator": "backward-difference"}),
+    ("paper's recursive i-P", "voltage-stable-standard", {}),
+    ("paper's variational i-P", "voltage-stable-variational", {}),
+    ("PID", "motor-noise-pid", {}),
+]
+
+_MAIN = r"""
+#include <stdio.h>
+#include "mfc.h"
+int main(void)
+{
+    static mfc_state s;
+    double yr[2], sum = 0;
+    mfc_init(&s);
+    while (fread(yr, sizeof yr, 1, stdin) == 1) sum += (double)mfc_step(&s, yr[0], yr[1]);
+    printf("%.17g\n", sum);
+    return 0;
+}
+"""
+
+
+def measure(case: str, overrides: dict, real: str, folder: Path) -> tuple[int, float, float]:
+    """(text bytes of the object, instructions per call, Python seconds per call)."""
+    _, cfg = mfcontrol.experiments.cases.resolve_case(case, overrides)
+    run = mfcontrol.run_case(case, {**overrides, "sim.t_end": N * cfg["sim.h"]})
+    y, r = run.signals["y_meas"][:N], run.signals["y_ref"][:N]
+    src = c_source(mfcontrol.make_controller(case, overrides), real=real)
+    (folder / "mfc.h").write_text(src.header)
+    (folder / "mfc.c").write_text(src.source)
+    (folder / "main.c").write_text(_MAIN)
+    subprocess.run(["cc", *CFLAGS, "-c", "mfc.c", "-o", "mfc.o"], cwd=folder, check=True)
+    size = subprocess.run(["size", "mfc.o"], cwd=folder, check=True, capture_output=True,
+                          text=True).stdout.splitlines()[1].split()
+    subprocess.run(["cc", *CFLAGS, "-g", "main.c", "mfc.c", "-o", "drive", "-lm"], cwd=folder,
+                   check=True)
+    (folder / "input.bin").write_bytes(np.column_stack([y, r]).tobytes())
+    out = folder / "callgrind.out"
+    with open(folder / "input.bin", "rb") as stdin:
+        subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                        "--toggle-collect=mfc_step", "./drive"], cwd=folder, stdin=stdin,
+                       check=True, capture_output=True)
+    totals = re.search(r"^summary:\s+(\d+)", out.read_text(), flags=re.M)
+    ctrl = mfcontrol.make_controller(case, overrides)
+    ys, rs = y.tolist(), r.tolist()  # plain floats, as a sensor read gives them
+    t0 = time.perf_counter()
+    for yk, rk in zip(ys, rs, strict=True):
+        ctrl(yk, setpoint=rk)
+    py = (time.perf_counter() - t0) / N
+    return int(size[0]), int(totals.group(1)) / N, py
+
+
+def main() -> None:
+    missing = [tool for tool in ("cc", "size", "valgrind") if shutil.which(tool) is None]
+    if missing:
+        sys.exit(f"bench_c_export: needs {', '.join(missing)}")
+    print(f"{N:,} calls each, compiled with cc {' '.join(CFLAGS)}")
+    print(f"{'controller':<50} {'real':<7} {'text (bytes)':>12} {'instr/call':>11} "
+          f"{'Python us/call':>15}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, case, overrides in CONTROLLERS:
+            for real in ("double", "float"):
+                folder = Path(tmp) / f"{case}-{len(overrides)}-{real}"
+                folder.mkdir()
+                text, instr, py = measure(case, overrides, real, folder)
+                print(f"{label:<50} {real:<7} {text:>12,} {instr:>11,.0f} {py * 1e6:>15.2f}")
+
+
+if __name__ == "__main__":
+    main()
