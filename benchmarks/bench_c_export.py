@@ -5,6 +5,9 @@ Each controller is exported (``mfcontrol.export_c``), compiled as the tests comp
 and its step driven with the case's own closed-loop measurements (10,000 samples) under
 ``valgrind --tool=callgrind --toggle-collect=PREFIX_step``: instructions counted inside
 the step only, which repeat exactly from run to run (times on this shared machine do not).
+With the algebraic estimator a step every M samples also recomputes the moments from the
+window: that step's count (the worst case, what a control interrupt's deadline must
+allow) and an ordinary one's come from runs of 2M - 2, 2M - 1 and 2M samples.
 The Python live controller's time per call on the same samples is printed beside it for
 scale. Needs cc, size and valgrind. Run::
 
@@ -24,9 +27,8 @@ from pathlib import Path
 import numpy as np
 
 import mfcontrol
-from mfcontrol.cexport import c_source
+from mfcontrol.cexport import CFLAGS, c_source
 
-CFLAGS = ["-std=c99", "-O2", "-ffp-contract=off"]
 N = 10_000
 IPID = {"controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5,
         "controller.ki": 50.0}
@@ -56,8 +58,20 @@ int main(void)
 """
 
 
-def measure(case: str, overrides: dict, real: str, folder: Path) -> tuple[int, float, float]:
-    """(text bytes of the object, instructions per call, Python seconds per call)."""
+def instructions(folder: Path, inputs: np.ndarray) -> int:
+    """Instructions executed inside mfc_step over the rows (y, r) of ``inputs``."""
+    (folder / "input.bin").write_bytes(np.ascontiguousarray(inputs).tobytes())
+    out = folder / "callgrind.out"
+    with open(folder / "input.bin", "rb") as stdin:
+        subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                        "--toggle-collect=mfc_step", "./drive"], cwd=folder, stdin=stdin,
+                       check=True, capture_output=True)
+    return int(re.search(r"^summary:\s+(\d+)", out.read_text(), flags=re.M).group(1))
+
+
+def measure(case: str, overrides: dict, real: str, folder: Path):
+    """(text bytes of the object, instructions per call, (ordinary step, resync step) or
+    None, Python seconds per call)."""
     _, cfg = mfcontrol.experiments.cases.resolve_case(case, overrides)
     run = mfcontrol.run_case(case, {**overrides, "sim.t_end": N * cfg["sim.h"]})
     y, r = run.signals["y_meas"][:N], run.signals["y_ref"][:N]
@@ -70,20 +84,21 @@ def measure(case: str, overrides: dict, real: str, folder: Path) -> tuple[int, f
                           text=True).stdout.splitlines()[1].split()
     subprocess.run(["cc", *CFLAGS, "-g", "main.c", "mfc.c", "-o", "drive", "-lm"], cwd=folder,
                    check=True)
-    (folder / "input.bin").write_bytes(np.column_stack([y, r]).tobytes())
-    out = folder / "callgrind.out"
-    with open(folder / "input.bin", "rb") as stdin:
-        subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
-                        "--toggle-collect=mfc_step", "./drive"], cwd=folder, stdin=stdin,
-                       check=True, capture_output=True)
-    totals = re.search(r"^summary:\s+(\d+)", out.read_text(), flags=re.M)
+    yr = np.column_stack([y, r])
+    per_call = instructions(folder, yr) / N
     ctrl = mfcontrol.make_controller(case, overrides)
+    steps = None
+    if ctrl._params.get("estimator") == "algebraic":
+        M = ctrl._params["window"]  # the step of sample 2M - 1 resyncs
+        i0, i1, i2 = (instructions(folder, yr[:n]) for n in (2 * M - 2, 2 * M - 1, 2 * M))
+        steps = (i1 - i0, i2 - i1)
     ys, rs = y.tolist(), r.tolist()  # plain floats, as a sensor read gives them
+    mfcontrol.make_controller(case, overrides)(ys[0], setpoint=rs[0])  # compiled, warm
     t0 = time.perf_counter()
     for yk, rk in zip(ys, rs, strict=True):
         ctrl(yk, setpoint=rk)
     py = (time.perf_counter() - t0) / N
-    return int(size[0]), int(totals.group(1)) / N, py
+    return int(size[0]), per_call, steps, py
 
 
 def main() -> None:
@@ -92,14 +107,16 @@ def main() -> None:
         sys.exit(f"bench_c_export: needs {', '.join(missing)}")
     print(f"{N:,} calls each, compiled with cc {' '.join(CFLAGS)}")
     print(f"{'controller':<50} {'real':<7} {'text (bytes)':>12} {'instr/call':>11} "
-          f"{'Python us/call':>15}")
+          f"{'ordinary':>9} {'resync':>7} {'Python us/call':>15}")
     with tempfile.TemporaryDirectory() as tmp:
         for label, case, overrides in CONTROLLERS:
             for real in ("double", "float"):
                 folder = Path(tmp) / f"{case}-{len(overrides)}-{real}"
                 folder.mkdir()
-                text, instr, py = measure(case, overrides, real, folder)
-                print(f"{label:<50} {real:<7} {text:>12,} {instr:>11,.0f} {py * 1e6:>15.2f}")
+                text, instr, steps, py = measure(case, overrides, real, folder)
+                ordinary, resync = (f"{steps[0]:,}", f"{steps[1]:,}") if steps else ("", "")
+                print(f"{label:<50} {real:<7} {text:>12,} {instr:>11,.0f} {ordinary:>9} "
+                      f"{resync:>7} {py * 1e6:>15.2f}")
 
 
 if __name__ == "__main__":

@@ -223,7 +223,7 @@ def _cmd_benchmark(args) -> int:
 
 
 def _cmd_export_c(args) -> int:
-    from .cexport import export_c
+    from .cexport import CFLAGS, export_c
     from .experiments import cases
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set))
@@ -232,7 +232,7 @@ def _cmd_export_c(args) -> int:
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
                               description=f"case {args.case}{sets}")
     print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}); compile "
-          f"with: cc -std=c99 -O2 -ffp-contract=off -c {source}")
+          f"with: cc {' '.join(CFLAGS)} -c {source}")
     return 0
 
 

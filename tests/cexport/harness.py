@@ -15,7 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-ffp-contract=off"]
+from mfcontrol.cexport import CFLAGS as EXPORT_FLAGS
+
+#: the flags the export recommends, with every warning an error
+CFLAGS = [*EXPORT_FLAGS, "-Wall", "-Wextra", "-Werror", "-pedantic"]
 STEP, MANUAL, AUTO = 0.0, 1.0, 2.0
 
 _MAIN = r"""

@@ -3,17 +3,20 @@
 from __future__ import annotations
 
 import math
+import subprocess
 
+import numpy as np
 import pytest
 
 from mfcontrol.cexport.translate import CP, CS, INT, REAL, J, Options, TranslationError, Translator
 from mfcontrol.laws import intelligent
 
+from . import harness
+
 
 def _translate(fn, kinds, real="double"):
     tr = Translator(Options("t", real, "t_params", {}))
-    tr.function(fn, kinds)
-    return tr.source()
+    return tr.source([tr.function(fn, kinds)])
 
 
 def loops_while(CS, j):
@@ -83,8 +86,73 @@ def counts(CS, j, n):
 def test_integers_stay_integers_and_true_division_is_floating():
     text = _translate(counts, (CS, J, INT))
     assert "long total = 0;" in text and "long i = 0;" in text
-    assert "for (i = (n - 1); i > tmp1_; i += -1)" in text
     assert "cs[0] = (((t_real)total) / n);" in text
+
+
+def python_semantics(CS, j, a, b, x, y):
+    CS[0, j] = a % b
+    CS[1, j] = a // b
+    CS[2, j] = max(x, y)
+    CS[3, j] = min(x, y)
+    CS[4, j] = abs(-5)
+    CS[5, j] = abs(a - 10)
+    i, last = 0, 0
+    for i in range(b, a, -2):
+        last = i
+        i = 100  # rebinding the loop variable does not change the iteration
+    CS[6, j] = i * 1000.0 + last
+
+
+CASES = [(-7, 3, 0.0, -0.0), (7, -3, math.nan, 1.0), (7, 3, 1.0, math.nan), (-7, -3, 2.0, 1.0),
+         (9, 2, -0.0, 0.0), (8, -4, 3.0, 3.0)]
+
+
+def test_the_c_computes_what_python_computes(tmp_path):
+    """Integer % and // floor, max/min keep the first argument unless the second compares
+    greater (smaller), a loop variable holds its last value after the loop: the C prints
+    the same bits as Python computes, NaN and signed zeros included."""
+    code = _translate(python_semantics, (CS, J, INT, INT, REAL, REAL))
+    calls = "\n".join(
+        f"    t_test_translate_python_semantics(cs, {a}, {b}, {_c(x)}, {_c(y)});\n"
+        "    for (i = 0; i < 7; i++) printf(\"%a\\n\", cs[i]);" for a, b, x, y in CASES)
+    (tmp_path / "t.c").write_text(
+        "#include <math.h>\n#include <stdio.h>\ntypedef double t_real;\n" + code
+        + "\nint main(void)\n{\n    double cs[7];\n    int i;\n" + calls
+        + "\n    return 0;\n}\n")
+    subprocess.run([harness.compiler(), *harness.CFLAGS, str(tmp_path / "t.c"), "-o",
+                    str(tmp_path / "t"), "-lm"], check=True)
+    out = subprocess.run([str(tmp_path / "t")], capture_output=True, text=True,
+                         check=True).stdout.split()
+    expected = []
+    for a, b, x, y in CASES:
+        cs = np.zeros((7, 1))
+        python_semantics(cs, 0, a, b, x, y)
+        expected += [_hex(v) for v in cs[:, 0]]
+    assert [v.replace("-nan", "nan") for v in out] == expected
+
+
+def _c(x: float) -> str:
+    return "NAN" if math.isnan(x) else f"(double){x!r}"
+
+
+def _hex(v: float) -> str:
+    """What C's %a prints."""
+    if math.isnan(v):
+        return "nan"
+    if v == 0.0:
+        return "-0x0p+0" if math.copysign(1.0, v) < 0 else "0x0p+0"
+    text = float.hex(float(v))  # 0x1.c000000000000p+2 -> 0x1.cp+2
+    mantissa, exp = text.split("p")
+    return mantissa.rstrip("0").rstrip(".") + "p" + exp
+
+
+def value_or(x, y):
+    return x or y
+
+
+def test_refuses_and_or_of_values():
+    with pytest.raises(TranslationError, match="`and`/`or` of values"):
+        _translate(value_or, (REAL, REAL))
 
 
 def test_parameters_come_from_the_table_and_state_from_cs():

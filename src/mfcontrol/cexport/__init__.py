@@ -2,6 +2,6 @@
 own source so that, in double, the C computes what mfcontrol computes bit for bit."""
 
 from .export import export_c
-from .source import CSource, c_source
+from .source import CFLAGS, CSource, c_source
 
-__all__ = ["CSource", "c_source", "export_c"]
+__all__ = ["CFLAGS", "CSource", "c_source", "export_c"]

@@ -79,5 +79,5 @@ def source_of(case, overrides=None, *, prefix: str = "mfc", real: str = "double"
     ctrl = make_controller(case, overrides)
     what = case if isinstance(case, str | Path) else getattr(case, "name", "a configuration")
     sets = "".join(f" --set {k}={v!r}" for k, v in (overrides or {}).items())
-    return c_source(ctrl, prefix=prefix, real=real,
+    return c_source(ctrl, prefix=prefix, real=real, key_prefix="controller.",
                     description=description or f"case {what}{sets}")

@@ -23,10 +23,31 @@ from ..laws import variational_gain as gain_law
 from .translate import CP, CS, REAL, J, Options, Translator
 
 REALS = ("double", "float")
-#: the estimator's sample count wraps by M (M + 1) (:func:`mfcontrol.laws.estimators.push`);
-#: it must stay exact in a C ``long`` (32 bits at least) and, in a float build, in a float
-MAX_WINDOW = {"double": 46_339, "float": 4_095}
-_FLOAT_MAX = float(np.finfo(np.float32).max)
+#: how to compile an export so that, in double, it computes what mfcontrol computes: no
+#: contraction of a multiply and an add into one rounding (and no -ffast-math)
+CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
+_LONG_MAX = 2**31 - 1  # the least a C long holds
+_FLOAT_EXACT = 2**24  # integers a float holds exactly
+
+
+def _largest_window(fits) -> int:
+    M = 2
+    while fits(M + 1):
+        M += 1 if M < 1000 else max(1, M // 1000)
+    while not fits(M):
+        M -= 1
+    return M
+
+
+#: The algebraic estimator's sample count wraps by M (M + 1) and stays below M (M + 2)
+#: (:func:`mfcontrol.laws.estimators.push`). Its largest intermediate, count + M + 1,
+#: must fit in a C long (32 bits at least); in a float export the count itself must be an
+#: exact float.
+MAX_WINDOW = {
+    "double": _largest_window(lambda M: M * (M + 3) + 1 <= _LONG_MAX),
+    "float": _largest_window(lambda M: M * (M + 2) <= _FLOAT_EXACT),
+}
+_FLOAT = np.finfo(np.float32)
 
 
 @dataclass
@@ -48,54 +69,95 @@ def check_prefix(prefix: str) -> str:
     return prefix
 
 
-def c_source(ctrl, *, prefix: str = "mfc", real: str = "double",
-             description: str = "") -> CSource:
-    """Translate a live controller (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID`` or
-    ``RecursiveIP``, fresh or not: its parameters are what counts) into C99.
+def _parameter_named(ctrl, value: float, key_prefix: str) -> tuple[str, object, str]:
+    """(keyword, the value given, "" or "1/") of the controller keyword that gave a
+    parameter row ``value`` directly or as its reciprocal, for a message."""
+    for key, given in ctrl._params.items():
+        for v in (given if isinstance(given, list) else [given]):
+            if isinstance(v, int | float) and not isinstance(v, bool) and v:
+                if v == value:
+                    return f"{key_prefix}{key}", given, ""
+                if 1.0 / v == value:
+                    return f"{key_prefix}{key}", given, "1/"
+    return "parameter", value, ""
 
-    ``description`` goes into the files' leading comment (the case it came from)."""
+
+def _check_float_range(ctrl, cp, key_prefix: str) -> None:
+    for v in cp:
+        if math.isfinite(v) and v != 0.0 and not _FLOAT.tiny <= abs(v) <= _FLOAT.max:
+            key, given, inverse = _parameter_named(ctrl, float(v), key_prefix)
+            what = f"1/{key.split('.')[-1]} = {v:.3g}" if inverse else "it"
+            raise ConfigError(key, given, f"{what} is outside the range of a normal float "
+                              f"({_FLOAT.tiny:.3g} to {_FLOAT.max:.3g} in magnitude): "
+                              "export in double")
+
+
+def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: str = "",
+             key_prefix: str = "") -> CSource:
+    """Translate a live controller (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID`` or
+    ``RecursiveIP``) into C99. The C starts as the controller would if built afresh with
+    its parameters (a manual/automatic switch the object went through is not exported).
+
+    ``description`` goes into the files' leading comment (the case it came from);
+    ``key_prefix`` (``"controller."`` for a case) goes before a keyword an error names."""
     check_prefix(prefix)
     if real not in REALS:
         raise ConfigError("real", real, f"must be one of {', '.join(REALS)}")
-    law = law_of(ctrl, real)
+    law_of(ctrl, real, key_prefix)  # refuses what cannot export, before anything is built
+    # the parameters as built: a bumpless start rewrites the recursive law's u0 in place
+    ctrl = type(ctrl)(**ctrl._params)
+    law = law_of(ctrl, real, key_prefix)
     cp = ctrl._CP[:, 0]
-    too_big = [float(v) for v in cp if math.isfinite(v) and abs(v) > _FLOAT_MAX]
-    if real == "float" and too_big:
-        raise ConfigError("real", real, f"a parameter of the law ({too_big[0]!r}) does not "
-                          "fit in a float: export in double")
+    if real == "float":
+        _check_float_range(ctrl, cp, key_prefix)
     table = f"{prefix}_params"
-    tr = Translator(Options(prefix, real, table, law.state_rows))
+    options = Options(prefix, real, table, law.state_rows)
+    tr = Translator(options)
     step = tr.function(law.step, law.step_kinds)
     reset = tr.function(law.reset, law.reset_kinds)
-    lit = Options(prefix, real, table, {}).literal
     n_cs = ctrl._CS.shape[0] + len(law.state_rows)
+    dt = ctrl.sample_time
     subs = {
         "P": prefix, "R": f"{prefix}_real", "NS": str(n_cs), "NB": str(law.n_backup(n_cs)),
-        "STEP": step.name, "RESET": reset.name, "DT": lit(getattr(ctrl, "_dt", 0.0) or 0.0),
-        "LAW": law.name,
+        "STEP": step.name, "RESET": reset.name, "LAW": law.name,
+        "DT": options.literal(dt if dt is not None else 0.0),
     }
+    # the law's pieces first (they hold @-names the second pass fills)
+    parts = {"SAVE": law.save, "RESTORE": law.restore, "INIT": law.init,
+             "BUMPLESS": law.bumpless, "CALL": law.call}
+    driver = _fill(_fill(_DRIVER, parts), subs)
     banner = _banner(prefix, real, law, ctrl, description)
-    header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"{prefix.upper()}_H",
-                             "REAL": real, "PU": prefix.upper(),
-                             "DTD": repr(float(getattr(ctrl, "_dt", 0.0) or 0.0))})
-    rows = ",\n".join(f"    {lit(float(v))} /* {i} */" for i, v in enumerate(cp))
-    driver = _fill(_DRIVER, subs).replace("@SAVE@", _fill(law.save, subs)).replace(
-        "@RESTORE@", _fill(law.restore, subs)).replace("@INIT@", _fill(law.init, subs)) \
-        .replace("@BUMPLESS@", _fill(law.bumpless, subs)).replace(
-        "@CALL@", _fill(law.call, subs))
+    period = (f"/* sample period (s) the law was built for: call {prefix}_step once per "
+              f"period */\n#define {prefix.upper()}_SAMPLE_TIME {dt!r}" if dt is not None else
+              "/* no sample period: the law takes its samples as equally spaced */")
+    header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"MFCONTROL_{prefix}_H",
+                             "REAL": real, "PU": prefix.upper(), "PERIOD": period})
+    rows = ",\n".join(f"    {options.literal(float(v))} /* {i} */" for i, v in enumerate(cp))
     source = (f"{banner}\n"
-              f"#include <math.h>\n#include \"{prefix}.h\"\n\n"
+              f"#include <math.h>\n#include \"{prefix}.h\"\n\n{_CHECKS[real]}\n\n"
               f"/* the law's parameters, rows of mfcontrol.laws ({law.name}) */\n"
               f"static const {prefix}_real {table}[{len(cp)}] = {{\n{rows}\n}};\n\n"
-              f"{tr.source()}\n\n{driver}")
+              f"{tr.source([step, reset])}\n\n{driver}")
     return CSource(prefix, real, header, source, law.name, n_cs)
 
 
-def law_of(ctrl, real: str = "double") -> _Law:
+#: compile-time checks of the target's arithmetic (a negative array size stops the build)
+_CHECKS = {
+    "double": ("/* computing what mfcontrol computes needs IEEE binary64 doubles evaluated\n"
+               " * without excess precision (not avr-gcc's 32-bit double, not x87): export\n"
+               " * with --float float for such a target */\n"
+               "typedef char double_must_be_64_bit[sizeof(double) == 8 ? 1 : -1];\n"
+               "typedef char double_without_excess_precision"
+               "[sizeof(double_t) == sizeof(double) ? 1 : -1];"),
+    "float": "typedef char float_must_be_32_bit[sizeof(float) == 4 ? 1 : -1];",
+}
+
+
+def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
     """The law family of a live controller: its step and reset functions (roots of the
     translation) and the C around them."""
     if isinstance(ctrl, IntelligentController):
-        return _intelligent(ctrl, real)
+        return _intelligent(ctrl, real, key_prefix)
     if isinstance(ctrl, RecursiveIP):
         return _recursive()
     if isinstance(ctrl, PID):
@@ -128,7 +190,7 @@ def _clamp(lo: int, hi: int) -> str:
             f"    if (start > @P@_params[{hi}]) start = @P@_params[{hi}];\n")
 
 
-def _intelligent(ctrl, real: str) -> _Law:
+def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
     cp = ctrl._CP[:, 0]
     if cp[gain_law.MODE] == gain_law.EXTERNAL:
         raise ConfigError("gain", "external", "the exported step has no alpha argument: "
@@ -144,7 +206,7 @@ def _intelligent(ctrl, real: str) -> _Law:
     if cp[intelligent.EST] == intelligent.ALGEBRAIC:
         M = int(cp[intelligent.M_WIN])
         if M > MAX_WINDOW[real]:
-            raise ConfigError("controller.window", M, f"at most {MAX_WINDOW[real]:,} samples "
+            raise ConfigError(f"{key_prefix}window", M, f"at most {MAX_WINDOW[real]:,} samples "
                               f"in a {real} export (the estimator's sample count must stay "
                               "exact)")
         # a step writes every row before the ring, and one y and one u slot of the ring:
@@ -197,9 +259,14 @@ def _fill(text: str, subs: dict) -> str:
     return text
 
 
+def _comment(text: str) -> str:
+    """``text`` safe inside a C comment."""
+    return text.replace("*/", "* /").replace("/*", "/ *")
+
+
 def _banner(prefix, real, law, ctrl, description) -> str:
-    params = "\n".join(f" *   {k} = {v!r}" for k, v in ctrl._params.items())
-    what = f" * {description}\n" if description else ""
+    params = "\n".join(f" *   {k} = {_comment(repr(v))}" for k, v in ctrl._params.items())
+    what = f" * {_comment(description)}\n" if description else ""
     return (f"/* {prefix}: {type(ctrl).__name__} controller exported by mfcontrol "
             f"{__version__} ({law.name} law, {real}).\n{what}"
             f" * Parameters (baked in):\n{params}\n"
@@ -214,8 +281,7 @@ _HEADER = """@BANNER@
 
 typedef @REAL@ @R@;
 
-/* sample period (s) the law was built for: call @P@_step once per period */
-#define @PU@_SAMPLE_TIME @DTD@
+@PERIOD@
 #define @PU@_N_STATE @NS@
 
 typedef struct {
@@ -237,7 +303,8 @@ void @P@_init(@P@_state *s);
  * non-finite y (or a step whose output would not be finite) returns the last output,
  * leaves the memory as it was and counts in nan_count. */
 @R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint);
-/* Manual mode: every step returns u until @P@_set_auto. */
+/* Manual mode: every step returns u until @P@_set_auto (a non-finite u is not taken:
+ * the last output stays, and nan_count counts it). */
 void @P@_set_manual(@P@_state *s, @R@ u);
 /* Back to automatic, restarting the law from the last output (bumpless). */
 void @P@_set_auto(@P@_state *s);
@@ -287,7 +354,11 @@ void @P@_init(@P@_state *s)
 void @P@_set_manual(@P@_state *s, @R@ u)
 {
     s->auto_mode = 0;
-    s->last_output = u;
+    if (isfinite(u)) {
+        s->last_output = u;
+    } else {
+        s->nan_count++;
+    }
 }
 
 static void @P@_bumpless(@P@_state *s, @R@ start)

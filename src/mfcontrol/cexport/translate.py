@@ -103,6 +103,7 @@ class Translator:
         self.done: dict[tuple, Function] = {}
         self.order: list[Function] = []  # callees before callers
         self._names: set[str] = set()
+        self.helpers: set[str] = set()  # Python's integer % and // (floor), where used
 
     def function(self, fn, kinds: tuple[str, ...]) -> Function:
         """The C function for ``fn`` (a numba dispatcher or plain function) called with
@@ -124,9 +125,32 @@ class Translator:
         self._names.add(name)
         return name
 
-    def source(self) -> str:
-        protos = [self.prototype(f) + ";" for f in self.order]
-        return "\n".join(protos) + "\n\n" + "\n\n".join(f.text for f in self.order)
+    def source(self, roots: list[Function]) -> str:
+        """The C of ``roots`` and every function they call (a function translated for
+        argument kinds an earlier inference pass guessed is left out: C would reject an
+        unused static function)."""
+        used, todo = set(), [f.name for f in roots]
+        by_name = {f.name: f for f in self.order}
+        while todo:
+            name = todo.pop()
+            if name in used:
+                continue
+            used.add(name)
+            todo += [n for n in by_name if re.search(rf"\b{n}\(", by_name[name].text)]
+        funcs = [f for f in self.order if f.name in used]
+        p, helpers = self.options.prefix, []
+        if "mod" in self.helpers:
+            helpers.append(f"/* Python's a % b: the sign of b */\n"
+                           f"static long {p}_mod(long a, long b)\n{{\n"
+                           "    long r = a % b;\n"
+                           "    return (r != 0 && ((r < 0) != (b < 0))) ? r + b : r;\n}")
+        if "floordiv" in self.helpers:
+            helpers.append(f"/* Python's a // b: rounded down */\n"
+                           f"static long {p}_floordiv(long a, long b)\n{{\n"
+                           "    long q = a / b;\n"
+                           "    return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;\n}")
+        protos = [self.prototype(f) + ";" for f in funcs]
+        return "\n\n".join(helpers + ["\n".join(protos)] + [f.text for f in funcs])
 
     def ctype(self, kind: str) -> str:
         return {INT: "long", BOOL: "int", REAL: f"{self.options.prefix}_real"}[kind]
@@ -187,13 +211,15 @@ class _FunctionTranslator:
         self.tmp = 0
         self.block(body, 1)
         body_text = "\n".join(self.lines)
-        decls = [f"    (void){n};" for n in ["cs"] + [n for n, _ in f.params]
-                 if not _read(n, body_text)]
+        decls, unused = [], [n for n in ["cs"] + [n for n, _ in f.params]
+                             if not _read(n, body_text)]
         for name, kind in sorted(self.locals.items()):
             c = self.cname(name)
             decls.append(f"    {self.tr.ctype(kind)} {c} = 0;")
             if not _read(c, body_text):  # set but never read (an unpacked value unused)
-                decls.append(f"    (void){c};")
+                unused.append(c)
+        # declarations first (-Wdeclaration-after-statement), then the silenced names
+        decls += [f"    (void){n};" for n in unused]
         f.text = (f"/* {self.py.__module__}.{self.py.__name__} */\n"
                   + self.tr.prototype(f) + "\n{\n" + "\n".join(decls + self.lines) + "\n}")
         return f
@@ -328,9 +354,13 @@ class _FunctionTranslator:
         var = self.cname(s.target.id)
         self.local(s.target.id, INT)
         end = self.temp(INT)  # Python evaluates the bounds once
+        # a hidden counter: the body may rebind the variable, and after the loop it holds
+        # the last value taken, as in Python
+        count = self.temp(INT)
         self.emit(depth, f"{end} = {stop};")
         cmp = "<" if step > 0 else ">"
-        self.emit(depth, f"for ({var} = {start}; {var} {cmp} {end}; {var} += {step}) {{")
+        self.emit(depth, f"for ({count} = {start}; {count} {cmp} {end}; {count} += {step}) {{")
+        self.emit(depth + 1, f"{var} = {count};")
         self.block(s.body, depth + 1)
         self.emit(depth, "}")
 
@@ -443,7 +473,7 @@ class _FunctionTranslator:
         if isinstance(node, ast.UnaryOp):
             code, kind = self.expr(node.operand)
             if isinstance(node.op, ast.USub):
-                return f"(-{code})", kind
+                return (f"(-({code}))" if code.startswith("-") else f"(-{code})"), kind
             if isinstance(node.op, ast.Not):
                 return f"(!{code})", BOOL
             self.fail(node, f"unary {type(node.op).__name__}")
@@ -459,7 +489,11 @@ class _FunctionTranslator:
             return ("(" + " && ".join(parts) + ")" if len(parts) > 1 else parts[0]), BOOL
         if isinstance(node, ast.BoolOp):
             op = " && " if isinstance(node.op, ast.And) else " || "
-            return "(" + op.join(self.expr(v)[0] for v in node.values) + ")", BOOL
+            parts = [self.expr(v) for v in node.values]
+            if any(k != BOOL for _, k in parts):
+                # Python's `a or b` is a or b itself, C's is 0 or 1
+                self.fail(node, "`and`/`or` of values that are not comparisons")
+            return "(" + op.join(c for c, _ in parts) + ")", BOOL
         if isinstance(node, ast.IfExp):
             c = self.expr(node.test)[0]
             a, ka = self.expr(node.body)
@@ -484,8 +518,10 @@ class _FunctionTranslator:
         if isinstance(node.op, ast.Mod | ast.FloorDiv):
             if not ints:
                 self.fail(node, "% or // of floating-point values")
-            # C truncates where Python floors: the laws take these of non-negative ints only
-            return f"({a} {op} {b})", INT
+            # C truncates where Python floors: the helpers give Python's results
+            helper = "mod" if isinstance(node.op, ast.Mod) else "floordiv"
+            self.tr.helpers.add(helper)
+            return f"{self.opt.prefix}_{helper}({a}, {b})", INT
         return f"({a} {op} {b})", INT if ints else REAL
 
     def subscript(self, node) -> tuple[str, str]:
@@ -559,8 +595,10 @@ class _FunctionTranslator:
             return f"(({self.tr.ctype(REAL)})({self.expr(args[0])[0]}))", REAL
         if fn in (max, min) and len(args) == 2:
             (a, ka), (b, kb) = self.expr(args[0]), self.expr(args[1])
+            # Python keeps the first unless the second compares greater (smaller): the
+            # same result for NaN and signed zeros
             c = ">" if fn is max else "<"
-            return f"(({a} {c} {b}) ? {a} : {b})", _merge(ka, kb)
+            return f"(({b} {c} {a}) ? {b} : {a})", _merge(ka, kb)
         if fn in (math.isnan, np.isnan):
             return f"isnan({self.expr(args[0])[0]})", BOOL
         if fn in (math.isfinite, np.isfinite):
@@ -572,7 +610,7 @@ class _FunctionTranslator:
             suffix = "f" if self.opt.real == "float" else ""
             code, kind = self.expr(args[0])
             return (f"fabs{suffix}({code})", REAL) if kind == REAL else (
-                f"(({code} < 0) ? -{code} : {code})", INT)
+                f"(({code} < 0) ? -({code}) : {code})", INT)
         return None
 
 
