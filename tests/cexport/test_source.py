@@ -351,3 +351,58 @@ def test_comments_cannot_be_closed_by_a_description():
     src = c_source(mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01),
                    description="case evil*/name.toml /* x")
     assert "evil* /name.toml / * x" in src.header and "evil*/" not in src.source
+
+
+def test_two_exports_compile_in_one_translation_unit_with_gcc_and_clang(tmp_path):
+    """Unity builds: every name is prefixed. clang too where it is installed (its
+    -Wparentheses-equality once failed every export under -Werror)."""
+    import shutil
+    import subprocess
+
+    for prefix, case in (("a", INTELLIGENT), ("b", RECURSIVE), ("c", "motor-noise-pid")):
+        for real in ("double", "float"):
+            src = c_source(mfcontrol.make_controller(case), prefix=prefix + real[0], real=real)
+            (tmp_path / f"{src.prefix}.h").write_text(src.header)
+            (tmp_path / f"{src.prefix}.c").write_text(src.source)
+    (tmp_path / "unity.c").write_text("".join(f'#include "{p}{r}.c"\n' for p in "abc"
+                                              for r in "df") + "int main(void) { return 0; }\n")
+    for cc in [H.compiler(), shutil.which("clang")]:
+        if cc:
+            subprocess.run([cc, *H.CFLAGS, str(tmp_path / "unity.c"), "-o",
+                            str(tmp_path / "unity"), "-lm"], check=True)
+
+
+def test_bit_for_bit_without_the_contraction_flag(tmp_path):
+    """The file turns contraction off itself: compiled for this CPU (with FMA where it has
+    one) in GNU C without -ffp-contract=off, where gcc contracts by default."""
+    import subprocess
+
+    case = INTELLIGENT
+    src = c_source(mfcontrol.make_controller(case, {"controller.law": "i-PID",
+                                                    "controller.order": 2,
+                                                    "controller.kd": 0.5}))
+    exe = H.build(src, tmp_path)
+    flags = ["-std=gnu99", "-O2", "-march=native", "-Wall", "-Werror"]
+    subprocess.run([H.compiler(), *flags, "-I", str(tmp_path), str(tmp_path / "mfc.c"),
+                    str(tmp_path / "main.c"), "-o", str(exe), "-lm"], check=True)
+    ops = operations(case)
+    u_c, _ = H.run_binary(exe, ops)
+    u_py, _ = H.run_python(mfcontrol.make_controller(case, {
+        "controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5}), ops)
+    assert np.array_equal(u_c.view(np.int64), u_py.view(np.int64))
+
+
+def test_a_subclass_of_a_live_controller_exports():
+    class Motor(mfcontrol.IPI):
+        def __init__(self):
+            super().__init__(alpha=50.0, kp=20.0, ki=50.0, sample_time=1e-3)
+
+    assert "alpha = 50.0" in c_source(Motor()).header
+
+
+def test_float_range_errors_name_what_the_user_set():
+    with pytest.raises(ConfigError, match=re.escape("sample_time = 1e-50: it is outside")):
+        c_source(mfcontrol.PID(kp=2.0, ki=1.0, sample_time=1e-50), real="float")
+    with pytest.raises(ConfigError, match=re.escape("controller.duty_max = 1e+39: it is")):
+        mfcontrol.cexport.export.source_of("motor-noise-pid", {"controller.duty_max": 1e39},
+                                           real="float")

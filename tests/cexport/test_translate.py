@@ -160,3 +160,44 @@ def test_parameters_come_from_the_table_and_state_from_cs():
     assert f"t_params[{intelligent.EST}]" in text
     assert f"cs[{intelligent.U1}]" in text
     assert "/* mfcontrol.laws.intelligent.step */" in text
+
+
+def chain(n):
+    a, b, c, d, e, f, g = 0, 0, 0, 0, 0, 0, 0
+    for _ in range(n):
+        a = b
+        b = c
+        c = d
+        d = e
+        e = f
+        f = g
+        g = 0.5
+    return a
+
+
+def test_kinds_settle_however_long_the_chain():
+    """A value passed along seven variables makes the first one a float only six passes
+    in: the inference runs to its fixed point (it once stopped at five, giving long)."""
+    text = _translate(chain, (INT,))
+    assert "static t_real t_test_translate_chain(t_real *cs, long n)" in text
+    assert "t_real a = 0;" in text
+
+
+def calls_in_max(CS, j):
+    return max(0.0, bump(CS, j))
+
+
+def bump(CS, j):
+    CS[0, j] += 1.0
+    return CS[0, j]
+
+
+def test_refuses_a_call_that_max_would_evaluate_twice():
+    with pytest.raises(TranslationError, match=r"a call inside max\(\): assign it first"):
+        _translate(calls_in_max, (CS, J))
+
+
+def test_an_if_on_one_comparison_has_one_pair_of_parentheses():
+    text = _translate(intelligent.step, (CP, CS, J, REAL, REAL, REAL))
+    assert "if (k < n) {" in text and "if ((k < n))" not in text
+    assert "if (algebraic) {" in text  # clang's -Wparentheses-equality: `if ((a == b))`

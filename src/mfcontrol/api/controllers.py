@@ -299,6 +299,8 @@ class IntelligentController(_Sampled):
         self._last_output = float(self._CP[intelligent.U_INIT, 0])
 
     def _bumpless_start(self, start: float) -> None:
+        # the C export writes these steps out in C (mfcontrol/cexport/source.py), held
+        # equal by tests/cexport
         lo, hi = self._CP[intelligent.OUT_MIN, 0], self._CP[intelligent.OUT_MAX, 0]
         self._reset_state()
         start = min(max(start, lo), hi)

@@ -69,21 +69,32 @@ def check_prefix(prefix: str) -> str:
     return prefix
 
 
+#: a live controller's keywords as a case names them
+_CASE_KEYS = {"sample_time": "sim.h", ("output_limits", 0): "controller.duty_min",
+              ("output_limits", 1): "controller.duty_max"}
+
+
 def _parameter_named(ctrl, value: float, key_prefix: str) -> tuple[str, object, str]:
     """(keyword, the value given, "" or "1/") of the controller keyword that gave a
-    parameter row ``value`` directly or as its reciprocal, for a message."""
+    parameter row ``value`` directly or as its reciprocal, for a message; with
+    ``key_prefix`` (a case) the case's key."""
     for key, given in ctrl._params.items():
-        for v in (given if isinstance(given, list) else [given]):
+        items = list(enumerate(given)) if isinstance(given, list) else [(None, given)]
+        for i, v in items:
             if isinstance(v, int | float) and not isinstance(v, bool) and v:
-                if v == value:
-                    return f"{key_prefix}{key}", given, ""
-                if 1.0 / v == value:
-                    return f"{key_prefix}{key}", given, "1/"
+                inverse = "" if v == value else ("1/" if 1.0 / v == value else None)
+                if inverse is None:
+                    continue
+                if not key_prefix:
+                    return key, given, inverse
+                name = _CASE_KEYS.get(key if i is None else (key, i), f"{key_prefix}{key}")
+                return name, v, inverse
     return "parameter", value, ""
 
 
 def _check_float_range(ctrl, cp, key_prefix: str) -> None:
-    for v in cp:
+    dt = ctrl.sample_time
+    for v in [*cp, *([] if dt is None else [dt])]:
         if math.isfinite(v) and v != 0.0 and not _FLOAT.tiny <= abs(v) <= _FLOAT.max:
             key, given, inverse = _parameter_named(ctrl, float(v), key_prefix)
             what = f"1/{key.split('.')[-1]} = {v:.3g}" if inverse else "it"
@@ -103,10 +114,10 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     check_prefix(prefix)
     if real not in REALS:
         raise ConfigError("real", real, f"must be one of {', '.join(REALS)}")
-    law_of(ctrl, real, key_prefix)  # refuses what cannot export, before anything is built
-    # the parameters as built: a bumpless start rewrites the recursive law's u0 in place
-    ctrl = type(ctrl)(**ctrl._params)
-    law = law_of(ctrl, real, key_prefix)
+    law = law_of(ctrl, real, key_prefix)  # refuses what cannot export
+    if isinstance(ctrl, RecursiveIP):
+        # the parameters as built: a bumpless start rewrites the law's u0 in place
+        ctrl = RecursiveIP(**ctrl._params)
     cp = ctrl._CP[:, 0]
     if real == "float":
         _check_float_range(ctrl, cp, key_prefix)
@@ -134,7 +145,8 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                              "REAL": real, "PU": prefix.upper(), "PERIOD": period})
     rows = ",\n".join(f"    {options.literal(float(v))} /* {i} */" for i, v in enumerate(cp))
     source = (f"{banner}\n"
-              f"#include <math.h>\n#include \"{prefix}.h\"\n\n{_CHECKS[real]}\n\n"
+              f"#include <math.h>\n#include \"{prefix}.h\"\n\n"
+              f"{_fill(_CHECKS[real], {'P': prefix})}\n\n"
               f"/* the law's parameters, rows of mfcontrol.laws ({law.name}) */\n"
               f"static const {prefix}_real {table}[{len(cp)}] = {{\n{rows}\n}};\n\n"
               f"{tr.source([step, reset])}\n\n{driver}")
@@ -142,14 +154,24 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
 
 
 #: compile-time checks of the target's arithmetic (a negative array size stops the build)
+_NO_CONTRACTION = """/* no multiply-add contracted into one rounding, whatever the flags (the law's
+ * arithmetic is mfcontrol's, operation by operation) */
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize ("fp-contract=off")
+#endif
+"""
 _CHECKS = {
-    "double": ("/* computing what mfcontrol computes needs IEEE binary64 doubles evaluated\n"
+    "double": (_NO_CONTRACTION
+               + "/* computing what mfcontrol computes needs IEEE binary64 doubles evaluated\n"
                " * without excess precision (not avr-gcc's 32-bit double, not x87): export\n"
                " * with --float float for such a target */\n"
-               "typedef char double_must_be_64_bit[sizeof(double) == 8 ? 1 : -1];\n"
-               "typedef char double_without_excess_precision"
+               "typedef char @P@_double_must_be_64_bit[sizeof(double) == 8 ? 1 : -1];\n"
+               "typedef char @P@_double_without_excess_precision"
                "[sizeof(double_t) == sizeof(double) ? 1 : -1];"),
-    "float": "typedef char float_must_be_32_bit[sizeof(float) == 4 ? 1 : -1];",
+    "float": (_NO_CONTRACTION
+              + "typedef char @P@_float_must_be_32_bit[sizeof(float) == 4 ? 1 : -1];"),
 }
 
 
@@ -291,7 +313,7 @@ typedef struct {
     @R@ backup[@NB@];
     /* returned in manual mode and after a rejected sample */
     @R@ last_output;
-    /* rejected samples: non-finite measurement or output */
+    /* rejected values: a non-finite measurement, output or manual value */
     unsigned long nan_count;
     /* 1 automatic, 0 manual */
     int auto_mode;

@@ -83,8 +83,13 @@ class Options:
             return f"(({self.real})NAN)"
         if math.isinf(value):
             return f"(({self.real})INFINITY)" if value > 0 else f"(-({self.real})INFINITY)"
-        text = repr(value)
-        return text + "f" if self.real == "float" else text
+        if self.real == "float":  # the float's own shortest repr: no double rounding
+            f = np.float32(value)
+            text = (np.format_float_positional(f, unique=True, trim="0")
+                    if 1e-4 <= abs(value) < 1e7 else
+                    np.format_float_scientific(f, unique=True, trim="-"))
+            return text + "f"
+        return repr(value)
 
 
 def _merge(a: str, b: str) -> str:
@@ -195,14 +200,17 @@ class _FunctionTranslator:
     def run(self) -> Function:
         body = [s for s in self.node.body
                 if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))]
-        # infer local kinds to a fixed point (a variable first int may later hold a float)
-        for _ in range(5):
-            before = dict(self.locals), self.returns
+        # infer the variables' kinds to a fixed point (a variable first int may later hold
+        # a float, known only a pass later); kinds only widen, so it comes
+        for _ in range(100):
+            before = dict(self.locals), dict(self.args), self.returns
             self.lines: list[str] = []
             self.tmp = 0
             self.block(body, 1)
-            if (dict(self.locals), self.returns) == before:
+            if (dict(self.locals), dict(self.args), self.returns) == before:
                 break
+        else:  # pragma: no cover (kinds form a finite lattice)
+            self.fail(self.node, "the kinds of its variables do not settle")
         f = Function(self.tr.unique_name(self.py), self.returns, ptuple=self.ptuple)
         f.params = [(self.cname(a), k) for a, k in self.args.items() if k not in _COLUMNS]
         if self.ptuple:
@@ -263,12 +271,11 @@ class _FunctionTranslator:
             ast.copy_location(value, s)
             self.assign(s.target, value, depth, s)
         elif isinstance(s, ast.If):
-            cond, _ = self.expr(s.test)
-            self.emit(depth, f"if ({cond}) {{")
+            self.emit(depth, f"if ({_bare(self.expr(s.test)[0])}) {{")
             self.block(s.body, depth + 1)
             while len(s.orelse) == 1 and isinstance(s.orelse[0], ast.If):  # elif
                 s = s.orelse[0]
-                self.emit(depth, f"}} else if ({self.expr(s.test)[0]}) {{")
+                self.emit(depth, f"}} else if ({_bare(self.expr(s.test)[0])}) {{")
                 self.block(s.body, depth + 1)
             if s.orelse:
                 self.emit(depth, "} else {")
@@ -589,6 +596,10 @@ class _FunctionTranslator:
 
     def _builtin(self, node, fn):
         args = node.args
+        if fn in (max, min, abs, math.fabs, np.abs) and any(
+                isinstance(n, ast.Call) for a in args for n in ast.walk(a)):
+            # the C evaluates an argument twice
+            self.fail(node, f"a call inside {ast.unparse(node.func)}(): assign it first")
         if fn is int:
             return f"((long)({self.expr(args[0])[0]}))", INT
         if fn is float:
@@ -612,6 +623,19 @@ class _FunctionTranslator:
             return (f"fabs{suffix}({code})", REAL) if kind == REAL else (
                 f"(({code} < 0) ? -({code}) : {code})", INT)
         return None
+
+
+def _bare(cond: str) -> str:
+    """``cond`` without the parentheses around it: ``if ((a == b))`` is clang's
+    -Wparentheses-equality warning."""
+    if cond.startswith("(") and cond.endswith(")"):
+        depth = 0
+        for i, ch in enumerate(cond):
+            depth += ch == "("
+            depth -= ch == ")"
+            if depth == 0:
+                return cond[1:-1] if i == len(cond) - 1 else cond
+    return cond
 
 
 def _read(name: str, text: str) -> bool:
