@@ -62,7 +62,8 @@ def test_unknown_keywords_raise_type_error(cls, args):
     ({"sample_time": 0.0}, "sample_time = 0.0"), ({"output_limits": (2, 1)}, "output_limits"),
     ({"estimator": "magic"}, "estimator = 'magic'"), ({"order": 3}, "order = 3"),
     ({"estimator": "algebraic", "window": 1}, "window = 1"),
-    ({"anti_windup": "sometimes"}, "anti_windup"), ({"kp": "fast"}, "kp = 'fast'")])
+    ({"anti_windup": "sometimes"}, "anti_windup"), ({"kp": "fast"}, "kp = 'fast'"),
+    ({"order": True}, "order = True")])
 def test_invalid_values_raise_value_error_naming_them(kwargs, needle):
     args = {"alpha": 1.0, "kp": 1.0, "sample_time": 0.01, **kwargs}
     with pytest.raises(ValueError, match=needle.replace("(", r"\(").replace(")", r"\)")):
@@ -78,6 +79,97 @@ def test_nan_measurement_holds_the_output_and_is_counted():
     assert ctrl.nan_count == 2
     after = ctrl.snapshot()
     assert after["state"] == before["state"]
+    assert after["skipped"] == 0.02  # the next derivative spans the two periods
+
+
+# --- issue 14: faults found by fuzzing, each with the test that failed before ---------------
+
+def test_a_dropout_derivative_spans_the_time_since_the_last_sample_taken():
+    # y = 0, .01, NaN, .03: the backward difference after the dropout is (.03 - .01) / 2h,
+    # as a controller called with dt = 2h at that sample computes (it divided by h)
+    a = IP(alpha=50.0, kp=10.0, sample_time=1e-3)
+    b = IP(alpha=50.0, kp=10.0, sample_time=1e-3)
+    for y in (0.0, 0.01):
+        a(y, 0.0), b(y, 0.0)
+    a(math.nan, 0.0)
+    assert a(0.03, 0.0) == b(0.03, 0.0, dt=2e-3)
+    assert a.components == b.components
+    assert a(0.04, 0.0) == b(0.04, 0.0)  # and one period again after it
+
+
+def test_the_pid_integral_spans_a_dropout_too():
+    a = mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.1)
+    b = mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.1)
+    a(0.0, 1.0), b(0.0, 1.0)
+    a(math.inf, 1.0)
+    assert a(0.5, 1.0) == b(0.5, 1.0, dt=0.2)
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.01, math.nan, math.inf, "x"])
+def test_a_bad_dt_is_refused_and_changes_nothing(dt):
+    ctrl = IP(alpha=1.0, kp=1.0, sample_time=0.01, output_limits=(-1, 1))
+    ctrl(0.0, 1.0)
+    before = ctrl.snapshot()
+    with pytest.raises(ValueError, match=r"dt = .*: must be a finite number > 0"):
+        ctrl(0.1, 1.0, dt=dt)
+    assert ctrl.snapshot() == before
+
+
+@pytest.mark.parametrize("setpoint", ["abc", math.nan, math.inf, [1.0], True])
+def test_a_bad_setpoint_is_refused_and_not_stored(setpoint):
+    ctrl = IP(alpha=1.0, kp=1.0, sample_time=0.01)
+    ctrl(0.0, 1.0)
+    with pytest.raises(ValueError, match="setpoint = .*: must be a finite number"):
+        ctrl(0.1, setpoint)
+    assert ctrl.setpoint == 1.0
+    assert math.isfinite(ctrl(0.1))  # later calls work
+
+
+def test_a_measurement_that_is_not_a_number_is_refused():
+    ctrl = mfcontrol.PID(kp=1.0, sample_time=0.01)
+    with pytest.raises(ValueError, match="y = 'abc': the measurement must be a number"):
+        ctrl("abc", 1.0)
+
+
+def test_recursive_snapshot_after_a_bumpless_start_continues_from_it():
+    a = RecursiveIP(alpha=10.0, kp=2.0)
+    a(0.0, 0.0)
+    a.set_auto_mode(False, last_output=0.3)
+    a.set_auto_mode(True)
+    b = RecursiveIP.from_snapshot(json.loads(json.dumps(a.snapshot())))
+    assert a(0.01, 0.0) == b(0.01, 0.0) == 0.3  # was 0.001: the start was not in it
+    a.reset()
+    assert a(0.0, 0.0) == RecursiveIP(alpha=10.0, kp=2.0)(0.0, 0.0)  # built u0, not 0.3
+
+
+def test_recursive_ip_refuses_a_positional_law():
+    with pytest.raises(ValueError, match="law = 'i-P': RecursiveIP is the paper's law"):
+        RecursiveIP(law="i-P")
+
+
+@pytest.mark.parametrize("bad,needle", [
+    (None, "snapshot = None: must be the dict"), ("x", "snapshot = 'x'"),
+    ({"controller": "IP"}, "snapshot lacks params, state"),
+    ({"state": "abc"}, "snapshot state = 'abc'"), ({"state": [1.0]}, "state has 1 values"),
+    ({"nan_count": "z"}, "nan_count = 'z'"), ({"nan_count": -1}, "nan_count = -1"),
+    ({"auto_mode": "yes"}, "auto_mode = 'yes'"), ({"last_output": None}, "last_output = None"),
+    ({"setpoint": math.nan}, "setpoint = nan"), ({"params": 3}, "parameters differ"),
+    ({"controller": "PID"}, "snapshot is of a 'PID' controller"),
+])
+def test_a_refused_restore_leaves_the_controller_as_it_was(bad, needle):
+    ctrl = IP(alpha=1.0, kp=1.0, sample_time=0.01, estimator="algebraic", window=4)
+    other = IP(alpha=1.0, kp=1.0, sample_time=0.01, estimator="algebraic", window=4)
+    for y in (0.0, 0.3, 0.5, 0.2, 0.1, 0.4):
+        ctrl(y, 1.0)
+        other(y + 1.0, 2.0)
+    before = ctrl.snapshot()
+    snap = {**other.snapshot(), **bad} if isinstance(bad, dict) and "controller" not in bad \
+        or bad == {"controller": "PID"} else bad
+    if bad == {"controller": "IP"}:
+        snap = bad
+    with pytest.raises(ValueError, match=needle.replace("(", r"\(")):
+        ctrl.restore(snap)
+    assert ctrl.snapshot() == before
 
 
 def test_components_add_up_to_the_output():

@@ -49,7 +49,8 @@ def operations(case: str) -> np.ndarray:
     special = [
         (H.STEP, np.nan, r[-1]), (H.STEP, np.inf, r[-1]), (H.STEP, -np.inf, r[-1]),
         (H.STEP, 1e300, r[-1]), (H.STEP, -1e300, 1e300),  # the law overflows: held
-        (H.STEP, y[-1], np.nan),  # a NaN setpoint gives a NaN output: held
+        (H.STEP, y[-1], r[-1]), (H.STEP, np.nan, r[-1]), (H.STEP, np.nan, r[-1]),
+        (H.STEP, y[-1], r[-1]),  # a dropout: the derivatives span three periods
         (H.MANUAL, 0.5 * r[-1] + 0.1, 0.0), (H.STEP, y[-1], r[-1]), (H.STEP, y[-2], r[-1]),
         (H.AUTO, 0.0, 0.0),
     ]
@@ -115,7 +116,7 @@ def test_double_export_is_bit_for_bit_the_python_controller(variant, tmp_path):
     differ = np.flatnonzero(u_c.view(np.int64) != u_py.view(np.int64))
     assert differ.size == 0, f"first difference at step {differ[0]}: " \
                              f"C {u_c[differ[0]]!r}, Python {u_py[differ[0]]!r}"
-    assert nan_c == nan_py >= 4  # NaN, two infinities, the overflows, the NaN setpoint
+    assert nan_c == nan_py >= 5  # three NaNs, two infinities (and overflows, by law)
 
 
 def test_a_controller_built_in_python_exports_too(tmp_path):
@@ -406,3 +407,12 @@ def test_float_range_errors_name_what_the_user_set():
     with pytest.raises(ConfigError, match=re.escape("controller.duty_max = 1e+39: it is")):
         mfcontrol.cexport.export.source_of("motor-noise-pid", {"controller.duty_max": 1e39},
                                            real="float")
+
+
+def test_a_nan_setpoint_is_held_and_counted_in_c_and_refused_in_python(tmp_path):
+    ctrl = mfcontrol.make_controller(INTELLIGENT)
+    ops = np.vstack([H.steps(*closed_loop(INTELLIGENT))[:100], [(H.STEP, 1.0, np.nan)]])
+    u_c, nan_c = H.run_binary(H.build(c_source(ctrl), tmp_path), ops)
+    assert u_c[-1] == u_c[-2] and nan_c == 1
+    with pytest.raises(ValueError, match="setpoint = nan: must be a finite number"):
+        ctrl(1.0, setpoint=math.nan)

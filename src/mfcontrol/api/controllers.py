@@ -17,6 +17,7 @@ safe); ``restore()`` makes a controller continue bit for bit from it.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -44,7 +45,8 @@ def _number(name: str, value: Any, *, positive: bool = False, nonneg: bool = Fal
 
 
 def _choice(name: str, value: Any, allowed) -> Any:
-    if value not in allowed:
+    # True == 1: a bool is not a choice among numbers
+    if isinstance(value, bool) or value not in allowed:
         raise ValueError(f"{name} = {value!r}: must be one of {', '.join(map(str, allowed))}")
     return value
 
@@ -74,6 +76,9 @@ class _Controller:
         self.auto_mode = True
         self.setpoint = float(params.get("setpoint", 0.0))
         self._last_output = 0.0
+        # time of the samples the law did not take since the last one it took (a rejected
+        # measurement or output): the next call's derivatives span it
+        self._skipped = 0.0
 
     # subclasses fill the parameter column and define _step / _reset_state
     def _reset_state(self) -> None:  # pragma: no cover
@@ -83,6 +88,7 @@ class _Controller:
         """Forget all history (derivatives, integral, estimator window, adapted gain)."""
         self._reset_state()
         self.nan_count = 0
+        self._skipped = 0.0
 
     @property
     def last_output(self) -> float:
@@ -95,19 +101,25 @@ class _Controller:
             start = self._last_output if last_output is None else _number(
                 "last_output", last_output)
             self._bumpless_start(start)
+            self._skipped = 0.0
         elif not enabled and last_output is not None:
             self._last_output = _number("last_output", last_output)
         self.auto_mode = bool(enabled)
 
-    def _measurement_ok(self, y: float, setpoint: float | None) -> bool:
-        """Take the setpoint; False when the law must not run (manual mode, or a NaN/inf
-        measurement, which is counted): the caller then returns the last output."""
+    def _measurement_ok(self, y: float, setpoint: float | None, dt: float = 0.0) -> bool:
+        """Take the setpoint (a finite number, or None to keep it); False when the law must
+        not run (manual mode, or a NaN/inf measurement, which is counted and whose period
+        ``dt`` the next sample's derivatives span): the caller returns the last output."""
         if setpoint is not None:
-            self.setpoint = setpoint
+            self.setpoint = _number("setpoint", setpoint)
+        if not isinstance(y, int | float | np.integer | np.floating) or isinstance(y, bool):
+            raise ValueError(f"y = {y!r}: the measurement must be a number (NaN and inf are "
+                             "counted in nan_count and hold the output)")
         if not self.auto_mode:
             return False
         if not math.isfinite(y):
             self.nan_count += 1
+            self._skipped += dt
             return False
         return True
 
@@ -117,26 +129,63 @@ class _Controller:
             "controller": type(self).__name__, "mfcontrol": __version__,
             "params": dict(self._params), "state": self._CS[:, 0].tolist(),
             "last_output": self._last_output, "nan_count": self.nan_count,
-            "auto_mode": self.auto_mode, "setpoint": self.setpoint,
+            "auto_mode": self.auto_mode, "setpoint": self.setpoint, "skipped": self._skipped,
+            **self._snapshot_extra(),
         }
 
+    def _snapshot_extra(self) -> dict[str, Any]:
+        return {}
+
+    _SNAPSHOT_KEYS = ("controller", "params", "state", "last_output", "nan_count",
+                      "auto_mode", "setpoint")
+
     def restore(self, snap: dict[str, Any]) -> None:
-        """Continue from a snapshot taken of a controller with the same parameters."""
-        if snap.get("controller") != type(self).__name__:
-            raise ValueError(f"snapshot is of a {snap.get('controller')!r} controller, "
+        """Continue from a snapshot taken of a controller with the same parameters. A
+        snapshot that is not one (missing keys, wrong types) is refused with a ValueError
+        and leaves the controller exactly as it was."""
+        if not isinstance(snap, Mapping):
+            raise ValueError(f"snapshot = {snap!r}: must be the dict snapshot() returns")
+        missing = [k for k in self._SNAPSHOT_KEYS if k not in snap]
+        if missing:
+            raise ValueError(f"snapshot lacks {', '.join(missing)}: must be the dict "
+                             "snapshot() returns")
+        if snap["controller"] != type(self).__name__:
+            raise ValueError(f"snapshot is of a {snap['controller']!r} controller, "
                              f"not {type(self).__name__!r}")
-        if dict(snap["params"]) != self._params:
+        if not isinstance(snap["params"], Mapping) or dict(snap["params"]) != self._params:
             raise ValueError("snapshot parameters differ from this controller's: build it "
                              f"with {type(self).__name__}.from_snapshot(snap) instead")
-        state = np.asarray(snap["state"], dtype=float)
+        try:
+            state = np.asarray(snap["state"], dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"snapshot state = {snap['state']!r:.60}: must be a list of "
+                             "numbers") from None
         if state.shape != (self._CS.shape[0],):
             raise ValueError(f"snapshot state has {state.size} values, expected "
                              f"{self._CS.shape[0]}")
+        nan_count = snap["nan_count"]
+        if not isinstance(nan_count, int | np.integer) or isinstance(nan_count, bool) \
+                or nan_count < 0:
+            raise ValueError(f"snapshot nan_count = {nan_count!r}: must be a whole number "
+                             ">= 0")
+        if not isinstance(snap["auto_mode"], bool | np.bool_):
+            raise ValueError(f"snapshot auto_mode = {snap['auto_mode']!r}: must be True or "
+                             "False")
+        last = _number("snapshot last_output", snap["last_output"])
+        setpoint = _number("snapshot setpoint", snap["setpoint"])
+        skipped = _number("snapshot skipped", snap.get("skipped", 0.0), nonneg=True)
+        extra = self._checked_extra(snap)
+        # everything checked: now write
         self._CS[:, 0] = state
-        self._last_output = float(snap["last_output"])
-        self.nan_count = int(snap["nan_count"])
-        self.auto_mode = bool(snap["auto_mode"])
-        self.setpoint = float(snap["setpoint"])
+        self._last_output, self.nan_count = last, int(nan_count)
+        self.auto_mode, self.setpoint, self._skipped = bool(snap["auto_mode"]), setpoint, skipped
+        self._restore_extra(extra)
+
+    def _checked_extra(self, snap: Mapping[str, Any]) -> Any:
+        return None
+
+    def _restore_extra(self, extra: Any) -> None:
+        pass
 
     @classmethod
     def from_snapshot(cls, snap: dict[str, Any]):
@@ -163,13 +212,18 @@ class _Sampled(_Controller):
         lo, hi = self._params["output_limits"]
         return lo, hi
 
-    def _output(self, u: float) -> float:
+    def _period(self, dt: float | None) -> float:
+        return self._dt if dt is None else _number("dt", dt, positive=True)
+
+    def _output(self, u: float, dt: float) -> float:
         """The law's output, or the last one held when the law overflowed (NaN: the
         compiled step left its state untouched), counted in ``nan_count``."""
         if u != u:
             self.nan_count += 1
+            self._skipped += dt
             return self._last_output
         self._last_output = u
+        self._skipped = 0.0
         return u
 
 
@@ -309,17 +363,21 @@ class IntelligentController(_Sampled):
 
     def __call__(self, y: float, setpoint: float | None = None, dt: float | None = None,
                  alpha: float | None = None) -> float:
-        """One sample: the measurement in, the (limited) control out."""
-        if not self._measurement_ok(y, setpoint):
-            return self._last_output
+        """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
+        since the previous call, by default ``sample_time``; after a rejected sample the
+        law's derivatives span both periods."""
+        dt = self._period(dt)
         if self._external:
-            if alpha is None or not (alpha > 0 and math.isfinite(alpha)):
-                raise ValueError(f"alpha = {alpha!r}: gain='external' needs a finite alpha > 0 "
+            alpha = _number("alpha", alpha, positive=True) if alpha is not None else None
+            if alpha is None:
+                raise ValueError("alpha = None: gain='external' needs a finite alpha > 0 "
                                  "at every call")
+        if not self._measurement_ok(y, setpoint, dt):
+            return self._last_output
         u = live.intelligent_step(self._CP, self._CS, self._backup, float(y),
-                                  float(self.setpoint), self._dt if dt is None else float(dt),
+                                  float(self.setpoint), dt + self._skipped,
                                   1.0 if alpha is None else float(alpha))
-        return self._output(u)
+        return self._output(u, dt)
 
     @property
     def components(self) -> dict[str, float]:
@@ -427,6 +485,10 @@ class RecursiveIP(_Controller):
                 raise TypeError(f"RecursiveIP() got an unexpected keyword argument "
                                 f"{exc.key.removeprefix('controller.')!r}") from None
             raise ValueError(str(exc).removeprefix("controller.")) from None
+        if cfg["controller.law"] not in ("ip", "variational"):
+            raise ValueError(f"law = {cfg['controller.law']!r}: RecursiveIP is the paper's law, "
+                             "'ip' or 'variational' (the positional laws are IP, IPI, IPD, "
+                             "IPID)")
         params = {"alpha": alpha, "kp": kp, "setpoint": _number("setpoint", setpoint),
                   **controller_keys}
         if sample_time is not None:
@@ -434,9 +496,12 @@ class RecursiveIP(_Controller):
         self.sample_time = params.get("sample_time")
         super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
         self._CP[:, 0] = recursive_law_column(cfg, self.sample_time)[:, 0]
+        self._u0 = float(self._CP[recursive_ip.U0, 0])  # the start as built
         self._reset_state()
 
     def _reset_state(self) -> None:
+        # a bumpless start rewrites the law's u0 (its first raw output): a reset undoes it
+        self._CP[recursive_ip.U0, 0] = self._u0
         live.recursive_reset(self._CP, self._CS)
         self._last_output = 0.0
         self._components = {"u_raw": math.nan, "gain": math.nan, "gamma": math.nan}
@@ -446,6 +511,16 @@ class RecursiveIP(_Controller):
         # continue from the raw control that produced the manual output
         self._CP[recursive_ip.U0, 0] = start / self._CP[recursive_ip.OUT_GAIN, 0]
         self._last_output = start
+
+    def _snapshot_extra(self) -> dict[str, Any]:
+        # the first raw output after a bumpless start lives in the parameter column
+        return {"start": float(self._CP[recursive_ip.U0, 0])}
+
+    def _checked_extra(self, snap: Mapping[str, Any]) -> float:
+        return _number("snapshot start", snap.get("start", self._u0))
+
+    def _restore_extra(self, start: float) -> None:
+        self._CP[recursive_ip.U0, 0] = start
 
     def __call__(self, y: float, setpoint: float | None = None) -> float:
         if not self._measurement_ok(y, setpoint):
@@ -539,12 +614,15 @@ class PID(_Sampled):
 
     def __call__(self, y: float, setpoint: float | None = None,
                  dt: float | None = None) -> float:
-        """One sample: the measurement in, the (limited) control out."""
-        if not self._measurement_ok(y, setpoint):
+        """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
+        since the previous call, by default ``sample_time``; after a rejected sample the
+        integral and the derivative span both periods."""
+        dt = self._period(dt)
+        if not self._measurement_ok(y, setpoint, dt):
             return self._last_output
         u = live.pid_step(self._CP, self._CS, self._backup, float(y), float(self.setpoint),
-                          self._dt if dt is None else float(dt))
-        return self._output(u)
+                          dt + self._skipped)
+        return self._output(u, dt)
 
     @property
     def components(self) -> dict[str, float]:

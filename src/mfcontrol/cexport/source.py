@@ -135,7 +135,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     }
     # the law's pieces first (they hold @-names the second pass fills)
     parts = {"SAVE": law.save, "RESTORE": law.restore, "INIT": law.init,
-             "BUMPLESS": law.bumpless, "CALL": law.call}
+             "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip}
     driver = _fill(_fill(_DRIVER, parts), subs)
     banner = _banner(prefix, real, law, ctrl, description)
     period = (f"/* sample period (s) the law was built for: call {prefix}_step once per "
@@ -199,6 +199,7 @@ class _Law:
     bumpless: str  # C statements: restart the law from `start`
     call: str  # C statements: run the law; set `u` and `ok`
     state_rows: dict
+    skip: str = ""  # C statements: a sample the law did not take (laws with a period)
     backup_rows: int | None = None  # rows the step may write (None: all)
     save: str = "    for (i = 0; i < @NS@; i++) s->backup[i] = s->cs[i];\n"
     restore: str = "    for (i = 0; i < @NS@; i++) s->cs[i] = s->backup[i];\n"
@@ -223,8 +224,8 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
         init=f"    @RESET@(s->cs);\n    s->last_output = @P@_params[{intelligent.U_INIT}];\n",
         bumpless=(f"    @RESET@(s->cs);\n{_clamp(intelligent.OUT_MIN, intelligent.OUT_MAX)}"
                   f"    s->cs[{intelligent.U1}] = start;\n    s->last_output = start;\n"),
-        call="    u = @STEP@(s->cs, y, setpoint, @DT@);\n    ok = isfinite(u);\n",
-        state_rows={})
+        call="    u = @STEP@(s->cs, y, setpoint, @DT@ + s->skipped);\n    ok = isfinite(u);\n",
+        state_rows={}, skip="        s->skipped += @DT@;\n")
     if cp[intelligent.EST] == intelligent.ALGEBRAIC:
         M = int(cp[intelligent.M_WIN])
         if M > MAX_WINDOW[real]:
@@ -271,8 +272,8 @@ def _pid() -> _Law:
         init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
         bumpless=(f"{_clamp(pid.OUT_MIN, pid.OUT_MAX)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),
-        call="    u = @STEP@(s->cs, y, setpoint, @DT@);\n    ok = isfinite(u);\n",
-        state_rows={})
+        call="    u = @STEP@(s->cs, y, setpoint, @DT@ + s->skipped);\n    ok = isfinite(u);\n",
+        state_rows={}, skip="        s->skipped += @DT@;\n")
 
 
 def _fill(text: str, subs: dict) -> str:
@@ -315,6 +316,9 @@ typedef struct {
     @R@ last_output;
     /* rejected values: a non-finite measurement, output or manual value */
     unsigned long nan_count;
+    /* time (s) of the samples the law did not take since its last one: the next step's
+     * derivatives and integral span it */
+    @R@ skipped;
     /* 1 automatic, 0 manual */
     int auto_mode;
 } @P@_state;
@@ -351,6 +355,7 @@ void @P@_init(@P@_state *s)
     for (i = 0; i < @NS@; i++) s->cs[i] = 0;
     for (i = 0; i < @NB@; i++) s->backup[i] = 0;
 @INIT@    s->nan_count = 0;
+    s->skipped = 0;
     s->auto_mode = 1;
 }
 
@@ -361,15 +366,16 @@ void @P@_init(@P@_state *s)
     if (!s->auto_mode) return s->last_output;
     if (!isfinite(y)) {
         s->nan_count++;
-        return s->last_output;
+@SKIP@        return s->last_output;
     }
     @P@_save(s);
 @CALL@    if (!ok) {
         @P@_restore(s);
         s->nan_count++;
-        return s->last_output;
+@SKIP@        return s->last_output;
     }
     s->last_output = u;
+    s->skipped = 0;
     return u;
 }
 
@@ -389,7 +395,10 @@ static void @P@_bumpless(@P@_state *s, @R@ start)
 
 void @P@_set_auto(@P@_state *s)
 {
-    if (!s->auto_mode) @P@_bumpless(s, s->last_output);
+    if (!s->auto_mode) {
+        @P@_bumpless(s, s->last_output);
+        s->skipped = 0;
+    }
     s->auto_mode = 1;
 }
 """
