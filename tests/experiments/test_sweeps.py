@@ -140,3 +140,71 @@ def test_dask_local_cluster_gives_identical_results(tmp_path):
     assert proc.returncode == 0, proc.stderr
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "local" / "results.parquet"),
                                   pd.read_parquet(tmp_path / "dask" / "results.parquet"))
+
+
+# --- issue 14: one owner per folder, metadata written whole, paths and --dask refused ------
+
+def test_a_second_sweep_into_a_folder_in_use_is_refused_and_the_first_finishes(tmp_path):
+    from filelock import FileLock
+
+    out = tmp_path / "s"
+    out.mkdir()
+    # another process holds the folder (here this one: an OS lock is per open file)
+    with FileLock(out / ".lock"):
+        proc = sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(out), check=False)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert "is being written by another running sweep" in proc.stderr
+    assert not (out / "sweep.json").exists()  # nothing written
+    sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(out))  # the lock is free again
+    assert len(pd.read_parquet(out / "results.parquet")) == 12
+
+
+def test_two_different_sweeps_started_together_never_mix(tmp_path):
+    out = tmp_path / "s"
+    cmds = [[sys.executable, "-m", "mfcontrol.cli", "sweep", "voltage-stable-standard",
+             "--grid", grid, *FAST, "--out", str(out)]
+            for grid in ("plant.dR=0,1,2,3,4,5,6,7", "controller.alpha=5,10,15,20,25,30")]
+    procs = [subprocess.Popen(c, stderr=subprocess.PIPE, text=True) for c in cmds]
+    codes = [p.wait() for p in procs]
+    errs = [p.stderr.read() for p in procs]
+    assert sorted(codes) in ([0, 2], [0, 0]), errs  # [0, 0]: one ended before the other began
+    if sorted(codes) == [0, 2]:
+        assert any("another running sweep" in e or "different sweep" in e for e in errs)
+    grid = json.loads((out / "sweep.json").read_text())["grid"]
+    results = pd.read_parquet(out / "results.parquet")
+    (key, values), = grid.items()
+    other = {"plant.dR", "controller.alpha"} - {key}
+    assert key in results.columns and not other & set(results.columns)
+    assert len(results) == len(values) and sorted(results[key]) == sorted(values)
+    assert not list(out.glob("*.tmp")) and not list(out.glob(".*.tmp"))
+
+
+def test_a_torn_sweep_json_is_one_line(tmp_path):
+    out = tmp_path / "s"
+    out.mkdir()
+    (out / "sweep.json").write_text('{"case": "voltage-st')
+    proc = sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(out), check=False)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "sweep.json that is not a sweep's" in proc.stderr
+
+
+@pytest.mark.parametrize("address,needle", [
+    ("local:0", "N workers, 1 to 1024"), ("local:-1", "N workers, 1 to 1024"),
+    ("local:x", "N workers"), ("garbage", "a scheduler address"),
+    ("tcp://127.0.0.1:9", "no Dask scheduler answered there")])
+def test_bad_dask_addresses_are_one_line_and_write_nothing(tmp_path, address, needle):
+    pytest.importorskip("dask.distributed")
+    out = tmp_path / "d"
+    proc = sweep("voltage-stable-standard", *GRID, *FAST, "--dask", address, "--out",
+                 str(out), check=False)
+    assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not (out / "results.parquet").exists()
+
+
+def test_out_under_a_file_is_one_line(tmp_path):
+    (tmp_path / "file").write_text("x")
+    proc = sweep("voltage-stable-standard", *GRID, *FAST, "--out",
+                 str(tmp_path / "file" / "s"), check=False)
+    assert proc.returncode == 2 and "cannot be created" in proc.stderr
+    assert "Traceback" not in proc.stderr

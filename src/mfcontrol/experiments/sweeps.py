@@ -9,7 +9,10 @@ Layout of ``OUT``::
 
 A chunk file exists only when its chunk is complete, so an interrupted or crashed sweep
 loses nothing it finished; running the same command again skips the finished chunks. A
-different sweep into the same folder is refused.
+different sweep into the same folder is refused. One process at a time owns a folder: it
+holds an operating-system lock on ``OUT/.lock`` (``filelock``), which the system releases
+when the process ends, however it ends; a second sweep into the folder meanwhile is
+refused.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from filelock import FileLock, Timeout
 
 from .._version import __version__
 from ..api import batch
@@ -50,21 +54,47 @@ def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int
 def _check_folder(out: Path, manifest: dict) -> None:
     path = out / "sweep.json"
     if path.exists():
-        old = json.loads(path.read_text())
+        try:
+            old = json.loads(path.read_text())
+            if not isinstance(old, dict):
+                raise ValueError
+        except (ValueError, UnicodeDecodeError):
+            raise ConfigError("--out", str(out), "holds a sweep.json that is not a sweep's "
+                              "(unreadable or cut short): remove it to start the sweep over, "
+                              "or choose another folder") from None
         old.setdefault("arithmetic", "exact")  # written before there was a fast mode
         same = {k: old.get(k) for k in _IDENTITY} == {k: manifest[k] for k in _IDENTITY}
         if not same:
             raise ConfigError("--out", str(out), "holds a different sweep (see its sweep.json):"
                               " choose another folder")
     else:
-        out.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(manifest, indent=2))
+        _replace_with(path, lambda tmp: tmp.write_text(json.dumps(manifest, indent=2)))
+
+
+def _replace_with(path: Path, write: Callable[[Path], Any]) -> None:
+    """Write ``path`` atomically: into a temporary file of this process, then renamed over
+    it (a reader sees the old file or the new, never half of one)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def _write_atomic(frame, path: Path) -> None:
-    tmp = path.with_suffix(".tmp")
-    frame.to_parquet(tmp, index=False)
-    os.replace(tmp, path)
+    _replace_with(path, lambda tmp: frame.to_parquet(tmp, index=False))
+
+
+def _lock(out: Path) -> FileLock:
+    """The folder's lock, taken, or the one-line refusal when another process holds it."""
+    lock = FileLock(out / ".lock")
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise ConfigError("--out", str(out), "is being written by another running sweep: "
+                          "wait for it to end, or choose another folder") from None
+    return lock
 
 
 def _chunk_frame(grid_spec: dict, index: int):
@@ -107,11 +137,24 @@ def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str,
     """Run (or resume) a sweep into ``out``; return the path of results.parquet.
     ``fast``: the batch kernel's fast arithmetic (see :func:`mfcontrol.api.batch.run_range`);
     a folder holds one kind, and resuming with the other is refused."""
-    import pandas as pd
 
     grid = batch.make_grid(cfg, axes)
     manifest = _manifest(case, overrides, grid, chunk, fast)
-    _check_folder(out, manifest)
+    if dask:
+        _dask_workers(dask)  # a bad address or a missing Dask before anything is written
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError("--out", str(out), f"cannot be created ({exc.strerror})") from None
+    with _lock(out):
+        _check_folder(out, manifest)
+        return _run_locked(grid, cfg, manifest, out, keep=keep, chunk=chunk, dask=dask,
+                           progress=progress, fast=fast)
+
+
+def _run_locked(grid, cfg, manifest, out, *, keep, chunk, dask, progress, fast) -> Path:
+    import pandas as pd
+
     chunk_dir = out / "chunks"
     chunk_dir.mkdir(exist_ok=True)
     all_chunks = list(batch.chunks(grid.n_members, chunk))
@@ -139,20 +182,41 @@ def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str,
     return path
 
 
+def _dask_workers(address: str) -> int | None:
+    """Check ``--dask``: N of ``local:N`` (None for a scheduler address), Dask installed."""
+    try:
+        import dask.distributed  # noqa: F401
+    except ModuleNotFoundError:
+        raise ConfigError("--dask", address, "needs Dask: pip install 'mfcontrol[dask]'"
+                          ) from None
+    if not address.startswith("local:"):
+        if "://" not in address and ":" not in address:
+            raise ConfigError("--dask", address, "must be local:N or a scheduler address "
+                              "such as tcp://host:8786")
+        return None
+    text = address.split(":", 1)[1]
+    if not text.isdigit() or not 1 <= int(text) <= 1024:
+        raise ConfigError("--dask", address, "must be local:N with N workers, 1 to 1024")
+    return int(text)
+
+
 def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progress) -> int:
     from dask.distributed import Client, LocalCluster, as_completed
 
-    if address.startswith("local:"):
-        try:
-            n = int(address.split(":", 1)[1])
-        except ValueError:
-            raise ConfigError("--dask", address, "must be local:N or a scheduler address") from None
+    n = _dask_workers(address)
+    if n is not None:
+        # TLS with credentials made for this cluster and dropped with it: no other process
+        # can submit work to it
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+                               dashboard_address=None, security=True)
         client = Client(cluster)
     else:
         cluster = None
-        client = Client(address)
+        try:
+            client = Client(address, timeout="10s")
+        except (OSError, ValueError, TimeoutError) as exc:
+            raise ConfigError("--dask", address, f"no Dask scheduler answered there ({exc})"
+                              ) from None
     try:
         futures = {client.submit(_chunk_frame, spec, i, pure=False): (i, a, b)
                    for i, a, b in todo}
