@@ -77,6 +77,7 @@ def assert_usage_error(proc: subprocess.CompletedProcess, *needles: str) -> str:
 
 #: case files written into the fixture's folder ({d} in the commands below)
 FILES: dict[str, bytes] = {
+    "deep.toml": b"[controller]\nalpha = " + b"[" * 5000 + b"]" * 5000 + b"\n",
     "nan-alpha.toml": b"[controller]\nalpha = nan\n",
     "inf-E.toml": b"[plant]\nE = inf\n",
     "neg-inf-kp.toml": b"[controller]\nkp = -inf\n",
@@ -126,6 +127,12 @@ ERRORS = [
                  id="benchmark-plant-without-table"),
     pytest.param(["benchmark", "--plants", "nope"], ["'nope'", "unknown case"],
                  id="benchmark-unknown-plant"),
+    # issue 14: faults found by fuzzing
+    pytest.param([S, "{d}/deep.toml"], ["deep.toml", "nested too deeply"], id="deep-file"),
+    pytest.param([S, CASE, "--set", "controller.alpha=" + "[" * 3000 + "]" * 3000],
+                 ["controller.alpha", "nested too deeply"], id="deep-set"),
+    pytest.param([S, "sweep-Gamma", "--set", "sweep.values=[]"],
+                 ["sweep.values = []", "at least one value"], id="empty-sweep-values"),
     # export-c
     pytest.param(["export-c", CASE, "--prefix", "9lives", "--out", "{d}/c-prefix"],
                  ["prefix = '9lives'", "must be a C identifier"], id="export-c-bad-prefix"),
@@ -644,3 +651,10 @@ def test_export_c_writes_a_header_and_a_source_that_compile(tmp_path):
     assert "kp = 7.0" in header
     subprocess.run([compiler(), *CFLAGS, "-c", str(folder / "motor.c"), "-o",
                     str(tmp_path / "motor.o")], check=True)
+
+
+def test_a_change_after_the_run_never_happens(tmp_path):
+    """plant.change_times = [1e308] was an OverflowError traceback."""
+    proc = cli("run", CASE, "--set", "plant.change_times=[1e308]", "--set", "sim.t_end=1e-4",
+               "--out", str(tmp_path / "r"))
+    assert proc.returncode == 0, proc.stderr

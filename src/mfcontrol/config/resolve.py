@@ -281,6 +281,8 @@ def _check_consistency(v: dict[str, Any]) -> None:
         raise ConfigError("sweep.values", v["sweep.values"],
                           "sweep.key and sweep.values go together")
     if v["sweep.key"] is not None:
+        if not v["sweep.values"]:
+            raise ConfigError("sweep.values", v["sweep.values"], "must list at least one value")
         o = BY_KEY.get(v["sweep.key"])
         if (o is None or o.kind not in ("float", "int") or o.key.startswith("sweep.")
                 or o.key in _GRID_KEYS):

@@ -33,6 +33,9 @@ def parse_assignment(text: str) -> tuple[str, Any]:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw
+    except RecursionError:
+        raise ConfigError(key, f"{raw[:20]}...", "is nested too deeply: options are numbers, "
+                          "strings, true/false or lists of numbers") from None
     return key, value
 
 

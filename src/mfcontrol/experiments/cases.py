@@ -43,7 +43,14 @@ def load(name_or_path: str | Path) -> tuple[str, dict[str, Any]]:
         raise CaseError(f"case file {str(path)!r} is not valid TOML: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise CaseError(f"case file {str(path)!r} cannot be read: {exc}") from None
-    return name, flatten(table)
+    except RecursionError:
+        raise CaseError(f"case file {str(path)!r} is nested too deeply: options are "
+                        "numbers, strings, true/false or lists of numbers") from None
+    try:
+        return name, flatten(table)
+    except RecursionError:
+        raise CaseError(f"case file {str(path)!r} is nested too deeply: options are "
+                        "numbers, strings, true/false or lists of numbers") from None
 
 
 def resolve_case(name_or_path: str | Path,

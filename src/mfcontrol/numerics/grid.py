@@ -50,6 +50,8 @@ def first_sample_at(t_event: float, t_end: float, n: int) -> int:
     def t(k: int) -> float:
         return (k * t_end) / n
 
+    if not t_event <= t_end:  # never within the run (and t_event * n may overflow)
+        return n
     k = min(max(math.ceil(t_event * n / t_end), 0), n)
     while k > 0 and t(k - 1) >= t_event:
         k -= 1
