@@ -131,6 +131,10 @@ ERRORS = [
     pytest.param([S, "{d}/deep.toml"], ["deep.toml", "nested too deeply"], id="deep-file"),
     pytest.param([S, CASE, "--set", "controller.alpha=" + "[" * 3000 + "]" * 3000],
                  ["controller.alpha", "nested too deeply"], id="deep-set"),
+    pytest.param(["sweep", CASE, "--grid", "controller.alpha=linspace(1,2,1000000000000)",
+                  "--out", "{d}/huge-grid"],
+                 ["1,000,000,000,000 values", "at most 10,000,000 on one axis"],
+                 id="huge-grid-axis"),
     pytest.param([S, "sweep-Gamma", "--set", "sweep.values=[]"],
                  ["sweep.values = []", "at least one value"], id="empty-sweep-values"),
     # export-c

@@ -32,6 +32,9 @@ from .simulate import batch_metrics, compiled, general_metrics, member_parts
 
 _SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
 METRIC_COLUMNS = _metrics.COLUMNS
+#: values of one axis at most: a 10-million-value axis is 80 MB and, at 10,000 samples a
+#: member, days of computing; more is a mistake to refuse at once, not a MemoryError later
+MAX_AXIS = 10_000_000
 
 
 def parse_spec(key: str, spec: str) -> np.ndarray:
@@ -39,15 +42,22 @@ def parse_spec(key: str, spec: str) -> np.ndarray:
     (logspace takes decimal exponents, as numpy's)."""
     allowed = "must be a,b,c or linspace(a,b,n) or logspace(a,b,n) with numbers a, b, n"
     m = _SPEC.match(spec)
+    too_many = 0
     try:
         if m:
             a, b, n = float(m[2]), float(m[3]), int(m[4])
             if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
                 raise ValueError
+            if n > MAX_AXIS:
+                too_many = n
+                raise ValueError
             values = (np.linspace if m[1] == "linspace" else np.logspace)(a, b, n)
         else:
             values = np.array([float(x) for x in spec.split(",")])
     except ValueError:
+        if too_many:
+            raise ConfigError(key, spec, f"{too_many:,} values: at most {MAX_AXIS:,} on one "
+                              "axis (split the range over several sweeps)") from None
         raise ConfigError(key, spec, allowed) from None
     if values.size == 0:
         raise ConfigError(key, spec, allowed)
