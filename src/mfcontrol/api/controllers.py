@@ -368,10 +368,10 @@ class IntelligentController(_Sampled):
         law's derivatives span both periods."""
         dt = self._period(dt)
         if self._external:
-            alpha = _number("alpha", alpha, positive=True) if alpha is not None else None
             if alpha is None:
                 raise ValueError("alpha = None: gain='external' needs a finite alpha > 0 "
                                  "at every call")
+            alpha = _number("alpha", alpha, positive=True)
         if not self._measurement_ok(y, setpoint, dt):
             return self._last_output
         u = live.intelligent_step(self._CP, self._CS, self._backup, float(y),

@@ -208,6 +208,12 @@ class _Law:
         return n_cs if self.backup_rows is None else self.backup_rows
 
 
+#: a law with a period (intelligent, PID): called with the time since the last sample it
+#: took, and a sample it did not take adds its period to that
+_SAMPLED_CALL = "    u = @STEP@(s->cs, y, setpoint, @DT@ + s->skipped);\n    ok = isfinite(u);\n"
+_SAMPLED_SKIP = "        s->skipped += @DT@;\n"
+
+
 def _clamp(lo: int, hi: int) -> str:
     return (f"    if (start < @P@_params[{lo}]) start = @P@_params[{lo}];\n"
             f"    if (start > @P@_params[{hi}]) start = @P@_params[{hi}];\n")
@@ -224,8 +230,7 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
         init=f"    @RESET@(s->cs);\n    s->last_output = @P@_params[{intelligent.U_INIT}];\n",
         bumpless=(f"    @RESET@(s->cs);\n{_clamp(intelligent.OUT_MIN, intelligent.OUT_MAX)}"
                   f"    s->cs[{intelligent.U1}] = start;\n    s->last_output = start;\n"),
-        call="    u = @STEP@(s->cs, y, setpoint, @DT@ + s->skipped);\n    ok = isfinite(u);\n",
-        state_rows={}, skip="        s->skipped += @DT@;\n")
+        call=_SAMPLED_CALL, state_rows={}, skip=_SAMPLED_SKIP)
     if cp[intelligent.EST] == intelligent.ALGEBRAIC:
         M = int(cp[intelligent.M_WIN])
         if M > MAX_WINDOW[real]:
@@ -272,8 +277,7 @@ def _pid() -> _Law:
         init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
         bumpless=(f"{_clamp(pid.OUT_MIN, pid.OUT_MAX)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),
-        call="    u = @STEP@(s->cs, y, setpoint, @DT@ + s->skipped);\n    ok = isfinite(u);\n",
-        state_rows={}, skip="        s->skipped += @DT@;\n")
+        call=_SAMPLED_CALL, state_rows={}, skip=_SAMPLED_SKIP)
 
 
 def _fill(text: str, subs: dict) -> str:
@@ -294,8 +298,9 @@ def _banner(prefix, real, law, ctrl, description) -> str:
             f"{__version__} ({law.name} law, {real}).\n{what}"
             f" * Parameters (baked in):\n{params}\n"
             " * C99, no dynamic memory, no global state, only <math.h>. Compile without\n"
-            " * floating-point contraction (gcc/clang: -ffp-contract=off) and without\n"
-            " * -ffast-math to compute, in double, exactly what mfcontrol computes.\n */")
+            " * floating-point contraction (this file turns it off for gcc and clang; other\n"
+            " * compilers: -ffp-contract=off or theirs) and without -ffast-math to compute,\n"
+            " * in double, exactly what mfcontrol computes.\n */")
 
 
 _HEADER = """@BANNER@
