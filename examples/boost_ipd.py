@@ -26,10 +26,12 @@ LC tank: v overshoots by about 9 V, as it does open loop with d frozen (8 V); a 
 well below z cannot act faster.
 
 Run:  python examples/boost_ipd.py [figure.png]
+(default figure: results/examples/boost_ipd.png)
 """
 
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -54,7 +56,7 @@ def reference(t: float) -> float:
     return V_START + (V_END - V_START) * (1 - math.cos(math.pi * x)) / 2
 
 
-def main(path: str = "boost_ipd.png") -> mfcontrol.Result:
+def main(path: str | Path = Path("results", "examples", "boost_ipd.png")) -> mfcontrol.Result:
     plant = Boost(E=E, L=L, R=R, C=C, x0=(V_START / R, V_START))
     ctrl = mfcontrol.IPD(ALPHA, KP, KD, sample_time=H, output_limits=(0, 0.9))
     res = mfcontrol.simulate_loop(plant, ctrl, reference, t_end=T_END,

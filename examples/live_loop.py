@@ -8,10 +8,12 @@ and at t = 0.3 s the controller's state is saved and restored into a fresh contr
 as after a restart, and control continues without a bump.
 
 Run:  python examples/live_loop.py [figure.png]
+(default figure: results/examples/live_loop.png)
 """
 
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -28,7 +30,7 @@ def motor(w, i, v, load, dt, substeps=20):
     return w, i
 
 
-def main(path: str = "live_loop.png"):
+def main(path: str | Path = Path("results", "examples", "live_loop.png")):
     h = 1e-3
     # w' ~ K/(J R) v = 50 v: alpha = 50; kp = 30 1/s sets the error decay. No integral
     # term: F_hat absorbs the load torque, the i-P needs no I action to reject it.
@@ -62,6 +64,7 @@ def main(path: str = "live_loop.png"):
         a.axvline(400, color="0.6", ls="-.")
     fig.suptitle("i-P in a hand-written loop: sensor dropout (shaded), state restored "
                  "(dotted), load step (dash-dot)", fontsize=10)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     err = abs(w[-1] - r[-1])
     print(f"motor i-P: final error {err:.2e} rad/s, NaN readings held: {ctrl.nan_count}, "

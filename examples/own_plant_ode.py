@@ -8,9 +8,11 @@ alpha = 1/A is the right order of magnitude ("h' and alpha u of the same size");
 kp = 0.2 1/s sets the error decay, e(t) ~ exp(-kp t).
 
 Run:  python examples/own_plant_ode.py [figure.png]
+(default figure: results/examples/own_plant_ode.png)
 """
 
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -30,7 +32,7 @@ def level(x, p):
     return x[0]
 
 
-def main(path: str = "own_plant_ode.png") -> mfcontrol.Result:
+def main(path: str | Path = Path("results", "examples", "own_plant_ode.png")) -> mfcontrol.Result:
     plant = ODE(tank, level, x0=[0.2], params={"area": AREA, "orifice": ORIFICE, "leak": 0.0})
     ctrl = mfcontrol.IP(alpha=1 / AREA, kp=0.2, sample_time=0.1, output_limits=(0.0, 0.2))
     setpoint = lambda t: 1.0 if t < 100 else 0.6  # noqa: E731

@@ -19,9 +19,11 @@ a few samples, while the slower PI holds: the speed of a loop is bought with its
 margin.
 
 Run:  python examples/realistic_loops.py [figure.png]
+(default figure: results/examples/realistic_loops.png)
 """
 
 import sys
+from pathlib import Path
 
 from matplotlib.figure import Figure
 
@@ -38,7 +40,7 @@ COLOURS = ("tab:red", "tab:blue", "tab:green")
 DELAY = 20  # samples of actuator delay for the second set of runs
 
 
-def main(path: str = "realistic_loops.png"):
+def main(path: str | Path = Path("results", "examples", "realistic_loops.png")):
     runs = {name: mfcontrol.run_case(name) for name in CASES}
     delayed = {name: mfcontrol.run_case(name, overrides={"actuator.delay": DELAY})
                for name in CASES}
@@ -81,6 +83,7 @@ def main(path: str = "realistic_loops.png"):
     t.scale(1.0, 3.2)
     table.set_title("metrics over 10 s", fontsize=10)
     fig.suptitle("DC motor speed loop, 0.5 rad/s sensor noise: the estimator of F decides")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     return runs, delayed
 

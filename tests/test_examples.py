@@ -46,3 +46,13 @@ def test_realistic_loops(tmp_path, monkeypatch):
     iae = {name: res.metrics["iae"] for name, res in runs.items()}
     assert min(iae, key=iae.get) == "motor-noise-ipi-algebraic"
     assert [res.metrics["stable"] for res in delayed.values()] == [False, False, True]
+
+
+def test_default_figure_goes_to_results(tmp_path, monkeypatch):
+    """Run from any folder with no argument, an example writes results/examples/NAME.png
+    (ignored by git) and nothing else in the working folder (it wrote NAME.png there)."""
+    monkeypatch.chdir(tmp_path)
+    ns = runpy.run_path(str(EXAMPLES / "own_plant_ode.py"), run_name="not_main")
+    ns["main"]()
+    assert [p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")
+            if p.is_file()] == ["results/examples/own_plant_ode.png"]

@@ -28,13 +28,15 @@ from ..laws import estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
 
 _INF = math.inf
+# a tuple, built once: ``int | float | ...`` in a call builds a union type every time
+_REAL = (int, float, np.integer, np.floating)
 
 
 def _number(name: str, value: Any, *, positive: bool = False, nonneg: bool = False,
             allow_none: bool = False) -> float | None:
     if value is None and allow_none:
         return None
-    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
+    ok = isinstance(value, _REAL) and not isinstance(value, bool)
     if ok:
         value = float(value)
         ok = math.isfinite(value) and (not positive or value > 0) and (not nonneg or value >= 0)
@@ -80,7 +82,22 @@ class _Controller:
         # measurement or output): the next call's derivatives span it
         self._skipped = 0.0
 
-    # subclasses fill the parameter column and define _step / _reset_state
+    def _bind(self, kernel: str, n_scalars: int) -> None:
+        """Call ``live.<kernel>`` (arrays, then ``n_scalars`` floats) as ``self._step``."""
+        self._kernel = (kernel, n_scalars)
+        self._step = live.entry_point(getattr(live, kernel), self._CP, self._CS,
+                                      self._backup, *(0.0,) * n_scalars)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        del state["_step"]  # compiled code: bound again on unpickling
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind(*self._kernel)
+
+    # subclasses fill the parameter column, _bind their kernel, define _reset_state
     def _reset_state(self) -> None:  # pragma: no cover
         raise NotImplementedError
 
@@ -106,13 +123,24 @@ class _Controller:
             self._last_output = _number("last_output", last_output)
         self.auto_mode = bool(enabled)
 
+    def _plain(self, y: Any, setpoint: Any) -> bool:
+        """True for the common call, finite Python floats in automatic mode (and takes the
+        setpoint): the caller skips the general checks of :meth:`_measurement_ok`, which
+        cost as much again as the law; anything else takes the general path."""
+        if (type(y) is float and y - y == 0.0 and self.auto_mode
+                and (setpoint is None or type(setpoint) is float and setpoint - setpoint == 0.0)):
+            if setpoint is not None:
+                self.setpoint = setpoint
+            return True
+        return False
+
     def _measurement_ok(self, y: float, setpoint: float | None, dt: float = 0.0) -> bool:
         """Take the setpoint (a finite number, or None to keep it); False when the law must
         not run (manual mode, or a NaN/inf measurement, which is counted and whose period
         ``dt`` the next sample's derivatives span): the caller returns the last output."""
         if setpoint is not None:
             self.setpoint = _number("setpoint", setpoint)
-        if not isinstance(y, int | float | np.integer | np.floating) or isinstance(y, bool):
+        if not isinstance(y, _REAL) or isinstance(y, bool):
             raise ValueError(f"y = {y!r}: the measurement must be a number (NaN and inf are "
                              "counted in nan_count and hold the output)")
         if not self.auto_mode:
@@ -342,6 +370,7 @@ class IntelligentController(_Sampled):
                                      cp[intelligent.OUT_MAX])
         self._dt = params["sample_time"]
         self._external = gain == "external"
+        self._bind("intelligent_step", 4)
         self._check_law(params)  # drops the terms this law does not have from _params
         self._reset_state()
 
@@ -366,6 +395,9 @@ class IntelligentController(_Sampled):
         """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
         since the previous call, by default ``sample_time``; after a rejected sample the
         law's derivatives span both periods."""
+        if dt is None and not self._external and self._plain(y, setpoint):
+            return self._output(self._step(self._CP, self._CS, self._backup, y, self.setpoint,
+                                           self._dt + self._skipped, 1.0), self._dt)
         dt = self._period(dt)
         if self._external:
             if alpha is None:
@@ -374,9 +406,8 @@ class IntelligentController(_Sampled):
             alpha = _number("alpha", alpha, positive=True)
         if not self._measurement_ok(y, setpoint, dt):
             return self._last_output
-        u = live.intelligent_step(self._CP, self._CS, self._backup, float(y),
-                                  float(self.setpoint), dt + self._skipped,
-                                  1.0 if alpha is None else float(alpha))
+        u = self._step(self._CP, self._CS, self._backup, float(y), float(self.setpoint),
+                       dt + self._skipped, 1.0 if alpha is None else float(alpha))
         return self._output(u, dt)
 
     @property
@@ -497,6 +528,7 @@ class RecursiveIP(_Controller):
         super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
         self._CP[:, 0] = recursive_law_column(cfg, self.sample_time)[:, 0]
         self._u0 = float(self._CP[recursive_ip.U0, 0])  # the start as built
+        self._bind("recursive_step", 2)
         self._reset_state()
 
     def _reset_state(self) -> None:
@@ -504,7 +536,7 @@ class RecursiveIP(_Controller):
         self._CP[recursive_ip.U0, 0] = self._u0
         live.recursive_reset(self._CP, self._CS)
         self._last_output = 0.0
-        self._components = {"u_raw": math.nan, "gain": math.nan, "gamma": math.nan}
+        self._components = (math.nan, math.nan, math.nan)  # u_raw, gain, gamma
 
     def _bumpless_start(self, start: float) -> None:
         self._reset_state()
@@ -523,20 +555,20 @@ class RecursiveIP(_Controller):
         self._CP[recursive_ip.U0, 0] = start
 
     def __call__(self, y: float, setpoint: float | None = None) -> float:
-        if not self._measurement_ok(y, setpoint):
+        if not self._plain(y, setpoint) and not self._measurement_ok(y, setpoint):
             return self._last_output
-        u, applied, g, gamma = live.recursive_step(self._CP, self._CS, self._backup,
-                                                   float(y), float(self.setpoint))
+        u, applied, g, gamma = self._step(self._CP, self._CS, self._backup, float(y),
+                                          float(self.setpoint))
         if applied != applied:
             self.nan_count += 1
             return self._last_output
-        self._components = {"u_raw": u, "gain": g, "gamma": gamma}
+        self._components = (u, g, gamma)  # the dict is built when asked for
         self._last_output = applied
         return applied
 
     @property
     def components(self) -> dict[str, float]:
-        return dict(self._components)
+        return dict(zip(("u_raw", "gain", "gamma"), self._components, strict=True))
 
 
 class PID(_Sampled):
@@ -600,6 +632,7 @@ class PID(_Sampled):
         cp[pid.OUT_MIN] = -_INF if lo is None else lo
         cp[pid.OUT_MAX] = _INF if hi is None else hi
         self._dt = params["sample_time"]
+        self._bind("pid_step", 3)
         self._reset_state()
 
     def _reset_state(self) -> None:
@@ -617,11 +650,14 @@ class PID(_Sampled):
         """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
         since the previous call, by default ``sample_time``; after a rejected sample the
         integral and the derivative span both periods."""
+        if dt is None and self._plain(y, setpoint):
+            return self._output(self._step(self._CP, self._CS, self._backup, y, self.setpoint,
+                                           self._dt + self._skipped), self._dt)
         dt = self._period(dt)
         if not self._measurement_ok(y, setpoint, dt):
             return self._last_output
-        u = live.pid_step(self._CP, self._CS, self._backup, float(y), float(self.setpoint),
-                          dt + self._skipped)
+        u = self._step(self._CP, self._CS, self._backup, float(y), float(self.setpoint),
+                       dt + self._skipped)
         return self._output(u, dt)
 
     @property

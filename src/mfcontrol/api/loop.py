@@ -140,9 +140,8 @@ def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None
     controller._last_output = float(traj[trajectory.T_APPLIED, k_end - 1])
     controller.setpoint = float(traj[trajectory.T_REF, k_end - 1])
     if isinstance(controller, RecursiveIP):
-        controller._components = {"u_raw": float(traj[trajectory.T_U, k_end - 1]),
-                                  "gain": float(traj[trajectory.T_GAIN, k_end - 1]),
-                                  "gamma": float(traj[trajectory.T_GAMMA, k_end - 1])}
+        controller._components = tuple(float(traj[row, k_end - 1]) for row in (
+            trajectory.T_U, trajectory.T_GAIN, trajectory.T_GAMMA))
 
 
 def _settings(settle_time: float, t_end: float, final_window: float,

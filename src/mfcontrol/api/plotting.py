@@ -65,6 +65,8 @@ def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
 
 def _save(fig: Figure, path: str | Path | None) -> Figure:
     if path is not None:
+        # a figure asked for in a folder that does not exist yet is the user's intent
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=120)
     return fig
 

@@ -4,10 +4,32 @@ One numba call per sample: the argument list is kept short and scalar so that th
 costs little more than numba's own dispatch.
 """
 
+import numba
 import numpy as np
 
 from .._jit import kernel_jit, step_jit
 from ..laws import intelligent, pid, recursive_ip, variational_gain
+
+_ENTRY_POINTS: dict = {}
+
+
+def entry_point(kernel, *args):
+    """``kernel``'s compiled code for the types of ``args``, called without numba's
+    per-call dispatch (which types every argument again: about a third of a live call).
+    A controller passes its own arrays, whose types never change, so the code found here
+    stays right for every later call. Where nothing is compiled (``NUMBA_DISABLE_JIT``)
+    the kernel itself is returned."""
+    types = tuple(numba.typeof(a) for a in args)
+    fn = _ENTRY_POINTS.get((kernel, types))
+    if fn is None:
+        try:
+            if types not in kernel.overloads:
+                kernel.compile(types)
+            fn = kernel.overloads[types].entry_point
+        except AttributeError:  # a plain Python function
+            fn = kernel
+        _ENTRY_POINTS[kernel, types] = fn
+    return fn
 
 
 @step_jit
