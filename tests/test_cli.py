@@ -662,3 +662,21 @@ def test_a_change_after_the_run_never_happens(tmp_path):
     proc = cli("run", CASE, "--set", "plant.change_times=[1e308]", "--set", "sim.t_end=1e-4",
                "--out", str(tmp_path / "r"))
     assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("delay", [0.3, 0.8])
+def test_ctrl_c_early_in_a_command_is_one_line(tmp_path, delay):
+    """Ctrl-C while the command loads numpy/numba (its first 1.6 s) was a traceback from
+    `import mfcontrol` (issue 14 item 9): the package now loads them inside the command."""
+    import signal
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "mfcontrol.cli", "run",
+                             "voltage-stable-standard", "--out", str(tmp_path / "o")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode == 0:  # it finished first: nothing to interrupt
+        return
+    assert proc.returncode == 130 and err.strip() == "mfcontrol: interrupted", err[-2000:]

@@ -208,3 +208,24 @@ def test_out_under_a_file_is_one_line(tmp_path):
                  str(tmp_path / "file" / "s"), check=False)
     assert proc.returncode == 2 and "cannot be created" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_ctrl_c_under_dask_is_one_line(tmp_path):
+    """A terminal's Ctrl-C reaches the whole process group: the local cluster's worker
+    processes printed KeyboardInterrupt tracebacks (issue 14 item 9)."""
+    pytest.importorskip("dask.distributed")
+    out = tmp_path / "s"
+    args = [sys.executable, "-m", "mfcontrol.cli", "sweep", "voltage-stable-standard",
+            "--grid", "controller.alpha=logspace(-1,1,2000)", "--set", "sim.t_end=0.004",
+            "--chunk", "2", "--dask", "local:1", "--out", str(out)]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.time() + 180
+    while time.time() < deadline and not (out / "chunks" / "chunk-000002.parquet").exists():
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)  # as a terminal does
+    _, err = proc.communicate(timeout=120)
+    lines = [line for line in err.replace("\r", "\n").splitlines()
+             if line.strip() and not line.startswith("[sweep]")]
+    assert proc.returncode == 130 and "Traceback" not in err, err[-2000:]
+    assert len(lines) == 1 and "resume" in lines[0]

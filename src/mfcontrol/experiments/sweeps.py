@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -207,8 +209,17 @@ def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progre
     if n is not None:
         # TLS with credentials made for this cluster and dropped with it: no other process
         # can submit work to it
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, security=True)
+        # A Ctrl-C in a terminal reaches the whole process group: the worker processes
+        # start with SIGINT ignored (an ignored signal stays ignored across their exec),
+        # so that only this process stops, closes the cluster and prints one line
+        main = threading.current_thread() is threading.main_thread()  # signal's rule
+        handler = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, security=True)
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, handler)
         client = Client(cluster)
     else:
         cluster = None
