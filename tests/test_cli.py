@@ -334,6 +334,13 @@ ERRORS = [
                  id="sweep-over-sim.t_end"),
     pytest.param([S, CASE, "--set", "controller.alpah=37.5"],
                  ["controller.alpah = 37.5", "unknown key"], id="unknown-key-names-its-value"),
+    # issue 14 item 6: a recorded run of 10^8 samples tried to allocate 7.5 GiB
+    pytest.param(["run", CASE, "--set", "sim.t_end=100", "--out", "{d}/out-long"],
+                 ["sim.t_end = 100.0", "100,000,000 samples", "GiB", "sweep"],
+                 id="recorded-run-too-long"),
+    pytest.param(["run", "motor-noise-ipi", "--set", "sim.t_end=100000", "--out",
+                  "{d}/out-long-motor"], ["sim.t_end = 100000.0", "GiB", "sweep"],
+                 id="recorded-loop-too-long"),
 ]
 
 
@@ -346,7 +353,7 @@ CORE = {
     "t_end-not-whole-steps", "nan-kp", "inf-E", "nan-in-list", "file-nan", "file-inf",
     "run-file-nan", "toml-unclosed-table", "run-malformed-toml", "show-without-case",
     "reproduce-bad-fidelity", "huge-integer", "t_end-over-h-overflows", "sweep-over-sim.h",
-    "unknown-key-names-its-value", "export-c-float-window",
+    "unknown-key-names-its-value", "export-c-float-window", "recorded-run-too-long",
 }
 CORE_ERRORS = [p for p in ERRORS if p.id in CORE]
 assert len(CORE_ERRORS) == len(CORE)
@@ -396,7 +403,7 @@ def test_bad_input_is_one_line_exit_2_in_process(case_dir, monkeypatch, capsys, 
 def test_run_rejects_bad_input_before_writing_anything(error_runs, case_dir):
     # the run-* commands above named these output folders; none may have been created
     assert error_runs
-    for name in ("out-unknown", "out-zero-h", "out-nan", "out-sweep-h"):
+    for name in ("out-unknown", "out-zero-h", "out-nan", "out-sweep-h", "out-long"):
         assert not (case_dir / name).exists()
     assert not (case_dir / "results").exists()
 

@@ -212,7 +212,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 S: np.ndarray, fast: bool = False, record: bool = False,
                 RP: np.ndarray | None = None, AL: np.ndarray | None = None,
                 LP: np.ndarray | None = None, step: tuple[float, float, float] | None = None,
-                vectorise: bool | None = None):
+                vectorise: bool | None = None, t_end_key: str = "t_end"):
     """Members (engine plants and law arrays of one family) through the compiled engine.
 
     The reference is ``R[j]`` (``R[0]`` for all when R has one row) or, when R has no
@@ -252,6 +252,9 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     engine_metrics.start(M, *step_metrics_of(RP, step),
                          load_step_of(LP, changes_per_member, t_end, n))
     comp_rows = np.array(l0.rows, dtype=np.int64)
+    if record:
+        grid.check_recording(n, compose.T_COMP + comp_rows.size + X.shape[1], t_end,
+                             t_end_key)
     traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
     tol = np.array(p0.tol, dtype=np.float64)
     DT = np.full(m, -1.0)
@@ -456,11 +459,12 @@ def _constant_step(plant, reference) -> tuple[float, float, float] | None:
 
 
 def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, stable_tol, name,
-                 fast, AL=None, LP=None, step=None) -> Result:
+                 fast, AL=None, LP=None, step=None, t_end_key="t_end") -> Result:
     """One member through the compiled engine, its trajectory named as a Result; the
     reference, elements and step as for :func:`run_members`."""
     M, traj, CS = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
-                              fast=fast, record=True, RP=RP, AL=AL, LP=LP, step=step)
+                              fast=fast, record=True, RP=RP, AL=AL, LP=LP, step=step,
+                              t_end_key=t_end_key)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]
     _hand_back(controller, CS, traj, k_end)
@@ -483,6 +487,8 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
                    note, al=None, step=None) -> Result:
     """The loop in Python, one plant step and one controller call per sample."""
     n = t.size
+    # y, u, the states and a law's few components (at most 8) per sample
+    grid.check_recording(n, 2 + len(plant.x0) + 8, t_end)
     # each change at its sample, in list order: the engine's rule
     due = [grid.first_sample_at(c.time, t_end, n) for c in changes]
     x = np.array(plant.x0, dtype=float, copy=True)

@@ -139,6 +139,8 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
     n = scn.n_members
     keep_arr = list(range(n)) if keep is None else list(keep)
     n_rows = trajectory.T_X0 + scn.X0.shape[0]
+    grid.check_recording(scn.n_steps, n_rows * (len(keep_arr) + (len(keep_arr) > 1)),
+                         scn.t_end, "sim.t_end")
     M = start_metrics(scn)
     CS = np.zeros((recursive_ip.N_STATE, n))
     paper_single.reset_members(scn.law_kind, scn.CP, CS)

@@ -80,7 +80,7 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
                        params.reference_column(cfg), changes, t,
                        cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast,
-                       LP=params.elements(cfg))
+                       LP=params.elements(cfg), t_end_key="sim.t_end")
     return dataclasses.replace(res, config=cfg, changes=())
 
 

@@ -33,6 +33,23 @@ def n_samples(t_end: float, h: float, t_end_key: str = "t_end", h_key: str = "h"
     return round(n)
 
 
+#: most memory one recorded run (every signal at every sample) may take; a sweep keeps
+#: metrics only and runs any horizon up to MAX_STEPS in bounded memory
+MAX_RECORD_BYTES = 2 * 2**30
+
+
+def check_recording(n: int, rows: int, t_end: float, t_end_key: str = "t_end") -> None:
+    """Refuse, before allocating it, a recorded trajectory of ``n`` samples of ``rows``
+    signals larger than :data:`MAX_RECORD_BYTES`, with the figure and the ways out."""
+    need = 8 * n * rows
+    if need > MAX_RECORD_BYTES:
+        raise ConfigError(t_end_key, t_end, f"{n:,} samples of {rows} recorded signals "
+                          f"would take {need / 2**30:.1f} GiB, more than the "
+                          f"{MAX_RECORD_BYTES / 2**30:.0f} GiB a recorded run may use: "
+                          "shorten the run, lengthen the sample time, or run it as a sweep "
+                          "(mfcontrol sweep, mfcontrol.sweep), which keeps the metrics only")
+
+
 def times(n: int, t_end: float) -> np.ndarray:
     """The sample times t_k = (k t_end) / n, exactly as every kernel computes them."""
     return (np.arange(n) * t_end) / n
