@@ -687,3 +687,48 @@ def test_ctrl_c_early_in_a_command_is_one_line(tmp_path, delay):
     if proc.returncode == 0:  # it finished first: nothing to interrupt
         return
     assert proc.returncode == 130 and err.strip() == "mfcontrol: interrupted", err[-2000:]
+
+
+# --- issue 14 item 8: outputs that cannot be written ------------------------------------
+
+def _last_line(err: str) -> str:
+    return err.replace("\r", "\n").strip().splitlines()[-1]
+
+
+def test_an_output_folder_that_cannot_be_created_is_one_line(tmp_path, capsys):
+    rc = main(["run", "voltage-stable-standard", "--set", "sim.t_end=0.001", "--out",
+               "/proc/mfcontrol-test"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "Traceback" not in err
+    assert _last_line(err) == ("mfcontrol: error: cannot write /proc/mfcontrol-test: "
+                               "No such file or directory")
+
+
+def test_a_full_disk_is_one_line_and_leaves_no_temporary_file(tmp_path, monkeypatch, capsys):
+    import errno
+
+    import pandas as pd
+
+    def full(self, path, *args, **kwargs):
+        Path(path).write_bytes(b"half a chunk")
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", full)
+    out = tmp_path / "s"
+    rc = main(["sweep", "voltage-stable-standard", "--grid", "plant.dR=0,5", "--set",
+               "sim.t_end=0.002", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 1 and "Traceback" not in err
+    assert _last_line(err).startswith("mfcontrol: error: cannot write ")
+    assert _last_line(err).endswith(": No space left on device")
+    assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
+
+
+def test_map_writes_into_a_folder_it_creates(tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["sweep", "voltage-stable-standard", "--grid", "controller.alpha=1,10",
+                 "--grid", "plant.dR=0,5", "--set", "sim.t_end=0.002", "--out", str(out)]) == 0
+    png = tmp_path / "new" / "folder" / "map.png"
+    assert main(["map", str(out), "--x", "controller.alpha", "--y", "plant.dR", "--out",
+                 str(png)]) == 0
+    assert png.stat().st_size > 10_000

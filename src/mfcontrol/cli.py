@@ -8,6 +8,7 @@ exit code 2; an interrupted command ends with exit code 130.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import sys
@@ -19,6 +20,9 @@ from .config.toml import parse_assignment
 from .errors import CaseError, ConfigError
 
 EXIT_USAGE = 2
+#: errors of a path the user gave (exit 2, like any bad input); others (a full disk) exit 1
+_PATH_ERRORS = {errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOENT, errno.ENOTDIR,
+                errno.EISDIR, errno.EEXIST, errno.ENAMETOOLONG}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -104,15 +108,16 @@ def _cmd_sweep(args) -> int:
         total *= v.size
     bar = Progress(total)
     try:
-        path = run_sweep(name, cfg, overrides, axes, out, keep=args.keep or 0,
-                         chunk=args.chunk or 4096, dask=args.dask, progress=bar,
-                         fast=args.fast)
+        try:
+            path = run_sweep(name, cfg, overrides, axes, out, keep=args.keep or 0,
+                             chunk=args.chunk or 4096, dask=args.dask, progress=bar,
+                             fast=args.fast)
+        finally:
+            bar.close()  # ends the progress line before any message
     except KeyboardInterrupt:
-        bar.close()
         print(f"mfcontrol: interrupted; finished chunks are kept in {out}/chunks: run the "
               "same command again to resume", file=sys.stderr)
         return 130
-    bar.close()
     print(f"wrote {path}")
     return 0
 
@@ -359,6 +364,13 @@ def main(argv: list[str] | None = None) -> int:
         # to devnull so that Python's flush at exit does not raise again
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as exc:
+        # an output that cannot be written (a folder that may not be created, a read-only
+        # place, a full disk): what and where, in one line
+        where = exc.filename if exc.filename is not None else "output"
+        print(f"mfcontrol: error: cannot write {where}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return EXIT_USAGE if exc.errno in _PATH_ERRORS else 1
 
 
 if __name__ == "__main__":

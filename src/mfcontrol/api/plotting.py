@@ -63,7 +63,8 @@ def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
         ax.axvline(cfg["disturbance.t0"] * scale, color="tab:orange", lw=0.8, ls=":")
 
 
-def _save(fig: Figure, path: str | Path | None) -> Figure:
+def save_figure(fig: Figure, path: str | Path | None) -> Figure:
+    """Write ``fig`` as ``path`` (its folder created) unless path is None; return fig."""
     if path is not None:
         # a figure asked for in a folder that does not exist yet is the user's intent
         Path(path).parent.mkdir(parents=True, exist_ok=True)
@@ -102,7 +103,7 @@ def plot_loop(result, path: str | Path | None = None, title: str | None = None,
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
                           color="tab:red", fontsize=9, loc="right")
     fig.suptitle(title if title is not None else result.name)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _input_panel(ax, t, result) -> None:
@@ -143,7 +144,7 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
                           color="tab:red", fontsize=9, loc="right")
     fig.suptitle(title if title is not None else (result.label or result.name))
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _gamma_axes(ax, result: Result) -> None:
@@ -164,7 +165,7 @@ def plot_gamma(result: Result, path: str | Path | None = None,
     ax.grid(True, alpha=0.3)
     ax.set_xlabel(time_label)
     fig.suptitle(title if title is not None else f"{result.name}: evolution of gamma")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None = None,
@@ -198,7 +199,7 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
     ax.legend(fontsize=8)
     what = "gamma" if kind == "gamma" else "tracking error"
     fig.suptitle(title if title is not None else f"{sweep.name}: {what} for several {short}")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_long_horizon(rows, path: str | Path | None = None, fidelity: str = "") -> Figure:
@@ -218,7 +219,7 @@ def plot_long_horizon(rows, path: str | Path | None = None, fidelity: str = "") 
         a.grid(True, which="both", alpha=0.3)
     ax[0].legend(fontsize=8)
     fig.suptitle(f"variational i-P over {rows[0][2].time[-1] * 1e3:.0f} ms ({fidelity})")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def convergence(point: np.ndarray, value: np.ndarray, params: dict[str, np.ndarray],
@@ -260,7 +261,7 @@ def convergence(point: np.ndarray, value: np.ndarray, params: dict[str, np.ndarr
         if key in log:
             ax.set_yscale("log")
     axes[-1].set_xlabel("points evaluated")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def comparison(results: list[Result], labels: list[str], table: list[list[str]],
@@ -302,7 +303,7 @@ def comparison(results: list[Result], labels: list[str], table: list[list[str]],
         cells[i + 1, 0].get_text().set_color(colors[i % 10])
     side.set_title("metrics (true output y)", fontsize=10)
     fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def robustness_maps(maps: list[list[np.ndarray]], rows: list[str], columns: list[str],
@@ -344,4 +345,4 @@ def robustness_maps(maps: list[list[np.ndarray]], rows: list[str], columns: list
             fig.colorbar(image, ax=list(grid[i]), label=f"{objective}\n(log scale)",
                          shrink=0.9)
     fig.suptitle(f"{title} (red x: diverged or unstable)")
-    return _save(fig, path)
+    return save_figure(fig, path)

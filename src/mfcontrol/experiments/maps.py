@@ -27,6 +27,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
 from ..api import metrics as _metrics
+from ..api.plotting import save_figure
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -376,7 +377,7 @@ def draw_map(folder: str | Path, x: str, y: str, metric: str, path: str | Path |
         path = folder / f"{name}.png"
     fig = heatmap(frame, x, y, metric, where=where, title=_case_title(folder, metric))
     path = Path(path)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path)
     return path
 
 
@@ -409,5 +410,5 @@ def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x:
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in (where or {}).items())
     fig.suptitle(head + (f" ({fixed})" if fixed else ""))
     path = Path(path)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path)
     return path

@@ -115,8 +115,10 @@ def _chunk_frame(grid_spec: dict, index: int):
 class Progress:
     """Members done, rate and time left, on one line of stderr."""
 
-    def __init__(self, total: int, stream=sys.stderr):
-        self.total, self.stream, self.t0, self.done0 = total, stream, time.perf_counter(), None
+    def __init__(self, total: int, stream=None):
+        # sys.stderr when drawn, not when this was defined (a replaced stderr, pytest's)
+        self.total, self.stream = total, stream or sys.stderr
+        self.t0, self.done0 = time.perf_counter(), None
 
     def __call__(self, done: int) -> None:
         if self.done0 is None:
