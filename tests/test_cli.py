@@ -334,6 +334,10 @@ ERRORS = [
                  id="sweep-over-sim.t_end"),
     pytest.param([S, CASE, "--set", "controller.alpah=37.5"],
                  ["controller.alpah = 37.5", "unknown key"], id="unknown-key-names-its-value"),
+    # issue 14 item 9: a built-in name with a path in it ran the built-in file and wrote
+    # results/../cases/...
+    pytest.param(["run", "../cases/voltage-stable-standard", *SHORT],
+                 ["unknown case '../cases/voltage-stable-standard'"], id="case-name-with-path"),
     # issue 14 item 6: a recorded run of 10^8 samples tried to allocate 7.5 GiB
     pytest.param(["run", CASE, "--set", "sim.t_end=100", "--out", "{d}/out-long"],
                  ["sim.t_end = 100.0", "100,000,000 samples", "GiB", "sweep"],
@@ -354,6 +358,7 @@ CORE = {
     "run-file-nan", "toml-unclosed-table", "run-malformed-toml", "show-without-case",
     "reproduce-bad-fidelity", "huge-integer", "t_end-over-h-overflows", "sweep-over-sim.h",
     "unknown-key-names-its-value", "export-c-float-window", "recorded-run-too-long",
+    "case-name-with-path",
 }
 CORE_ERRORS = [p for p in ERRORS if p.id in CORE]
 assert len(CORE_ERRORS) == len(CORE)

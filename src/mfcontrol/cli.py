@@ -69,8 +69,8 @@ def _cmd_run(args) -> int:
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set))
     out = _out_dir(args.out) if args.out else Path("results") / name
-    out.mkdir(parents=True, exist_ok=True)
     result = cases.run_config(cfg, name, fast=args.fast)
+    out.mkdir(parents=True, exist_ok=True)  # after the run: a refused run writes nothing
     result.to_csv(out / "trajectory.csv")
     (out / "metrics.json").write_text(result.metrics_json() + "\n")
     (out / "config.toml").write_text(cfg.to_toml())

@@ -736,3 +736,16 @@ def test_a_pid_with_a_tracking_time_may_have_any_integral_sign():
     cfg = resolve({"controller.law": "pid", "controller.kp": -1.0, "controller.ki": 1.0,
                    "controller.Tt": 0.1})
     assert cfg["controller.Tt"] == 0.1
+
+
+def test_numpy_scalars_and_arrays_are_taken_as_the_live_api_takes_them():
+    """Issue 14 item 9: numpy values, which the live controllers accept, for every kind."""
+    cfg = resolve({"plant.dR": np.int64(3), "controller.alpha": np.float32(2.5),
+                   "plant.change_times": np.array([0.004, 0.006]),
+                   "fidelity": np.str_("paper")})
+    assert cfg["plant.dR"] == 3.0 and type(cfg["plant.dR"]) is float
+    assert cfg["controller.alpha"] == 2.5
+    assert cfg["plant.change_times"] == [0.004, 0.006]
+    assert all(type(t) is float for t in cfg["plant.change_times"])
+    rejects({"plant.change_times": np.array([[0.004]])}, "plant.change_times")
+    rejects({"plant.dR": np.bool_(True)}, "plant.dR")

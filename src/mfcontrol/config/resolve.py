@@ -65,6 +65,8 @@ def check_value(key: str, value: Any) -> Any:
             raise ConfigError(key, value, allowed(o))
         return float(value)
     if o.kind == "floats":
+        if isinstance(value, np.ndarray) and value.ndim == 1:  # as numpy users hold lists
+            value = value.tolist()
         if (not isinstance(value, list | tuple)
                 or not all(_is_number(x) and _check_number(o, _as_float(x)) for x in value)):
             raise ConfigError(key, value, allowed(o))

@@ -28,7 +28,8 @@ def _path(name_or_path: str | Path) -> tuple[str, Path]:
             raise CaseError(f"case file {str(p)!r} not found")
         return p.stem, p
     builtin = CASES_DIR / f"{name_or_path}.toml"
-    if not builtin.is_file():
+    # a name, not a path: "../cases/x" would name a built-in file and write outside results/
+    if str(name_or_path) not in names():
         raise CaseError(f"unknown case {str(name_or_path)!r}: built-in cases are "
                         f"{', '.join(names())}; or give the path of a .toml file")
     return str(name_or_path), builtin
