@@ -129,6 +129,18 @@ def test_a_measurement_that_is_not_a_number_is_refused():
     ctrl = mfcontrol.PID(kp=1.0, sample_time=0.01)
     with pytest.raises(ValueError, match="y = 'abc': the measurement must be a number"):
         ctrl("abc", 1.0)
+    assert ctrl.setpoint == 0.0  # the refused call's setpoint was kept (found by the fuzzer)
+
+
+def test_a_bumpless_start_that_overflows_is_refused_and_changes_nothing():
+    """Found by the fuzzer: RecursiveIP's raw start last_output / output_gain overflowed to
+    inf, which the law then used and the snapshot could not hold."""
+    ctrl = RecursiveIP(alpha=10.0, kp=2.0, output_gain=5e-324)
+    ctrl.set_auto_mode(False, last_output=1.0)
+    before = ctrl.snapshot()
+    with pytest.raises(ValueError, match="last_output = 1.0: the raw control"):
+        ctrl.set_auto_mode(True)
+    assert ctrl.snapshot() == before and not ctrl.auto_mode
 
 
 def test_recursive_snapshot_after_a_bumpless_start_continues_from_it():

@@ -138,11 +138,12 @@ class _Controller:
         """Take the setpoint (a finite number, or None to keep it); False when the law must
         not run (manual mode, or a NaN/inf measurement, which is counted and whose period
         ``dt`` the next sample's derivatives span): the caller returns the last output."""
-        if setpoint is not None:
-            self.setpoint = _number("setpoint", setpoint)
+        # both checked before either is taken: a refused call changes nothing
         if not isinstance(y, _REAL) or isinstance(y, bool):
             raise ValueError(f"y = {y!r}: the measurement must be a number (NaN and inf are "
                              "counted in nan_count and hold the output)")
+        if setpoint is not None:
+            self.setpoint = _number("setpoint", setpoint)
         if not self.auto_mode:
             return False
         if not math.isfinite(y):
@@ -335,7 +336,7 @@ class IntelligentController(_Sampled):
             "alpha": alpha, "kp": _number("kp", kp), "ki": _number("ki", ki),
             "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
                                                             positive=True),
-            "order": order, "output_limits": [lo, hi], "estimator": estimator,
+            "order": int(order), "output_limits": [lo, hi], "estimator": estimator,
             "window": window, "anti_windup": anti_windup,
             "k_aw": None if k_aw is None else _number("k_aw", k_aw, nonneg=True),
             "gain": gain,
@@ -520,8 +521,10 @@ class RecursiveIP(_Controller):
             raise ValueError(f"law = {cfg['controller.law']!r}: RecursiveIP is the paper's law, "
                              "'ip' or 'variational' (the positional laws are IP, IPI, IPD, "
                              "IPID)")
-        params = {"alpha": alpha, "kp": kp, "setpoint": _number("setpoint", setpoint),
-                  **controller_keys}
+        # the values as resolved (plain Python numbers): the snapshot is JSON
+        params = {"alpha": cfg["controller.alpha"], "kp": cfg["controller.kp"],
+                  "setpoint": _number("setpoint", setpoint),
+                  **{name: cfg[f"controller.{name}"] for name in controller_keys}}
         if sample_time is not None:
             params["sample_time"] = _number("sample_time", sample_time, positive=True)
         self.sample_time = params.get("sample_time")
@@ -539,9 +542,13 @@ class RecursiveIP(_Controller):
         self._components = (math.nan, math.nan, math.nan)  # u_raw, gain, gamma
 
     def _bumpless_start(self, start: float) -> None:
-        self._reset_state()
         # continue from the raw control that produced the manual output
-        self._CP[recursive_ip.U0, 0] = start / self._CP[recursive_ip.OUT_GAIN, 0]
+        raw = start / float(self._CP[recursive_ip.OUT_GAIN, 0])
+        if not math.isfinite(raw):  # checked before anything changes
+            raise ValueError(f"last_output = {start!r}: the raw control it needs, last_output "
+                             f"/ output_gain = {raw!r}, is not a finite number")
+        self._reset_state()
+        self._CP[recursive_ip.U0, 0] = raw
         self._last_output = start
 
     def _snapshot_extra(self) -> dict[str, Any]:

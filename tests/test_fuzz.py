@@ -1,0 +1,243 @@
+"""A bounded fuzzer over the command line and the live API (issue 14): no traceback, no
+silent NaN, every refusal one line naming the key. The tallies are printed in the test
+summary ("counts")."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import string
+import tomllib
+from collections import Counter
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import mfcontrol
+from mfcontrol.cli import main
+from mfcontrol.config.options import BY_KEY
+
+CASES = ["voltage-stable-standard", "motor-noise-ipi", "first-order-ip-algebraic", "buck-ipi",
+         "bench-lag3"]
+#: values that broke things before, or sit at an edge
+EDGES = ["nan", "inf", "-inf", "1e309", "-1e309", "0", "-0.0", "-1", "1e-320", "5e-324",
+         "1e308", "99999999999999999999999", "abc", '"abc"', "[]", "[1,2]", "[nan]", "[[1]]",
+         "{a=1}", "true", "", '"', "[", "1,2", "0x10", "1_000", "[1,'a']", "[[[[[[[[[[1]]]]]]]]]]",
+         "[{t=1, name='R', set=5}]", "[{t=-1, name='R', set=5}]", "[{t=1, name='J', add=-9}]",
+         "2", "0.5", "10", "1e-9", "3", "[0.001]", "ip", "pid", "i-PID", "algebraic", "rk45",
+         "exact", "second-order", "paper"]
+SAFE = "".join(c for c in string.printable if c not in "=\"'\\" + string.whitespace)
+#: the numbers a run is fuzzed over: the plant's and the controller's (the loop elements'
+#: switch compiled variants, whose first compilation would dominate this test's time)
+NUMERIC = sorted(k for k, o in BY_KEY.items() if o.kind in ("float", "int")
+                 and k.startswith(("plant.", "controller.")))
+
+keys = st.one_of(st.sampled_from(sorted(BY_KEY)), st.sampled_from(sorted(BY_KEY)),
+                 st.text(SAFE, min_size=1, max_size=14))
+values = st.one_of(st.sampled_from(EDGES), st.floats().map(repr),
+                   st.integers(-10**25, 10**25).map(str), st.text(SAFE, max_size=10),
+                   st.lists(st.floats(), max_size=3).map(lambda v: f"[{', '.join(map(repr, v))}]"))
+
+
+def _cli(argv: list[str]) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            rc = main(argv)
+        except SystemExit as exc:  # argparse's own errors
+            rc = exc.code
+    return rc, out.getvalue(), err.getvalue()
+
+
+def _one_line_naming(err: str, key: str) -> None:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mfcontrol"), err
+    assert key.strip() in lines[0], (key, err)
+
+
+def _finite(value) -> bool:
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, dict):
+        return all(_finite(v) for v in value.values())
+    if isinstance(value, list):
+        return all(_finite(v) for v in value)
+    return True
+
+
+@pytest.fixture(scope="module")
+def tally():
+    return Counter()
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(case=st.sampled_from(CASES), key=keys, value=values)
+def test_show_with_any_setting(case, key, value, tally):
+    """`mfcontrol show CASE --set KEY=VALUE`: the resolved case, or one line naming KEY."""
+    # --set=K=V: with a space, argparse takes a KEY starting with "-" for an option
+    rc, out, err = _cli(["show", case, f"--set={key}={value}"])
+    if rc == 0:
+        assert _finite(tomllib.loads(out)), out  # nothing non-finite accepted silently
+        tally["show accepted"] += 1
+    else:
+        assert rc == 2
+        _one_line_naming(err, key)
+        tally["show refused"] += 1
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(case=st.sampled_from(CASES[:2]), key=st.sampled_from(NUMERIC),
+       value=st.one_of(st.sampled_from(EDGES[:12]), st.floats(-1e6, 1e6).map(repr),
+                       st.sampled_from(["1e30", "-1e30", "1e-30", "1e15", "7", "1e6"])))
+def test_a_run_with_any_number(case, key, value, tally):
+    """A short run of the case with one number changed: metrics without a NaN unless the
+    run is flagged as not stable, or one line naming the key. (The library path of
+    `mfcontrol run`, without its files: the files are written from these metrics.)"""
+    from mfcontrol.errors import ConfigError
+    from mfcontrol.experiments import cases
+
+    t_end = {"voltage-stable-standard": 0.0005, "motor-noise-ipi": 1.0}[case]
+    try:
+        name, cfg = cases.resolve_case(case, {"sim.t_end": t_end,
+                                              key: tomllib.loads(f"v = {value}")["v"]})
+        res = cases.run_config(cfg, name)
+    except ConfigError as exc:
+        assert str(exc).count("\n") == 0 and key in str(exc), str(exc)
+        tally["run refused"] += 1
+        return
+    m = json.loads(res.metrics_json())
+    if m["stable"]:
+        assert all(math.isfinite(m[k]) for k in ("iae", "ise", "max_abs_e", "tv_u")), m
+        tally["run stable"] += 1
+    else:
+        tally["run flagged not stable"] += 1
+
+
+def test_the_command_line_run_writes_its_files_or_refuses(tmp_path, tally):
+    """A few real `mfcontrol run` commands (the path above, then the files)."""
+    for i, (key, value) in enumerate([("controller.alpha", "1e30"), ("controller.alpha", "nan"),
+                                      ("plant.R", "1e-300"), ("controller.kp", "-1e6")]):
+        rc, _, err = _cli(["run", "voltage-stable-standard", "--set", "sim.t_end=0.0005",
+                           "--set", f"{key}={value}", "--out", str(tmp_path / str(i))])
+        if rc == 0:
+            m = json.loads((tmp_path / str(i) / "metrics.json").read_text())
+            assert not m["stable"] or math.isfinite(m["iae"])
+            tally["cli run written"] += 1
+        else:
+            _one_line_naming(err, key)
+            tally["cli run refused"] += 1
+
+
+# --- the live API ------------------------------------------------------------------------
+
+numbers = st.one_of(st.floats(), st.integers(-10**30, 10**30), st.sampled_from(
+    [0.0, 1.0, 2.5, 0.01, np.float64(2.0), np.int64(4), np.float32(0.1), True, None, "1",
+     [1], 5e-324, 1e300]))
+OPTIONS = {
+    "IP": ["sample_time", "order", "output_limits", "estimator", "window", "anti_windup",
+           "k_aw", "gain", "gamma0", "Gamma", "eps_M", "integrator", "setpoint",
+           "starting_output"],
+    "IPID": ["sample_time", "order", "output_limits", "estimator", "window", "anti_windup",
+             "gain", "setpoint"],
+    "PID": ["sample_time", "N", "b", "Tt", "output_limits", "setpoint"],
+    "RecursiveIP": ["setpoint", "sample_time", "law", "gamma0", "Gamma", "eps_M",
+                    "integrator", "deriv_scale", "output_gain", "duty_min", "duty_max"],
+}
+CHOICES = {"order": [1, 2, 3, True], "estimator": ["backward-difference", "algebraic", "x"],
+           "window": [None, 2, 3, 4, 40, 10**9, 2.0, -1],
+           "anti_windup": ["clamp", "back-calculation", "none", "y"],
+           "gain": ["constant", "variational", "external", 1],
+           "integrator": ["first-order", "second-order", "z"],
+           "law": ["ip", "variational", "i-P", 3],
+           "output_limits": [(None, None), (-1, 1), (1, -1), (0, 0), (math.nan, 1),
+                             (-math.inf, math.inf), [0, 10], 5, (0, 1, 2)]}
+N_ARGS = {"IP": 2, "IPID": 4, "PID": 3, "RecursiveIP": 2}
+
+
+VALID = {"order": [1, 2], "estimator": ["backward-difference"], "window": [None],
+         "anti_windup": ["clamp", "back-calculation", "none"],
+         "gain": ["constant", "variational"], "integrator": ["first-order", "second-order"],
+         "law": ["ip", "variational"], "output_limits": [(None, None), (-1, 1), [0, 10]]}
+
+
+@st.composite
+def controllers(draw):
+    """Half the time every argument sensible (a controller is built and called), else
+    each argument possibly garbage."""
+    name = draw(st.sampled_from(sorted(OPTIONS)))
+    sensible = st.floats(0.1, 10)
+    fuzzed = draw(st.booleans())
+    value = st.one_of(sensible, numbers) if fuzzed else sensible
+    args = [draw(value) for _ in range(N_ARGS[name])]
+    kw = {}
+    for option in draw(st.lists(st.sampled_from(OPTIONS[name]), max_size=4, unique=True)):
+        if option in CHOICES:
+            kw[option] = draw(st.sampled_from(CHOICES[option] if fuzzed else VALID[option]))
+        else:
+            kw[option] = draw(value)
+    if name != "RecursiveIP" and ("sample_time" not in kw or not fuzzed):
+        kw["sample_time"] = 0.01
+    return name, args, kw
+
+
+calls = st.lists(st.tuples(
+    st.one_of(st.floats(), st.sampled_from([0.5, np.float64(0.3), "a", None, 1e300])),
+    st.one_of(st.none(), st.floats(), st.sampled_from(["x", np.float32(2)])),
+    st.one_of(st.none(), st.floats(), st.sampled_from([0.01, 1e-300]))), max_size=25)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(spec=controllers(), sequence=calls, switch=st.one_of(st.none(), st.floats()))
+def test_live_controllers_take_anything(spec, sequence, switch, tally):
+    """Any constructor arguments: a controller or one line naming the parameter. Any call:
+    a finite output within the limits, or one line naming y, setpoint, dt or alpha with
+    nothing changed. A snapshot always round-trips."""
+    name, args, kw = spec
+    cls = getattr(mfcontrol, name)
+    try:
+        ctrl = cls(*args, **kw)
+    except (ValueError, TypeError) as exc:
+        msg = str(exc)
+        assert msg and "\n" not in msg
+        tally["controllers refused"] += 1
+        return
+    tally["controllers built"] += 1
+    lo, hi = getattr(ctrl, "output_limits", (None, None))
+    for k, (y, setpoint, dt) in enumerate(sequence):
+        if k == len(sequence) // 2 and switch is not None:
+            try:
+                ctrl.set_auto_mode(False, last_output=switch)
+                ctrl.set_auto_mode(True)
+            except ValueError as exc:
+                assert "last_output" in str(exc)
+        kwargs = {"setpoint": setpoint}
+        if name != "RecursiveIP":
+            kwargs["dt"] = dt
+        if getattr(ctrl, "_external", False):
+            kwargs["alpha"] = 2.0
+        before = ctrl.snapshot()
+        try:
+            u = ctrl(y, **kwargs)
+        except ValueError as exc:
+            assert "\n" not in str(exc)
+            assert str(exc).split(" ")[0] in ("y", "setpoint", "dt", "alpha"), str(exc)
+            after = ctrl.snapshot()
+            assert json.dumps(after) == json.dumps(before)  # refused: nothing changed
+            tally["calls refused"] += 1
+            continue
+        assert isinstance(u, float) and math.isfinite(u), u
+        assert (lo is None or u >= lo) and (hi is None or u <= hi)
+        tally["calls answered"] += 1
+    snap = json.loads(json.dumps(ctrl.snapshot()))
+    again = cls.from_snapshot(snap)
+    assert json.dumps(again.snapshot()) == json.dumps(ctrl.snapshot())
+
+
+def test_zz_report_the_counts(tally, record_property):
+    """The tallies of this file's fuzzing, printed in the summary (runs last in the file)."""
+    assert sum(tally.values()) > 0
+    record_property("counts", ", ".join(f"{k} {v:,}" for k, v in sorted(tally.items())))
