@@ -254,3 +254,17 @@ def test_points_must_have_values_of_one_length():
         batch.make_grid(cfg, {"controller.kp": np.array([1.0, 2.0]),
                               "controller.alpha": np.array([1.0])},
                         points=("controller.kp", "controller.alpha"))
+
+
+def test_a_grid_of_too_many_members_is_refused_at_once():
+    """Two axes of 10^7 values each passed the per-axis bound and then validated in silence
+    for minutes towards 10^14 members (issue 14 item 6)."""
+    _, base = resolve_case("voltage-stable-standard")
+    big = np.linspace(1.0, 2.0, 10_000)
+    with pytest.raises(mfcontrol.ConfigError, match=r"^--grid = 'controller.alpha \(10,000\) "
+                                                     r"x plant.dR \(10,000\)': 100,000,000 "
+                                                     r"members: at most 10,000,000"):
+        batch.make_grid(base, {"controller.alpha": big, "plant.dR": big})
+    # a tuner's points share one dimension: counted once
+    assert batch.make_grid(base, {"controller.alpha": big, "controller.kp": big},
+                           points=("controller.alpha", "controller.kp")).n_members == 10_000

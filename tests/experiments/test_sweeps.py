@@ -18,6 +18,12 @@ GRID = ["--grid", "controller.alpha=logspace(-1,1,4)", "--grid", "plant.dR=0,2.5
 FAST = ["--set", "sim.t_end=0.002"]
 
 
+def messages(stderr: str) -> list[str]:
+    """stderr's lines without the progress line (redrawn with carriage returns)."""
+    return [line for line in stderr.replace("\r", "\n").splitlines()
+            if line.strip() and not line.startswith("[sweep]")]
+
+
 def sweep(*args, check=True):
     proc = subprocess.run([sys.executable, "-m", "mfcontrol.cli", "sweep", *args],
                           capture_output=True, text=True)
@@ -125,7 +131,7 @@ def test_bad_sweep_input_is_one_line_exit_2(tmp_path, bad, needle):
     proc = sweep("voltage-stable-standard", *bad, *FAST, "--out", str(tmp_path / "b"),
                  check=False)
     assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1
+    assert len(messages(proc.stderr)) == 1
 
 
 def test_dask_local_cluster_gives_identical_results(tmp_path):
@@ -198,7 +204,7 @@ def test_bad_dask_addresses_are_one_line_and_write_nothing(tmp_path, address, ne
     proc = sweep("voltage-stable-standard", *GRID, *FAST, "--dask", address, "--out",
                  str(out), check=False)
     assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1
+    assert len(messages(proc.stderr)) == 1
     assert not (out / "results.parquet").exists()
 
 
@@ -225,7 +231,6 @@ def test_ctrl_c_under_dask_is_one_line(tmp_path):
         time.sleep(0.05)
     os.killpg(proc.pid, signal.SIGINT)  # as a terminal does
     _, err = proc.communicate(timeout=120)
-    lines = [line for line in err.replace("\r", "\n").splitlines()
-             if line.strip() and not line.startswith("[sweep]")]
+    lines = messages(err)
     assert proc.returncode == 130 and "Traceback" not in err, err[-2000:]
     assert len(lines) == 1 and "resume" in lines[0]
