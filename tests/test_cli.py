@@ -676,17 +676,25 @@ def test_a_change_after_the_run_never_happens(tmp_path):
     assert proc.returncode == 0, proc.stderr
 
 
-@pytest.mark.parametrize("delay", [0.3, 0.8])
-def test_ctrl_c_early_in_a_command_is_one_line(tmp_path, delay):
-    """Ctrl-C while the command loads numpy/numba (its first 1.6 s) was a traceback from
-    `import mfcontrol` (issue 14 item 9): the package now loads them inside the command."""
+def test_ctrl_c_while_the_command_loads_numpy_is_one_line(tmp_path):
+    """Ctrl-C while numpy/numba load (a command's first 1.6 s) was a traceback from
+    `import mfcontrol` (issue 14 item 9): the package now loads them inside the command.
+    The signal goes when numpy's core library is in the process's memory map (Linux)."""
     import signal
     import time
 
     proc = subprocess.Popen([sys.executable, "-m", "mfcontrol.cli", "run",
                              "voltage-stable-standard", "--out", str(tmp_path / "o")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(delay)
+    maps = Path(f"/proc/{proc.pid}/maps")
+    deadline = time.time() + 60
+    while time.time() < deadline and proc.poll() is None:
+        try:
+            if "_multiarray_umath" in maps.read_text():
+                break
+        except OSError:
+            break
+        time.sleep(0.005)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     if proc.returncode == 0:  # it finished first: nothing to interrupt
@@ -705,7 +713,7 @@ def test_an_output_folder_that_cannot_be_created_is_one_line(tmp_path, capsys):
                "/proc/mfcontrol-test"])
     err = capsys.readouterr().err
     assert rc == 2 and "Traceback" not in err
-    assert _last_line(err) == ("mfcontrol: error: cannot write /proc/mfcontrol-test: "
+    assert _last_line(err) == ("mfcontrol: error: /proc/mfcontrol-test: "
                                "No such file or directory")
 
 
@@ -724,7 +732,7 @@ def test_a_full_disk_is_one_line_and_leaves_no_temporary_file(tmp_path, monkeypa
                "sim.t_end=0.002", "--out", str(out)])
     err = capsys.readouterr().err
     assert rc == 1 and "Traceback" not in err
-    assert _last_line(err).startswith("mfcontrol: error: cannot write ")
+    assert _last_line(err).startswith(f"mfcontrol: error: {out}")
     assert _last_line(err).endswith(": No space left on device")
     assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
 

@@ -239,5 +239,6 @@ def test_live_controllers_take_anything(spec, sequence, switch, tally):
 
 def test_zz_report_the_counts(tally, record_property):
     """The tallies of this file's fuzzing, printed in the summary (runs last in the file)."""
-    assert sum(tally.values()) > 0
+    if not tally:  # run alone (-k, --lf): nothing to report
+        pytest.skip("no fuzz test of this file ran in this process")
     record_property("counts", ", ".join(f"{k} {v:,}" for k, v in sorted(tally.items())))

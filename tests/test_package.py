@@ -31,3 +31,12 @@ def test_the_command_line_starts_without_the_numerical_stack():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_subpackages_are_attributes_as_before():
+    """The lazy top level dropped `mfcontrol.experiments` & co. (bench_c_export.py failed)."""
+    code = ("import mfcontrol; print(mfcontrol.experiments.cases.names()[0], "
+            "mfcontrol.laws.intelligent.N_PARAMS > 0)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split()[1] == "True"

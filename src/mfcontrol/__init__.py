@@ -38,11 +38,22 @@ _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in nam
 __all__ = ["__version__", *_MODULE_OF]
 
 
+#: the subpackages, reachable as attributes (mfcontrol.experiments.cases...) as when the
+#: package imported everything at once
+_SUBPACKAGES = ("api", "cexport", "config", "elements", "engine", "errors", "experiments",
+                "laws", "numerics", "plants")
+
+
 def __getattr__(name: str):
     module = _MODULE_OF.get(name)
-    if module is None:
+    if module is not None:
+        value = getattr(import_module(module, __name__), _RENAMED.get(name, name))
+    elif name in _SUBPACKAGES:
+        for defining in _EXPORTS:  # everything `import mfcontrol` used to bind
+            import_module(defining, __name__)
+        value = import_module(f".{name}", __name__)
+    else:
         raise AttributeError(f"module 'mfcontrol' has no attribute {name!r}")
-    value = getattr(import_module(module, __name__), _RENAMED.get(name, name))
     globals()[name] = value  # the next access is a plain attribute
     return value
 

@@ -365,11 +365,14 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except OSError as exc:
-        # an output that cannot be written (a folder that may not be created, a read-only
-        # place, a full disk): what and where, in one line
-        where = exc.filename if exc.filename is not None else "output"
-        print(f"mfcontrol: error: cannot write {where}: {exc.strerror or exc}",
-              file=sys.stderr)
+        # a file or folder that cannot be made, read or written (a read-only place, a full
+        # disk), or a lost connection (Dask): what, and where when it is a path, one line
+        if exc.filename is None:
+            print(f"mfcontrol: error: {type(exc).__name__}: {exc}", file=sys.stderr)
+            return 1
+        # os.replace names its source, a temporary file; the file meant is the target
+        where = exc.filename2 if exc.filename2 is not None else exc.filename
+        print(f"mfcontrol: error: {where}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_USAGE if exc.errno in _PATH_ERRORS else 1
 
 

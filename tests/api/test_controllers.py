@@ -376,3 +376,33 @@ def test_the_live_benchmark_feeds_plain_floats():
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
     assert {type(y) for y in bench.measurements(50)} == {float}
+
+
+def test_alpha_and_the_setpoint_attribute_are_checked_on_every_path():
+    """Found in review: the in-line call ignored alpha= on a controller without an external
+    gain, and ``ctrl.setpoint = ...`` took anything (a numpy float made snapshots not JSON)."""
+    ctrl = IP(alpha=1.0, kp=2.0, sample_time=0.01)
+    for y in (0.5, np.float64(0.5)):  # the in-line and the general path
+        with pytest.raises(ValueError, match="alpha = 2.0: only a controller built with "
+                                             "gain='external'"):
+            ctrl(y, setpoint=1.0, alpha=2.0)
+    with pytest.raises(ValueError, match="setpoint = 'x': must be a finite number"):
+        ctrl.setpoint = "x"
+    ctrl.setpoint = np.float32(0.25)
+    assert type(ctrl.setpoint) is float
+    json.dumps(ctrl.snapshot())
+
+
+def test_a_pickle_without_the_bound_step_loads():
+    """The compiled step is bound on unpickling; a state from before it was (no _kernel,
+    a public setpoint, RecursiveIP components as a dict) loads too."""
+    for ctrl in (IP(alpha=1.0, kp=2.0, sample_time=0.01), RecursiveIP(alpha=10.0, kp=2.0)):
+        ctrl(0.1, setpoint=1.0)
+        state = pickle.loads(pickle.dumps(ctrl.__getstate__()))  # its own arrays
+        state["setpoint"] = state.pop("_setpoint")
+        if isinstance(ctrl, RecursiveIP):
+            state["_components"] = dict(zip(("u_raw", "gain", "gamma"), state["_components"],
+                                            strict=True))
+        old = type(ctrl).__new__(type(ctrl))
+        old.__setstate__(state)
+        assert old(0.2, setpoint=1.0) == ctrl(0.2, setpoint=1.0)

@@ -70,3 +70,43 @@ def test_rows_stable_everywhere_and_rows_that_alternate_are_said():
     assert "alternate along eps_M" in text
     text = report.gamma_eps_boundary(_map(lambda G, E: E < 1e-3 + 0 * G))
     assert "does not follow a constant product" in text
+
+
+def test_a_span_is_said_only_over_consecutive_rows():
+    # 1e-9 and 1e-7 stable everywhere, 1e-8 between them crossing: "from 1e-9 to 1e-7"
+    # claimed 1e-8 too (found in review)
+    def one(G, value):
+        return np.isclose(G, value, rtol=1e-9, atol=0)
+
+    text = report.gamma_eps_boundary(_map(lambda G, E: one(G, 1e-9) | one(G, 1e-7)
+                                          | ((E < 1) & one(G, 1e-8))))
+    assert "Gamma = 1e-09, 1e-07 is stable at every eps_M" in text
+    assert "from 1e-09 to 1e-07" not in text
+
+
+def test_a_reversed_crossing_and_missing_cells_are_said_as_they_are():
+    text = report.gamma_eps_boundary(_map(lambda G, E: E > 1 + 0 * G))
+    assert "is unstable at small eps_M and stable above" in text and "alternate" not in text
+    frame = _map(lambda G, E: E < 1e-3 + 0 * G).astype({"stable": object})
+    frame.loc[3, "stable"] = np.nan  # a cell without a result is not stable
+    assert "has cells without a result" in report.gamma_eps_boundary(frame)
+
+
+def _run(gamma, stable=True, Gamma=5e-8, eps_M=0.1):
+    from types import SimpleNamespace
+
+    t = np.arange(gamma.size) * 1e-6
+    return SimpleNamespace(config={"controller.gamma0": 1.0, "controller.Gamma": Gamma,
+                                   "controller.eps_M": eps_M, "sim.h": 1e-6},
+                           signals={"gamma": gamma}, time=t, error=np.zeros_like(t),
+                           metrics={"stable": stable})
+
+
+def test_horizon_sentences_at_their_edges():
+    # no drift at all (Gamma = 0): no division by zero, no "linearly"
+    text = report.horizon_sentence("c", "first-order", _run(np.ones(1000), Gamma=0.0))
+    assert "not the linear drift" in text
+    # gamma becomes NaN in a failed run: the NaNs are not counted as turns
+    g = np.r_[np.linspace(1, -3, 500), np.full(500, np.nan)]
+    text = report.horizon_sentence("c", "second-order", _run(g, stable=False))
+    assert "until it stops being a number at t = 0.5 ms" in text and "turning" not in text

@@ -234,3 +234,28 @@ def test_ctrl_c_under_dask_is_one_line(tmp_path):
     lines = messages(err)
     assert proc.returncode == 130 and "Traceback" not in err, err[-2000:]
     assert len(lines) == 1 and "resume" in lines[0]
+
+
+def test_kept_members_too_long_to_record_stop_the_sweep_before_it_runs(tmp_path, capsys):
+    """Found in review: --keep recorded its members after the whole sweep had run, so a
+    horizon too long to record was refused only then."""
+    from mfcontrol.cli import main
+
+    out = tmp_path / "s"
+    rc = main(["sweep", "voltage-stable-standard", "--grid", "plant.dR=0,5", "--set",
+               "sim.t_end=100", "--keep", "1", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "sim.t_end = 100.0" in messages(err)[0] and len(messages(err)) == 1
+    assert not list(out.glob("chunks/*.parquet"))
+
+
+def test_the_api_sweep_checks_its_kept_members_and_its_size_first():
+    plant = mfcontrol.FirstOrder(a=-1.0, b=1.0)
+    ctrl = mfcontrol.IP(alpha=1.0, kp=2.0, sample_time=1e-3)
+    with pytest.raises(mfcontrol.ConfigError, match=r"^t_end = 50000.0: 50,000,000 samples"):
+        mfcontrol.sweep(plant, ctrl, 1.0, grid={"controller.kp": [1.0, 2.0]}, t_end=5e4,
+                        keep=1)
+    big = np.linspace(1.0, 2.0, 4000)
+    with pytest.raises(mfcontrol.ConfigError, match=r"16,000,000 members: at most"):
+        mfcontrol.sweep(plant, ctrl, 1.0, grid={"controller.kp": big, "plant.a": -big},
+                        t_end=1.0)

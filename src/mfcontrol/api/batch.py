@@ -26,6 +26,7 @@ from ..engine import metrics as engine_metrics
 from ..engine import paper_single, paper_sweep
 from ..errors import ConfigError
 from ..laws import recursive_ip, reference
+from ..numerics.grid import check_members
 from . import metrics as _metrics
 from . import scenario
 from .simulate import batch_metrics, compiled, general_metrics, member_parts
@@ -35,8 +36,6 @@ METRIC_COLUMNS = _metrics.COLUMNS
 #: values of one axis at most: a 10-million-value axis is 80 MB and, at 10,000 samples a
 #: member, days of computing; more is a mistake to refuse at once, not a MemoryError later
 MAX_AXIS = 10_000_000
-#: most members of one sweep: its results table (about 200 bytes a member) stays under 2 GiB
-MAX_MEMBERS = 10_000_000
 
 
 def parse_spec(key: str, spec: str) -> np.ndarray:
@@ -162,14 +161,9 @@ def make_grid(base: Config, axes: Mapping[str, np.ndarray],
 
     if points and len({np.size(axes[k]) for k in points}) != 1:
         raise ValueError("the keys of points must have values of one length")
-    sizes = [np.size(v) for k, v in axes.items() if k not in points[1:]]
-    if math.prod(sizes) > MAX_MEMBERS:  # before validating 10^7-value axes for minutes
-        raise ConfigError("--grid", " x ".join(f"{k} ({np.size(v):,})" for k, v in
-                                               axes.items()),
-                          f"{math.prod(sizes):,} members: at most {MAX_MEMBERS:,} in one "
-                          "sweep (its table of metrics alone would take "
-                          f"{math.prod(sizes) * 200 / 2**30:,.0f} GiB); split the grid over "
-                          "several sweeps, each with its own --out")
+    # before validating 10^7-value axes for minutes
+    check_members(math.prod(np.size(v) for k, v in axes.items() if k not in points[1:]),
+                  "--grid", " x ".join(f"{k} ({np.size(v):,})" for k, v in axes.items()))
     for key, values in axes.items():
         check_axis(base, key, np.asarray(values, dtype=float))
         why = unread(key, base)

@@ -76,15 +76,20 @@ class _Controller:
         self._backup = np.zeros(n_cs)
         self.nan_count = 0
         self.auto_mode = True
-        self.setpoint = float(params.get("setpoint", 0.0))
+        self._setpoint = float(params.get("setpoint", 0.0))
         self._last_output = 0.0
         # time of the samples the law did not take since the last one it took (a rejected
         # measurement or output): the next call's derivatives span it
         self._skipped = 0.0
 
-    def _bind(self, kernel: str, n_scalars: int) -> None:
-        """Call ``live.<kernel>`` (arrays, then ``n_scalars`` floats) as ``self._step``."""
-        self._kernel = (kernel, n_scalars)
+    #: the compiled step in :mod:`mfcontrol.engine.live` and how many floats follow its
+    #: three arrays
+    _KERNEL: tuple[str, int]
+
+    def _bind(self) -> None:
+        """Bind the compiled step to this controller's arrays as ``self._step``. It is called
+        without numba's type checks: the arrays must never be replaced, only written."""
+        kernel, n_scalars = self._KERNEL
         self._step = live.entry_point(getattr(live, kernel), self._CP, self._CS,
                                       self._backup, *(0.0,) * n_scalars)
 
@@ -94,8 +99,13 @@ class _Controller:
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
+        state.pop("_kernel", None)  # pickles of 0.1.0 before the class held it
+        if "setpoint" in state:
+            state["_setpoint"] = state.pop("setpoint")
+        if isinstance(state.get("_components"), dict):
+            state["_components"] = tuple(state["_components"].values())
         self.__dict__.update(state)
-        self._bind(*self._kernel)
+        self._bind()
 
     # subclasses fill the parameter column, _bind their kernel, define _reset_state
     def _reset_state(self) -> None:  # pragma: no cover
@@ -106,6 +116,15 @@ class _Controller:
         self._reset_state()
         self.nan_count = 0
         self._skipped = 0.0
+
+    @property
+    def setpoint(self) -> float:
+        """The setpoint the next calls use (a call's ``setpoint=`` replaces it)."""
+        return self._setpoint
+
+    @setpoint.setter
+    def setpoint(self, value: float) -> None:
+        self._setpoint = _number("setpoint", value)
 
     @property
     def last_output(self) -> float:
@@ -130,7 +149,7 @@ class _Controller:
         if (type(y) is float and y - y == 0.0 and self.auto_mode
                 and (setpoint is None or type(setpoint) is float and setpoint - setpoint == 0.0)):
             if setpoint is not None:
-                self.setpoint = setpoint
+                self._setpoint = setpoint
             return True
         return False
 
@@ -207,7 +226,7 @@ class _Controller:
         # everything checked: now write
         self._CS[:, 0] = state
         self._last_output, self.nan_count = last, int(nan_count)
-        self.auto_mode, self.setpoint, self._skipped = bool(snap["auto_mode"]), setpoint, skipped
+        self.auto_mode, self._setpoint, self._skipped = bool(snap["auto_mode"]), setpoint, skipped
         self._restore_extra(extra)
 
     def _checked_extra(self, snap: Mapping[str, Any]) -> Any:
@@ -306,6 +325,8 @@ class IntelligentController(_Sampled):
     {'F_hat': 100.0, 'P': -3.96, 'I': -0.0099, 'D': 2.0}
     """
 
+    _KERNEL = ("intelligent_step", 4)
+
     def __init__(self, alpha: float, kp: float = 0.0, ki: float = 0.0, kd: float = 0.0, *,
                  sample_time: float, order: int = 1,
                  output_limits: tuple[float | None, float | None] = (None, None),
@@ -371,7 +392,7 @@ class IntelligentController(_Sampled):
                                      cp[intelligent.OUT_MAX])
         self._dt = params["sample_time"]
         self._external = gain == "external"
-        self._bind("intelligent_step", 4)
+        self._bind()
         self._check_law(params)  # drops the terms this law does not have from _params
         self._reset_state()
 
@@ -396,10 +417,13 @@ class IntelligentController(_Sampled):
         """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
         since the previous call, by default ``sample_time``; after a rejected sample the
         law's derivatives span both periods."""
-        if dt is None and not self._external and self._plain(y, setpoint):
-            return self._output(self._step(self._CP, self._CS, self._backup, y, self.setpoint,
+        if dt is None and alpha is None and not self._external and self._plain(y, setpoint):
+            return self._output(self._step(self._CP, self._CS, self._backup, y, self._setpoint,
                                            self._dt + self._skipped, 1.0), self._dt)
         dt = self._period(dt)
+        if alpha is not None and not self._external:
+            raise ValueError(f"alpha = {alpha!r}: only a controller built with "
+                             "gain='external' takes alpha at each call")
         if self._external:
             if alpha is None:
                 raise ValueError("alpha = None: gain='external' needs a finite alpha > 0 "
@@ -407,7 +431,7 @@ class IntelligentController(_Sampled):
             alpha = _number("alpha", alpha, positive=True)
         if not self._measurement_ok(y, setpoint, dt):
             return self._last_output
-        u = self._step(self._CP, self._CS, self._backup, float(y), float(self.setpoint),
+        u = self._step(self._CP, self._CS, self._backup, float(y), self._setpoint,
                        dt + self._skipped, 1.0 if alpha is None else float(alpha))
         return self._output(u, dt)
 
@@ -501,6 +525,8 @@ class RecursiveIP(_Controller):
     1.1
     """
 
+    _KERNEL = ("recursive_step", 2)
+
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
                  sample_time: float | None = None, **controller_keys: Any):
         from ..config.resolve import resolve
@@ -531,7 +557,7 @@ class RecursiveIP(_Controller):
         super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
         self._CP[:, 0] = recursive_law_column(cfg, self.sample_time)[:, 0]
         self._u0 = float(self._CP[recursive_ip.U0, 0])  # the start as built
-        self._bind("recursive_step", 2)
+        self._bind()
         self._reset_state()
 
     def _reset_state(self) -> None:
@@ -565,7 +591,7 @@ class RecursiveIP(_Controller):
         if not self._plain(y, setpoint) and not self._measurement_ok(y, setpoint):
             return self._last_output
         u, applied, g, gamma = self._step(self._CP, self._CS, self._backup, float(y),
-                                          float(self.setpoint))
+                                          self._setpoint)
         if applied != applied:
             self.nan_count += 1
             return self._last_output
@@ -614,6 +640,8 @@ class PID(_Sampled):
     second output is 2 (1 - 0.5) + 0.1.
     """
 
+    _KERNEL = ("pid_step", 3)
+
     def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, *, sample_time: float,
                  N: float = 10.0, b: float = 1.0, Tt: float | None = None,
                  output_limits: tuple[float | None, float | None] = (None, None),
@@ -639,7 +667,7 @@ class PID(_Sampled):
         cp[pid.OUT_MIN] = -_INF if lo is None else lo
         cp[pid.OUT_MAX] = _INF if hi is None else hi
         self._dt = params["sample_time"]
-        self._bind("pid_step", 3)
+        self._bind()
         self._reset_state()
 
     def _reset_state(self) -> None:
@@ -658,12 +686,12 @@ class PID(_Sampled):
         since the previous call, by default ``sample_time``; after a rejected sample the
         integral and the derivative span both periods."""
         if dt is None and self._plain(y, setpoint):
-            return self._output(self._step(self._CP, self._CS, self._backup, y, self.setpoint,
+            return self._output(self._step(self._CP, self._CS, self._backup, y, self._setpoint,
                                            self._dt + self._skipped), self._dt)
         dt = self._period(dt)
         if not self._measurement_ok(y, setpoint, dt):
             return self._last_output
-        u = self._step(self._CP, self._CS, self._backup, float(y), float(self.setpoint),
+        u = self._step(self._CP, self._CS, self._backup, float(y), self._setpoint,
                        dt + self._skipped)
         return self._output(u, dt)
 

@@ -139,12 +139,13 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
     n = scn.n_members
     keep_arr = list(range(n)) if keep is None else list(keep)
     n_rows = trajectory.T_X0 + scn.X0.shape[0]
-    grid.check_recording(scn.n_steps, n_rows * (len(keep_arr) + (len(keep_arr) > 1)),
-                         scn.t_end, "sim.t_end")
+    single = n == 1 and keep_arr == [0]  # the kernel writes the result itself, no buffer
+    grid.check_recording(scn.n_steps, n_rows * (len(keep_arr) + (not single)), scn.t_end,
+                         "sim.t_end")
     M = start_metrics(scn)
     CS = np.zeros((recursive_ip.N_STATE, n))
     paper_single.reset_members(scn.law_kind, scn.CP, CS)
-    if n == 1 and keep_arr == [0]:  # the common case: the kernel writes the result itself
+    if single:  # the common case
         traj = np.empty((n_rows, 1, scn.n_steps))
         run_single(scn.n_steps, scn.h, scn.t_end, scn.plant_kind, scn.PP.copy(),
                    scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,7 +16,9 @@ import numpy as np
 from .._version import __version__
 from ..config.options import BY_KEY, OPTIONS
 from ..elements import layout
+from ..engine.compose import T_COMP
 from ..errors import ConfigError
+from ..numerics.grid import check_members, check_recording
 from . import metrics as _metrics
 from .controllers import RecursiveIP
 from .elements import Actuator, Disturbance, Sensor, unread
@@ -235,6 +238,8 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                           "engine: the plant must compile (see simulate_loop's "
                           "engine_note)")
     keys = list(axes)
+    check_members(math.prod(v.size for v in axes.values()), "grid",
+                  {k: f"{v.size:,} values" for k, v in axes.items()})
     combos = list(itertools.product(*(range(v.size) for v in axes.values())))
     plant_keys = [k for k in keys if k.startswith("plant.")]
     ctrl_keys = [k for k in keys if k.startswith("controller.")]
@@ -276,6 +281,8 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
             members_elements.append(columns[ekey][1])
     step = (None if member_steps[0] is None
             else tuple(np.array(v) for v in zip(*member_steps, strict=True)))
+    if keep:  # the kept members are recorded after the sweep: refuse a size now, not then
+        check_recording(t.size, T_COMP + len(member_laws[0].rows) + plants[0].x0.size, t_end)
     M, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
                           t_end=t_end, h=h, S=S, fast=fast,
                           AL=None if al is None else al[None, :], vectorise=vectorise,

@@ -22,11 +22,11 @@ def entry_point(kernel, *args):
     types = tuple(numba.typeof(a) for a in args)
     fn = _ENTRY_POINTS.get((kernel, types))
     if fn is None:
-        try:
+        if hasattr(kernel, "overloads"):
             if types not in kernel.overloads:
                 kernel.compile(types)
             fn = kernel.overloads[types].entry_point
-        except AttributeError:  # a plain Python function
+        else:  # a plain Python function
             fn = kernel
         _ENTRY_POINTS[kernel, types] = fn
     return fn

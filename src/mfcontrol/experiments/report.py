@@ -231,49 +231,68 @@ def gamma_eps_boundary(frame) -> str:
     at every eps_M, which at none, and where the others cross (the geometric mean of the
     last stable and first unstable eps_M), with whether the crossing follows a constant
     product Gamma eps_M, which the drift -Gamma eps_M of the gain suggests."""
-    rows: dict[str, list[float]] = {"all": [], "none": [], "mixed": []}
+    rows: dict[str, list[float]] = {"all": [], "none": [], "reversed": [], "mixed": [],
+                                    "missing": []}
     cuts: list[tuple[float, float]] = []
     eps = np.sort(frame["controller.eps_M"].unique())
+    gammas = np.sort(frame["controller.Gamma"].unique())
     for gamma, row in frame.sort_values("controller.eps_M").groupby("controller.Gamma"):
-        ok = row["stable"].to_numpy(bool)
+        stable = row["stable"]
+        if stable.isna().any():  # a cell without a result is not counted as stable
+            rows["missing"].append(gamma)
+            continue
+        ok = stable.to_numpy(bool)
         e = row["controller.eps_M"].to_numpy()
+        changes = np.flatnonzero(ok[1:] != ok[:-1])  # where stability flips along eps_M
         if ok.all():
             rows["all"].append(gamma)
         elif not ok.any():
             rows["none"].append(gamma)
-        elif ok[:np.argmin(ok)].all() and not ok[np.argmin(ok):].any():
-            k = int(np.argmin(ok))  # the first unstable cell: stable below, unstable above
+        elif changes.size == 1 and ok[0]:  # stable below, unstable above
+            k = int(changes[0]) + 1
             cuts.append((gamma, float(np.sqrt(e[k - 1] * e[k]))))
+        elif changes.size == 1:
+            rows["reversed"].append(gamma)
         else:
             rows["mixed"].append(gamma)
     words = []
     if rows["all"]:
-        words.append(f"Gamma {_span(rows['all'])} is stable at every eps_M of the grid (up "
-                     f"to {eps[-1]:.3g})")
+        words.append(f"Gamma {_span(rows['all'], gammas)} is stable at every eps_M of the "
+                     f"grid (up to {eps[-1]:.3g})")
     if cuts:
         g, c = np.array(cuts).T
         product = g * c
         step = float(np.exp(np.median(np.diff(np.log(eps))))) if eps.size > 1 else 1.0
         if product.max() / product.min() <= step ** 2:
-            words.append(f"Gamma {_span(g)} is stable below a boundary that follows "
+            words.append(f"Gamma {_span(g, gammas)} is stable below a boundary that follows "
                          f"Gamma eps_M = {np.exp(np.log(product).mean()):.2g} (the crossings "
                          f"lie between {product.min():.2g} and {product.max():.2g}, the grid "
                          f"steps eps_M by x{step:.3g})")
         else:
-            words.append(f"Gamma {_span(g)} is stable below an eps_M that does not follow a "
-                         "constant product: " + ", ".join(f"{a:.3g}: {b:.3g}" for a, b in cuts))
+            words.append(f"Gamma {_span(g, gammas)} is stable below an eps_M that does not "
+                         "follow a constant product: "
+                         + ", ".join(f"{a:.3g}: {b:.3g}" for a, b in cuts))
     if rows["none"]:
-        words.append(f"Gamma {_span(rows['none'])} is unstable at every eps_M of the grid "
-                     f"(down to {eps[0]:.3g})")
+        words.append(f"Gamma {_span(rows['none'], gammas)} is unstable at every eps_M of the "
+                     f"grid (down to {eps[0]:.3g})")
+    if rows["reversed"]:
+        words.append(f"Gamma {_span(rows['reversed'], gammas)} is unstable at small eps_M "
+                     "and stable above")
     if rows["mixed"]:
-        words.append(f"at Gamma {', '.join(f'{v:.3g}' for v in rows['mixed'])} stable and "
-                     "unstable cells alternate along eps_M")
+        words.append(f"at Gamma {_span(rows['mixed'], gammas)} stable and unstable cells "
+                     "alternate along eps_M")
+    if rows["missing"]:
+        words.append(f"Gamma {_span(rows['missing'], gammas)} has cells without a result")
     return "; ".join(words)[:1].upper() + "; ".join(words)[1:] + "."
 
 
-def _span(values) -> str:
-    lo, hi = min(values), max(values)
-    return f"= {lo:.3g}" if lo == hi else f"from {lo:.3g} to {hi:.3g}"
+def _span(values, grid) -> str:
+    """Grid values in words: "from a to b" only when they are consecutive in the grid."""
+    values = sorted(values)
+    at = np.searchsorted(grid, values)
+    if len(values) > 1 and (np.diff(at) == 1).all():
+        return f"from {values[0]:.3g} to {values[-1]:.3g}"
+    return "= " + ", ".join(f"{v:.3g}" for v in values)
 
 
 def _horizon_section(fidelities, horizons) -> list[str]:
@@ -301,20 +320,28 @@ def horizon_sentence(case: str, order: str, r: Result) -> str:
     first = order == "first-order"
     predicted = -rate * n if first else -rate * n * n / 2
     drift, half = g[-1] - gamma0, g[n // 2] - gamma0
-    steps = np.diff(g)
-    steps = np.sign(steps[steps != 0])
-    turns = int(np.count_nonzero(steps[1:] != steps[:-1]))
     head = f"\n{case}, {order} integrator: "
     if not r.metrics["stable"]:
+        broken = np.flatnonzero(~np.isfinite(g))
+        gf = g[:broken[0]] if broken.size else g  # up to where it stops being a number
+        steps = np.diff(gf)
+        steps = np.sign(steps[steps != 0])
+        turns = int(np.count_nonzero(steps[1:] != steps[:-1]))
         last = np.abs(r.error[t >= t[-1] - 0.01])
-        return (head + f"the loop fails (max |e| {last.max():.3g} V over the last 10 ms); "
-                f"gamma moves between {_fmt(g.min())} and {_fmt(g.max())}"
-                + (f", turning {turns:,} times," if turns > 2 else "")
-                + f" and ends at {_fmt(g[-1])}: the drift of a held loop does not apply.")
+        last = last[np.isfinite(last)]
+        return (head + "the loop fails"
+                + (f" (max |e| {last.max():.3g} V over the last 10 ms)" if last.size else "")
+                + (f"; gamma moves between {_fmt(gf.min())} and {_fmt(gf.max())}"
+                   + (f", turning {turns:,} times," if turns > 2 else "")
+                   + (f" and ends at {_fmt(gf[-1])}" if not broken.size else
+                      f" until it stops being a number at t = {t[broken[0]] * 1e3:.3g} ms")
+                   if gf.size else "")
+                + ": the drift of a held loop does not apply.")
     shape_expected = 0.5 if first else 0.25  # share of the drift reached at N/2
     follows = (abs(drift - predicted) <= 0.1 * abs(predicted)
                and abs(half / drift - shape_expected) <= 0.05 if drift else False)
     shape = "linearly" if first else "quadratically"
+    kind = "linear" if first else "quadratic"
     formula = "-Gamma eps_M N" if first else "-Gamma eps_M N^2/2"
     if follows:
         text = (f"the loop holds and gamma drifts {shape} under -eps_M, as e_dot ~ 0 "
@@ -325,14 +352,16 @@ def horizon_sentence(case: str, order: str, r: Result) -> str:
                      "zero.")
     else:
         text = (f"the loop holds; gamma changes by {_fmt(drift)} over {n:,} samples "
-                f"({_fmt(half)} by the middle), not the {shape} drift {formula} = "
+                f"({_fmt(half)} by the middle), not the {kind} drift {formula} = "
                 f"{_fmt(predicted)} that a held e_dot ~ 0 would give.")
     below = np.flatnonzero(g <= 0)
-    n_zero = gamma0 / rate if first else (2 * gamma0 / rate) ** 0.5  # samples to zero
     if below.size:
         text += (f" The gain reaches zero, where the gain on the derivative error changes sign, "
-                 f"at t = {t[below[0]] * 1e3:.3g} ms (the drift predicts "
-                 f"{n_zero * cfg['sim.h'] * 1e3:.3g} ms).")
+                 f"at t = {t[below[0]] * 1e3:.3g} ms")
+        if rate > 0 and gamma0 > 0:
+            n_zero = gamma0 / rate if first else (2 * gamma0 / rate) ** 0.5  # samples to 0
+            text += f" (the drift predicts {n_zero * cfg['sim.h'] * 1e3:.3g} ms)"
+        text += "."
     return head + text
 
 

@@ -167,6 +167,8 @@ def _run_locked(grid, cfg, manifest, out, *, keep, chunk, dask, progress, fast) 
     if progress:
         progress(done)
     spec = {"base": cfg.explicit, "grid": manifest["grid"], "chunk": chunk, "fast": fast}
+    if keep:  # the kept trajectories first: one too long to record stops the sweep at once
+        _keep(grid, keep, out, fast)
     if dask:
         done = _run_dask(dask, spec, todo, chunk_dir, done, progress)
     else:
@@ -181,8 +183,6 @@ def _run_locked(grid, cfg, manifest, out, *, keep, chunk, dask, progress, fast) 
     results = pd.concat(frames, ignore_index=True)
     path = out / "results.parquet"
     _write_atomic(results, path)
-    if keep:
-        _keep(grid, keep, out, fast)
     return path
 
 

@@ -50,6 +50,18 @@ def check_recording(n: int, rows: int, t_end: float, t_end_key: str = "t_end") -
                           "(mfcontrol sweep, mfcontrol.sweep), which keeps the metrics only")
 
 
+#: most members of one sweep: its table of metrics (about 200 bytes a member) under 2 GiB
+MAX_MEMBERS = 10_000_000
+
+
+def check_members(n: int, key: str, value: object) -> None:
+    """Refuse a sweep of more than :data:`MAX_MEMBERS` members at once, with its size."""
+    if n > MAX_MEMBERS:
+        raise ConfigError(key, value, f"{n:,} members: at most {MAX_MEMBERS:,} in one sweep "
+                          f"(its table of metrics alone would take {n * 200 / 2**30:,.0f} "
+                          "GiB); split the grid over several sweeps")
+
+
 def times(n: int, t_end: float) -> np.ndarray:
     """The sample times t_k = (k t_end) / n, exactly as every kernel computes them."""
     return (np.arange(n) * t_end) / n
