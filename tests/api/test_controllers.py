@@ -406,3 +406,20 @@ def test_a_pickle_without_the_bound_step_loads():
         old = type(ctrl).__new__(type(ctrl))
         old.__setstate__(state)
         assert old(0.2, setpoint=1.0) == ctrl(0.2, setpoint=1.0)
+
+
+@pytest.mark.parametrize("cls", [IP, IPI, IPD, IPID])
+def test_help_shows_every_option(cls):
+    """help(mfcontrol.IP) showed IP(alpha, kp, **options) and no option (issue 15)."""
+    import inspect
+    import pydoc
+
+    sig = inspect.signature(cls)
+    assert {"sample_time", "estimator", "window", "anti_windup", "gain", "output_limits"} \
+        <= set(sig.parameters)
+    assert sig.parameters["order"].default == (2 if cls in (IPD, IPID) else 1)
+    text = pydoc.render_doc(cls, renderer=pydoc.plaintext)
+    assert "anti_windup : {" in text and "Examples" in text
+    assert text.index("Parameters") < text.index("Examples")
+    cls(*[1.0] * (len([p for p in sig.parameters.values() if p.default is p.empty]) - 1),
+        sample_time=0.01)  # the signature is the one the class takes

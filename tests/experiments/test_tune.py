@@ -43,6 +43,9 @@ def test_tune_finds_the_closed_form_optimum(closed_form):
     assert abs(r.best["controller.kp"] / 50.0 - 1) < 0.03
     assert r.value < r.start_value
     assert 0 < r.evaluations <= 150
+    text = repr(r)  # a few lines, not the history and the configuration (issue 15)
+    assert len(text) < 1000 and text.startswith("<TuneResult ") and "controller.kp = " in text
+    assert r._repr_html_().startswith("<table><caption>mfcontrol TuneResult")
 
 
 def test_best_toml_reproduces_the_reported_value_exactly(closed_form, tmp_path):

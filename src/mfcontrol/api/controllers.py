@@ -16,6 +16,7 @@ safe); ``restore()`` makes a controller continue bit for bit from it.
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -476,7 +477,21 @@ class IP(IntelligentController):
 
 
 class IPI(IP):
-    """Intelligent PI controller: the i-P plus ``ki`` times the integral of the error."""
+    """Intelligent PI controller: the i-P plus ``ki`` times the integral of the error.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPI(alpha=1.0, kp=10.0, ki=5.0, sample_time=0.01,
+    ...                      output_limits=(-5, 5))
+    >>> y, out = 0.0, []
+    >>> for _ in range(4):
+    ...     u = ctrl(y, setpoint=1.0)
+    ...     y += 0.01 * (-y + u)             # the plant y' = -y + u, Euler
+    ...     out.append(round(u, 3))
+    >>> out                                  # the start held, then the limit
+    [0.0, 5.0, 5.0, 5.0]
+    """
 
     _drop = ("kd",)
 
@@ -485,7 +500,25 @@ class IPI(IP):
 
 
 class IPD(IP):
-    """Intelligent PD controller, ultra-local model of order 2 by default."""
+    """Intelligent PD controller, ultra-local model of order 2 by default.
+
+    Examples
+    --------
+    A double integrator y'' = u: order 2 holds the start for two samples (y'' needs three
+    measurements), then F_hat = y'' - alpha u is zero and u = kp (1 - y) - kd y'.
+
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPD(alpha=1.0, kp=25.0, kd=10.0, sample_time=0.01)
+    >>> y = v = 0.0
+    >>> out = []
+    >>> for _ in range(4):
+    ...     u = ctrl(y, setpoint=1.0)
+    ...     v += 0.01 * u
+    ...     y += 0.01 * v
+    ...     out.append(round(u, 3))
+    >>> out
+    [0.0, 0.0, 25.0, 22.438]
+    """
 
     _drop = ("ki",)
 
@@ -494,13 +527,46 @@ class IPD(IP):
 
 
 class IPID(IP):
-    """Intelligent PID controller, ultra-local model of order 2 by default."""
+    """Intelligent PID controller, ultra-local model of order 2 by default.
+
+    Examples
+    --------
+    A measurement held at 0 under a setpoint of 1: order 2 holds the start for two
+    samples; at the third, F_hat = y'' - alpha u = 0 and u = -(kp e + ki int(e) + kd e') /
+    alpha with e = -1, int(e) = -0.01 and e' = 0:
+
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPID(alpha=1.0, kp=25.0, ki=5.0, kd=10.0, sample_time=0.01)
+    >>> [round(ctrl(y, setpoint=1.0), 3) for y in (0.0, 0.0, 0.0)]
+    [0.0, 0.0, 25.05]
+    """
 
     _drop = ()
 
     def __init__(self, alpha: float, kp: float, ki: float, kd: float, *, order: int = 2,
                  **options: Any):
         IntelligentController.__init__(self, alpha, kp, ki, kd, order=order, **options)
+
+
+def _show_options(cls: type) -> None:
+    """Give an i-P .. i-PID class its full signature and the options' documentation, which
+    live once, on IntelligentController: ``help(mfcontrol.IP)`` showed ``IP(alpha, kp,
+    **options)`` and no option."""
+    own = inspect.signature(cls.__init__, eval_str=True).parameters
+    shown = [p for name, p in own.items() if name != "self" and p.kind is not p.VAR_KEYWORD]
+    taken = {p.name for p in shown}
+    shown += [p for name, p in inspect.signature(IntelligentController.__init__, eval_str=True)
+              .parameters.items() if p.kind is p.KEYWORD_ONLY and name not in taken]
+    cls.__signature__ = inspect.Signature(shown)
+    parent = inspect.cleandoc(IntelligentController.__doc__ or "")
+    options = parent[parent.index("Parameters\n"):parent.index("Examples\n")].rstrip()
+    doc = inspect.cleandoc(cls.__doc__ or "")
+    head, sep, examples = doc.partition("Examples\n")
+    cls.__doc__ = f"{head.rstrip()}\n\n{options}\n\n{sep}{examples}".rstrip() + "\n"
+
+
+for _cls in (IP, IPI, IPD, IPID):
+    _show_options(_cls)
 
 
 class RecursiveIP(_Controller):

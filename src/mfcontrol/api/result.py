@@ -12,12 +12,13 @@ import numpy as np
 
 from .._version import __version__
 from ..config.resolve import Config
+from . import display
 
 #: the signals every run records, in file order (a law's components may follow)
 SIGNALS = ("y_ref", "y", "y_meas", "u", "u_plant", "u_raw", "gamma", "gain")
 
 
-class _Files:
+class _Files(display.Shown):
     """What every result type writes: the trajectory as CSV and the metrics as JSON."""
 
     name: str
@@ -119,6 +120,24 @@ class Result(_Trajectory):
     def _metrics_payload(self) -> dict[str, Any]:
         return {"arithmetic": self.arithmetic, **self.metrics}
 
+    def _summary(self) -> list[tuple[str, str]]:
+        span = f"{self.time[-1] + (self.time[1] - self.time[0]):.3g} s" \
+            if self.time.size > 1 else "-"
+        return [("run", self.name or "(unnamed)"),
+                ("samples", f"{self.time.size:,} samples over {span}"),
+                ("verdict", display.verdict(self.metrics)),
+                ("metrics", display.metric_line(self.metrics)),
+                ("signals", display.names(self.signals, at_most=16)),
+                ("states", display.names(self.states)),
+                ("engine", f"{self.engine} engine, {self.arithmetic} arithmetic")]
+
+    def __repr__(self) -> str:
+        rows = dict(self._summary())
+        return (f"<Result {rows['run']!r}: {rows['samples']}, {rows['verdict']}\n"
+                f" {rows['metrics']}\n signals {rows['signals']}; states {rows['states']}\n"
+                f" {rows['engine']}>")
+
+
     def plot(self, path: str | Path | None = None, title: str | None = None,
              output_label: str | None = None, input_label: str | None = None):
         """A case run: the paper's panels (output and reference, duty cycle, and gamma for
@@ -164,6 +183,22 @@ class SweepResult(_Files):
 
     def _metrics_payload(self) -> dict[str, Any]:
         return {"sweep": self.key, "members": self.metrics}
+
+    def _summary(self) -> list[tuple[str, str]]:
+        table = {k: [m.metrics.get(k, math.nan) for m in self.members]
+                 for k, _ in display.MAIN}
+        stable = sum(bool(m.metrics.get("stable")) for m in self.members)
+        return [("sweep", self.name),
+                ("members", f"{len(self.members)} members over {self.key} = "
+                            f"{display.fmt(min(self.values))}..{display.fmt(max(self.values))}"),
+                ("stable", f"{stable} of {len(self.members)}"),
+                ("metric ranges", display.metric_ranges(table))]
+
+    def __repr__(self) -> str:
+        rows = dict(self._summary())
+        return (f"<SweepResult {rows['sweep']!r}: {rows['members']}, {rows['stable']} "
+                f"stable\n {rows['metric ranges']}>")
+
 
     def plot(self, path: str | Path | None = None, kind: str = "gamma"):
         """``kind='gamma'``: gamma(t) per member; ``kind='error'``: |y - y*| (log axis)."""

@@ -19,6 +19,7 @@ from ..elements import layout
 from ..engine.compose import T_COMP
 from ..errors import ConfigError
 from ..numerics.grid import check_members, check_recording
+from . import display
 from . import metrics as _metrics
 from .controllers import RecursiveIP
 from .elements import Actuator, Disturbance, Sensor, unread
@@ -39,7 +40,7 @@ from .result import Result
 
 
 @dataclass
-class LoopSweepResult:
+class LoopSweepResult(display.Shown):
     """Every member's swept values and metrics (``table``: one column each), and the
     trajectories of the members kept (``kept``: member index to Result)."""
 
@@ -64,11 +65,20 @@ class LoopSweepResult:
         self.to_pandas().to_parquet(path, index=False)
         return path
 
+    def _summary(self) -> list[tuple[str, str]]:
+        axes = ", ".join(f"{k} = {display.fmt(v.min())}..{display.fmt(v.max())} ({v.size})"
+                         for k, v in self.axes.items())
+        return [("members", f"{self.n_members:,} members over {axes}"),
+                ("verdicts", f"{int(np.sum(self.table['stable'])):,} stable, "
+                             f"{int(np.sum(self.table['diverged'])):,} diverged"),
+                ("metric ranges", display.metric_ranges(self.table)),
+                ("kept", display.names([f"member {m}" for m in self.kept]) or "none")]
+
     def __repr__(self) -> str:
-        axes = ", ".join(f"{k} ({v.size})" for k, v in self.axes.items())
-        stable = int(np.sum(self.table["stable"]))
-        return (f"<LoopSweepResult {self.n_members} members over {axes}: {stable} stable, "
-                f"{int(np.sum(self.table['diverged']))} diverged>")
+        rows = dict(self._summary())
+        return (f"<LoopSweepResult {rows['members']}: {rows['verdicts']}\n"
+                f" {rows['metric ranges']}; kept {rows['kept']}>")
+
 
 
 #: the loop elements a grid key may name, by section

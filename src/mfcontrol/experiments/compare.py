@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..api import display
 from ..api.metrics import COLUMNS
 from ..api.result import Result
 from ..config.resolve import Config
@@ -35,12 +36,23 @@ _OWN = ("description", "controller.", "sweep.")
 
 
 @dataclass
-class Comparison:
+class Comparison(display.Shown):
     """The runs of :func:`compare` and what they share."""
 
     names: list[str]
     configs: list[Config]
     results: list[Result] = field(repr=False)
+
+    def _summary(self) -> list[tuple[str, str]]:
+        return [(f"{n} ({controller_label(c)})", f"{display.verdict(r.metrics)}; "
+                 f"{display.metric_line(r.metrics)}")
+                for n, c, r in zip(self.names, self.configs, self.results, strict=True)]
+
+    def __repr__(self) -> str:
+        lines = [f"{k}: {v}" for k, v in self._summary()]
+        return (f"<Comparison of {len(self.names)} cases\n " + "\n ".join(lines[:8])
+                + (f"\n and {len(lines) - 8} more" if len(lines) > 8 else "") + ">")
+
 
     def differences(self) -> dict[str, list[Any]]:
         """Keys outside ``controller.*`` whose values differ between the cases."""

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..api import batch, scenario
+from ..api import batch, display, scenario
 from ..api.objective import AGGREGATES, Objective, aggregate
 from ..config.options import BY_KEY
 from ..config.resolve import Config, axis_value
@@ -117,7 +117,7 @@ def parse_parameters(items: Sequence[str] | Mapping[str, tuple[float, float]],
 
 
 @dataclass
-class TuneResult:
+class TuneResult(display.Shown):
     """What :func:`tune` found.
 
     Attributes
@@ -158,6 +158,22 @@ class TuneResult:
     budget: int
     seed: int
     history: Any = field(repr=False)
+
+    def _summary(self) -> list[tuple[str, str]]:
+        best = ", ".join(f"{k} = {display.fmt(v)}" for k, v in self.best.items())
+        start = ", ".join(f"{k} = {display.fmt(v)}" for k, v in self.start.items())
+        return [("case", self.case), ("best", best),
+                ("objective", f"{display.fmt(self.value)} (nominal run "
+                              f"{display.fmt(self.nominal)}; start {start}: "
+                              f"{display.fmt(self.start_value)})"),
+                ("effort", f"{self.evaluations:,} points, {self.runs:,} runs in "
+                           f"{self.seconds:.3g} s, stopped: {self.stopped}")]
+
+    def __repr__(self) -> str:
+        rows = dict(self._summary())
+        return (f"<TuneResult {rows['case']!r}: {rows['best']}\n objective {rows['objective']}"
+                f"\n {rows['effort']}>")
+
 
     @property
     def n_scenarios(self) -> int:
