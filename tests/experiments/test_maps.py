@@ -113,7 +113,7 @@ def test_colour_bar_and_axis_labels():
     ax, cax = fig.axes
     assert ax.get_xlabel() == "controller.alpha (1)"
     assert ax.get_ylabel() == "plant.dR (ohm)"
-    assert cax.get_ylabel() == "iae"
+    assert cax.get_ylabel() == "IAE, the integral of |e| (output unit s)"  # no case known
     assert maps.axis_label("controller.kp") == "controller.kp (1/s)"
     assert maps.axis_label("sim.custom") == "sim.custom"
 
@@ -240,7 +240,8 @@ def test_side_by_side_shares_the_colour_norm(tmp_path, monkeypatch):
     (fig,) = captured
     panels, colour_bar = fig.axes[:2], fig.axes[2:]
     assert [ax.get_title() for ax in panels] == ["standard", "variational"]
-    assert len(colour_bar) == 1 and colour_bar[0].get_ylabel() == "iae"
+    assert len(colour_bar) == 1
+    assert colour_bar[0].get_ylabel() == "IAE, the integral of |e| (output unit s)"
     norms = [mesh_of(fig, i).norm for i in range(2)]
     assert norms[0] is norms[1]
     lo = min(a["iae"].min(), b["iae"].min())
@@ -292,3 +293,16 @@ def test_load_reads_results_and_sweep_json(tmp_path):
 def test_load_without_results_is_a_clear_error(tmp_path):
     with pytest.raises(ValueError, match="no results.parquet"):
         maps.load(tmp_path)
+
+
+def test_the_colour_bar_and_title_say_the_metric_in_words_with_its_unit(tmp_path):
+    """They said `max_abs_e` (issue 15). Units from the case of a sweep folder, or given."""
+    fig = maps.heatmap(frame(), "controller.alpha", "plant.dR", "max_abs_e", units=("V", "1"))
+    assert fig.axes[-1].get_ylabel() == "largest |e| after the settling time (V)"
+    assert fig.axes[0].get_title().startswith("largest |e| after the settling time over")
+    f = frame()
+    f.attrs["sweep"] = {"case": "motor-noise-ipi", "overrides": {}}
+    fig = maps.heatmap(f, "controller.alpha", "plant.dR", "iae")
+    assert fig.axes[-1].get_ylabel() == "IAE, the integral of |e| (rad/s s)"
+    fig = maps.heatmap(frame(), "controller.alpha", "plant.dR", "ise")  # no case known
+    assert fig.axes[-1].get_ylabel() == "ISE, the integral of e^2 (output unit^2 s)"

@@ -63,6 +63,37 @@ COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_
            "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable", *LOOP_METRICS)
 
 
+#: each metric in words, and its unit: {y} stands for the output's unit, {u} the input's
+LABELS = {
+    "iae": ("IAE, the integral of |e|", "{y} s"),
+    "ise": ("ISE, the integral of e^2", "{y}^2 s"),
+    "itae": ("ITAE, the integral of t |e|", "{y} s^2"),
+    "max_abs_e": ("largest |e| after the settling time", "{y}"),
+    "tv_u": ("total variation of u", "{u}"),
+    "final_gamma": ("gain gamma at the end", "1"),
+    "max_abs_e_final": ("largest |e| over the stability window", "{y}"),
+    "max_abs_ref": ("largest |reference|", "{y}"),
+    "energy_u": ("energy of u", "{u}^2 s"),
+    "steady_state_error": ("steady-state error", "{y}"),
+    "overshoot": ("overshoot", "%"),
+    "rise_time": ("rise time", "s"),
+    "settling_time": ("settling time", "s"),
+    "iae_load": ("IAE after the load step", "{y} s"),
+    "t_diverge": ("time of divergence", "s"),
+    "n_samples": ("samples run", "1"),
+    "stable": ("stable (1) or not (0)", "1"),
+    "diverged": ("diverged (1) or not (0)", "1"),
+}
+
+
+def label(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") -> str:
+    """``metric`` in words with its unit, for an axis or a colour bar:
+    ``label("max_abs_e", "V")`` is ``"largest |e| after the settling time (V)"``."""
+    words, unit = LABELS.get(metric, (metric, ""))
+    unit = unit.format(y=y_unit, u=u_unit)
+    return f"{words} ({unit})" if unit else words
+
+
 def is_stable(diverged, max_abs_e_final, max_abs_ref, tol):
     """The stability rule; works on floats and, element-wise, on arrays."""
     return np.logical_and(~np.asarray(diverged, dtype=bool) & np.isfinite(max_abs_e_final),

@@ -37,6 +37,16 @@ def _labels(result: Result) -> tuple[str, str, str]:
     return _OUTPUT[result.config["plant.output"]]
 
 
+def units(cfg) -> tuple[str, str]:
+    """The units of a configuration's output and input: ``("V", "1")`` for the buck's
+    voltage under a duty cycle."""
+    model = cfg["plant.model"]
+    if model in _MODELS:
+        (_, _, y_unit), u_label = _MODELS[model]
+        return y_unit, u_label.rpartition("(")[2].rstrip(")")
+    return _OUTPUT[cfg["plant.output"]][2], "1"
+
+
 def _input_label(result: Result) -> str:
     model = result.config["plant.model"]
     return _MODELS[model][1] if model in _MODELS else "duty cycle $d$ (1)"
@@ -58,9 +68,17 @@ def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
     times += [e["t"] for e in cfg["plant.schedule"]]
     for tc in times:
         if tc < cfg["sim.t_end"]:
-            ax.axvline(tc * scale, color="0.6", lw=0.8, ls=":")
+            _event(ax, tc * scale, "load change", "0.45")
     if cfg["disturbance.kind"] != "none" and cfg["disturbance.t0"] < cfg["sim.t_end"]:
-        ax.axvline(cfg["disturbance.t0"] * scale, color="tab:orange", lw=0.8, ls=":")
+        _event(ax, cfg["disturbance.t0"] * scale, "disturbance", "tab:orange")
+
+
+def _event(ax, x: float, text: str, color: str) -> None:
+    """A dotted line at an event, named at the top of the panel."""
+    ax.axvline(x, color=color, lw=0.8, ls=":")
+    ax.annotate(text, xy=(x, 1.0), xycoords=("data", "axes fraction"), xytext=(-2, -3),
+                textcoords="offset points", rotation=90, ha="right", va="top", fontsize=7,
+                color=color)
 
 
 def save_figure(fig: Figure, path: str | Path | None) -> Figure:
@@ -143,7 +161,8 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     if result.metrics.get("diverged"):
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
                           color="tab:red", fontsize=9, loc="right")
-    fig.suptitle(title if title is not None else (result.label or result.name))
+    fig.suptitle(title if title is not None else (result.label or _in_words(result, result.name)),
+                 fontsize=10)
     return save_figure(fig, path)
 
 
@@ -180,26 +199,80 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
     quantity, sym, unit = _labels(first)
     short = sweep.key.split(".")[-1]
     scale, time_label = _time_scale(first.time)
-    for v, m in zip(sweep.values, sweep.members, strict=True):
-        t = m.time * scale
-        label = f"{short} = {v:g}" + (" (unstable)" if not m.metrics["stable"] else "")
-        if kind == "gamma":
-            ax.plot(t, m.signals["gamma"], lw=1.2, label=label)
+    def curve(m):
+        return m.signals["gamma"] if kind == "gamma" else np.abs(m.error)
+
+    # members whose curves are identical are drawn once, under one label that says so
+    groups: list[list[int]] = []
+    for j, m in enumerate(sweep.members):
+        for g in groups:
+            first_m = sweep.members[g[0]]
+            if first_m.time.shape == m.time.shape and np.array_equal(curve(first_m), curve(m),
+                                                                      equal_nan=True):
+                g.append(j)
+                break
         else:
-            err = np.abs(m.error)
-            ax.semilogy(t, np.where(err > 0, err, np.nan), lw=0.9, label=label)
+            groups.append([j])
+    for g in groups:
+        m = sweep.members[g[0]]
+        values = ", ".join(f"{sweep.values[j]:g}" for j in g)
+        label = (f"{short} = {values}" + (" (coincide)" if len(g) > 1 else "")
+                 + (" (unstable)" if not m.metrics["stable"] else ""))
+        t, c = m.time * scale, curve(m)
+        if kind == "gamma":
+            ax.plot(t, c, lw=1.2, label=label)
+        else:
+            ax.semilogy(t, np.where(c > 0, c, np.nan), lw=0.9, label=label)
+    if len(groups) == 1 and len(sweep.members) > 1:
+        _note(ax, f"all {len(sweep.members)} members give the same curve")
     if kind == "gamma":
         ax.set_ylabel(r"gain $\gamma$ (1)")
         ax.ticklabel_format(axis="y", useOffset=False)
+        _clip_outliers(ax, [curve(sweep.members[g[0]]) for g in groups
+                            if sweep.members[g[0]].metrics["stable"]],
+                       [curve(sweep.members[g[0]]) for g in groups
+                        if not sweep.members[g[0]].metrics["stable"]])
     else:
         ax.set_ylabel(f"tracking error $|{sym} - {sym}^*|$ ({unit})")
     _mark_changes(ax, first, scale)
     ax.grid(True, which="both", alpha=0.3)
     ax.set_xlabel(time_label)
     ax.legend(fontsize=8)
-    what = "gamma" if kind == "gamma" else "tracking error"
-    fig.suptitle(title if title is not None else f"{sweep.name}: {what} for several {short}")
+    what = "gain gamma" if kind == "gamma" else "tracking error"
+    fig.suptitle(title if title is not None else
+                 f"{_in_words(sweep, sweep.name)}\n{what} of each member", fontsize=10)
     return save_figure(fig, path)
+
+
+def _note(ax, text: str) -> None:
+    """A remark about the panel, above it (where no curve or legend sits)."""
+    ax.set_title(text, fontsize=8, loc="left", color="0.3")
+
+
+def _in_words(result, fallback: str) -> str:
+    """A figure's title: the case's description, wrapped, else ``fallback``."""
+    import textwrap
+
+    cfg = getattr(result, "config", None)
+    text = (cfg["description"] if cfg is not None and cfg["description"] else "") or fallback
+    return "\n".join(textwrap.wrap(text, 95))
+
+
+def _clip_outliers(ax, kept: list[np.ndarray], outliers: list[np.ndarray]) -> None:
+    """Limit the axis to the stable members' range when an unstable one would flatten
+    them (its range ten times theirs or more), and say so on the figure."""
+    if not kept or not outliers:
+        return
+    finite = [c[np.isfinite(c)] for c in kept]
+    lo, hi = min(c.min() for c in finite if c.size), max(c.max() for c in finite if c.size)
+    wide = [c[np.isfinite(c)] for c in outliers]
+    o_lo = min((c.min() for c in wide if c.size), default=lo)
+    o_hi = max((c.max() for c in wide if c.size), default=hi)
+    span = max(hi - lo, abs(hi) * 1e-6, 1e-300)
+    if max(o_hi - lo, hi - o_lo) > 10 * span:
+        pad = 0.1 * span
+        ax.set_ylim(lo - pad, hi + pad)
+        _note(ax, f"unstable members leave the axis (they reach {o_lo:.3g} .. {o_hi:.3g})")
 
 
 def plot_long_horizon(rows, path: str | Path | None = None, fidelity: str = "") -> Figure:

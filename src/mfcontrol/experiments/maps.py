@@ -284,7 +284,7 @@ def _boundary(ax, grid: _Grid) -> bool:
 
 def _title(grid: _Grid, title: str | None) -> str:
     if title is None:
-        title = f"{grid.metric} over {grid.x} and {grid.y}"
+        title = f"{_metrics.LABELS.get(grid.metric, (grid.metric,))[0]} over {grid.x} and {grid.y}"
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in grid.where.items())
     if fixed:
         title += f"\n({fixed})"
@@ -331,7 +331,8 @@ def _draw(ax, grid: _Grid, norm: Normalize, title: str | None):
 
 def heatmap(frame: pd.DataFrame, x: str, y: str, metric: str, *, ax=None,
             where: dict | None = None, log_x: bool | None = None, log_y: bool | None = None,
-            log_color: bool | None = None, title: str | None = None) -> Figure:
+            log_color: bool | None = None, title: str | None = None,
+            units: tuple[str, str] | None = None) -> Figure:
     """``metric`` over the swept keys ``x`` (horizontal) and ``y`` (vertical).
 
     ``where`` fixes the other swept keys that vary in ``frame`` ({key: value}). Log axes
@@ -339,7 +340,9 @@ def heatmap(frame: pd.DataFrame, x: str, y: str, metric: str, *, ax=None,
     are drawn light grey (their metrics stop at the divergence), except for the metrics
     about divergence itself (``diverged``, ``t_diverge``, ``n_samples``, ``stable``); the
     contour between stable and unstable members is drawn in red and the unstable cells are
-    hatched. Returns the new figure, or ``ax``'s figure.
+    hatched. ``units``: the output's and the input's units for the colour bar, by default
+    read from the sweep's case (``frame.attrs["sweep"]``, as :func:`load` keeps it).
+    Returns the new figure, or ``ax``'s figure.
     """
     grid = _grid(frame, x, y, metric, where, log_x, log_y)
     norm = _norm([grid], log_color)
@@ -349,8 +352,20 @@ def heatmap(frame: pd.DataFrame, x: str, y: str, metric: str, *, ax=None,
     else:
         fig = ax.get_figure()
     mesh = _draw(ax, grid, norm, title)
-    fig.colorbar(mesh, ax=ax, label=metric)
+    fig.colorbar(mesh, ax=ax, label=_metrics.label(metric, *(units or _units(frame))))
     return fig
+
+
+def _units(frame) -> tuple[str, str]:
+    """The output's and input's units of the case a sweep's frame came from, when known."""
+    from ..api.plotting import units
+    from .cases import resolve_case
+
+    meta = frame.attrs.get("sweep") or {}
+    try:
+        return units(resolve_case(meta["case"], meta.get("overrides") or {})[1])
+    except (KeyError, TypeError, ValueError):  # not a sweep folder's frame, or a lost case
+        return "output unit", "input unit"
 
 
 def _case_title(folder: Path, metric: str) -> str | None:
@@ -361,7 +376,7 @@ def _case_title(folder: Path, metric: str) -> str | None:
         case = json.loads(meta.read_text()).get("case")
     except (OSError, ValueError, AttributeError):
         return None
-    return f"{case}: {metric}" if case else None
+    return f"{case}: {_metrics.LABELS.get(metric, (metric,))[0]}" if case else None
 
 
 def draw_map(folder: str | Path, x: str, y: str, metric: str, path: str | Path | None = None,
@@ -383,7 +398,8 @@ def draw_map(folder: str | Path, x: str, y: str, metric: str, path: str | Path |
 
 def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x: str, y: str,
                            metric: str, path: str | Path, *, where: dict | None = None,
-                           log_color: bool | None = None) -> Path:
+                           log_color: bool | None = None,
+                           units: tuple[str, str] | None = None) -> Path:
     """One row of heat maps on one colour scale (the same norm for every panel), e.g. two
     control laws swept over the same grid; each panel carries its title. ``where`` applies
     to every frame. Writes a PNG and returns its path."""
@@ -405,8 +421,9 @@ def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x:
         mesh = _draw(ax, grid, norm, title)
     for ax in axes[1:]:
         ax.set_ylabel("")
-    fig.colorbar(mesh, ax=list(axes), label=metric)
-    head = f"{metric} over {x} and {y}"
+    fig.colorbar(mesh, ax=list(axes), label=_metrics.label(
+        metric, *(units or _units(frames_and_titles[0][0]))))
+    head = f"{_metrics.LABELS.get(metric, (metric,))[0]} over {x} and {y}"
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in (where or {}).items())
     fig.suptitle(head + (f" ({fixed})" if fixed else ""))
     path = Path(path)

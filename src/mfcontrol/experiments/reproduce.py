@@ -17,10 +17,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from ..api.plotting import plot_gamma, plot_long_horizon, plot_run, plot_sweep
+from ..api.plotting import plot_gamma, plot_long_horizon, plot_run, plot_sweep, units
 from ..api.result import Result, SweepResult
 from . import maps, report
-from .cases import run_case
+from .cases import resolve_case, run_case
 
 SINGLE = (
     "voltage-stable-standard", "voltage-stable-variational",
@@ -40,7 +40,6 @@ def run_map(case: str, fidelity: str):
     import pandas as pd
 
     from ..api import batch
-    from .cases import resolve_case
 
     _, cfg = resolve_case(case, {"fidelity": fidelity})
     axes = batch.parse_grid(cfg["sweep.grid"])
@@ -143,12 +142,13 @@ def reproduce(out: Path, fidelities: list[str],
             maps_done[fid][case] = frame
             tick(f"{fid}/{case} ({len(frame)} members)")
         std, var = (gain_axis(maps_done[fid][c]) for c in MAPS[:2])
+        volts = units(resolve_case(MAPS[0])[1])  # the buck's voltage: V under a duty cycle
         maps.draw_maps_side_by_side(
             [(std, "standard i-P"), (var, "variational i-P")], GAIN_AXIS, "plant.dR",
-            "max_abs_e", folder / "map-alpha-dR.png")
+            "max_abs_e", folder / "map-alpha-dR.png", units=volts)
         maps.heatmap(maps_done[fid]["map-Gamma-epsM"], "controller.Gamma", "controller.eps_M",
-                     "max_abs_e", title=f"variational i-P, dR = 5 ohm ({fid}): max |e| "
-                     "after 1 ms").savefig(folder / "map-Gamma-epsM.png", dpi=120)
+                     "max_abs_e", title=f"variational i-P, dR = 5 ohm ({fid}): largest |e| "
+                     "after 1 ms", units=volts).savefig(folder / "map-Gamma-epsM.png", dpi=120)
         horizons[fid] = long_horizon(fid)
         plot_long_horizon(horizons[fid], folder / "long-horizon.png", fid)
         report.horizon_frame(horizons[fid]).to_csv(folder / "long-horizon.csv", index=False)
