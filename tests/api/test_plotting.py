@@ -47,3 +47,13 @@ def test_units_of_every_plant_family():
     assert units(resolve_case("voltage-stable-standard")[1]) == ("V", "1")
     assert units(resolve_case("power-standard")[1]) == ("W", "1")
     assert units(resolve_case("motor-noise-ipi")[1]) == ("rad/s", "V")
+
+
+def test_members_that_coincide_on_the_scale_are_drawn_once():
+    """Published choices: eps_M = 1e-5 and 0.1 give tracking errors within 3e-5 of the
+    largest; they looked like one curve under two legend entries."""
+    sw = mfcontrol.run_case("sweep-epsM")
+    fig = sw.plot(kind="error")
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert labels == ["eps_M = 1e-05, 0.1 (coincide)", "eps_M = 1000"]
+    assert "curves that coincide on this scale are drawn once" in _texts(fig)

@@ -161,7 +161,8 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     if result.metrics.get("diverged"):
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
                           color="tab:red", fontsize=9, loc="right")
-    fig.suptitle(title if title is not None else (result.label or _in_words(result, result.name)),
+    fig.suptitle(title if title is not None else (result.label or title_in_words(result,
+                                                                               result.name)),
                  fontsize=10)
     return save_figure(fig, path)
 
@@ -202,13 +203,29 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
     def curve(m):
         return m.signals["gamma"] if kind == "gamma" else np.abs(m.error)
 
-    # members whose curves are identical are drawn once, under one label that says so
+    # members whose curves coincide on the figure are drawn once, under one label that
+    # says so: within 0.1 % of the axis; on the log axis within 0.02 decades (a line's
+    # width) wherever either is above 1e-4 of the largest value
+    finite = [c[np.isfinite(c)] for c in map(curve, sweep.members)]
+    span = max((np.ptp(c) for c in finite if c.size), default=0.0)
+    top = max((np.abs(c).max() for c in finite if c.size), default=0.0)
+
+    def same(a: np.ndarray, b: np.ndarray) -> bool:
+        if a.shape != b.shape or not np.array_equal(np.isfinite(a), np.isfinite(b)):
+            return False
+        ok = np.isfinite(a)
+        a, b = a[ok], b[ok]
+        if kind == "gamma":
+            return bool(np.all(np.abs(a - b) <= 1e-3 * span))
+        seen = np.maximum(a, b) > 1e-4 * top
+        with np.errstate(divide="ignore"):
+            gap = np.abs(np.log10(a[seen]) - np.log10(b[seen]))
+        return bool(np.all(gap <= 0.02))
+
     groups: list[list[int]] = []
     for j, m in enumerate(sweep.members):
         for g in groups:
-            first_m = sweep.members[g[0]]
-            if first_m.time.shape == m.time.shape and np.array_equal(curve(first_m), curve(m),
-                                                                      equal_nan=True):
+            if same(curve(sweep.members[g[0]]), curve(m)):
                 g.append(j)
                 break
         else:
@@ -225,6 +242,8 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
             ax.semilogy(t, np.where(c > 0, c, np.nan), lw=0.9, label=label)
     if len(groups) == 1 and len(sweep.members) > 1:
         _note(ax, f"all {len(sweep.members)} members give the same curve")
+    elif len(groups) < len(sweep.members):
+        _note(ax, "curves that coincide on this scale are drawn once")
     if kind == "gamma":
         ax.set_ylabel(r"gain $\gamma$ (1)")
         ax.ticklabel_format(axis="y", useOffset=False)
@@ -240,7 +259,7 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
     ax.legend(fontsize=8)
     what = "gain gamma" if kind == "gamma" else "tracking error"
     fig.suptitle(title if title is not None else
-                 f"{_in_words(sweep, sweep.name)}\n{what} of each member", fontsize=10)
+                 title_in_words(sweep, sweep.name, f"{what} of each member"), fontsize=10)
     return save_figure(fig, path)
 
 
@@ -249,13 +268,14 @@ def _note(ax, text: str) -> None:
     ax.set_title(text, fontsize=8, loc="left", color="0.3")
 
 
-def _in_words(result, fallback: str) -> str:
-    """A figure's title: the case's description, wrapped, else ``fallback``."""
+def title_in_words(result, fallback: str = "", extra: str = "") -> str:
+    """A figure's title: the case's description (else ``fallback``), wrapped, and
+    ``extra`` on a line of its own."""
     import textwrap
 
     cfg = getattr(result, "config", None)
     text = (cfg["description"] if cfg is not None and cfg["description"] else "") or fallback
-    return "\n".join(textwrap.wrap(text, 95))
+    return "\n".join([*textwrap.wrap(text, 95), *([extra] if extra else [])])
 
 
 def _clip_outliers(ax, kept: list[np.ndarray], outliers: list[np.ndarray]) -> None:

@@ -17,7 +17,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from ..api.plotting import plot_gamma, plot_long_horizon, plot_run, plot_sweep, units
+from ..api.plotting import (
+    plot_gamma,
+    plot_long_horizon,
+    plot_run,
+    plot_sweep,
+    title_in_words,
+    units,
+)
 from ..api.result import Result, SweepResult
 from . import maps, report
 from .cases import resolve_case, run_case
@@ -55,6 +62,10 @@ def gain_axis(frame):
     else:
         frame[GAIN_AXIS] = frame.pop("controller.alpha")
     return frame
+
+
+#: a fidelity in words, for figure titles
+_AS = {"published": "as the published code computes it", "paper": "with the printed equations"}
 
 
 def long_horizon(fidelity: str) -> list[tuple[str, str, Result]]:
@@ -114,20 +125,21 @@ def reproduce(out: Path, fidelities: list[str],
             r = run_case(case, {"fidelity": fid})
             runs[fid][case] = r
             r.to_csv(folder / f"{case}.csv")
-            plot_run(r, folder / f"{case}.png", title=f"{case} ({fid})", with_gamma=False)
+            plot_run(r, folder / f"{case}.png", with_gamma=False,
+                     title=title_in_words(r, case, _AS[fid]))
             if case in VARIATIONAL:
                 plot_gamma(r, folder / f"{case}-gamma.png",
-                           title=f"{case} ({fid}): evolution of gamma")
+                           title=title_in_words(r, case, f"gain gamma over time, {_AS[fid]}"))
             tick(f"{fid}/{case}")
         for case in SWEEPS:
             s = run_case(case, {"fidelity": fid})
             runs[fid][case] = s
             s.to_csv(folder / f"{case}.csv")
             plot_sweep(s, "gamma", folder / f"{case}-gamma.png",
-                       title=f"{case} ({fid}): gamma for several {s.key.split('.')[-1]}")
+                       title=title_in_words(s, case, f"gain gamma of each member, {_AS[fid]}"))
             plot_sweep(s, "error", folder / f"{case}-error.png",
-                       title=f"{case} ({fid}): tracking error for several "
-                             f"{s.key.split('.')[-1]}")
+                       title=title_in_words(s, case, f"tracking error of each member, "
+                                                     f"{_AS[fid]}"))
             tick(f"{fid}/{case}")
         tables[fid] = {}
         for case in VARIATIONAL:
