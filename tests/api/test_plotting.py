@@ -57,3 +57,11 @@ def test_members_that_coincide_on_the_scale_are_drawn_once():
     labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert labels == ["eps_M = 1e-05, 0.1 (coincide)", "eps_M = 1000"]
     assert "curves that coincide on this scale are drawn once" in _texts(fig)
+
+
+def test_an_unstable_member_does_not_widen_what_counts_as_coinciding():
+    """Printed equations: Gamma = 5e-10 and 5e-9 end at 0.998 and 0.973, apart on the
+    stable members' axis; the unstable members' range (-194 .. 11) merged them."""
+    sw = mfcontrol.run_case("sweep-Gamma", {"fidelity": "paper"})
+    labels = [t.get_text() for t in sw.plot(kind="gamma").axes[0].get_legend().get_texts()]
+    assert labels[:2] == ["Gamma = 5e-10", "Gamma = 5e-09"]

@@ -207,7 +207,9 @@ def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None 
     # says so: within 0.1 % of the axis; on the log axis within 0.02 decades (a line's
     # width) wherever either is above 1e-4 of the largest value
     finite = [c[np.isfinite(c)] for c in map(curve, sweep.members)]
-    span = max((np.ptp(c) for c in finite if c.size), default=0.0)
+    # the stable members set the scale (an unstable one's range is clipped off the axis)
+    stable = [c for c, m in zip(finite, sweep.members, strict=True) if m.metrics["stable"]]
+    span = max((np.ptp(c) for c in (stable or finite) if c.size), default=0.0)
     top = max((np.abs(c).max() for c in finite if c.size), default=0.0)
 
     def same(a: np.ndarray, b: np.ndarray) -> bool:
