@@ -108,7 +108,7 @@ class _Controller:
         self.__dict__.update(state)
         self._bind()
 
-    # subclasses fill the parameter column, _bind their kernel, define _reset_state
+    # subclasses set _KERNEL, fill the parameter column, _bind(), define _reset_state
     def _reset_state(self) -> None:  # pragma: no cover
         raise NotImplementedError
 
@@ -163,7 +163,7 @@ class _Controller:
             raise ValueError(f"y = {y!r}: the measurement must be a number (NaN and inf are "
                              "counted in nan_count and hold the output)")
         if setpoint is not None:
-            self.setpoint = _number("setpoint", setpoint)
+            self.setpoint = setpoint  # the property checks it
         if not self.auto_mode:
             return False
         if not math.isfinite(y):
