@@ -236,6 +236,24 @@ def test_ctrl_c_under_dask_is_one_line(tmp_path):
     assert len(lines) == 1 and "resume" in lines[0]
 
 
+def test_local_dask_workers_log_only_critical_errors():
+    """The Ctrl-C test above failed in CI once: a worker's heartbeat met the closing
+    scheduler and its process logged a CommClosedError traceback, which LocalCluster's
+    silence_logs does not reach (it sets the parent's handlers and the nanny's logger)."""
+    pytest.importorskip("dask.distributed")
+    import logging
+
+    from mfcontrol.experiments.sweeps import _connect
+
+    client, cluster = _connect("local:1")
+    try:
+        levels = client.run(lambda: logging.getLogger("distributed.worker").getEffectiveLevel())
+    finally:
+        client.close()
+        cluster.close()
+    assert list(levels.values()) == [logging.CRITICAL]
+
+
 def test_kept_members_too_long_to_record_stop_the_sweep_before_it_runs(tmp_path, capsys):
     """Found in review: --keep recorded its members after the whole sweep had run, so a
     horizon too long to record was refused only then."""

@@ -18,6 +18,7 @@ refused.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import sys
@@ -204,32 +205,53 @@ def _dask_workers(address: str) -> int | None:
     return int(text)
 
 
-def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progress) -> int:
-    from dask.distributed import Client, LocalCluster, as_completed
+def _quiet_logs() -> None:
+    """Silence Dask's logs below CRITICAL in this process (run on each local worker)."""
+    for name in ("distributed", "tornado"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def _connect(address: str):
+    """A Dask client for ``--dask ADDRESS``, and the local cluster it made (or None)."""
+    from dask.distributed import Client, LocalCluster
 
     n = _dask_workers(address)
-    if n is not None:
-        # TLS with credentials made for this cluster and dropped with it: no other process
-        # can submit work to it
-        # A Ctrl-C in a terminal reaches the whole process group: the worker processes
-        # start with SIGINT ignored (an ignored signal stays ignored across their exec),
-        # so that only this process stops, closes the cluster and prints one line
-        main = threading.current_thread() is threading.main_thread()  # signal's rule
-        handler = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    if n is None:
         try:
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, security=True)
-        finally:
-            if main:
-                signal.signal(signal.SIGINT, handler)
-        client = Client(cluster)
-    else:
-        cluster = None
-        try:
-            client = Client(address, timeout="10s")
+            return Client(address, timeout="10s"), None
         except (OSError, ValueError, TimeoutError) as exc:
             raise ConfigError("--dask", address, f"no Dask scheduler answered there ({exc})"
                               ) from None
+    # TLS with credentials made for this cluster and dropped with it: no other process can
+    # submit work to it.
+    # A Ctrl-C in a terminal reaches the whole process group: the worker processes start
+    # with SIGINT ignored (an ignored signal stays ignored across their exec), so that only
+    # this process stops, closes the cluster and prints one line.
+    main = threading.current_thread() is threading.main_thread()  # signal's rule
+    handler = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, security=True,
+                               silence_logs=logging.CRITICAL)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, handler)
+    try:
+        client = Client(cluster)
+    except BaseException:
+        cluster.close()
+        raise
+    # a worker whose heartbeat met the scheduler closing (after a Ctrl-C) logged a
+    # CommClosedError traceback; silence_logs above reaches this process and the nannies,
+    # not the worker processes. A failed task still reaches fut.result() with its error.
+    client.run(_quiet_logs)
+    return client, cluster
+
+
+def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progress) -> int:
+    from dask.distributed import as_completed
+
+    client, cluster = _connect(address)
     try:
         futures = {client.submit(_chunk_frame, spec, i, pure=False): (i, a, b)
                    for i, a, b in todo}
