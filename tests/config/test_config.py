@@ -749,3 +749,13 @@ def test_numpy_scalars_and_arrays_are_taken_as_the_live_api_takes_them():
     assert all(type(t) is float for t in cfg["plant.change_times"])
     rejects({"plant.change_times": np.array([[0.004]])}, "plant.change_times")
     rejects({"plant.dR": np.bool_(True)}, "plant.dR")
+
+
+def test_axis_labels_name_options_in_words():
+    """Figures' axes say the quantity (issue 15: maps showed 'controller.Gamma (1)')."""
+    from mfcontrol.config import options
+
+    assert set(options.LABELS) <= set(options.BY_KEY)
+    assert all("." not in text.split("(")[0] for text in options.LABELS.values())
+    assert options.label("plant.dR") == "load change dR (ohm)"
+    assert options.label("sim.custom") == "sim.custom"

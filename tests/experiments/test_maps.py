@@ -111,10 +111,11 @@ def test_colour_bar_and_axis_labels():
     fig = maps.heatmap(frame(extra={"sim.custom": [7.0]}), "controller.alpha", "plant.dR",
                        "iae")
     ax, cax = fig.axes
-    assert ax.get_xlabel() == "controller.alpha (1)"
-    assert ax.get_ylabel() == "plant.dR (ohm)"
+    assert ax.get_xlabel() == "ultra-local model gain alpha"
+    assert ax.get_ylabel() == "load change dR (ohm)"
     assert cax.get_ylabel() == "IAE, the integral of |e| (output unit s)"  # no case known
-    assert maps.axis_label("controller.kp") == "controller.kp (1/s)"
+    assert maps.axis_label("plant.dR") == "load change dR (ohm)"
+    assert maps.axis_label("controller.Gamma") == "adaptation step Gamma"
     assert maps.axis_label("sim.custom") == "sim.custom"
 
 

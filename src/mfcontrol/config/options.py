@@ -214,6 +214,50 @@ OPTIONS: tuple[Option, ...] = (
 BY_KEY: dict[str, Option] = {o.key: o for o in OPTIONS}
 
 
+#: a swept option's quantity in words, with its unit where it has one of its own, for the
+#: axes of figures (maps, sweeps); gains whose unit depends on the plant have none
+LABELS: dict[str, str] = {
+    "plant.E": "input voltage E (V)",
+    "plant.L": "inductance L (H)",
+    "plant.R": "load resistance R (ohm)",
+    "plant.C": "capacitance C (F)",
+    "plant.dR": "load change dR (ohm)",
+    "plant.dC": "load change dC (F)",
+    "plant.a": "plant pole a (1/s)",
+    "plant.b": "plant input gain b",
+    "plant.J": "rotor inertia J (kg m$^2$)",
+    "plant.friction": "viscous friction (N m s)",
+    "plant.Km": "motor constant Km (N m/A)",
+    "plant.Ra": "armature resistance Ra (ohm)",
+    "plant.La": "armature inductance La (H)",
+    "plant.load": "load torque (N m)",
+    "plant.gain": "process gain, times nominal",
+    "plant.time_scale": "process time scale, times nominal",
+    "controller.alpha": "ultra-local model gain alpha",
+    "controller.kp": "proportional gain K_P",
+    "controller.ki": "integral gain K_I",
+    "controller.kd": "derivative gain K_D",
+    "controller.gamma0": "initial adaptive gain gamma0",
+    "controller.Gamma": "adaptation step Gamma",
+    "controller.eps_M": "adaptation level eps_M",
+    "controller.k_gamma": "rate-term coupling K_gamma",
+    "controller.window": "estimator window M (samples)",
+    "controller.k_aw": "anti-windup gain k_aw (1/s)",
+    "controller.N": "PID derivative filter N",
+    "controller.b": "PID setpoint weight b",
+    "controller.Tt": "PID tracking time Tt (s)",
+    "sensor.noise_std": "sensor noise, standard deviation (output unit)",
+    "sensor.delay": "measurement delay (samples)",
+    "actuator.delay": "actuator delay (samples)",
+    "disturbance.amplitude": "disturbance amplitude",
+}
+
+
+def label(key: str) -> str:
+    """A key's quantity in words for a figure's axis (:data:`LABELS`), else the key."""
+    return LABELS.get(key, key)
+
+
 def allowed(o: Option) -> str:
     if o.choices:
         return "must be one of " + ", ".join(o.choices)

@@ -28,6 +28,7 @@ from matplotlib.patches import Patch, Rectangle
 
 from ..api import metrics as _metrics
 from ..api.plotting import save_figure
+from ..config import options
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -38,16 +39,6 @@ METRICS = (*_metrics.COLUMNS, "member")
 #: Metrics that stay meaningful for a diverged member (the others stop accumulating at the
 #: divergence, so they are hidden for diverged members).
 _ABOUT_DIVERGENCE = frozenset({"diverged", "t_diverge", "n_samples", "stable", "member"})
-
-UNITS = {
-    "plant.dR": "ohm",
-    "plant.R": "ohm",
-    "controller.alpha": "1",
-    "controller.Gamma": "1",
-    "controller.eps_M": "1",
-    "controller.gamma0": "1",
-    "controller.kp": "1/s",
-}
 
 BAD_COLOR = "0.82"
 BOUNDARY_COLOR = "tab:red"
@@ -73,8 +64,9 @@ def load(folder: str | Path) -> pd.DataFrame:
 
 
 def axis_label(key: str) -> str:
-    """The key name, with its unit when known: ``plant.dR (ohm)``."""
-    return f"{key} ({UNITS[key]})" if key in UNITS else key
+    """A swept key's quantity in words with its unit: ``load change dR (ohm)`` (the key
+    itself when the options give it no words)."""
+    return options.label(key)
 
 
 def swept_keys(frame: pd.DataFrame) -> list[str]:
