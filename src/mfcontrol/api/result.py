@@ -201,7 +201,7 @@ class SweepResult(_Files):
 
 
     def plot(self, path: str | Path | None = None, kind: str = "gamma"):
-        """``kind='gamma'``: gamma(t) per member; ``kind='error'``: |y - y*| (log axis)."""
+        """``kind='gamma'``: gamma(t) per member; ``kind='error'``: ``|y - y*|`` (log axis)."""
         from .plotting import plot_sweep
 
         return plot_sweep(self, kind=kind, path=path)

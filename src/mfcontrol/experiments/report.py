@@ -57,6 +57,13 @@ DISAGREEMENTS = (
 )
 
 
+def disagreements_markdown() -> str:
+    """The table of paper/code disagreements with the option that reproduces each, as
+    Markdown (the report's section and the documentation's theory page)."""
+    lines = ["| what | paper (printed) | published code | option |", "|---|---|---|---|"]
+    return "\n".join(lines + [_md_row(row) for row in DISAGREEMENTS])
+
+
 def _row_values(r: Result) -> list:
     m = r.metrics
     return [m["iae"], m["ise"], m["itae"], m["max_abs_e"], m["tv_u"], m["final_gamma"],
@@ -427,8 +434,7 @@ def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None) -
     parts += ["", _stability_section(fidelities), "",
               "## The stability rule", "", STABILITY_RULE, "",
               "## Where the paper and its published code disagree", "",
-              "| what | paper (printed) | published code | option |", "|---|---|---|---|"]
-    parts += [_md_row(row) for row in DISAGREEMENTS]
+              disagreements_markdown()]
     parts += ["", "`fidelity = published` reproduces the published figures (the "
               "voltage-stable-standard trajectory matches the published data exactly); "
               "`fidelity = paper` runs the printed equations. Explicit keys override either "

@@ -1,0 +1,139 @@
+"""Sphinx configuration of the mfcontrol documentation.
+
+Built with ``pip install ".[docs]" && sphinx-build -W -b html docs docs/_build/html``.
+The build runs the example gallery (examples/*.py) and ``mfcontrol reproduce``, so the
+figures on the site are this checkout's; the API reference lists ``mfcontrol.__all__``.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import mfcontrol
+
+DOCS = Path(__file__).resolve().parent
+ROOT = DOCS.parent
+GENERATED = DOCS / "_generated"
+
+project = "mfcontrol"
+author = "the mfcontrol developers"
+copyright = "2026, the mfcontrol developers"  # noqa: A001 (Sphinx's name)
+release = mfcontrol.__version__
+version = release
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "sphinx.ext.intersphinx",
+    "numpydoc",
+    "myst_parser",
+    "sphinx_gallery.gen_gallery",
+]
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+exclude_patterns = ["_build", "_generated", "_templates", "reports/benchmark/**",
+                    "auto_examples/*.ipynb", "auto_examples/*.py", "auto_examples/*.zip",
+                    "auto_examples/*.json"]
+templates_path = ["_templates"]
+myst_enable_extensions = ["dollarmath"]
+myst_heading_anchors = 3
+# the guide's pages are the README's sections, which start at "##"
+suppress_warnings = ["myst.header"]
+
+# every page offline: MathJax is the one script a page would fetch; the theme ships the rest
+html_theme = "pydata_sphinx_theme"
+html_title = f"mfcontrol {release}"
+html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}
+html_static_path: list[str] = []
+
+autosummary_generate = True
+autodoc_default_options = {"members": True, "member-order": "bysource"}
+autodoc_typehints = "none"  # the signature line already shows them; numpydoc the rest
+numpydoc_show_class_members = False
+numpydoc_class_members_toctree = False
+intersphinx_mapping: dict[str, tuple[str, None]] = {}  # offline build: no inventories
+
+
+# --- the API reference: one autosummary table per defining module, from __all__ -------
+
+SECTIONS = {  # the order and the words of the reference's sections
+    ".api.controllers": "Live controllers",
+    ".api.plants": "Plants",
+    ".api.elements": "Loop elements: sensor, actuator, disturbance",
+    ".api.loop": "Simulating a loop",
+    ".api.sweep": "Sweeping a loop",
+    ".api.simulate": "Simulating a configuration",
+    ".api.result": "Results",
+    ".experiments.cases": "Built-in cases",
+    ".config.resolve": "Configuration",
+    ".experiments.tune": "Tuning",
+    ".experiments.compare": "Comparing controllers",
+    ".cexport": "C export",
+    ".errors": "Errors",
+}
+
+
+def _write_api_page() -> None:
+    exports = mfcontrol._EXPORTS
+    missing = set(exports) ^ set(SECTIONS)
+    if missing:
+        raise RuntimeError(f"docs/conf.py SECTIONS and mfcontrol._EXPORTS differ: {missing}")
+    lines = ["API reference", "=============", "",
+             "Every public name of ``mfcontrol`` (``mfcontrol.__all__``), by what it is for.",
+             "", ".. currentmodule:: mfcontrol", ""]
+    for module, title in SECTIONS.items():
+        lines += [title, "-" * len(title), "", ".. autosummary::", "   :toctree: generated",
+                  "   :nosignatures:", ""]
+        lines += [f"   {name}" for name in exports[module]]
+        lines.append("")
+    page = DOCS / "api.rst"
+    text = "\n".join(lines)
+    if not page.exists() or page.read_text() != text:
+        page.write_text(text)
+
+
+# --- the reproduction report, as `mfcontrol reproduce` writes it ------------------------
+
+def _write_reproduction() -> None:
+    out = GENERATED / "reproduction"
+    if (out / "report.md").exists() and not os.environ.get("MFCONTROL_DOCS_REFRESH"):
+        return
+    shutil.rmtree(out, ignore_errors=True)
+    subprocess.run([sys.executable, "-m", "mfcontrol.cli", "reproduce", "--out", str(out)],
+                   check=True, stdout=subprocess.DEVNULL)
+
+
+# --- the gallery: each example writes its figure where the scraper finds it -------------
+
+sys.path.insert(0, str(DOCS))
+
+sphinx_gallery_conf = {
+    "examples_dirs": str(ROOT / "examples"),
+    "gallery_dirs": "auto_examples",
+    "filename_pattern": r".*\.py",  # every example runs
+    "reset_argv": "gallery_hooks.example_argv",
+    "image_scrapers": ("gallery_hooks.figure_scraper",),
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "within_subsection_order": "FileNameSortKey",
+    "abort_on_example_error": True,
+    "show_memory": False,
+    "plot_gallery": "True",
+}
+
+
+def _write_disagreements() -> None:
+    from mfcontrol.experiments.report import disagreements_markdown
+
+    (GENERATED / "disagreements.md").write_text(disagreements_markdown() + "\n")
+
+
+def setup(app):
+    GENERATED.mkdir(exist_ok=True)
+    _write_api_page()
+    _write_disagreements()
+    _write_reproduction()
