@@ -65,3 +65,23 @@ def test_an_unstable_member_does_not_widen_what_counts_as_coinciding():
     sw = mfcontrol.run_case("sweep-Gamma", {"fidelity": "paper"})
     labels = [t.get_text() for t in sw.plot(kind="gamma").axes[0].get_legend().get_texts()]
     assert labels[:2] == ["Gamma = 5e-10", "Gamma = 5e-09"]
+
+
+def test_a_transient_too_small_to_see_gets_a_zoom_and_a_failure_does_not():
+    """The paper's figures zoom on the load change: the 0.17 V transient of the stable
+    variational run at 4 ms is under 3 % of a 7.5 V axis (issue 15)."""
+    from mfcontrol.api.plotting import plot_run
+
+    stable = mfcontrol.run_case("voltage-stable-variational")
+    (inset,) = plot_run(stable).axes[0].child_axes
+    lo, hi = inset.get_xlim()
+    assert lo < 4.0 < hi and hi - lo < 1.0  # ms, around the first load change
+    assert "load change at 4 ms" in inset.get_title()
+    # the legend moved out of the inset's corner
+    legend = plot_run(stable).axes[0].get_legend()
+    assert legend is not None and legend._loc != 0  # not "best", which ignores insets
+    failing = mfcontrol.run_case("voltage-unstable-standard")
+    assert not failing.metrics["stable"] and plot_run(failing).axes[0].child_axes == []
+    quiet = mfcontrol.run_case("voltage-stable-variational",
+                               overrides={"plant.change_times": [0.02]})
+    assert plot_run(quiet).axes[0].child_axes == []  # no event in the run

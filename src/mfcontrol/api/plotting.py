@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..config import options
+
 if TYPE_CHECKING:
     from .result import Result, SweepResult
 
@@ -61,16 +63,81 @@ def _time_scale(t: np.ndarray) -> tuple[float, str]:
     return (1e3, "time $t$ (ms)") if t.size and t[-1] < 1.0 else (1.0, "time $t$ (s)")
 
 
-def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
+def _event_times(result: Result) -> list[tuple[float, str]]:
+    """A case run's events inside its horizon: (time in s, what), in time order."""
     cfg = result.config
     times = (list(cfg["plant.change_times"]) if cfg["plant.model"] in ("buck", "boost")
              else [])
     times += [e["t"] for e in cfg["plant.schedule"]]
-    for tc in times:
-        if tc < cfg["sim.t_end"]:
-            _event(ax, tc * scale, "load change", "0.45")
+    events = [(tc, "load change") for tc in times if tc < cfg["sim.t_end"]]
     if cfg["disturbance.kind"] != "none" and cfg["disturbance.t0"] < cfg["sim.t_end"]:
-        _event(ax, cfg["disturbance.t0"] * scale, "disturbance", "tab:orange")
+        events.append((cfg["disturbance.t0"], "disturbance"))
+    return sorted(events)
+
+
+def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
+    for tc, what in _event_times(result):
+        _event(ax, tc * scale, what, "0.45" if what == "load change" else "tab:orange")
+
+
+#: a transient smaller than this fraction of the output panel's span gets a zoom
+ZOOM_BELOW = 0.04
+
+
+def _transient_zoom(ax, t, y, y_ref, events, scale: float):
+    """An inset magnifying the first event's transient when it is too small to see on the
+    panel (the paper's figures zoom on the load change): the window starts just before
+    the event and spans 6 % of the horizon. Placed in the panel's emptiest corner.
+    Returns the inset, or None when no event needs one."""
+    if not events or t.size < 10 or not np.all(np.isfinite(y)):
+        return None
+    tc = events[0][0] * scale
+    width = 0.06 * (t[-1] - t[0])
+    window = (t >= tc - 0.15 * width) & (t <= tc + width)
+    if window.sum() < 5:
+        return None
+    span = float(np.ptp(np.concatenate([y, y_ref])))
+    e = np.abs(y[window] - y_ref[window])
+    wiggle = float(np.ptp(y[window] - y_ref[window]))
+    if span == 0 or wiggle == 0 or e.max() >= ZOOM_BELOW * span:
+        return None
+    # the emptiest corner for the inset, the emptiest other one for the legend (whose
+    # "best" place ignores insets), counted on the plotted samples in axes fractions
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    fx = np.tile((t - x0) / (x1 - x0), 2)
+    fy = np.concatenate([(y - y0) / (y1 - y0), (y_ref - y0) / (y1 - y0)])
+
+    def crowd(box):
+        (a, b), (w, h) = box
+        return int(np.sum((fx > a - 0.03) & (fx < a + w + 0.03)
+                          & (fy > b - 0.05) & (fy < b + h + 0.05)))
+
+    size = (0.4, 0.4)
+    corners = {"lower right": (0.57, 0.07), "upper left": (0.07, 0.5),
+               "upper right": (0.57, 0.5), "lower left": (0.07, 0.07)}
+    place = min(corners, key=lambda k: crowd((corners[k], size)))
+    corner = corners[place]
+    legend_boxes = {"lower right": (0.7, 0.02), "upper left": (0.02, 0.76),
+                    "upper right": (0.7, 0.76), "lower left": (0.02, 0.02)}
+    others = [k for k in legend_boxes if k != place]
+    legend_at = min(others, key=lambda k: crowd((legend_boxes[k], (0.28, 0.22))))
+    if ax.get_legend() is not None:
+        ax.legend(loc=legend_at)
+    inset = ax.inset_axes([*corner, *size])
+    inset.plot(t[window], y[window], color="tab:red", lw=1.2)
+    inset.plot(t[window], y_ref[window], color="tab:blue", lw=1.0, ls="--")
+    lo = min(y[window].min(), y_ref[window].min())
+    hi = max(y[window].max(), y_ref[window].max())
+    pad = 0.15 * (hi - lo)
+    inset.set_xlim(t[window][0], t[window][-1])
+    inset.set_ylim(lo - pad, hi + pad)
+    inset.tick_params(labelsize=6)
+    inset.grid(True, alpha=0.3)
+    unit = "ms" if scale == 1e3 else "s"
+    inset.set_title(f"zoom: {events[0][1]} at {tc:g} {unit}", fontsize=7, pad=2)
+    ax.indicate_inset_zoom(inset, edgecolor="0.4")
+    return inset
 
 
 def _event(ax, x: float, text: str, color: str) -> None:
@@ -157,6 +224,9 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     for a in axes:
         a.grid(True, alpha=0.3)
         _mark_changes(a, result, scale)
+    if result.metrics.get("stable"):  # a failing loop's figure shows the failure
+        _transient_zoom(axes[0], t, result.signals["y"], result.signals["y_ref"],
+                        _event_times(result), scale)
     axes[-1].set_xlabel(time_label)
     if result.metrics.get("diverged"):
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
@@ -352,7 +422,7 @@ def convergence(point: np.ndarray, value: np.ndarray, params: dict[str, np.ndarr
             ax.plot(point[best_at] + 1, v[best_at], "*", color="tab:red", ms=11,
                     label=f"best: {v[best_at]:.4g}")
             ax.legend(loc="upper right", fontsize="small")
-        ax.set_ylabel(key)
+        ax.set_ylabel(options.label(key))
         if key in log:
             ax.set_yscale("log")
     axes[-1].set_xlabel("points evaluated")
@@ -433,11 +503,11 @@ def robustness_maps(maps: list[list[np.ndarray]], rows: list[str], columns: list
             ax.set_xticks(range(vx.size), [f"{v:.3g}" for v in vx], fontsize=7)
             ax.set_yticks(range(vy.size), [f"{v:.3g}" for v in vy], fontsize=7)
             ax.set_title(f"{name}: {columns[j]}", fontsize=9)
-            ax.set_xlabel(kx, fontsize=8)
+            ax.set_xlabel(options.label(kx), fontsize=8)
             if j == 0:
-                ax.set_ylabel(ky, fontsize=8)
+                ax.set_ylabel(options.label(ky), fontsize=8)
         if image is not None and norm is not None:
-            fig.colorbar(image, ax=list(grid[i]), label=f"{objective}\n(log scale)",
+            fig.colorbar(image, ax=list(grid[i]), label=f"objective {objective}\n(log scale)",
                          shrink=0.9)
     fig.suptitle(f"{title} (red x: diverged or unstable)")
     return save_figure(fig, path)
