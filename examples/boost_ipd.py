@@ -1,32 +1,35 @@
-"""Voltage tracking of an averaged boost converter with an i-PD (ultra-local model n = 2).
+"""
+A boost converter's voltage under an i-PD (ultra-local model of order 2)
+========================================================================
 
-The output voltage follows a smooth 20 V -> 30 V ramp, then rides out a load step
-R 10 -> 15 ohm.
+The output voltage of an averaged boost converter follows a smooth 20 V to 30 V ramp,
+then rides out a load step R 10 to 15 ohm.
 
-Why these gains. With the backward-difference estimate F_hat_k = v''_k - alpha d_{k-1} the
-i-PD is the incremental law alpha (d_k - d_{k-1}) = -(e'' + kd e' + kp e), i.e. a PID on
-e = v - v* with (Kd, Kp, Ki) = (1, kd, kp) / (alpha h). The converter from d to v is
-(E / LC) (1 - s/z) / (s^2 + s/(RC) + (1-D)^2/(LC)), with a right-half-plane zero at
-z = (1-D)^2 R / L = 4.4e3 rad/s at 30 V (D = 1/3). So:
+Why these gains. With the backward-difference estimate
+``F_hat_k = v''_k - alpha d_(k-1)`` the i-PD is the incremental law
+``alpha (d_k - d_(k-1)) = -(e'' + kd e' + kp e)``, i.e. a PID on ``e = v - v*`` with
+``(Kd, Kp, Ki) = (1, kd, kp) / (alpha h)``. The converter from d to v is
+``(E / LC) (1 - s/z) / (s^2 + s/(RC) + (1-D)^2/(LC))``, with a right-half-plane zero at
+``z = (1-D)^2 R / L`` = 4.4e3 rad/s at 30 V (D = 1/3). So:
 
-* kp = (1-D)^2 / (LC) and kd = 1 / (RC) at 30 V: the i-PD's zeros cancel the LC poles and
-  the loop gain is g (1 - s/z) / s with g = E / (L C alpha h).
-* alpha = E / (L C g h) = 1.3e11 puts the crossover at g = 1500 rad/s, a third of z: about
-  70 degrees of phase margin, and the gain g/z < 1 where v answers the wrong way. The
-  "physical" alpha E/(LC) = 2e9 gives g = 1/h >> z: bang-bang duty. Textbook gains
-  kp = w^2, kd = 2 w with w ~ 100 rad/s cross over at g w^2 LC/(1-D)^2 < 1 rad/s: a loop so
-  slow it looks like a steady offset.
-* Backward difference, no window: an algebraic window of M samples delays F_hat by M h/2,
-  slows the built-in integral action M/2 times (alpha must shrink by 2/M), and its Simpson
-  weight error 4/M^4 times alpha d leaves a steady offset.
-* h = 10 us: g h = 0.015, sampling costs about 1 degree; only alpha h matters.
+* ``kp = (1-D)^2 / (LC)`` and ``kd = 1 / (RC)`` at 30 V: the i-PD's zeros cancel the LC
+  poles and the loop gain is ``g (1 - s/z) / s`` with ``g = E / (L C alpha h)``.
+* ``alpha = E / (L C g h)`` = 1.3e11 puts the crossover at g = 1500 rad/s, a third of z:
+  about 70 degrees of phase margin, and the gain g/z < 1 where v answers the wrong
+  way. The "physical" ``alpha = E/(LC)`` = 2e9 gives ``g = 1/h``, far above z: bang-bang
+  duty. Textbook gains ``kp = w^2``, ``kd = 2 w`` with w ~ 100 rad/s cross over at
+  ``g w^2 LC/(1-D)^2`` < 1 rad/s: a loop so slow it looks like a steady offset.
+* Backward difference, no window: an algebraic window of M samples delays F_hat by
+  M h/2, slows the built-in integral action M/2 times (alpha must shrink by 2/M), and
+  its Simpson weight error ``4/M^4`` times ``alpha d`` leaves a steady offset.
+* h = 10 µs: g h = 0.015, sampling costs about 1 degree; only ``alpha h`` matters.
 
-F_hat carries d_{k-1}, so the loop integrates and no ki is needed. The load step rings the
-LC tank: v overshoots by about 9 V, as it does open loop with d frozen (8 V); a loop kept
-well below z cannot act faster.
+F_hat carries ``d_(k-1)``, so the loop integrates and no ki is needed. The load step
+rings the LC tank: v overshoots by about 9 V, as it does open loop with d frozen (8 V);
+a loop kept well below z cannot act faster.
 
-Run:  python examples/boost_ipd.py [figure.png]
-(default figure: results/examples/boost_ipd.png)
+Run: ``python examples/boost_ipd.py [figure.png]``
+(default figure: ``results/examples/boost_ipd.png``)
 """
 
 import math
@@ -61,9 +64,16 @@ def main(path: str | Path = Path("results", "examples", "boost_ipd.png")) -> mfc
     ctrl = mfcontrol.IPD(ALPHA, KP, KD, sample_time=H, output_limits=(0, 0.9))
     res = mfcontrol.simulate_loop(plant, ctrl, reference, t_end=T_END,
                                   changes=[mfcontrol.Change(T_LOAD, "R", 15.0)])
-    res.plot(path, title=f"boost converter, i-PD: alpha = {ALPHA:.3g}, kp = {KP:.3g}, "
-                         f"kd = {KD:.3g}, h = {H:g} s",
-             output_label="output voltage v (V)", input_label="duty cycle d (1)")
+    fig = res.plot(None, title=f"Boost converter's voltage under an i-PD (order 2)\n"
+                               f"alpha = {ALPHA:.3g} V/s², kp = {KP:.3g} 1/s², "
+                               f"kd = {KD:.3g} 1/s, h = {H:g} s",
+                   output_label="output voltage v (V)", input_label="duty cycle d (1)")
+    fig.axes[0].annotate("load step R 10 → 15 ohm", xy=(T_LOAD * 1e3, 0.97),
+                         xycoords=("data", "axes fraction"), xytext=(-4, 0),
+                         textcoords="offset points", ha="right", va="top", fontsize=8,
+                         color="0.3")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
     t, e = res.time, np.abs(res.error)
     print(f"boost i-PD: stable={res.metrics['stable']}, max |e| {e[t < T_LOAD].max():.2f} V on "
           f"the ramp, {e[(t > 30e-3) & (t < T_LOAD)].max():.1e} V before and "

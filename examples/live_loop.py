@@ -1,14 +1,17 @@
-"""An i-P controller called from your own sampling loop, as with simple-pid.
+"""
+An i-P in your own sampling loop, as with simple-pid
+====================================================
 
-A DC motor's speed w (rad/s) under voltage v: J w' = k i - b w - load, L i' = v - R i - k w,
-integrated here with small Euler sub-steps to stand for "the real world". Every 1 ms the
-loop reads the speed, calls the controller, and applies the voltage. On the way: the
-sensor drops out (NaN) for 5 ms (the controller holds its output and counts the events),
-and at t = 0.3 s the controller's state is saved and restored into a fresh controller,
-as after a restart, and control continues without a bump.
+A DC motor's speed w (rad/s) under voltage v: ``J w' = k i - b w - load``,
+``L i' = v - R i - k w``, integrated here with small Euler sub-steps to stand for "the
+real world". Every 1 ms the loop reads the speed, calls the controller, and applies the
+voltage. On the way: the sensor drops out (NaN) for 5 ms (the controller holds its
+output and counts the events), and at t = 0.3 s the controller's state is saved and
+restored into a fresh controller, as after a restart, and control continues without a
+bump.
 
-Run:  python examples/live_loop.py [figure.png]
-(default figure: results/examples/live_loop.png)
+Run: ``python examples/live_loop.py [figure.png]``
+(default figure: ``results/examples/live_loop.png``)
 """
 
 import json

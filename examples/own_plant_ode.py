@@ -1,14 +1,22 @@
-"""Your own plant as an ODE, under an intelligent proportional controller (i-P).
+"""
+Your own plant: a tank's level under an i-P
+===========================================
 
-A gravity-drained tank: level h (m), pump flow u (m^3/s) in, outflow through an orifice,
-    A dh/dt = u - a sqrt(2 g h).
-Nothing of this model is given to the controller: the i-P only assumes h' = F + alpha u
-and estimates F (outflow, and the unknown leak that opens at t = 60 s) at every sample.
-alpha = 1/A is the right order of magnitude ("h' and alpha u of the same size");
-kp = 0.2 1/s sets the error decay, e(t) ~ exp(-kp t).
+A gravity-drained tank: level h (m), pump flow u (m³/s) in, outflow through an
+orifice:
 
-Run:  python examples/own_plant_ode.py [figure.png]
-(default figure: results/examples/own_plant_ode.png)
+``A dh/dt = u - a sqrt(2 g h)``
+
+Nothing of this model is given to the controller: the i-P only assumes
+``h' = F + alpha u`` and estimates F (the outflow, and the unknown leak that opens at
+t = 60 s) at every sample. ``alpha = 1/A`` is the right order of magnitude ("h' and
+alpha u of the same size"); ``kp = 0.2`` 1/s sets the error decay,
+``e(t) ~ exp(-kp t)``. The model is an ``ODE`` plant of your own: numba compiles its
+right-hand side ``f(t, x, u, p)`` and its output ``g(x, p)``, and the loop runs in the
+compiled engine.
+
+Run: ``python examples/own_plant_ode.py [figure.png]``
+(default figure: ``results/examples/own_plant_ode.png``)
 """
 
 import sys
@@ -38,8 +46,15 @@ def main(path: str | Path = Path("results", "examples", "own_plant_ode.png")) ->
     setpoint = lambda t: 1.0 if t < 100 else 0.6  # noqa: E731
     res = mfcontrol.simulate_loop(plant, ctrl, setpoint, t_end=150.0,
                                   changes=[mfcontrol.Change(60.0, "leak", 0.005)])
-    res.plot(path, title="Tank level under i-P (leak opens at 60 s)",
-             output_label="level h (m)", input_label="pump flow u (m$^3$/s)")
+    fig = res.plot(None, title="Tank level under an i-P: a leak opens at 60 s",
+                   output_label="level h (m)", input_label="pump flow u (m$^3$/s)")
+    top = fig.axes[0]
+    for x, text in ((60.0, "leak opens"), (100.0, "setpoint 1 m → 0.6 m")):
+        top.annotate(text, xy=(x, 0.03), xycoords=("data", "axes fraction"), xytext=(-3, 0),
+                     textcoords="offset points", rotation=90, ha="right", va="bottom",
+                     fontsize=8, color="0.3")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
     m = res.metrics
     print(f"tank i-P: stable={m['stable']} IAE={m['iae']:.3f} m s, "
           f"final error={res.error[-1]:+.2e} m, wrote {path}")

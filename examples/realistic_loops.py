@@ -1,25 +1,29 @@
-"""Why the estimator of F matters: a DC motor's speed loop with a noisy sensor and a load
-step, under an i-PI with backward differences, the same i-PI with the algebraic
-estimator, and a PI (the discrete PID of Astrom and Hagglund), each also with 20 samples
-of actuator delay.
+"""
+Why the estimator of F matters: a DC motor with a noisy sensor
+==============================================================
 
-The three shipped cases (``mfcontrol cases``: motor-noise-ipi, motor-noise-ipi-algebraic,
-motor-noise-pid) share the motor (J = 5e-4 kg m^2, Km = 0.05 N m/A, Ra = 2 ohm,
-La = 2 mH), a smooth step of the speed to 60 rad/s, 0.5 rad/s of Gaussian sensor noise,
-a 0.05 N m load torque from 5 s, a 1 kHz controller and a +-24 V supply.
+A DC motor's speed loop with a noisy sensor and a load step, under an i-PI with
+backward differences, the same i-PI with the algebraic estimator, and a PI (the
+discrete PID of Astrom and Hagglund), each also with 20 samples of actuator delay.
 
-What it shows. The backward difference y'_k = (y_k - y_{k-1}) / h turns 0.5 rad/s of
-noise into some 700 rad/s^2 of noise on F_hat, and the i-P's F_hat / alpha term feeds it
-straight into u: u chatters from rail to rail (total variation about 136,000 V over 10 s,
-against about 2,800 V with the algebraic estimator and 1,100 V with the PI). The algebraic
-estimator integrates over a window of 40 samples instead of differentiating: it tracks
-best (IAE about 1, against 5 and 10) and rejects the load fastest. A delay of 20 samples
-(20 ms) in the actuator destabilises both intelligent controllers, whose loops act within
-a few samples, while the slower PI holds: the speed of a loop is bought with its delay
-margin.
+The three shipped cases (``mfcontrol cases``: ``motor-noise-ipi``,
+``motor-noise-ipi-algebraic``, ``motor-noise-pid``) share the motor (J = 5e-4 kg m²,
+Km = 0.05 N m/A, Ra = 2 ohm, La = 2 mH), a smooth step of the speed to 60 rad/s,
+0.5 rad/s of Gaussian sensor noise, a 0.05 N m load torque from 5 s, a 1 kHz
+controller and a ±24 V supply.
 
-Run:  python examples/realistic_loops.py [figure.png]
-(default figure: results/examples/realistic_loops.png)
+What it shows. The backward difference ``y'_k = (y_k - y_(k-1)) / h`` turns 0.5 rad/s
+of noise into some 700 rad/s² of noise on F_hat, and the i-P's ``F_hat / alpha`` term
+feeds it straight into u: u chatters from rail to rail (total variation about
+136,000 V over 10 s, against about 2,800 V with the algebraic estimator and 1,100 V with
+the PI). The algebraic estimator integrates over a window of 40 samples instead of
+differentiating: it tracks best (IAE about 1, against 5 and 10) and rejects the load
+fastest. A delay of 20 samples (20 ms) in the actuator destabilises both intelligent
+controllers, whose loops act within a few samples, while the slower PI holds: the speed
+of a loop is bought with its delay margin.
+
+Run: ``python examples/realistic_loops.py [figure.png]``
+(default figure: ``results/examples/realistic_loops.png``)
 """
 
 import sys
