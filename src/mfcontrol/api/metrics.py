@@ -90,7 +90,19 @@ def label(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") 
     """``metric`` in words with its unit, for an axis or a colour bar:
     ``label("max_abs_e", "V")`` is ``"largest |e| after the settling time (V)"``."""
     words, unit = LABELS.get(metric, (metric, ""))
-    unit = unit.format(y=y_unit, u=u_unit)
+
+    def power(u: str) -> str:  # a compound unit squared keeps its parentheses
+        return f"({u})" if ("/" in u or " " in u) else u
+
+    unit = (unit.replace("{y}^2", power(y_unit) + "^2").replace("{u}^2", power(u_unit) + "^2")
+            .format(y=y_unit, u=u_unit))
+    # a rate integrated over time: "rad/s s" is "rad", "rad/s s^2" is "rad s"
+    if unit.startswith("1^2 "):  # a dimensionless signal squared, over time
+        unit = unit[4:]
+    for per_s, times in (("/s s^2", " s"), ("/s s", "")):
+        if unit.endswith(per_s) and not unit.endswith(")" + per_s):
+            unit = unit[: -len(per_s)] + times
+            break
     return f"{words} ({unit})" if unit else words
 
 

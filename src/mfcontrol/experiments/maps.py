@@ -212,6 +212,13 @@ def _norm(grids: list[_Grid], log_color: bool | None) -> Normalize:
     """One colour scale for all grids: logarithmic for positive values spanning more than
     two decades (or when ``log_color``), linear otherwise."""
     finite = np.concatenate([g.z[np.isfinite(g.z)] for g in grids])
+    # the stable members set the scale when there are any: an unstable member that did not
+    # diverge (IAE 1e7) flattened every stable cell to one colour; it is hatched, and drawn
+    # in the scale's end colour
+    stable = np.concatenate([g.z[np.isfinite(g.z) & (g.stable == 1.0)] for g in grids
+                             if g.stable is not None] or [np.empty(0)])
+    if stable.size:
+        finite = stable
     if finite.size == 0:
         return Normalize(0.0, 1.0)
     lo, hi = float(finite.min()), float(finite.max())
@@ -228,6 +235,19 @@ def _norm(grids: list[_Grid], log_color: bool | None) -> Normalize:
         pad = 0.5 * abs(lo) if lo != 0 else 0.5
         return Normalize(lo - pad, hi + pad)
     return Normalize(lo, hi)
+
+
+def _extend(grids: list[_Grid], norm: Normalize) -> str:
+    """The colour bar's arrows for members beyond the scale (unstable ones, see _norm)."""
+    z = np.concatenate([g.z[np.isfinite(g.z)] for g in grids])
+    above, below = bool((z > norm.vmax).any()), bool((z < norm.vmin).any())
+    return {(True, True): "both", (True, False): "max", (False, True): "min"}.get(
+        (above, below), "neither")
+
+
+def _quantity(key: str) -> str:
+    """A swept key's quantity in words, without its unit (for a title)."""
+    return options.label(key).split(" (")[0]
 
 
 def _hatch_unstable(ax, grid: _Grid) -> None:
@@ -344,7 +364,8 @@ def heatmap(frame: pd.DataFrame, x: str, y: str, metric: str, *, ax=None,
     else:
         fig = ax.get_figure()
     mesh = _draw(ax, grid, norm, title)
-    fig.colorbar(mesh, ax=ax, label=_metrics.label(metric, *(units or _units(frame))))
+    fig.colorbar(mesh, ax=ax, label=_metrics.label(metric, *(units or _units(frame))),
+                 extend=_extend([grid], norm))
     return fig
 
 
@@ -414,8 +435,9 @@ def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x:
     for ax in axes[1:]:
         ax.set_ylabel("")
     fig.colorbar(mesh, ax=list(axes), label=_metrics.label(
-        metric, *(units or _units(frames_and_titles[0][0]))))
-    head = f"{_metrics.LABELS.get(metric, (metric,))[0]} over {x} and {y}"
+        metric, *(units or _units(frames_and_titles[0][0]))), extend=_extend(grids, norm))
+    head = (f"{_metrics.LABELS.get(metric, (metric,))[0]} over {_quantity(x)} and "
+            f"{_quantity(y)}")
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in (where or {}).items())
     fig.suptitle(head + (f" ({fixed})" if fixed else ""))
     path = Path(path)
