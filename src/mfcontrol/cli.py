@@ -14,6 +14,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from ._version import __version__
 from .config.toml import parse_assignment
@@ -77,9 +78,9 @@ def _cmd_run(args) -> int:
     if isinstance(result, SweepResult):
         result.plot(out / "figure.png", kind="error")
         result.plot(out / "figure-gamma.png", kind="gamma")
-        for v, m in zip(result.values, result.members, strict=True):
-            print(f"{result.key} = {v:g}: stable = {m.metrics['stable']}, "
-                  f"IAE = {m.metrics['iae']:.4g}")
+        for v, member in zip(result.values, result.members, strict=True):
+            print(f"{result.key} = {v:g}: stable = {member.metrics['stable']}, "
+                  f"IAE = {member.metrics['iae']:.4g}")
     else:
         result.plot(out / "figure.png")
         m = result.metrics
@@ -250,8 +251,9 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("cases", help="list the built-in cases")
     s.set_defaults(func=_cmd_cases)
 
-    setting = {"action": "append", "metavar": "KEY=VALUE",
-               "help": "set a configuration key (repeatable), e.g. controller.alpha=5"}
+    setting: dict[str, Any] = {
+        "action": "append", "metavar": "KEY=VALUE",
+        "help": "set a configuration key (repeatable), e.g. controller.alpha=5"}
     s = sub.add_parser("show", help="print a case's fully resolved configuration as TOML")
     s.add_argument("case", help="built-in case name or path of a .toml file")
     s.add_argument("--set", **setting)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -79,7 +79,7 @@ def check_member_key(key: str, flag: str = "--grid") -> None:
                           "set it with --set")
 
 
-def parse_grid(items: list[str] | Mapping[str, str | Any],
+def parse_grid(items: Sequence[str] | Mapping[str, Any],
                flag: str = "--grid") -> dict[str, np.ndarray]:
     """``["KEY=SPEC", ...]`` (or a mapping of keys to specs or to lists of values) to
     axes; each key once, each one :func:`check_member_key` allows (``flag`` names the

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import inspect
 import math
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, Literal, Self, cast, overload
 
 import numpy as np
 
@@ -33,6 +33,12 @@ _INF = math.inf
 _REAL = (int, float, np.integer, np.floating)
 
 
+@overload
+def _number(name: str, value: Any, *, positive: bool = ..., nonneg: bool = ...,
+            allow_none: Literal[False] = ...) -> float: ...
+@overload
+def _number(name: str, value: Any, *, positive: bool = ..., nonneg: bool = ...,
+            allow_none: bool) -> float | None: ...
 def _number(name: str, value: Any, *, positive: bool = False, nonneg: bool = False,
             allow_none: bool = False) -> float | None:
     if value is None and allow_none:
@@ -86,6 +92,9 @@ class _Controller:
     #: the compiled step in :mod:`mfcontrol.engine.live` and how many floats follow its
     #: three arrays
     _KERNEL: tuple[str, int]
+
+    #: restart the law from an output applied in manual (set_auto_mode): subclasses define it
+    _bumpless_start: Callable[[float], None]
 
     def _bind(self) -> None:
         """Bind the compiled step to this controller's arrays as ``self._step``. It is called
@@ -237,7 +246,7 @@ class _Controller:
         pass
 
     @classmethod
-    def from_snapshot(cls, snap: dict[str, Any]):
+    def from_snapshot(cls, snap: dict[str, Any]) -> Self:
         ctrl = cls(**snap["params"])
         ctrl.restore(snap)
         return ctrl
@@ -354,7 +363,7 @@ class IntelligentController(_Sampled):
                 raise ValueError(f"window = {window!r}: must be even for order 2 (Simpson)")
         elif window is not None:
             raise ValueError(f"window = {window!r}: only the algebraic estimator has one")
-        params = {
+        params: dict[str, Any] = {
             "alpha": alpha, "kp": _number("kp", kp), "ki": _number("ki", ki),
             "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
                                                             positive=True),
@@ -369,7 +378,8 @@ class IntelligentController(_Sampled):
             "integrator": integrator, "setpoint": _number("setpoint", setpoint),
             "starting_output": _number("starting_output", starting_output),
         }
-        m = window if estimator == "algebraic" else 0
+        # (the algebraic estimator's window is a whole number: checked above)
+        m = window if estimator == "algebraic" and window is not None else 0
         super().__init__(params, intelligent.N_PARAMS, intelligent.n_state(m))
         cp = self._CP[:, 0]
         cp[gain_law.MODE] = gain_law.MODES[gain]
@@ -466,7 +476,7 @@ class IP(IntelligentController):
     [0.0, 5.0, 5.0]
     """
 
-    _drop = ("ki", "kd")
+    _drop: tuple[str, ...] = ("ki", "kd")
 
     def __init__(self, alpha: float, kp: float, **options: Any):
         super().__init__(alpha, kp, 0.0, 0.0, **options)
@@ -548,7 +558,7 @@ class IPID(IP):
         IntelligentController.__init__(self, alpha, kp, ki, kd, order=order, **options)
 
 
-def _show_options(cls: type) -> None:
+def _show_options(cls: type[IntelligentController]) -> None:
     """Give an i-P .. i-PID class its full signature and the options' documentation, which
     live once, on IntelligentController: ``help(mfcontrol.IP)`` showed ``IP(alpha, kp,
     **options)`` and no option."""
@@ -557,7 +567,8 @@ def _show_options(cls: type) -> None:
     taken = {p.name for p in shown}
     shown += [p for name, p in inspect.signature(IntelligentController.__init__, eval_str=True)
               .parameters.items() if p.kind is p.KEYWORD_ONLY and name not in taken]
-    cls.__signature__ = inspect.Signature(shown)
+    # inspect.signature reads a class's __signature__, which typeshed does not declare
+    cast(Any, cls).__signature__ = inspect.Signature(shown)
     parent = inspect.cleandoc(IntelligentController.__doc__ or "")
     options = parent[parent.index("Parameters\n"):parent.index("Examples\n")].rstrip()
     doc = inspect.cleandoc(cls.__doc__ or "")
@@ -619,7 +630,7 @@ class RecursiveIP(_Controller):
                   **{name: cfg[f"controller.{name}"] for name in controller_keys}}
         if sample_time is not None:
             params["sample_time"] = _number("sample_time", sample_time, positive=True)
-        self.sample_time = params.get("sample_time")
+        self.sample_time: float | None = params.get("sample_time")
         super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
         self._CP[:, 0] = recursive_law_column(cfg, self.sample_time)[:, 0]
         self._u0 = float(self._CP[recursive_ip.U0, 0])  # the start as built
@@ -631,7 +642,7 @@ class RecursiveIP(_Controller):
         self._CP[recursive_ip.U0, 0] = self._u0
         live.recursive_reset(self._CP, self._CS)
         self._last_output = 0.0
-        self._components = (math.nan, math.nan, math.nan)  # u_raw, gain, gamma
+        self._components: tuple[float, ...] = (math.nan, math.nan, math.nan)  # u_raw, gain, gamma
 
     def _bumpless_start(self, start: float) -> None:
         # continue from the raw control that produced the manual output
@@ -716,11 +727,12 @@ class PID(_Sampled):
         from ..errors import ConfigError
 
         lo, hi = _limits(output_limits)
-        params = {"kp": _number("kp", kp), "ki": _number("ki", ki), "kd": _number("kd", kd),
-                  "sample_time": _number("sample_time", sample_time, positive=True),
-                  "N": _number("N", N, positive=True), "b": _number("b", b),
-                  "Tt": _number("Tt", Tt, positive=True, allow_none=True),
-                  "output_limits": [lo, hi], "setpoint": _number("setpoint", setpoint)}
+        params: dict[str, Any] = {
+            "kp": _number("kp", kp), "ki": _number("ki", ki), "kd": _number("kd", kd),
+            "sample_time": _number("sample_time", sample_time, positive=True),
+            "N": _number("N", N, positive=True), "b": _number("b", b),
+            "Tt": _number("Tt", Tt, positive=True, allow_none=True),
+            "output_limits": [lo, hi], "setpoint": _number("setpoint", setpoint)}
         try:
             _check_pid(params["kp"], params["ki"], params["kd"], params["Tt"])
         except ConfigError as exc:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import html
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -58,7 +58,7 @@ def metric_ranges(table: Mapping[str, Any]) -> str:
     return ", ".join(parts)
 
 
-def names(items: Sequence[str], at_most: int = 12) -> str:
+def names(items: Iterable[str], at_most: int = 12) -> str:
     """A list of names, shortened past ``at_most``."""
     items = list(items)
     more = len(items) - at_most

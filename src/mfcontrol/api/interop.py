@@ -42,6 +42,7 @@ def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
 
     CP = controller._CP
     inputs = ["y", "r"]
+    h: float | None
     if isinstance(controller, IntelligentController):
         h = controller.sample_time if dt is None else float(dt)
         if controller._external:  # alpha is an input, as it is an argument of each call

@@ -109,6 +109,11 @@ class LawArrays:
     rows: tuple[int, ...]
 
 
+#: a reference step (t0, from, to) as the step metrics measure it: the same for every
+#: member, or each of the three an array over the members
+ReferenceStep = tuple[float, float, float] | tuple[np.ndarray, ...]
+
+
 def law_arrays(controller) -> LawArrays | None:
     """The engine's view of ``controller``; None when only the Python driver can run it
     (not a library controller, or in manual mode)."""
@@ -117,11 +122,13 @@ def law_arrays(controller) -> LawArrays | None:
     if not getattr(controller, "auto_mode", False):
         return None
     if isinstance(controller, PID):
-        names, rows = zip(*pid.COMPONENTS, strict=True)
+        names = tuple(name for name, _ in pid.COMPONENTS)
+        rows = tuple(row for _, row in pid.COMPONENTS)
         return LawArrays(compose.PID, controller._CP.copy(), controller._CS.copy(),
                          controller.sample_time, names, rows)
     if isinstance(controller, IntelligentController):
-        names, rows = zip(*intelligent.COMPONENTS, strict=True)
+        names = tuple(name for name, _ in intelligent.COMPONENTS)
+        rows = tuple(row for _, row in intelligent.COMPONENTS)
         return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
                          controller.sample_time, names, rows)
     if isinstance(controller, RecursiveIP):
@@ -211,7 +218,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 changes_per_member: Sequence[Sequence[Change]], *, t_end: float, h: float,
                 S: np.ndarray, fast: bool = False, record: bool = False,
                 RP: np.ndarray | None = None, AL: np.ndarray | None = None,
-                LP: np.ndarray | None = None, step: tuple[float, float, float] | None = None,
+                LP: np.ndarray | None = None, step: ReferenceStep | None = None,
                 vectorise: bool | None = None, t_end_key: str = "t_end"):
     """Members (engine plants and law arrays of one family) through the compiled engine.
 
@@ -266,7 +273,8 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     return M, traj, CS
 
 
-def step_metrics_of(RP: np.ndarray, step=None) -> tuple:
+def step_metrics_of(RP: np.ndarray, step: ReferenceStep | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t0, from, to) of every member's reference step, as the step metrics take them:
     a smooth-step reference's, else ``step`` (the same for all), else none (to = NaN)."""
     smooth = RP[reference.KIND] == reference.SMOOTH_STEP

@@ -33,6 +33,7 @@ _MODELS = {
 
 
 def _labels(result: Result) -> tuple[str, str, str]:
+    assert result.config is not None  # a case run's figure: it has a configuration
     model = result.config["plant.model"]
     if model in _MODELS:
         return _MODELS[model][0]
@@ -50,6 +51,7 @@ def units(cfg) -> tuple[str, str]:
 
 
 def _input_label(result: Result) -> str:
+    assert result.config is not None  # a case run's figure: it has a configuration
     model = result.config["plant.model"]
     return _MODELS[model][1] if model in _MODELS else "duty cycle $d$ (1)"
 
@@ -66,6 +68,7 @@ def _time_scale(t: np.ndarray) -> tuple[float, str]:
 def _event_times(result: Result) -> list[tuple[float, str]]:
     """A case run's events inside its horizon: (time in s, what), in time order."""
     cfg = result.config
+    assert cfg is not None  # a case run's figure: it has a configuration
     times = (list(cfg["plant.change_times"]) if cfg["plant.model"] in ("buck", "boost")
              else [])
     times += [e["t"] for e in cfg["plant.schedule"]]
@@ -208,6 +211,7 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
              with_gamma: bool | None = None) -> Figure:
     """Output and reference (top), duty cycle (middle/bottom), gamma (bottom, optional)."""
     if with_gamma is None:
+        assert result.config is not None  # a case run's figure: it has a configuration
         with_gamma = result.config["controller.law"] == "variational"
     n = 3 if with_gamma else 2
     fig = Figure(figsize=(8, 2.6 * n + 0.6), layout="constrained")

@@ -6,13 +6,17 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._version import __version__
 from ..config.resolve import Config
 from . import display
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
 
 #: the signals every run records, in file order (a law's components may follow)
 SIGNALS = ("y_ref", "y", "y_meas", "u", "u_plant", "u_raw", "gamma", "gain")
@@ -24,7 +28,7 @@ class _Files(display.Shown):
     name: str
     version: str
 
-    def to_pandas(self):  # pragma: no cover - every result type defines it
+    def to_pandas(self) -> pd.DataFrame:  # pragma: no cover - every result type defines it
         raise NotImplementedError
 
     def _metrics_payload(self) -> dict[str, Any]:  # pragma: no cover
@@ -55,7 +59,7 @@ class _Trajectory(_Files):
         """Tracking error y - y*."""
         return self.signals["y"] - self.signals["y_ref"]
 
-    def to_pandas(self):
+    def to_pandas(self) -> pd.DataFrame:
         """Trajectory as a DataFrame: t, then the signals, then the plant states."""
         import pandas as pd
 
@@ -139,7 +143,7 @@ class Result(_Trajectory):
 
 
     def plot(self, path: str | Path | None = None, title: str | None = None,
-             output_label: str | None = None, input_label: str | None = None):
+             output_label: str | None = None, input_label: str | None = None) -> Figure:
         """A case run: the paper's panels (output and reference, duty cycle, and gamma for
         adaptive laws). A loop built from objects, or labels given: output and reference
         on top, control below; labels should carry units (``"speed (rad/s)"``).
@@ -170,7 +174,7 @@ class SweepResult(_Files):
     def metrics(self) -> list[dict[str, Any]]:
         return [{self.key: v, **m.metrics} for v, m in zip(self.values, self.members, strict=True)]
 
-    def to_pandas(self):
+    def to_pandas(self) -> pd.DataFrame:
         """All members' trajectories, long format, with a column naming the swept value."""
         import pandas as pd
 
@@ -200,7 +204,7 @@ class SweepResult(_Files):
                 f"stable\n {rows['metric ranges']}>")
 
 
-    def plot(self, path: str | Path | None = None, kind: str = "gamma"):
+    def plot(self, path: str | Path | None = None, kind: str = "gamma") -> Figure:
         """``kind='gamma'``: gamma(t) per member; ``kind='error'``: ``|y - y*|`` (log axis)."""
         from .plotting import plot_sweep
 

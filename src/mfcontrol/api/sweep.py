@@ -9,7 +9,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,9 @@ from .loop import (
 )
 from .result import Result
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 
 @dataclass
 class LoopSweepResult(display.Shown):
@@ -54,7 +57,7 @@ class LoopSweepResult(display.Shown):
     def n_members(self) -> int:
         return int(self.table["member"].size)
 
-    def to_pandas(self):
+    def to_pandas(self) -> pd.DataFrame:
         """One row per member: ``member``, the swept values, the metrics."""
         import pandas as pd
 
@@ -261,7 +264,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     engines: dict[tuple, Any] = {}
     steps: dict[tuple, Any] = {}
     laws: dict[tuple, Any] = {}
-    columns: dict[tuple, np.ndarray] = {}
+    columns: dict[tuple, tuple[np.ndarray, tuple]] = {}
     plants, member_laws, member_steps, member_lp = [], [], [], []
     members_elements = []
     with restored(plant):  # each member's values set in turn, the plant left as given
@@ -285,8 +288,9 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
             ekey = tuple(values[k] for k in element_keys)
             if ekey not in columns:
                 elements = _member_elements(given, element_keys, values)
+                m_sensor, m_actuator, m_disturbance = elements
                 columns[ekey] = (base_lp if not element_keys else _elements(
-                    *elements, substeps, n=t.size), elements)
+                    m_sensor, m_actuator, m_disturbance, substeps, n=t.size), elements)
             member_lp.append(columns[ekey][0])
             members_elements.append(columns[ekey][1])
     step = (None if member_steps[0] is None

@@ -30,6 +30,7 @@ import re
 import textwrap
 import types
 from dataclasses import dataclass, field
+from typing import Literal, NoReturn, cast, overload
 
 import numpy as np
 
@@ -178,7 +179,8 @@ class _FunctionTranslator:
         self.py = py
         self.globals = py.__globals__
         source = textwrap.dedent(inspect.getsource(py))
-        self.node = ast.parse(source).body[0]
+        # the source of a function is its definition
+        self.node = cast(ast.FunctionDef, ast.parse(source).body[0])
         self.line0 = py.__code__.co_firstlineno - 1
         args = [a.arg for a in self.node.args.args]
         if len(args) != len(kinds):
@@ -191,7 +193,7 @@ class _FunctionTranslator:
         self.tmp = 0
 
     # -- errors -------------------------------------------------------------------------
-    def fail(self, node, what: str):
+    def fail(self, node, what: str) -> NoReturn:
         line = self.line0 + getattr(node, "lineno", 1)
         raise TranslationError(f"{self.py.__module__}.{self.py.__name__} (line {line}): "
                                f"{what}")
@@ -291,7 +293,10 @@ class _FunctionTranslator:
             if not isinstance(s.value, ast.Call):
                 self.fail(s, "an expression statement that is not a call")
             code = self.call(s.value, statement=True)
-            self.emit(depth, code + ";")
+            # a builtin called as a statement (`abs(x)` alone) gives a pair here and this
+            # raises TypeError, not TranslationError: left as it is (typing changes no
+            # behaviour), reported to be fixed on its own
+            self.emit(depth, code + ";")  # type: ignore[operator]
         elif isinstance(s, ast.Pass):
             pass
         elif isinstance(s, ast.Break | ast.Continue):
@@ -305,13 +310,13 @@ class _FunctionTranslator:
             if isinstance(value, ast.Tuple):
                 if len(value.elts) != len(names):
                     self.fail(s, "tuple assignment of unequal lengths")
-                temps = []
+                held = []
                 for v in value.elts:  # Python evaluates the whole right side first
                     code, kind = self.expr(v)
                     t = self.temp(kind)
                     self.emit(depth, f"{t} = {code};")
-                    temps.append((t, kind))
-                for tgt, (t, kind) in zip(names, temps, strict=True):
+                    held.append((t, kind))
+                for tgt, (t, kind) in zip(names, held, strict=True):
                     self.store(tgt, t, kind, depth, s)
                 return
             if isinstance(value, ast.Call):
@@ -495,12 +500,12 @@ class _FunctionTranslator:
                 left = right
             return ("(" + " && ".join(parts) + ")" if len(parts) > 1 else parts[0]), BOOL
         if isinstance(node, ast.BoolOp):
-            op = " && " if isinstance(node.op, ast.And) else " || "
-            parts = [self.expr(v) for v in node.values]
-            if any(k != BOOL for _, k in parts):
+            joiner = " && " if isinstance(node.op, ast.And) else " || "
+            operands = [self.expr(v) for v in node.values]
+            if any(k != BOOL for _, k in operands):
                 # Python's `a or b` is a or b itself, C's is 0 or 1
                 self.fail(node, "`and`/`or` of values that are not comparisons")
-            return "(" + op.join(c for c, _ in parts) + ")", BOOL
+            return "(" + joiner.join(c for c, _ in operands) + ")", BOOL
         if isinstance(node, ast.IfExp):
             c = self.expr(node.test)[0]
             a, ka = self.expr(node.body)
@@ -574,6 +579,12 @@ class _FunctionTranslator:
                 codes.append(code)
         return self.tr.function(fn, tuple(kinds)), codes
 
+    # the C of a call and its kind; a statement's is its code alone, except a builtin's,
+    # which is the pair all the same
+    @overload
+    def call(self, node, statement: Literal[False] = ...) -> tuple[str, str]: ...
+    @overload
+    def call(self, node, statement: bool) -> tuple[str, str] | str: ...
     def call(self, node, statement: bool = False) -> tuple[str, str] | str:
         fn = self.resolve(node.func)
         builtin = self._builtin(node, fn)

@@ -116,7 +116,9 @@ def unknown_key(key: str, value: Any) -> ConfigError:
 class Config(Mapping[str, Any]):
     """A resolved, validated configuration (read-only mapping of dotted keys)."""
 
-    values: Mapping[str, Any]
+    # the field shadows Mapping.values() (config.values is this mapping, not a method):
+    # renaming it would change the public attribute, so the override is declared
+    values: Mapping[str, Any]  # type: ignore[assignment]
 
     def __getitem__(self, key: str) -> Any:
         return self.values[key]
@@ -195,7 +197,7 @@ def keys_read(translate, cfg: Config, *args: Any) -> set[str]:
 class _Reads(dict):
     """A configuration that notes which keys are read."""
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.read: set[str] = set()
 

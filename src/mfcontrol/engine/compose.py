@@ -37,6 +37,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from numba import carray, njit, types
@@ -297,7 +298,7 @@ def member_kernel(fast: bool = False):
 
 def _dispatcher(make, fast: bool):
     """The loop ``make(fast)`` as a dispatcher cached on disk, not compiled yet."""
-    options = dict(error_model="numpy", cache=True, nogil=True)
+    options: dict[str, Any] = dict(error_model="numpy", cache=True, nogil=True)
     if fast:
         options["fastmath"] = set(_jit.FAST_FLAGS)
     return njit(**options)(make(bool(fast)))
@@ -739,7 +740,8 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     if vectorise:
         return "block" if has_block else "lanes"
     work = n_members * n_steps
-    if (n_members < LANES // 4 or numba_config.USING_SVML
+    # numba's config sets its names through globals(): its type stubs do not have them
+    if (n_members < LANES // 4 or numba_config.USING_SVML  # type: ignore[attr-defined]
             or not (work >= BLOCK_WORTH_COLD or _block_kernel_ready())):
         return "member"
     if has_block and (work >= BLOCK_WORTH or block.cheap):
@@ -833,19 +835,19 @@ def block_bounds(m: int, n_threads: int) -> np.ndarray:
 def _check_block(block, X, P, CP, CS, M, law_kind) -> None:
     """The block functions (or None) and the vectorised loop's buffer lay out what these
     arrays hold: a mismatch would read and write past the buffer, so it is an error."""
-    if block is None:
-        block = blocks.Block(None, None, X.shape[1], P.shape[1])
+    # without block functions, the plant's sizes are the arrays' own
+    n_x, n_p = (X.shape[1], P.shape[1]) if block is None else (block.n_x, block.n_p)
     if law_kind == INTELLIGENT:
         n_cp = intelligent.N_PARAMS
         windows = CP[intelligent.M_WIN][CP[intelligent.EST] == intelligent.ALGEBRAIC]
         law_rows = intelligent.n_state(int(windows.max()) if windows.size else 0)
     else:
         n_cp, law_rows = recursive_ip.N_PARAMS, recursive_ip.N_STATE
-    if (X.shape[1], P.shape[1]) != (block.n_x, block.n_p) or CP.shape[0] != n_cp \
+    if (X.shape[1], P.shape[1]) != (n_x, n_p) or CP.shape[0] != n_cp \
             or M.shape[0] != engine_metrics.N_METRICS or CS.shape[0] < law_rows:
         raise ValueError(
             f"the vectorised loop got {X.shape[1]} states, {P.shape[1]} parameters, "
             f"{CP.shape[0]} law parameters, {CS.shape[0]} law state rows and "
-            f"{M.shape[0]} metric rows; its plant has {block.n_x} states and {block.n_p} "
+            f"{M.shape[0]} metric rows; its plant has {n_x} states and {n_p} "
             f"parameters, its law {n_cp} parameters and at least {law_rows} "
             f"state rows, and there are {engine_metrics.N_METRICS} metrics")

@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
+from typing import Any
 
 import numba
 import numpy as np
@@ -190,7 +191,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     CONSTANT_GAIN = (not VARY[P_CP + variational_gain.MODE]
                      and K[P_CP + variational_gain.MODE] == variational_gain.CONSTANT)
     flags = set(FAST_FLAGS) if fast else False
-    options = dict(error_model="numpy", fastmath=flags)
+    options: dict[str, Any] = dict(error_model="numpy", fastmath=flags)
 
     # member j's arguments of buck.rk4 / rk4_map after the state, of buck.measure, and
     # of recursive_ip.advance after its state

@@ -166,7 +166,7 @@ def _inputs(plant: _Plant, name: str, budget: int, seed: int) -> dict[str, Any]:
 
 def _tuned(plant: _Plant, name: str, law: str, budget: int, seed: int, out: Path,
            progress: Callable[[float, str], None] | None,
-           at: tuple[int, int]) -> tuple[Config, dict, int, float]:
+           at: tuple[int, int]) -> tuple[Config | None, dict, int, float]:
     """Tune one controller (or take a finished tuning with the same inputs from
     ``out``): its best configuration, values, points evaluated and seconds."""
     from .tune import tune
@@ -417,14 +417,14 @@ def _findings(entries: list[Entry], plants_: list[str],
     at_bound = []
     for e in entries:
         params, log = spaces[e.plant][e.controller]
-        for p in parse_parameters(params, log):
-            v = e.tuned.get(p.key)
-            if v is None or not v > 0 and p.log:
+        for par in parse_parameters(params, log):
+            v = e.tuned.get(par.key)
+            if v is None or not v > 0 and par.log:
                 continue
-            for bound, side in ((p.low, "lower"), (p.high, "upper")):
-                if (abs(math.log(v / bound)) < 0.01 if p.log
-                        else abs(v - bound) <= 0.001 * (p.high - p.low)):
-                    at_bound.append(f"{e.controller} {p.key.removeprefix('controller.')} on "
+            for bound, side in ((par.low, "lower"), (par.high, "upper")):
+                if (abs(math.log(v / bound)) < 0.01 if par.log
+                        else abs(v - bound) <= 0.001 * (par.high - par.low)):
+                    at_bound.append(f"{e.controller} {par.key.removeprefix('controller.')} on "
                                     f"{e.plant} ({side}, {bound:g})")
     out.append("- Tuned values at a bound of their search space (the best may lie beyond "
                "it): " + (", ".join(at_bound) if at_bound else "none") + ".")

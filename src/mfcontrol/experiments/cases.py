@@ -5,13 +5,16 @@ from __future__ import annotations
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..api.result import Result, SweepResult
 from ..api.simulate import simulate, simulate_sweep
 from ..config.resolve import Config, resolve
 from ..config.toml import flatten
 from ..errors import CaseError
+
+if TYPE_CHECKING:
+    from ..api.controllers import PID, IntelligentController, RecursiveIP
 
 CASES_DIR = Path(__file__).parent / "cases"
 
@@ -101,7 +104,8 @@ def run_config(cfg: Config, name: str = "", *, fast: bool = False) -> Result | S
     return simulate(cfg, name=name, fast=fast)
 
 
-def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | None = None):
+def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | None = None
+                    ) -> IntelligentController | RecursiveIP | PID:
     """The live controller of a case: the object a sampling loop (or exported C) runs, built
     by the translator every run of the case uses (:func:`mfcontrol.api.params.controller`).
 

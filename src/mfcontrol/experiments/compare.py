@@ -18,7 +18,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from ..api.metrics import COLUMNS
 from ..api.result import Result
 from ..config.resolve import Config
 from ..errors import ConfigError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: the columns of the markdown table and the figure's table: (metric, header)
 SHOWN = (("iae", "IAE"), ("iae_load", "IAE load"), ("tv_u", "TV(u)"),
@@ -71,7 +74,7 @@ class Comparison(display.Shown):
                  **{k: r.metrics[k] for k in COLUMNS}}
                 for n, c, r in zip(self.names, self.configs, self.results, strict=True)]
 
-    def to_pandas(self):
+    def to_pandas(self) -> pd.DataFrame:
         import pandas as pd
 
         return pd.DataFrame(self.rows())
@@ -170,7 +173,8 @@ def compare(cases: Sequence[str | Path | Config],
 
     if len(cases) < 2:
         raise ConfigError("cases", list(cases), "give at least two cases to compare")
-    names, configs = [], []
+    names: list[str] = []
+    configs: list[Config] = []
     for c in cases:
         if isinstance(c, Config):
             name, cfg = f"config {len(names) + 1}", c.with_overrides(dict(overrides or {}))

@@ -17,7 +17,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from matplotlib import colormaps
@@ -268,6 +268,7 @@ def _boundary(ax, grid: _Grid) -> bool:
     axis it crosses halfway between cells, on the cell edges). True if it was drawn."""
     if grid.stability() != "mixed":
         return False
+    assert grid.stable is not None  # it is "mixed"
     import contourpy
 
     # Extend the stable grid by its own border values out to the outer cell edges, so the
@@ -285,7 +286,9 @@ def _boundary(ax, grid: _Grid) -> bool:
                                       line_type=contourpy.LineType.Separate)
     label = "stability boundary"
     drawn = False
-    for line in gen.lines(0.5):
+    # LineType.Separate: one (n, 2) array of points per line (contourpy's annotation is
+    # the union over every line type)
+    for line in cast(list[np.ndarray], gen.lines(0.5)):
         lx = 10.0 ** line[:, 0] if grid.log_x else line[:, 0]
         ly = 10.0 ** line[:, 1] if grid.log_y else line[:, 1]
         ax.plot(lx, ly, color=BOUNDARY_COLOR, lw=2.2, label=label if not drawn else None,
@@ -432,6 +435,7 @@ def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x:
     for ax, grid, (_, title) in zip(axes, grids, frames_and_titles, strict=True):
         grid.where = {}  # the fixed keys go to the figure title, once
         mesh = _draw(ax, grid, norm, title)
+    assert mesh is not None  # there is a frame: checked above
     for ax in axes[1:]:
         ax.set_ylabel("")
     fig.colorbar(mesh, ax=list(axes), label=_metrics.label(

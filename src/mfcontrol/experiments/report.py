@@ -122,6 +122,7 @@ def _words(case: str, fid: str, rows: list[tuple[str, Result]], unit: str) -> st
                  f"reference value); its IAE is {_fmt(m_eq['iae'])} against "
                  f"{_fmt(m_var['iae'])}.")
     g = var.signals["gamma"]
+    assert var.config is not None  # a case run
     s.append(f"gamma moves from {g[0]:.6g} to {g[-1]:.6g} (a change of "
              f"{_fmt(abs(g[-1] - g[0]))}), so most of the difference from the paper's "
              "standard i-P comes from the initial gain gamma0 "
@@ -322,6 +323,7 @@ def horizon_sentence(case: str, order: str, r: Result) -> str:
     """What gamma did in one long run, against the drift a held e_dot ~ 0 predicts:
     gamma_N - gamma0 = -Gamma eps_M N (first order) or -Gamma eps_M N^2/2 (second)."""
     cfg, g, t = r.config, r.signals["gamma"], r.time
+    assert cfg is not None  # a case run
     n, gamma0 = g.size, cfg["controller.gamma0"]
     rate = cfg["controller.Gamma"] * cfg["controller.eps_M"]
     first = order == "first-order"

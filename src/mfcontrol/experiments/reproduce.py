@@ -14,8 +14,9 @@ everything it finished.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 from ..api.plotting import (
     plot_gamma,
@@ -68,13 +69,20 @@ def gain_axis(frame):
 _AS = {"published": "as the published code computes it", "paper": "with the printed equations"}
 
 
+def _single(case: str, overrides: Mapping[str, Any]) -> Result:
+    """``run_case`` of a case that is one run (not a sweep)."""
+    r = run_case(case, overrides)
+    assert isinstance(r, Result), case
+    return r
+
+
 def long_horizon(fidelity: str) -> list[tuple[str, str, Result]]:
     """The variational cases over 100 ms with both gamma integrators. The reference holds
     2.5 V after its first ramp (the paper's second ramp would pass E = 20 V)."""
     rows = []
     for case in ("voltage-stable-variational", "voltage-unstable-variational"):
         for order in ("first-order", "second-order"):
-            r = run_case(case, {"fidelity": fidelity, "sim.t_end": LONG_HORIZON,
+            r = _single(case, {"fidelity": fidelity, "sim.t_end": LONG_HORIZON,
                                 "controller.integrator": order, "reference.t_ramp2": None})
             rows.append((case, order, r))
     return rows
@@ -82,22 +90,23 @@ def long_horizon(fidelity: str) -> list[tuple[str, str, Result]]:
 
 def comparison_rows(case: str, fidelity: str) -> list[tuple[str, Result]]:
     """The runs compared for one variational case under one fidelity."""
-    base = run_case(case, {"fidelity": fidelity})
+    base = _single(case, {"fidelity": fidelity})
+    assert base.config is not None  # a case run
     alpha = base.config["controller.alpha"]
     gamma0 = base.config["controller.gamma0"]
     rows = [
         (f"standard i-P, alpha = {alpha:g} (paper)",
-         run_case(case, {"fidelity": fidelity, "controller.law": "ip"})),
+         _single(case, {"fidelity": fidelity, "controller.law": "ip"})),
         (f"standard i-P, alpha = 1/gamma0 = {1 / gamma0:g} (equal gain)",
-         run_case(case, {"fidelity": fidelity, "controller.law": "ip",
-                         "controller.alpha": 1 / gamma0})),
+         _single(case, {"fidelity": fidelity, "controller.law": "ip",
+                        "controller.alpha": 1 / gamma0})),
     ]
     if fidelity == "published":
         rows.append(("variational, as published", base))
     else:
         rows.append(("variational, as printed", base))
         rows.append(("variational, as printed, gain = alpha (eq. 33 literally)",
-                     run_case(case, {"fidelity": fidelity, "controller.gain": "alpha"})))
+                     _single(case, {"fidelity": fidelity, "controller.gain": "alpha"})))
     return rows
 
 
@@ -122,7 +131,7 @@ def reproduce(out: Path, fidelities: list[str],
         folder.mkdir(exist_ok=True)
         runs[fid] = {}
         for case in SINGLE:
-            r = run_case(case, {"fidelity": fid})
+            r = _single(case, {"fidelity": fid})
             runs[fid][case] = r
             r.to_csv(folder / f"{case}.csv")
             plot_run(r, folder / f"{case}.png", with_gamma=False,
@@ -133,6 +142,7 @@ def reproduce(out: Path, fidelities: list[str],
             tick(f"{fid}/{case}")
         for case in SWEEPS:
             s = run_case(case, {"fidelity": fid})
+            assert isinstance(s, SweepResult), case
             runs[fid][case] = s
             s.to_csv(folder / f"{case}.csv")
             plot_sweep(s, "gamma", folder / f"{case}-gamma.png",

@@ -119,7 +119,8 @@ class Progress:
     def __init__(self, total: int, stream=None):
         # sys.stderr when drawn, not when this was defined (a replaced stderr, pytest's)
         self.total, self.stream = total, stream or sys.stderr
-        self.t0, self.done0 = time.perf_counter(), None
+        self.t0 = time.perf_counter()
+        self.done0: int | None = None
 
     def __call__(self, done: int) -> None:
         if self.done0 is None:

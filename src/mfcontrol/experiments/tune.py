@@ -106,11 +106,11 @@ def parse_parameters(items: Sequence[str] | Mapping[str, tuple[float, float]],
             raise ConfigError("--param", f"{p.key}={p.low:g}:{p.high:g}", "a whole-number "
                               "key needs a whole number between LO and HI")
     for key in log:
-        p = next((p for p in out if p.key == key), None)
-        if p is None:
+        logged = next((p for p in out if p.key == key), None)
+        if logged is None:
             raise ConfigError("--log", key, "must name a tuned key (give it with --param)")
-        if p.low <= 0:
-            raise ConfigError("--log", key, f"needs LO > 0 (got {p.low:g})")
+        if logged.low <= 0:
+            raise ConfigError("--log", key, f"needs LO > 0 (got {logged.low:g})")
     if not out:
         raise ConfigError("--param", "", "give at least one KEY=LO:HI")
     return out
