@@ -44,6 +44,11 @@ def parameter_row_from_state(CP, CS, j):
     return CP[int(CS[0, j]), j]
 
 
+def builtin_as_statement(x):
+    abs(x)  # found by typing the translator: a TypeError, not a TranslationError
+    return x
+
+
 def mixed_returns(x):
     if x > 0.0:
         return x
@@ -58,6 +63,7 @@ def mixed_returns(x):
     (float_modulus, (REAL,), "% or // of floating-point values"),
     (parameter_row_from_state, (CP, CS, J), "a parameter row that is not a constant"),
     (mixed_returns, (REAL,), "returns a value on one path and none on another"),
+    (builtin_as_statement, (REAL,), "abs\\(\\) as a statement: its value is unused"),
 ])
 def test_refuses_what_c_cannot_say_the_same_way(fn, kinds, what):
     with pytest.raises(TranslationError, match=rf"{fn.__name__} \(line \d+\): {what}"):

@@ -292,11 +292,7 @@ class _FunctionTranslator:
                 return
             if not isinstance(s.value, ast.Call):
                 self.fail(s, "an expression statement that is not a call")
-            code = self.call(s.value, statement=True)
-            # a builtin called as a statement (`abs(x)` alone) gives a pair here and this
-            # raises TypeError, not TranslationError: left as it is (typing changes no
-            # behaviour), reported to be fixed on its own
-            self.emit(depth, code + ";")  # type: ignore[operator]
+            self.emit(depth, self.call(s.value, statement=True) + ";")
         elif isinstance(s, ast.Pass):
             pass
         elif isinstance(s, ast.Break | ast.Continue):
@@ -579,16 +575,18 @@ class _FunctionTranslator:
                 codes.append(code)
         return self.tr.function(fn, tuple(kinds)), codes
 
-    # the C of a call and its kind; a statement's is its code alone, except a builtin's,
-    # which is the pair all the same
+    # the C of a call and its kind; a statement's is its code alone
     @overload
     def call(self, node, statement: Literal[False] = ...) -> tuple[str, str]: ...
     @overload
-    def call(self, node, statement: bool) -> tuple[str, str] | str: ...
+    def call(self, node, statement: Literal[True]) -> str: ...
     def call(self, node, statement: bool = False) -> tuple[str, str] | str:
         fn = self.resolve(node.func)
         builtin = self._builtin(node, fn)
         if builtin is not None:
+            if statement:  # every builtin translated computes a value and nothing else
+                self.fail(node, f"{ast.unparse(node.func)}() as a statement: its value is "
+                          "unused")
             return builtin
         callee, args = self.callee(node)
         if callee.ptuple:
