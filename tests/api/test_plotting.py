@@ -85,3 +85,15 @@ def test_a_transient_too_small_to_see_gets_a_zoom_and_a_failure_does_not():
     quiet = mfcontrol.run_case("voltage-stable-variational",
                                overrides={"plant.change_times": [0.02]})
     assert plot_run(quiet).axes[0].child_axes == []  # no event in the run
+
+
+def test_titles_wrap_into_even_lines_without_splitting_a_figure_number():
+    """'(paper Fig.' / '6)' was a title's last two lines (the text wrapped at 95 characters
+    as it came)."""
+    from mfcontrol.api.plotting import title_in_words
+
+    title = title_in_words(mfcontrol.run_case("voltage-unstable-variational"), extra="x")
+    lines = title.split("\n")
+    assert len(lines) == 3 and lines[-1] == "x"
+    assert all(len(line) <= 100 and not line.endswith(("Fig.", "=")) for line in lines)
+    assert abs(len(lines[0]) - len(lines[1])) < 20  # even, no one-word line

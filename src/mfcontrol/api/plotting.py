@@ -7,6 +7,7 @@ caller's backend.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -351,7 +352,13 @@ def title_in_words(result, fallback: str = "", extra: str = "") -> str:
 
     cfg = getattr(result, "config", None)
     text = (cfg["description"] if cfg is not None and cfg["description"] else "") or fallback
-    return "\n".join([*textwrap.wrap(text, 95), *([extra] if extra else [])])
+    # lines of even length (no one-word last line), "Fig. 6" and "Gamma = 5e-8" never split
+    # (no-break spaces: textwrap breaks at ASCII whitespace only)
+    for phrase in ("Fig. ", "Figs. ", " = "):
+        text = text.replace(phrase, phrase.replace(" ", "\u00a0"))
+    lines = math.ceil(len(text) / 95) if text else 1
+    return "\n".join([*textwrap.wrap(text, math.ceil(len(text) / lines) + 8),
+                      *([extra] if extra else [])])
 
 
 def _clip_outliers(ax, kept: list[np.ndarray], outliers: list[np.ndarray]) -> None:
