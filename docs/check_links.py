@@ -35,6 +35,7 @@ def _parse(path: Path) -> _Page:
 
 def broken_links(site: Path) -> list[str]:
     """One line per broken internal link of the site at ``site``."""
+    site = site.resolve()
     # _static holds the theme's templates, not pages
     pages = {p: _parse(p) for p in site.rglob("*.html") if "_static" not in p.parts}
     broken = []
@@ -46,7 +47,10 @@ def broken_links(site: Path) -> list[str]:
             target = (path.parent / unquote(parts.path)).resolve() if parts.path else path
             if target.is_dir():
                 target = target / "index.html"
-            if not target.exists():
+            if not target.is_relative_to(site):
+                # it may exist in the checkout, not where the site is published
+                broken.append(f"{path.relative_to(site)}: {link} (outside the site)")
+            elif not target.exists():
                 broken.append(f"{path.relative_to(site)}: {link} (no such file)")
             elif parts.fragment and target.suffix == ".html":
                 ids = pages[target].ids if target in pages else _parse(target).ids

@@ -1,13 +1,12 @@
 """Sphinx configuration of the mfcontrol documentation.
 
 Built with ``pip install ".[docs]" && sphinx-build -W -b html docs docs/_build/html``.
-The build runs the example gallery (examples/*.py) and ``mfcontrol reproduce``, so the
+Every build runs the example gallery (examples/*.py) and ``mfcontrol reproduce``, so the
 figures on the site are this checkout's; the API reference lists ``mfcontrol.__all__``.
 """
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
@@ -52,7 +51,7 @@ html_static_path: list[str] = []
 
 autosummary_generate = True
 autodoc_default_options = {"members": True, "member-order": "bysource"}
-autodoc_typehints = "none"  # the signature line already shows them; numpydoc the rest
+autodoc_typehints = "signature"  # in the signature line; the Parameters say the rest
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 intersphinx_mapping: dict[str, tuple[str, None]] = {}  # offline build: no inventories
@@ -99,12 +98,23 @@ def _write_api_page() -> None:
 # --- the reproduction report, as `mfcontrol reproduce` writes it ------------------------
 
 def _write_reproduction() -> None:
+    """Run ``mfcontrol reproduce`` at every build (about 30 s): a report kept from an
+    earlier build would describe the library as it was then."""
     out = GENERATED / "reproduction"
-    if (out / "report.md").exists() and not os.environ.get("MFCONTROL_DOCS_REFRESH"):
-        return
     shutil.rmtree(out, ignore_errors=True)
     subprocess.run([sys.executable, "-m", "mfcontrol.cli", "reproduce", "--out", str(out)],
                    check=True, stdout=subprocess.DEVNULL)
+
+
+def _drop_stale_pages() -> None:
+    """Pages an earlier build generated for what no longer exists (an API name removed,
+    an example deleted) would fail the build as documents in no table of contents."""
+    shutil.rmtree(DOCS / "generated", ignore_errors=True)
+    gallery = DOCS / "auto_examples"
+    for page in gallery.glob("*.rst"):
+        if page.stem not in ("index", "sg_execution_times") and not (
+                ROOT / "examples" / f"{page.stem}.py").exists():
+            page.unlink()
 
 
 # --- the gallery: each example writes its figure where the scraper finds it -------------
@@ -123,6 +133,9 @@ sphinx_gallery_conf = {
     "abort_on_example_error": True,
     "show_memory": False,
     "plot_gallery": "True",
+    # every build runs every example: the figures are this checkout's library's, not those
+    # of the build that last saw the script change
+    "run_stale_examples": True,
 }
 
 
@@ -134,6 +147,7 @@ def _write_disagreements() -> None:
 
 def setup(app):
     GENERATED.mkdir(exist_ok=True)
+    _drop_stale_pages()
     _write_api_page()
     _write_disagreements()
     _write_reproduction()

@@ -63,10 +63,12 @@ def test_link_checker_finds_broken_files_and_anchors(tmp_path):
     (tmp_path / "index.html").write_text(
         '<a href="sub/page.html#here">ok</a> <a href="sub/page.html#gone">anchor</a> '
         '<img src="missing.png"> <a href="https://example.org/x">external</a> '
-        '<a href="#top" id="top">self</a>')
+        '<a href="#top" id="top">self</a> <a href="../outside.html">up</a>')
+    (tmp_path.parent / "outside.html").write_text("exists, but not in the site")
     (tmp_path / "sub" / "page.html").write_text('<h1 id="here">x</h1><a href="../index.html">')
     broken = check["broken_links"](tmp_path)
-    assert sorted(broken) == ["index.html: missing.png (no such file)",
+    assert sorted(broken) == ["index.html: ../outside.html (outside the site)",
+                              "index.html: missing.png (no such file)",
                               "index.html: sub/page.html#gone (no such anchor)"]
     assert check["main"]([str(tmp_path)]) == 1
     (tmp_path / "index.html").write_text('<a href="sub/page.html#here">ok</a>')

@@ -45,3 +45,15 @@ def test_published_cases_are_classified_as_in_the_paper(case, stable):
     ("power-standard", True), ("power-variational", True)])
 def test_paper_fidelity_classification(case, stable):
     assert mfcontrol.run_case(case, {"fidelity": "paper"}).metrics["stable"] is stable
+
+
+def test_metric_units_read_as_units():
+    """'rad/s s' is 'rad'; a dimensionless output's IAE is in s, not '1 s' (review)."""
+    from mfcontrol.api.metrics import label
+
+    assert label("iae", "rad/s", "V") == "IAE, the integral of |e| (rad)"
+    assert label("itae", "rad/s", "V") == "ITAE, the integral of t |e| (rad s)"
+    assert label("ise", "rad/s", "V") == "ISE, the integral of e^2 ((rad/s)^2 s)"
+    assert label("iae", "1", "1") == "IAE, the integral of |e| (s)"
+    assert label("energy_u", "V", "1") == "energy of u (s)"
+    assert label("max_abs_e", "V", "1") == "largest |e| after the settling time (V)"

@@ -97,3 +97,12 @@ def test_titles_wrap_into_even_lines_without_splitting_a_figure_number():
     assert len(lines) == 3 and lines[-1] == "x"
     assert all(len(line) <= 100 and not line.endswith(("Fig.", "=")) for line in lines)
     assert abs(len(lines[0]) - len(lines[1])) < 20  # even, no one-word line
+
+
+def test_a_loop_run_names_its_parameter_changes():
+    """Found in review: simulate_loop(...).plot drew a bare line at each change."""
+    plant = mfcontrol.FirstOrder(a=-1.0, b=1.0)
+    ctrl = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-3)
+    res = mfcontrol.simulate_loop(plant, ctrl, 1.0, t_end=2.0,
+                                  changes=[mfcontrol.Change(1.0, "b", 0.5, add=True)])
+    assert _texts(res.plot()).count("b += 0.5") == 2  # both panels

@@ -759,3 +759,15 @@ def test_axis_labels_name_options_in_words():
     assert all("." not in text.split("(")[0] for text in options.LABELS.values())
     assert options.label("plant.dR") == "load change dR (ohm)"
     assert options.label("sim.custom") == "sim.custom"
+
+
+def test_a_config_needs_its_values():
+    """Found in review: dataclass took the inherited Mapping.values as the field's default,
+    so Config() was accepted (and failed later) and help() showed values=<function ...>."""
+    import inspect
+
+    from mfcontrol.config.resolve import Config
+
+    with pytest.raises(TypeError):
+        Config()  # type: ignore[call-arg]
+    assert inspect.signature(Config).parameters["values"].default is inspect.Parameter.empty

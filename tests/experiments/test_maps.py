@@ -310,3 +310,20 @@ def test_the_colour_bar_and_title_say_the_metric_in_words_with_its_unit(tmp_path
     assert fig.axes[-1].get_ylabel() == "IAE, the integral of |e| (rad)"  # not "rad/s s"
     fig = maps.heatmap(frame(), "controller.alpha", "plant.dR", "ise")  # no case known
     assert fig.axes[-1].get_ylabel() == "ISE, the integral of e^2 ((output unit)^2 s)"
+
+
+def test_maps_of_divergence_columns_and_of_unstable_non_positive_values():
+    """Found in review. A map of `stable` took its scale from the stable members only
+    (0.5 to 1.5, an arrow at the bottom); a log scale chosen from the stable members'
+    values masked an unstable member's value <= 0, which was then painted the grey that
+    means 'diverged'."""
+    fig = maps.heatmap(frame(), "controller.alpha", "plant.dR", "stable")
+    norm = mesh_of(fig).norm
+    assert (norm.vmin, norm.vmax) == (0.0, 1.0)
+
+    def spread(x, y):  # stable members span 4 decades; unstable ones go to zero and below
+        return 10.0 ** (4 * x / XS[-1]) if y < 2 else -1.0
+    f = frame(metric=spread, threshold=1e9)
+    f.loc[f["plant.dR"] >= 2, "stable"] = False
+    norm = mesh_of(maps.heatmap(f, "controller.alpha", "plant.dR", "iae")).norm
+    assert not isinstance(norm, LogNorm) and norm.vmin > 0  # linear, stable members' range

@@ -97,8 +97,10 @@ def label(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") 
     unit = (unit.replace("{y}^2", power(y_unit) + "^2").replace("{u}^2", power(u_unit) + "^2")
             .format(y=y_unit, u=u_unit))
     # a rate integrated over time: "rad/s s" is "rad", "rad/s s^2" is "rad s"
-    if unit.startswith("1^2 "):  # a dimensionless signal squared, over time
-        unit = unit[4:]
+    for one in ("1^2 ", "1 "):  # a dimensionless signal (squared) over time: "s", not "1 s"
+        if unit.startswith(one):
+            unit = unit[len(one):]
+            break
     for per_s, times in (("/s s^2", " s"), ("/s s", "")):
         if unit.endswith(per_s) and not unit.endswith(")" + per_s):
             unit = unit[: -len(per_s)] + times

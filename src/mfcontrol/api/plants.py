@@ -19,6 +19,8 @@ NumPy. Subclass :class:`Plant` for another model: ``output``, ``derivative``, ``
 ``set_param`` are enough, RK4 and RK45 come with the base class.
 """
 
+from __future__ import annotations
+
 import math
 import numbers
 import warnings
@@ -569,7 +571,7 @@ class LTI(Plant):
         return arr
 
     @classmethod
-    def from_control(cls, sys: Any, **kw: Any) -> "LTI":
+    def from_control(cls, sys: Any, **kw: Any) -> LTI:
         """The plant of a continuous-time SISO python-control system.
 
         Parameters

@@ -185,8 +185,9 @@ def plot_loop(result, path: str | Path | None = None, title: str | None = None,
     axes[1].set_ylabel(input_label)
     for a in axes:
         a.grid(True, alpha=0.3)
-        for c in result.changes:
-            a.axvline(c.time * scale, color="0.6", lw=0.8, ls=":")
+        for c in result.changes:  # named as a case run's events are
+            what = f"{c.name} {'+' if c.add else ''}= {c.value:g}"
+            _event(a, c.time * scale, what, "0.45")
     axes[-1].set_xlabel(time_label)
     if result.metrics.get("diverged"):
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",

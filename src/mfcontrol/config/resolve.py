@@ -11,7 +11,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -117,8 +117,10 @@ class Config(Mapping[str, Any]):
     """A resolved, validated configuration (read-only mapping of dotted keys)."""
 
     # the field shadows Mapping.values() (config.values is this mapping, not a method):
-    # renaming it would change the public attribute, so the override is declared
-    values: Mapping[str, Any]  # type: ignore[assignment]
+    # renaming it would change the public attribute, so the override is declared. It is a
+    # field() so that it is required: dataclass took the inherited Mapping.values as its
+    # default (Config() was accepted, and its signature said values=<function ...>)
+    values: Mapping[str, Any] = field()  # type: ignore[assignment]
 
     def __getitem__(self, key: str) -> Any:
         return self.values[key]

@@ -214,16 +214,21 @@ def _norm(grids: list[_Grid], log_color: bool | None) -> Normalize:
     finite = np.concatenate([g.z[np.isfinite(g.z)] for g in grids])
     # the stable members set the scale when there are any: an unstable member that did not
     # diverge (IAE 1e7) flattened every stable cell to one colour; it is hatched, and drawn
-    # in the scale's end colour
-    stable = np.concatenate([g.z[np.isfinite(g.z) & (g.stable == 1.0)] for g in grids
-                             if g.stable is not None] or [np.empty(0)])
-    if stable.size:
-        finite = stable
+    # in the scale's end colour. Not for the columns about divergence itself (a map of
+    # `stable` over its stable members would be all one value)
+    everything = finite
+    if grids[0].metric not in _ABOUT_DIVERGENCE:
+        stable = np.concatenate([g.z[np.isfinite(g.z) & (g.stable == 1.0)] for g in grids
+                                 if g.stable is not None] or [np.empty(0)])
+        if stable.size:
+            finite = stable
     if finite.size == 0:
         return Normalize(0.0, 1.0)
     lo, hi = float(finite.min()), float(finite.max())
     if log_color is None:
-        log_color = lo > 0 and hi / lo > 100.0
+        # a log scale masks values <= 0, which would then look diverged: every member's
+        # value must be positive for it
+        log_color = everything.min() > 0 and hi / lo > 100.0
     if log_color:
         if lo <= 0:
             raise ValueError(f"log colour scale needs positive values; {grids[0].metric} "
@@ -248,6 +253,11 @@ def _extend(grids: list[_Grid], norm: Normalize) -> str:
 def _quantity(key: str) -> str:
     """A swept key's quantity in words, without its unit (for a title)."""
     return options.label(key).split(" (")[0]
+
+
+def _what(metric: str, x: str, y: str) -> str:
+    """A map's title in words: the metric over the two swept quantities."""
+    return f"{_metrics.LABELS.get(metric, (metric,))[0]} over {_quantity(x)} and {_quantity(y)}"
 
 
 def _hatch_unstable(ax, grid: _Grid) -> None:
@@ -299,7 +309,7 @@ def _boundary(ax, grid: _Grid) -> bool:
 
 def _title(grid: _Grid, title: str | None) -> str:
     if title is None:
-        title = f"{_metrics.LABELS.get(grid.metric, (grid.metric,))[0]} over {grid.x} and {grid.y}"
+        title = _what(grid.metric, grid.x, grid.y)
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in grid.where.items())
     if fixed:
         title += f"\n({fixed})"
@@ -440,8 +450,7 @@ def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x:
         ax.set_ylabel("")
     fig.colorbar(mesh, ax=list(axes), label=_metrics.label(
         metric, *(units or _units(frames_and_titles[0][0]))), extend=_extend(grids, norm))
-    head = (f"{_metrics.LABELS.get(metric, (metric,))[0]} over {_quantity(x)} and "
-            f"{_quantity(y)}")
+    head = _what(metric, x, y)
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in (where or {}).items())
     fig.suptitle(head + (f" ({fixed})" if fixed else ""))
     path = Path(path)
