@@ -40,3 +40,21 @@ def test_subpackages_are_attributes_as_before():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.split()[1] == "True"
+
+
+def test_every_public_name_documents_what_it_takes():
+    """help() and the API pages describe every keyword (issue 15): a public class or
+    function that takes any has a numpydoc Parameters (or Attributes) section."""
+    import inspect
+
+    bare = []
+    for name in mfcontrol.__all__[1:]:
+        obj = getattr(mfcontrol, name)
+        try:
+            taken = [p for p in inspect.signature(obj).parameters if p not in ("self",)]
+        except ValueError:  # an exception class with the builtin constructor
+            continue
+        doc = inspect.getdoc(obj) or ""
+        if taken and "\nParameters\n" not in doc and "\nAttributes\n" not in doc:
+            bare.append(name)
+    assert bare == []

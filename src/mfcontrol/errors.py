@@ -2,7 +2,17 @@
 
 
 class ConfigError(ValueError):
-    """An invalid configuration: the message names the key, the value and what is allowed."""
+    """An invalid configuration: the message names the key, the value and what is allowed.
+
+    Parameters
+    ----------
+    key : str
+        The option (a dotted key such as ``"controller.kp"``, or a flag such as ``--dask``).
+    value : object
+        The value refused.
+    allowed : str
+        What is allowed, in words.
+    """
 
     def __init__(self, key: str, value: object, allowed: str):
         self.key = key

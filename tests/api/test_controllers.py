@@ -423,3 +423,21 @@ def test_help_shows_every_option(cls):
     assert text.index("Parameters") < text.index("Examples")
     cls(*[1.0] * (len([p for p in sig.parameters.values() if p.default is p.empty]) - 1),
         sample_time=0.01)  # the signature is the one the class takes
+
+
+def test_recursive_ip_documents_the_keys_its_law_reads():
+    """help(RecursiveIP) lists the case keys from config/options.py; the list is what the
+    law's translator reads, under every variant (found by running it)."""
+    from mfcontrol.api.controllers import RECURSIVE_KEYS
+    from mfcontrol.api.params import recursive_law_column
+    from mfcontrol.config.resolve import keys_read, resolve
+
+    read = set()
+    for over in ({}, {"controller.anti_windup": "back-calculation"},
+                 {"controller.law": "variational", "controller.rate_term": True,
+                  "controller.integrator": "second-order"}):
+        cfg = resolve(over)
+        read |= keys_read(recursive_law_column, cfg, cfg["sim.h"])
+    assert set(RECURSIVE_KEYS) == read
+    doc = mfcontrol.RecursiveIP.__doc__
+    assert all(f"\n{key.split('.')[1]} : " in doc for key in RECURSIVE_KEYS)

@@ -24,6 +24,7 @@ from typing import Any, Literal, Self, cast, overload
 import numpy as np
 
 from .._version import __version__
+from ..config import options
 from ..engine import live
 from ..laws import estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
@@ -680,6 +681,21 @@ class RecursiveIP(_Controller):
     def components(self) -> dict[str, float]:
         return dict(zip(("u_raw", "gain", "gamma"), self._components, strict=True))
 
+#: the case keys the recursive law reads (tests/api/test_controllers.py holds this equal
+#: to what api.params.recursive_law_column reads), documented from config/options.py
+RECURSIVE_KEYS = ("controller.law", "controller.alpha", "controller.kp",
+                  "controller.anti_windup", "controller.k_aw", "controller.gamma0",
+                  "controller.Gamma", "controller.eps_M", "controller.k_gamma",
+                  "controller.integrator", "controller.rate_term", "controller.rate_sign",
+                  "controller.gain", "controller.deriv_scale", "controller.output_gain",
+                  "controller.duty_min", "controller.duty_max", "controller.p_sample",
+                  "controller.p_error", "controller.u0")
+RecursiveIP.__doc__ = options.with_parameters(
+    RecursiveIP.__doc__, options.numpydoc_parameters(RECURSIVE_KEYS) + """
+setpoint : float
+    Initial setpoint.
+sample_time : float, optional
+    Period of a simulated loop (s), see above.""")
 
 class PID(_Sampled):
     """The discrete PID of Astrom and Hagglund, the baseline of every comparison

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from ..config import options
 from ..config.resolve import check_elements, check_value
 from ..elements import disturbance, layout, noise
 
@@ -32,18 +33,6 @@ def _checked(obj, section: str) -> None:
 class Sensor:
     """What the controller receives of the plant's output y: ``y_meas[k] = s_{k - delay}``
     with ``s_k = Q(y_k + n_k)`` (:mod:`mfcontrol.elements.sensor`).
-
-    Parameters
-    ----------
-    noise : {"none", "gaussian", "uniform"}
-        Noise n_k, zero mean, standard deviation ``noise_std`` (output units).
-    seed : int
-        The noise's seed (0 .. 2**53 - 1): the same seed, the same noise, wherever the
-        run happens (:mod:`mfcontrol.elements.noise`).
-    quantum : float
-        Resolution: the reading rounds to the nearest multiple (0: none).
-    delay : int
-        Samples between the reading and the controller.
 
     Examples
     --------
@@ -102,6 +91,17 @@ class Disturbance:
 
     def __post_init__(self):
         _checked(self, "disturbance")
+
+
+def _document(cls: type, section: str) -> None:
+    """Each field's documentation is its case key's (config/options.py), not a copy."""
+    keys = [f"{section}.{f.name}" for f in fields(cls)]
+    cls.__doc__ = options.with_parameters(cls.__doc__, options.numpydoc_parameters(keys))
+
+
+for _cls, _section in ((Sensor, "sensor"), (Actuator, "actuator"),
+                       (Disturbance, "disturbance")):
+    _document(_cls, _section)
 
 
 def unread(key: str, settings) -> str:

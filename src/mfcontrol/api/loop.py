@@ -42,7 +42,26 @@ Reference = float | Callable[[float], float] | Sequence[float] | np.ndarray
 @dataclass(frozen=True)
 class Change:
     """At the first sample with t_k >= ``time``, set plant parameter ``name`` to ``value``
-    (or add ``value`` to it when ``add`` is true)."""
+    (or add ``value`` to it when ``add`` is true).
+
+    Parameters
+    ----------
+    time : float
+        When (s); applied before that sample's plant step.
+    name : str
+        A parameter of the plant (``plant.params``' keys, e.g. ``"R"`` of a buck).
+    value : float
+        The new value, or the increment when ``add``.
+    add : bool
+        Add ``value`` to the parameter instead of setting it.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> load = mfcontrol.Change(5.0, "tau", 0.05)  # a DC motor's load torque from 5 s
+    >>> load.time, load.add
+    (5.0, False)
+    """
 
     time: float
     name: str

@@ -161,7 +161,24 @@ class Result(_Trajectory):
 
 @dataclass
 class SweepResult(_Files):
-    """Members of a sweep case, each run on the same, freshly reset scenario."""
+    """Members of a sweep case (``sweep.key`` over ``sweep.values``), each run on the same,
+    freshly reset scenario.
+
+    Attributes
+    ----------
+    name : str
+        The case's name.
+    config : Config
+        The case's resolved configuration (its ``sweep.*`` keys included).
+    key : str
+        The swept key, e.g. ``"controller.Gamma"``.
+    values : list of float
+        The swept values, one per member.
+    members : list of Result
+        Each member's run, in the order of ``values``.
+    version : str
+        mfcontrol version that produced it.
+    """
 
     name: str
     config: Config

@@ -45,7 +45,21 @@ if TYPE_CHECKING:
 @dataclass
 class LoopSweepResult(display.Shown):
     """Every member's swept values and metrics (``table``: one column each), and the
-    trajectories of the members kept (``kept``: member index to Result)."""
+    trajectories of the members kept (``kept``: member index to Result).
+
+    Attributes
+    ----------
+    axes : dict of ndarray
+        The swept keys and their values (``controller.kp``, ``plant.J``, ...); members
+        are their product, the last key fastest.
+    table : dict of ndarray
+        One column per swept key and per metric, one row per member.
+    kept : dict of int to Result
+        The trajectories of the members asked for with ``keep``.
+    arithmetic : str
+        ``"exact"`` or ``"fast"``.
+    version : str
+        mfcontrol version that produced it."""
 
     axes: dict[str, np.ndarray]
     table: dict[str, np.ndarray]

@@ -5,7 +5,9 @@ fidelity preset it belongs to. Validation (:mod:`.resolve`), the README's option
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import inspect
+import textwrap
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -256,6 +258,29 @@ LABELS: dict[str, str] = {
 def label(key: str) -> str:
     """A key's quantity in words for a figure's axis (:data:`LABELS`), else the key."""
     return LABELS.get(key, key)
+
+
+def numpydoc_parameters(keys: Sequence[str]) -> str:
+    """A numpydoc ``Parameters`` section for the options ``keys``, each parameter named
+    by its key's last part: the classes that take options as keywords (the loop's
+    elements, RecursiveIP) document them from here, where they are declared."""
+    kinds = {"float": "float", "int": "int", "str": "str", "bool": "bool",
+             "floats": "sequence of float"}
+    lines = ["Parameters", "----------"]
+    for key in keys:
+        o = BY_KEY[key]
+        kind = "{" + ", ".join(repr(c) for c in o.choices) + "}" if o.choices else kinds[o.kind]
+        text = o.doc
+        lines.append(f"{key.split('.', 1)[1]} : {kind}")
+        lines += textwrap.wrap(text if text.endswith(".") else text + ".", 84,
+                               initial_indent="    ", subsequent_indent="    ")
+    return "\n".join(lines)
+
+
+def with_parameters(doc: str | None, parameters: str) -> str:
+    """``doc`` with the section ``parameters`` put before its Examples (or at its end)."""
+    head, sep, examples = inspect.cleandoc(doc or "").partition("Examples\n")
+    return f"{head.rstrip()}\n\n{parameters}\n\n{sep}{examples}".rstrip() + "\n"
 
 
 def allowed(o: Option) -> str:

@@ -114,7 +114,24 @@ def unknown_key(key: str, value: Any) -> ConfigError:
 
 @dataclass(frozen=True)
 class Config(Mapping[str, Any]):
-    """A resolved, validated configuration (read-only mapping of dotted keys)."""
+    """A resolved, validated configuration (read-only mapping of dotted keys).
+
+    Made by :func:`resolve`; every option has a value (``None`` for those unset).
+
+    Parameters
+    ----------
+    values : mapping of str to value
+        Every option's resolved value, by dotted key.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> cfg = mfcontrol.resolve({"controller.kp": 5.0})
+    >>> cfg["controller.kp"], cfg["plant.model"]
+    (5.0, 'buck')
+    >>> cfg.with_overrides({"plant.dR": 5.0})["plant.dR"]
+    5.0
+    """
 
     # the field shadows Mapping.values() (config.values is this mapping, not a method):
     # renaming it would change the public attribute, so the override is declared. It is a
@@ -161,7 +178,34 @@ class Config(Mapping[str, Any]):
 
 def resolve(settings: Mapping[str, Any]) -> Config:
     """Validate ``settings`` (dotted keys) and fill every other option. A value of None
-    unsets the key (its default or fidelity preset applies)."""
+    unsets the key (its default or fidelity preset applies).
+
+    Parameters
+    ----------
+    settings : mapping of str to value
+        Options by dotted key (``{"controller.kp": 5.0, "fidelity": "paper"}``), as a
+        case file's tables flattened; the README's option table lists them.
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        An unknown key, or a value its option refuses: one line naming the key, the value
+        and what is allowed.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> mfcontrol.resolve({"fidelity": "paper"})["plant.coupling"]
+    'textbook'
+    >>> mfcontrol.resolve({"plant.L": -1.0})
+    Traceback (most recent call last):
+    ...
+    mfcontrol.errors.ConfigError: plant.L = -1.0: ...
+    """
     for key, value in settings.items():
         if key not in BY_KEY:
             raise unknown_key(key, value)

@@ -40,7 +40,17 @@ _OWN = ("description", "controller.", "sweep.")
 
 @dataclass
 class Comparison(display.Shown):
-    """The runs of :func:`compare` and what they share."""
+    """The runs of :func:`compare` and what they share.
+
+    Attributes
+    ----------
+    names : list of str
+        The cases compared, in order.
+    configs : list of Config
+        Their resolved configurations (with the common ``--set`` overrides).
+    results : list of Result
+        Their runs.
+    """
 
     names: list[str]
     configs: list[Config]
