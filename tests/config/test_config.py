@@ -771,3 +771,17 @@ def test_a_config_needs_its_values():
     with pytest.raises(TypeError):
         Config()  # type: ignore[call-arg]
     assert inspect.signature(Config).parameters["values"].default is inspect.Parameter.empty
+
+
+def test_options_documentation_is_valid_restructuredtext():
+    """|F_k - F_{k-1}| in an option's doc became an undefined rST substitution on the API
+    page of RecursiveIP (the docs build fails on it); every option's doc renders."""
+    import docutils.core
+    import docutils.utils
+
+    from mfcontrol.config import options
+
+    text = options.numpydoc_parameters([o.key for o in options.OPTIONS if "." in o.key])
+    assert "``|F_k - F_{k-1}|``" in text
+    docutils.core.publish_doctree(text, settings_overrides={
+        "report_level": docutils.utils.Reporter.WARNING_LEVEL, "halt_level": 2})

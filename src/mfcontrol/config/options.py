@@ -6,6 +6,7 @@ fidelity preset it belongs to. Validation (:mod:`.resolve`), the README's option
 from __future__ import annotations
 
 import inspect
+import re
 import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -265,12 +266,15 @@ def numpydoc_parameters(keys: Sequence[str]) -> str:
     by its key's last part: the classes that take options as keywords (the loop's
     elements, RecursiveIP) document them from here, where they are declared."""
     kinds = {"float": "float", "int": "int", "str": "str", "bool": "bool",
-             "floats": "sequence of float"}
+             "floats": "sequence of float", "strs": "sequence of str",
+             "events": "sequence of dict"}
     lines = ["Parameters", "----------"]
     for key in keys:
         o = BY_KEY[key]
         kind = "{" + ", ".join(repr(c) for c in o.choices) + "}" if o.choices else kinds[o.kind]
-        text = o.doc
+        # the docs are plain text: |e| would be an rST substitution, `x` interpreted text
+        text = re.sub(r"\|[^|]+\|", lambda m: f"``{m.group(0)}``",
+                      re.sub(r"(?<!`)`([^`]+)`(?!`)", r"``\1``", o.doc))
         lines.append(f"{key.split('.', 1)[1]} : {kind}")
         lines += textwrap.wrap(text if text.endswith(".") else text + ".", 84,
                                initial_indent="    ", subsequent_indent="    ")
