@@ -20,7 +20,7 @@ from bokeh.plotting import figure
 from ..api import metrics as _metrics
 from ..config import options
 from ..experiments.maps import cell_edges
-from .session import RobustnessMap
+from .session import SHORT, RobustnessMap
 
 GREY = "#d1d1d1"  # matplotlib's "0.82": the colour of the CLI maps' diverged cells
 
@@ -70,15 +70,18 @@ def draw(m: RobustnessMap, units: tuple[str, str], width: int = 720, height: int
     src = ColumnDataSource({
         "left": ex[ix], "right": ex[ix + 1], "bottom": ey[iy], "top": ey[iy + 1],
         "x": m.xs[ix], "y": m.ys[iy], "z": shown, "verdict": verdict})
-    metric_words = _metrics.LABELS.get(m.metric, (m.metric,))[0]
-    fig = figure(width=width, height=height, toolbar_location="right",
+    metric_words = SHORT.get(m.metric, m.metric)
+    fig = figure(width=width, height=height, toolbar_location="right", name="robustness-map",
                  x_axis_type="log" if m.log_x else "linear",
                  y_axis_type="log" if m.log_y else "linear",
                  x_range=Range1d(ex[0], ex[-1]), y_range=Range1d(ey[0], ey[-1]),
                  title=Title(text=f"Robustness map: {metric_words} over {_quantity(m.x)} "
-                                  f"and {_quantity(m.y)}, {m.z.size} runs around the "
-                                  "current setting", text_font_size="12pt"),
+                                  f"and {_quantity(m.y)}", text_font_size="12pt"),
                  tools="pan,wheel_zoom,box_zoom,reset,save")
+    # Bokeh does not wrap a title: the second line is a title of its own, nearer the plot
+    fig.add_layout(Title(text=f"{m.z.size} runs around the current setting (marked), "
+                              f"{m.seconds:.2f} s", text_font_size="10pt",
+                         text_font_style="normal", text_color="#444444"), "above")
     mapper = _mapper(m)
     cells = fig.quad(left="left", right="right", bottom="bottom", top="top", source=src,
                      fill_color={"field": "z", "transform": mapper}, line_color=None)
@@ -88,7 +91,7 @@ def draw(m: RobustnessMap, units: tuple[str, str], width: int = 720, height: int
         sel = np.flatnonzero(unstable)
         hatch = fig.quad(left=ex[ix[sel]], right=ex[ix[sel] + 1], bottom=ey[iy[sel]],
                          top=ey[iy[sel] + 1], fill_alpha=0.0, line_color=None,
-                         hatch_pattern="/", hatch_color="white", hatch_alpha=0.7,
+                         hatch_pattern="/", hatch_color="black", hatch_alpha=0.45,
                          hatch_scale=10)
         legend.append(LegendItem(label=f"unstable ({int(unstable.sum())} of {z.size}), "
                                        "hatched", renderers=_any(hatch)))

@@ -37,7 +37,7 @@ from ..api.plotting import event_times, plain_labels, units
 from ..api.result import Result
 from . import heatmap
 from .scale import scale_for
-from .session import MAP_METRICS, TABLE_METRICS, Field, Session, text_of
+from .session import MAP_METRICS, SHORT, TABLE_METRICS, Field, Session, text_of
 
 log = logging.getLogger(__name__)
 
@@ -48,12 +48,6 @@ CURRENT, FROZEN, REFERENCE, GAMMA = "#d62728", "#9a9a9a", "#1f4e9c", "#7b3294"
 
 #: a tab's title where the group's name is too long for five tabs in the panel
 TAB_TITLES = {"sensor, actuator, disturbance": "elements"}
-
-#: short names of the table's metrics (their words are the row's tooltip)
-SHORT = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "max_abs_e": "max |e|", "tv_u": "TV(u)",
-         "stable": "stable", "iae_load": "IAE after the load step", "overshoot": "overshoot",
-         "rise_time": "rise time", "settling_time": "settling time",
-         "final_gamma": "final gamma"}
 
 _TABLE_CSS = """
 table { border-collapse: collapse; font: 13px/1.35 system-ui, sans-serif; width: 100%; }
@@ -238,9 +232,9 @@ class TunerPage:
 
         self.metrics = Div(width=RIGHT, css_classes=["mf-metrics"],
                            stylesheets=[InlineStyleSheet(css=_TABLE_CSS)])
-        self.freeze_button = Button(label="Freeze as reference", width=150,
+        self.freeze_button = Button(label="Freeze this run", width=130,
                                     css_classes=["mf-freeze"])
-        self.clear_button = Button(label="Clear reference", width=120, disabled=True,
+        self.clear_button = Button(label="Clear frozen run", width=130, disabled=True,
                                    css_classes=["mf-clear"])
         self.save_button = Button(label="Save case", width=100, button_type="primary",
                                   css_classes=["mf-save"])
@@ -322,7 +316,7 @@ class TunerPage:
         left = column(Div(text="<b>Options the run reads</b> (type a value and press "
                       "Enter; an empty entry restores the default)", width=LEFT,
                           styles={"font-size": "13px"}),
-                      self.tabs, self.status_div, width=LEFT)
+                      self.status_div, self.tabs, width=LEFT)
         self.doc.add_root(column(self.head, row(left, centre, right, spacing=14)))
         self.doc.title = f"mfcontrol tuner: {s.name}"
 
@@ -339,7 +333,7 @@ class TunerPage:
         o, u, g = self.out_fig, self.u_fig, self.g_fig
         for fig, col in ((o, "y"), (u, "u"), (g, "gamma")):
             fig.line("t", col, source=self.frz, color=FROZEN, line_width=2.2,
-                     legend_label="frozen reference run")
+                     legend_label="frozen run")
             fig.vspan(x="t", source=self.events, line_color="#555555", line_dash="dotted",
                       line_width=1.5, **({"legend_label": "load change"} if fig is o else {}))
         o.line("t", "y_ref", source=self.src, color=REFERENCE, line_dash="dashed",
@@ -351,9 +345,10 @@ class TunerPage:
         g.line("t", "gamma", source=self.src, color=GAMMA, line_width=1.6,
                legend_label="gamma")
         self._frozen_items = [item for fig in (o, u, g) for item in fig.legend.items
-                              if item.label.value == "frozen reference run"]
+                              if item.label.value == "frozen run"]
         for fig in (o, u, g):
-            fig.legend.location = "top_left"
+            # the ramps and the duty rise to the right; gamma falls from its start
+            fig.legend.location = "bottom_left" if fig is g else "top_left"
             fig.legend.label_text_font_size = "10pt"
             fig.legend.background_fill_alpha = 0.7
             fig.legend.click_policy = "hide"
@@ -381,18 +376,14 @@ class TunerPage:
                              if active_title in titles else 0)
             keys = self.session.numeric_keys()
             options: list[str | tuple[Any, str]] = list(keys)
-            x = self.map_x.value if self.map_x.value in keys else _first(
-                keys, ("controller.alpha", "controller.kp"))
-            y = self.map_y.value if self.map_y.value in keys and self.map_y.value != x \
-                else _first([k for k in keys if k != x],
-                            ("plant.dR", "plant.J", "plant.a", "plant.gain", "plant.R",
-                             "controller.kp"))
+            x, y = self.session.map_axes()
+            if self.map_x.value in keys and self.map_y.value in keys \
+                    and self.map_x.value != self.map_y.value:  # the user's choice stays
+                x, y = self.map_x.value, self.map_y.value
             self.map_x.update(options=options, value=x)
             self.map_y.update(options=options, value=y)
-            chosen = [k for k in self.tune_keys.value if k in keys]
-            if not chosen:
-                chosen = [k for k in ("controller.alpha", "controller.kp", "controller.ki")
-                          if k in keys and self.session.value(k)]
+            chosen = [k for k in self.tune_keys.value if k in keys] or \
+                self.session.tuned_keys()
             self.tune_keys.update(options=keys, value=chosen)
         finally:
             self.quiet = False
@@ -534,7 +525,7 @@ class TunerPage:
         self.session.freeze()
         self.clear_button.disabled = False
         self.redraw()
-        self.status("the current run is the grey reference")
+        self.status("this run is frozen: grey in the plots, a column of the table")
 
     @_guarded
     def clear(self) -> None:
@@ -543,7 +534,7 @@ class TunerPage:
         self._frozen_shown = None
         self.clear_button.disabled = True
         self.redraw()
-        self.status("reference cleared")
+        self.status("frozen run cleared")
 
     # --- the long jobs ----------------------------------------------------------------
 
@@ -650,10 +641,6 @@ class TunerPage:
                                  f'{html.escape(str(exc))}</span>')
 
 
-def _first(keys: list[str], preferred: tuple[str, ...]) -> str | None:
-    return next((k for k in preferred if k in keys), keys[0] if keys else None)
-
-
 def _defined(v: Any) -> bool:
     return v is not None and not (isinstance(v, float) and math.isnan(v))
 
@@ -674,7 +661,14 @@ def _change(metric: str, now: Any, then: Any) -> str:
         return "<td></td>"
     pct = 100.0 * (now - then) / abs(then)
     cls = "better" if pct < 0 else "worse" if pct > 0 else ""
-    return f'<td class="{cls}">{pct:+.1f} %</td>'
+    ratio = now / then
+    # beyond a factor of ten a ratio reads better than a percentage of six digits
+    def times(r: float) -> str:
+        return f"{r:,.0f}" if r >= 100 else f"{r:.3g}"
+
+    text = (f"x {times(ratio)}" if ratio >= 10 else f"/ {times(1 / ratio)}"
+            if 0 < ratio <= 0.1 else f"{pct:+.1f} %")
+    return f'<td class="{cls}">{text}</td>'
 
 
 def _progress(what: str, done: int, total: int, seconds: float = 0.0, extra: str = "") -> str:

@@ -4,8 +4,10 @@ itself (nothing from a CDN: it works offline)."""
 
 from __future__ import annotations
 
+import logging
 import socket
 import sys
+import threading
 import webbrowser
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -14,6 +16,7 @@ from typing import Any, TextIO
 from .session import Session
 
 HOST = "127.0.0.1"
+log = logging.getLogger(__name__)
 
 
 def free_port(host: str = HOST) -> int:
@@ -53,6 +56,9 @@ def make_server(case: str | Path, overrides: Mapping[str, Any] | None = None,
     first = Session(case, overrides)
     first.run()  # the engine compiled and the case checked before anyone connects
     overrides = dict(overrides or {})
+    # the batch kernels load on their first use (seconds): a small map in the background
+    # now, so that the page's first map and tuning start at once
+    threading.Thread(target=_warm, args=(first,), daemon=True, name="mfcontrol-warm").start()
 
     def session() -> Session:
         return Session(case, overrides)
@@ -67,6 +73,13 @@ def make_server(case: str | Path, overrides: Mapping[str, Any] | None = None,
     if io_loop is not None:
         kwargs["io_loop"] = io_loop
     return Server({"/": app}, **kwargs)
+
+
+def _warm(session: Session) -> None:
+    try:
+        session.robustness_map(*session.map_axes(), n=3)
+    except Exception:  # noqa: BLE001 - a warm-up only: the page reports real errors
+        log.debug("tuner: warm-up map failed", exc_info=True)
 
 
 def serve(case: str | Path, overrides: Mapping[str, Any] | None = None, port: int = 0,

@@ -52,6 +52,12 @@ _SWEEP_KEYS = ("sweep.key", "sweep.values", "sweep.grid")
 TABLE_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "stable", "iae_load",
                  "overshoot", "rise_time", "settling_time", "final_gamma")
 
+#: the metrics' short names (their words: :data:`mfcontrol.api.metrics.LABELS`)
+SHORT = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "max_abs_e": "max |e|", "tv_u": "TV(u)",
+         "stable": "stable", "iae_load": "IAE after the load step", "overshoot": "overshoot",
+         "rise_time": "rise time", "settling_time": "settling time",
+         "final_gamma": "final gamma", "energy_u": "energy of u"}
+
 #: metrics a map or a tuning can be asked for
 MAP_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "iae_load", "energy_u",
                "overshoot", "settling_time")
@@ -162,6 +168,13 @@ def axis_values(key: str, value: Any, n: int = 9, factor: float = 3.0) -> tuple[
     if BY_KEY[key].kind == "int":
         values = np.unique(np.round(values))
     return values, log
+
+
+def _first(keys: list[str], preferred: tuple[str, ...]) -> str:
+    found = next((k for k in preferred if k in keys), keys[0] if keys else None)
+    if found is None:
+        raise ConfigError("map", "", "this case shows no option a map can sweep")
+    return found
 
 
 @dataclass
@@ -316,6 +329,22 @@ class Session:
                 continue
             out.append(f.key)
         return out
+
+    def map_axes(self) -> tuple[str, str]:
+        """The robustness map's default axes: the law's key gain against the plant's
+        parameter a load or a process change moves (else the first numbers shown)."""
+        keys = self.numeric_keys()
+        x = _first(keys, ("controller.alpha", "controller.kp"))
+        y = _first([k for k in keys if k != x], ("plant.dR", "plant.J", "plant.a",
+                                                  "plant.gain", "plant.R", "controller.kp"))
+        return x, y
+
+    def tuned_keys(self) -> list[str]:
+        """The tuning's default keys: the law's gains that are shown and not 0 (a gain at
+        0 has no decade around it)."""
+        keys = self.numeric_keys()
+        return [k for k in ("controller.alpha", "controller.kp", "controller.ki",
+                            "controller.kd") if k in keys and self.value(k)]
 
     def _field(self, key: str) -> Field:
         o = BY_KEY[key]
