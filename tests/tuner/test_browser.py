@@ -161,8 +161,8 @@ def test_a_robustness_map_is_drawn_with_its_unstable_members(page):
     status = page.evaluate("mf.text('mf-map-status')")
     assert "81 runs" in status
     assert page.evaluate("mf.model('map').children.length") == 1
-    title = page.evaluate("mf.model('map').children[0].title.text")
-    assert title.startswith("Robustness map: IAE")
+    title = page.evaluate("mf.model('robustness-map').title.text")
+    assert title == "Robustness map: IAE over ultra-local model gain alpha and load change dR"
 
 
 def test_tuning_applies_the_best_values_and_redraws(page):
