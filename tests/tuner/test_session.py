@@ -48,6 +48,17 @@ def test_a_refused_entry_gives_the_clis_line_and_changes_nothing(key, text, caps
     assert s.cfg is before
 
 
+def test_restore_goes_back_to_a_snapshot():
+    s = Session(CASE)
+    state = s.snapshot()
+    s.set("controller.law", "variational")
+    assert "controller.law" in s.changed() and "controller.Gamma" in {
+        f.key for f in s.fields()}
+    s.restore(state)
+    assert s.changed() == {} and s.value("controller.law") == "ip"
+    assert "controller.Gamma" not in {f.key for f in s.fields()}
+
+
 def test_an_empty_entry_restores_the_default():
     s = Session(CASE, {"reference.t_ramp2": 0.005})
     assert s.value("reference.t_ramp2") == 0.005

@@ -35,6 +35,7 @@ from bokeh.plotting import figure
 from ..api import metrics as _metrics
 from ..api.plotting import event_times, plain_labels, units
 from ..api.result import Result
+from ..errors import ConfigError
 from . import heatmap
 from .scale import scale_for
 from .session import MAP_METRICS, SHORT, TABLE_METRICS, Field, Session, text_of
@@ -395,13 +396,16 @@ class TunerPage:
         """An option typed, slid or chosen: set it, run, redraw; a refused entry shows its
         message beside the field and changes nothing."""
         shown = [f.key for f in self.session.fields()]
-        before = self.session.cfg
+        before = self.session.snapshot()
         error = self.session.set(view.key, text)
         if error is None:
             try:
                 self.redraw()
+            except ConfigError as exc:  # the run refused it (a trajectory too long, say)
+                self.session.restore(before)
+                error = str(exc)
             except Exception:
-                self.session.cfg = before  # the run refused it: as if it was never set
+                self.session.restore(before)  # as if never set, and reported
                 raise
         view.show_error(error)
         if error is not None:
@@ -582,14 +586,13 @@ class TunerPage:
         self._idle()
         self.map_holder.children = [heatmap.draw(m, units(self.session.cfg), width=CENTRE)]
         stable = int(m.stable.sum())
-        self.map_status.text = (f'<span data-done="1">{m.z.size} runs in {m.seconds:.2f} s: '
-                                f'{stable} stable, {m.z.size - stable} not '
-                                f'({int(m.diverged.sum())} diverged).</span>')
+        self.map_status.text = _finished(f"{m.z.size} runs in {m.seconds:.2f} s: {stable} "
+                                         f"stable, {m.z.size - stable} not "
+                                         f"({int(m.diverged.sum())} diverged).")
 
     def _map_failed(self, exc: Exception) -> None:
         self._idle()
-        self.map_status.text = (f'<span style="color:#b42318" data-done="1">'
-                                f'{html.escape(str(exc))}</span>')
+        self.map_status.text = _finished(str(exc), error=True)
 
     @_guarded
     def start_tune(self) -> None:
@@ -616,29 +619,34 @@ class TunerPage:
     def _tune_done(self, result) -> None:
         self._idle()
         if not math.isfinite(result.value):
-            self.tune_status.text = (f'<span style="color:#b42318" data-done="1">no point was '
-                                     f'stable in {result.evaluations} points: the values '
-                                     'are kept</span>')
+            self.tune_status.text = _finished(f"no point was stable in {result.evaluations} "
+                                              "points: the values are kept", error=True)
             return
-        before = self.session.cfg
+        before = self.session.snapshot()
         try:
             self.session.apply(result.best)
             self.redraw()
         except Exception:
-            self.session.cfg = before
+            self.session.restore(before)
             raise
+        if [f.key for f in self.session.fields()] != list(self.views):
+            self._rebuild_fields()
         self._show_all()
         best = ", ".join(f"{k} = {fmt(v)}" for k, v in result.best.items())
-        own = fmt(result.start_value)
-        self.tune_status.text = (
-            f'<span data-done="1">{result.objective.text} {fmt(result.value)} (the values '
-            f'before: {own}) at {html.escape(best)}: applied. {result.evaluations} points '
-            f'in {result.seconds:.1f} s ({result.stopped}).</span>')
+        self.tune_status.text = _finished(
+            f"{result.objective.text} {fmt(result.value)} (the values before: "
+            f"{fmt(result.start_value)}) at {best}: applied. {result.evaluations} points in "
+            f"{result.seconds:.1f} s ({result.stopped}).")
 
     def _tune_failed(self, exc: Exception) -> None:
         self._idle()
-        self.tune_status.text = (f'<span style="color:#b42318" data-done="1">'
-                                 f'{html.escape(str(exc))}</span>')
+        self.tune_status.text = _finished(str(exc), error=True)
+
+
+def _finished(text: str, error: bool = False) -> str:
+    """A job's last line (``data-done`` marks it for whoever waits on the page)."""
+    style = ' style="color:#b42318"' if error else ""
+    return f'<span data-done="1"{style}>{html.escape(text)}</span>'
 
 
 def _defined(v: Any) -> bool:

@@ -289,6 +289,15 @@ class Session:
         self.cfg = cfg
         self.overrides.update(values)
 
+    def snapshot(self) -> tuple[Config, dict[str, Any], list[Field] | None]:
+        """The settings as they are, for :meth:`restore`."""
+        return self.cfg, dict(self.overrides), self._shown
+
+    def restore(self, state: tuple[Config, dict[str, Any], list[Field] | None]) -> None:
+        """Go back to a :meth:`snapshot` (a setting the run then refused)."""
+        self.cfg, overrides, self._shown = state
+        self.overrides = dict(overrides)
+
     def changed(self) -> dict[str, Any]:
         """The options whose value differs from the case's own."""
         own = resolve(self._settings)
