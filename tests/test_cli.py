@@ -100,6 +100,16 @@ FILES: dict[str, bytes] = {
 S = "show"
 T = ["tune", "first-order-ip-algebraic"]
 ERRORS = [
+    # tuner: refused before any server starts
+    pytest.param(["tuner", "nope", "--no-browser"], ["unknown case 'nope'"],
+                 id="tuner-unknown-case"),
+    pytest.param(["tuner", "voltage-stable-standard", "--no-browser", "--set",
+                  "controller.alpha=-1"], ["controller.alpha", "-1", "> 0"],
+                 id="tuner-bad-set"),
+    pytest.param(["tuner", "{d}/nan-alpha.toml", "--no-browser"], ["controller.alpha", "nan"],
+                 id="tuner-bad-file"),
+    pytest.param(["tuner", "voltage-stable-standard", "--no-browser", "--port", "70000"],
+                 ["--port", "70000", "0 to 65535"], id="tuner-bad-port"),
     # tune, compare, benchmark
     pytest.param([*T, "--param", "controller.kp"], ["--param", "KEY=LO:HI"],
                  id="tune-param-without-range"),
@@ -358,7 +368,7 @@ CORE = {
     "run-file-nan", "toml-unclosed-table", "run-malformed-toml", "show-without-case",
     "reproduce-bad-fidelity", "huge-integer", "t_end-over-h-overflows", "sweep-over-sim.h",
     "unknown-key-names-its-value", "export-c-float-window", "recorded-run-too-long",
-    "case-name-with-path",
+    "case-name-with-path", "tuner-unknown-case", "tuner-bad-set",
 }
 CORE_ERRORS = [p for p in ERRORS if p.id in CORE]
 assert len(CORE_ERRORS) == len(CORE)
@@ -422,6 +432,18 @@ def test_unknown_case_message_lists_every_builtin_case(error_runs, case_dir):
 # ---------------------------------------------------------------------------------------
 # happy paths
 # ---------------------------------------------------------------------------------------
+
+
+def test_tuner_without_the_ui_extra_is_one_line(monkeypatch, capsys):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "bokeh" else real(name, *a))
+    rc = main(["tuner", "voltage-stable-standard", "--no-browser"])
+    out, err = capsys.readouterr()
+    line = assert_usage_error(subprocess.CompletedProcess([], rc, out, err))
+    assert line.endswith("needs the ui extra: pip install 'mfcontrol[ui]'")
 
 
 def test_version():

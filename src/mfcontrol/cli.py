@@ -1,5 +1,5 @@
 """Command line: ``mfcontrol cases | show | run | sweep | map | reproduce | tune | compare |
-benchmark | export-c``.
+benchmark | export-c | tuner``.
 
 Thin by design: parse, call the library, print. Bad input ends with one line on stderr and
 exit code 2; an interrupted command ends with exit code 130.
@@ -242,6 +242,24 @@ def _cmd_export_c(args) -> int:
     return 0
 
 
+def _cmd_tuner(args) -> int:
+    import importlib.util
+
+    if importlib.util.find_spec("bokeh") is None:
+        raise CaseError("needs the ui extra: pip install 'mfcontrol[ui]'")
+    from .tuner.server import serve
+
+    if args.port is not None and not 0 <= args.port <= 65535:
+        raise ConfigError("--port", args.port, "must be a whole number from 0 to 65535")
+    try:
+        serve(args.case, _overrides(args.set), port=args.port or 0,
+              open_browser=not args.no_browser)
+    except KeyboardInterrupt:
+        print("mfcontrol: tuner stopped", file=sys.stderr)
+        return 130
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="mfcontrol", description="Model-free control: intelligent controllers, "
                 "variational gain tuning and a buck converter test bench.")
@@ -348,6 +366,18 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--float", choices=("double", "float"), default="double",
                    help="floating-point type of the C (default double)")
     s.set_defaults(func=_cmd_export_c)
+
+    s = sub.add_parser("tuner", help="tune a case interactively in the browser: sliders, "
+                       "plots and metrics redrawn at every change, a frozen reference run, "
+                       "robustness maps, tuning (needs the ui extra)")
+    s.add_argument("case", nargs="?", default="voltage-stable-standard",
+                   help="built-in case name or path of a .toml file (default "
+                        "voltage-stable-standard)")
+    s.add_argument("--set", **setting)
+    s.add_argument("--port", type=int, help="port on 127.0.0.1 (default 0: a free one)")
+    s.add_argument("--no-browser", action="store_true",
+                   help="print the address without opening a browser")
+    s.set_defaults(func=_cmd_tuner)
     return p
 
 

@@ -51,6 +51,21 @@ def units(cfg) -> tuple[str, str]:
     return _OUTPUT[cfg["plant.output"]][2], "1"
 
 
+def plain_labels(cfg) -> tuple[str, str]:
+    """The output's and the input's axis labels in plain text, for figures drawn outside
+    matplotlib (no TeX): ``("output voltage v (V)", "duty cycle d (1)")`` for the buck."""
+    model = cfg["plant.model"]
+    if model in _MODELS:
+        (quantity, sym, unit), u_label = _MODELS[model]
+    else:
+        (quantity, sym, unit), u_label = _OUTPUT[cfg["plant.output"]], "duty cycle $d$ (1)"
+
+    def plain(text: str) -> str:
+        return text.replace("\\omega", "\u03c9").replace("$", "")
+
+    return plain(f"{quantity} {sym} ({unit})"), plain(u_label)
+
+
 def _input_label(result: Result) -> str:
     assert result.config is not None  # a case run's figure: it has a configuration
     model = result.config["plant.model"]
@@ -66,8 +81,9 @@ def _time_scale(t: np.ndarray) -> tuple[float, str]:
     return (1e3, "time $t$ (ms)") if t.size and t[-1] < 1.0 else (1.0, "time $t$ (s)")
 
 
-def _event_times(result: Result) -> list[tuple[float, str]]:
-    """A case run's events inside its horizon: (time in s, what), in time order."""
+def event_times(result: Result) -> list[tuple[float, str]]:
+    """A case run's events inside its horizon: (time in s, what: "load change" or
+    "disturbance"), in time order."""
     cfg = result.config
     assert cfg is not None  # a case run's figure: it has a configuration
     times = (list(cfg["plant.change_times"]) if cfg["plant.model"] in ("buck", "boost")
@@ -80,7 +96,7 @@ def _event_times(result: Result) -> list[tuple[float, str]]:
 
 
 def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
-    for tc, what in _event_times(result):
+    for tc, what in event_times(result):
         _event(ax, tc * scale, what, "0.45" if what == "load change" else "tab:orange")
 
 
@@ -232,7 +248,7 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
         _mark_changes(a, result, scale)
     if result.metrics.get("stable"):  # a failing loop's figure shows the failure
         _transient_zoom(axes[0], t, result.signals["y"], result.signals["y_ref"],
-                        _event_times(result), scale)
+                        event_times(result), scale)
     axes[-1].set_xlabel(time_label)
     if result.metrics.get("diverged"):
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",

@@ -1,0 +1,121 @@
+"""The robustness map on the page: a Bokeh heat map of a
+:class:`~mfcontrol.tuner.session.RobustnessMap`, drawn as the command line's maps are
+(:mod:`mfcontrol.experiments.maps`): cells centred on the swept values (edges at the
+geometric midpoints on a log axis), the colour scale set by the stable members, unstable
+members hatched, diverged ones grey (their metrics stop at the divergence), the current
+setting marked.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, LogColorMapper, Range1d
+from bokeh.models.annotations import ColorBar, Legend, LegendItem, Title
+from bokeh.palettes import Viridis256
+from bokeh.plotting import figure
+
+from ..api import metrics as _metrics
+from ..config import options
+from ..experiments.maps import cell_edges
+from .session import SHORT, RobustnessMap
+
+GREY = "#d1d1d1"  # matplotlib's "0.82": the colour of the CLI maps' diverged cells
+
+
+def axis_label(key: str) -> str:
+    """A key's quantity in words with its unit, without TeX."""
+    return options.label(key).replace("$^2$", "\u00b2")
+
+
+def _any(*renderers: Any) -> list[Any]:
+    """Renderers for a legend item (Bokeh's stubs hold GlyphRenderer invariant in its
+    glyph, so a quad's renderer does not type as a glyph's)."""
+    return list(renderers)
+
+
+def _quantity(key: str) -> str:
+    return options.label(key).split(" (")[0]
+
+
+def _mapper(m: RobustnessMap):
+    """Viridis over the stable members' values (all finite ones when none is stable):
+    logarithmic when they are positive and span more than two decades; members beyond
+    the range take its end colours (they are hatched: unstable)."""
+    finite = np.isfinite(m.z)
+    values = m.z[finite & m.stable] if (finite & m.stable).any() else m.z[finite]
+    if values.size == 0:
+        return LinearColorMapper(palette=Viridis256, low=0.0, high=1.0, nan_color=GREY)
+    lo, hi = float(values.min()), float(values.max())
+    if lo > 0 and hi / lo > 100.0:
+        return LogColorMapper(palette=Viridis256, low=lo, high=hi, nan_color=GREY)
+    if lo == hi:
+        pad = 0.5 * abs(lo) if lo != 0 else 0.5
+        lo, hi = lo - pad, hi + pad
+    return LinearColorMapper(palette=Viridis256, low=lo, high=hi, nan_color=GREY)
+
+
+def draw(m: RobustnessMap, units: tuple[str, str], width: int = 720, height: int = 470):
+    """The map as a Bokeh figure (``units``: the output's and the input's, for the colour
+    bar's metric)."""
+    ex, ey = cell_edges(m.xs, m.log_x), cell_edges(m.ys, m.log_y)
+    rows, cols = np.indices(m.z.shape)
+    iy, ix = rows.ravel(), cols.ravel()
+    z = m.z.ravel()
+    shown = np.where(m.diverged.ravel(), math.nan, z)  # a diverged member's metric stops
+    verdict = np.where(m.diverged.ravel(), "diverged",
+                       np.where(m.stable.ravel(), "stable", "unstable"))
+    src = ColumnDataSource({
+        "left": ex[ix], "right": ex[ix + 1], "bottom": ey[iy], "top": ey[iy + 1],
+        "x": m.xs[ix], "y": m.ys[iy], "z": shown, "verdict": verdict})
+    metric_words = SHORT.get(m.metric, m.metric)
+    fig = figure(width=width, height=height, toolbar_location="right", name="robustness-map",
+                 x_axis_type="log" if m.log_x else "linear",
+                 y_axis_type="log" if m.log_y else "linear",
+                 x_range=Range1d(ex[0], ex[-1]), y_range=Range1d(ey[0], ey[-1]),
+                 title=Title(text=f"Robustness map: {metric_words} over {_quantity(m.x)} "
+                                  f"and {_quantity(m.y)}", text_font_size="12pt"),
+                 tools="pan,wheel_zoom,box_zoom,reset,save")
+    # Bokeh does not wrap a title: the second line is a title of its own, nearer the plot
+    fig.add_layout(Title(text=f"{m.z.size} runs around the current setting (marked), "
+                              f"{m.seconds:.2f} s", text_font_size="10pt",
+                         text_font_style="normal", text_color="#444444"), "above")
+    mapper = _mapper(m)
+    cells = fig.quad(left="left", right="right", bottom="bottom", top="top", source=src,
+                     fill_color={"field": "z", "transform": mapper}, line_color=None)
+    unstable = ~m.stable.ravel() & ~m.diverged.ravel()
+    legend = []
+    if unstable.any():
+        sel = np.flatnonzero(unstable)
+        hatch = fig.quad(left=ex[ix[sel]], right=ex[ix[sel] + 1], bottom=ey[iy[sel]],
+                         top=ey[iy[sel] + 1], fill_alpha=0.0, line_color=None,
+                         hatch_pattern="/", hatch_color="black", hatch_alpha=0.45,
+                         hatch_scale=10)
+        legend.append(LegendItem(label=f"unstable ({int(unstable.sum())} of {z.size}), "
+                                       "hatched", renderers=_any(hatch)))
+    if m.diverged.any():
+        grey = fig.quad(left=[], right=[], bottom=[], top=[], fill_color=GREY,
+                        line_color="#808080")
+        legend.append(LegendItem(label=f"diverged ({int(m.diverged.sum())} of {z.size})",
+                                 renderers=_any(grey)))
+    here = fig.scatter([m.at[0]], [m.at[1]], marker="circle_cross", size=16,
+                       fill_color="white", fill_alpha=0.3, line_color="black", line_width=2)
+    legend.append(LegendItem(label="current setting", renderers=_any(here)))
+    fig.add_layout(Legend(items=legend, orientation="horizontal", location="center",
+                          label_text_font_size="10pt", border_line_color=None), "below")
+    fig.xaxis.axis_label = axis_label(m.x)
+    fig.yaxis.axis_label = axis_label(m.y)
+    for ax in (fig.xaxis, fig.yaxis):
+        ax.axis_label_text_font_size = "11pt"
+        ax.axis_label_text_font_style = "normal"
+    fig.add_layout(ColorBar(color_mapper=mapper, title=_metrics.label(m.metric, *units),
+                            title_text_font_size="10pt", title_text_font_style="normal",
+                            width=14), "right")
+    fig.add_tools(HoverTool(renderers=[cells], tooltips=[
+        (m.x, "@x{%.4g}"), (m.y, "@y{%.4g}"), (m.metric, "@z{%.4g}"), ("verdict", "@verdict")],
+        formatters={"@x": "printf", "@y": "printf", "@z": "printf"}))
+    fig.grid.visible = False
+    return fig
+

@@ -1,0 +1,696 @@
+"""The tuner's page: a Bokeh document built from a :class:`~mfcontrol.tuner.session.Session`.
+
+Left, the options the case's run reads, in groups, each number as a slider (over log10 of
+a positive gain) with a typed entry and its message line; centre, the output against its
+reference, the controller's output and, where the gain adapts, gamma, with a frozen run in
+grey; right, the metrics of the run (and of the frozen one), the buttons, the robustness
+map's and the tuning's controls. Every change runs the case again and redraws.
+
+Every callback catches what it raises and shows it on the page: one page's bad input never
+stops the server. The two long jobs run in a thread each and come back to the document
+through ``doc.add_next_tick_callback``, the only safe way into a Bokeh document from
+another thread.
+"""
+
+from __future__ import annotations
+
+import functools
+import html
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from bokeh.document import Document
+from bokeh.layouts import column, row
+from bokeh.models import ColumnDataSource, CustomJS, InlineStyleSheet
+from bokeh.models.annotations import Title
+from bokeh.models.layouts import TabPanel, Tabs
+from bokeh.models.widgets import Button, Div, MultiChoice, Select, Slider, Spinner, TextInput
+from bokeh.plotting import figure
+
+from ..api import metrics as _metrics
+from ..api.plotting import event_times, plain_labels, units
+from ..api.result import Result
+from ..errors import ConfigError
+from . import heatmap
+from .scale import scale_for
+from .session import MAP_METRICS, SHORT, TABLE_METRICS, Field, Session, text_of
+
+log = logging.getLogger(__name__)
+
+#: plotted points of a trajectory at most; longer runs keep each stretch's extremes
+MAX_POINTS = 10_000
+LEFT, CENTRE, RIGHT = 400, 760, 400
+CURRENT, FROZEN, REFERENCE, GAMMA = "#d62728", "#9a9a9a", "#1f4e9c", "#7b3294"
+
+#: a tab's title where the group's name is too long for five tabs in the panel
+TAB_TITLES = {"sensor, actuator, disturbance": "elements"}
+
+_TABLE_CSS = """
+table { border-collapse: collapse; font: 13px/1.35 system-ui, sans-serif; width: 100%; }
+th, td { padding: 3px 6px; border-bottom: 1px solid #e3e3e3; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+th { font-weight: 600; color: #333; }
+td.unit { color: #666; text-align: left; }
+td.frozen, th.frozen { color: #777; }
+td.better { color: #1a7f37; } td.worse { color: #b42318; }
+.verdict-no { color: #b42318; font-weight: 600; }
+p.verdict { font: 13px/1.4 system-ui, sans-serif; margin: 0 0 6px 0; }
+"""
+
+
+def _guarded(method: Callable) -> Callable:
+    """Run a callback so that whatever it raises is shown on the page, not raised into
+    the server."""
+    @functools.wraps(method)
+    def wrapper(self: TunerPage, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - the server outlives any one input
+            log.exception("tuner callback %s", method.__name__)
+            self.status(f"{type(exc).__name__}: {exc}", error=True)
+            return None
+    return wrapper
+
+
+def _slug(key: str) -> str:
+    return key.replace(".", "-").replace("_", "-")
+
+
+def fmt(v: Any) -> str:
+    """A metric as the table shows it."""
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    return f"{v:.4g}"
+
+
+def keep_points(n: int, columns: list[np.ndarray], limit: int = MAX_POINTS) -> np.ndarray:
+    """Indices of the samples to plot: all of them up to ``limit``, else each stretch's
+    first sample and every column's least and largest one (an oscillation keeps its
+    envelope, as a plain stride would not)."""
+    if n <= limit:
+        return np.arange(n)
+    stretches = max(1, limit // (2 * len(columns) + 1))
+    size = n // stretches
+    m = size * stretches
+    base = np.arange(stretches) * size
+    keep = [base, np.array([n - 1])]
+    for c in columns:
+        a = np.nan_to_num(np.asarray(c[:m], dtype=float), nan=0.0, posinf=0.0,
+                          neginf=0.0).reshape(stretches, size)
+        keep += [base + a.argmin(axis=1), base + a.argmax(axis=1)]
+    return np.unique(np.concatenate(keep))
+
+
+def _finite(a: np.ndarray) -> np.ndarray:
+    """float32 for the browser, with an infinity as a gap (NaN) instead of an axis that
+    cannot scale."""
+    out = np.asarray(a, dtype=np.float32)
+    return np.where(np.isfinite(out), out, np.float32(np.nan))
+
+
+class FieldView:
+    """The widgets of one option: a slider and an entry for a number, a menu for a choice,
+    an entry for a list; and the line for its message."""
+
+    def __init__(self, page: TunerPage, field: Field) -> None:
+        self.page, self.field, self.key = page, field, field.key
+        slug = _slug(field.key)
+        value = page.session.value(field.key)
+        self.slider: Slider | None = None
+        self.entry: TextInput | None = None
+        self.select: Select | None = None
+        self.message = Div(text="", visible=False, width=LEFT - 30,
+                           css_classes=["mf-message", f"mf-message-{slug}"],
+                           styles={"color": "#b42318", "font-size": "12px"})
+        if field.kind == "choice":
+            choices: list[str | tuple[Any, str]] = list(field.choices)
+            self.select = Select(title=field.key, value=text_of(value),
+                                 options=choices, width=LEFT - 40,
+                                 description=field.doc, css_classes=[f"mf-select-{slug}"])
+            self.select.on_change("value", self._on_select)
+            widgets: list = [self.select]
+        elif field.kind == "list":
+            self.entry = TextInput(title=field.key, value=text_of(value), width=LEFT - 40,
+                                   description=field.doc, css_classes=[f"mf-entry-{slug}"])
+            self.entry.on_change("value", self._on_entry)
+            widgets = [self.entry]
+        else:
+            self.scale = scale_for(field.key, value)
+            unset = value is None
+            self.slider = Slider(start=self.scale.start, end=self.scale.end,
+                                 step=self.scale.step, show_value=False, width=LEFT - 170,
+                                 value=0.0 if unset else self.scale.coordinate(value),
+                                 title=field.key + (" (log scale)" if self.scale.log else ""),
+                                 disabled=unset, css_classes=[f"mf-slider-{slug}"])
+            self.entry = TextInput(value=text_of(value), width=115, title="value",
+                                   placeholder="unset" if unset else "",
+                                   description=field.doc, css_classes=[f"mf-entry-{slug}"])
+            self.slider.on_change("value", self._on_slider)
+            self.entry.on_change("value", self._on_entry)
+            widgets = [row(self.slider, self.entry, spacing=6)]
+        self.layout = column(*widgets, self.message, spacing=0)
+
+    # a widget set from here triggers its own callback: ``page.quiet`` tells it apart
+    def _on_slider(self, attr: str, old: Any, new: Any) -> None:
+        if not self.page.quiet:
+            self.page.change(self, text_of(self.scale.value(new)))
+
+    def _on_entry(self, attr: str, old: Any, new: Any) -> None:
+        if not self.page.quiet:
+            self.page.change(self, new)
+
+    def _on_select(self, attr: str, old: Any, new: Any) -> None:
+        if not self.page.quiet:
+            self.page.change(self, new)
+
+    def show_error(self, text: str | None) -> None:
+        self.message.text = html.escape(text or "")
+        self.message.visible = bool(text)
+
+    def show_value(self, value: Any) -> None:
+        """Show the session's value (the page is quiet while this runs)."""
+        if self.select is not None:
+            self.select.value = text_of(value)
+            return
+        assert self.entry is not None
+        self.entry.value = text_of(value)
+        if self.slider is None:
+            return
+        if value is None:
+            self.slider.disabled = True
+            return
+        self.slider.disabled = False
+        if not self.scale.holds(value):  # a typed value off the slider: centre it there
+            self.scale = scale_for(self.key, value)
+            self.slider.update(start=self.scale.start, end=self.scale.end,
+                               step=self.scale.step,
+                               title=self.key + (" (log scale)" if self.scale.log else ""))
+        self.slider.value = self.scale.coordinate(value)
+
+
+class TunerPage:
+    """The document of one browser tab and its session."""
+
+    def __init__(self, doc: Document, session: Session) -> None:
+        self.doc, self.session = doc, session
+        self.quiet = False
+        self.runs = 0
+        self.views: dict[str, FieldView] = {}
+        self._stop_tune = threading.Event()
+        self._busy = False
+        self._scale = 1.0
+        self._frozen_shown: Result | None = None
+        self._tab_titles: list[str] = []
+        self._build()
+        self._rebuild_fields()
+        self.redraw()
+        doc.on_session_destroyed(lambda _ctx: self._stop_tune.set())
+
+    # --- layout -----------------------------------------------------------------------
+
+    def _build(self) -> None:
+        s = self.session
+        self.head = Div(text=self._head(), width=LEFT + CENTRE + RIGHT, css_classes=["mf-head"])
+        self.status_div = Div(text="", width=LEFT, css_classes=["mf-status"],
+                              styles={"font-size": "12px"})
+        self.tabs = Tabs(tabs=[], width=LEFT, css_classes=["mf-tabs"])
+        self.src = ColumnDataSource({k: [] for k in ("t", "y_ref", "y", "u", "gamma")},
+                                    name="current-run")
+        self.frz = ColumnDataSource({k: [] for k in ("t", "y", "u", "gamma")},
+                                    name="frozen-run")
+        self.events = ColumnDataSource({"t": []})
+        self.out_fig = self._figure("Output and reference", 300)
+        self.u_fig = self._figure("Controller output", 210, x_range=self.out_fig.x_range)
+        self.g_fig = self._figure("Adaptive gain gamma", 190, x_range=self.out_fig.x_range)
+        self._draw_traces()
+
+        self.metrics = Div(width=RIGHT, css_classes=["mf-metrics"],
+                           stylesheets=[InlineStyleSheet(css=_TABLE_CSS)])
+        self.freeze_button = Button(label="Freeze this run", width=130,
+                                    css_classes=["mf-freeze"])
+        self.clear_button = Button(label="Clear frozen run", width=130, disabled=True,
+                                   css_classes=["mf-clear"])
+        self.save_button = Button(label="Save case", width=100, button_type="primary",
+                                  css_classes=["mf-save"])
+        self.freeze_button.on_click(self.freeze)
+        self.clear_button.on_click(self.clear)
+        # what changes in words at every run: the metrics and the case's text. Bokeh lays
+        # the whole page out again whenever a Div's text changes (some 50 ms with this many
+        # widgets, half the round trip), so they travel in a data source, one message
+        # with the traces' one, and a script puts the metrics in the Div's element
+        self.page_text = ColumnDataSource({"metrics": [""], "toml": [""],
+                                           "filename": [f"{s.name}.toml"]}, name="page-text")
+        self.page_text.js_on_change("data", CustomJS(args={"div": self.metrics}, code="""
+            const html = cb_obj.data.metrics[0];
+            const view = Bokeh.index.find_one(div);
+            if (view != null && view.markup_el != null) {
+                view.markup_el.innerHTML = html;
+            } else {
+                div.text = html;  // a Bokeh without markup_el: the same, with a layout
+            }
+        """))
+        self.save_button.js_on_click(CustomJS(args={"store": self.page_text}, code="""
+            const text = store.data.toml[0];
+            const blob = new Blob([text], {type: "application/toml"});
+            const url = URL.createObjectURL(blob);
+            const a = document.createElement("a");
+            a.href = url;
+            a.download = store.data.filename[0];
+            document.body.appendChild(a);
+            a.click();
+            a.remove();
+            setTimeout(() => URL.revokeObjectURL(url), 10000);
+        """))
+
+        metric_options: list[str | tuple[Any, str]] = [(m, SHORT.get(m, m))
+                                                        for m in MAP_METRICS]
+        self.map_x = Select(title="map: horizontal axis", width=RIGHT // 2 - 10,
+                            css_classes=["mf-map-x"])
+        self.map_y = Select(title="vertical axis", width=RIGHT // 2 - 10,
+                            css_classes=["mf-map-y"])
+        self.map_metric = Select(title="metric", value="iae", options=metric_options,
+                                 width=RIGHT // 2 - 10, css_classes=["mf-map-metric"])
+        self.map_button = Button(label="Robustness map (9 x 9)", width=RIGHT // 2 - 10,
+                                 css_classes=["mf-map"], align="end")
+        self.map_button.on_click(self.start_map)
+        self.map_status = Div(text="Each axis: 9 values from the current one / 3 to x 3 "
+                              "(log-spaced when positive).", width=RIGHT,
+                              css_classes=["mf-map-status"], styles={"font-size": "12px"})
+        self.map_holder = column(Div(text=""), css_classes=["mf-map-figure"], name="map")
+
+        self.tune_keys = MultiChoice(title="tune: options (bounds: current / 10 .. x 10)",
+                                     width=RIGHT, css_classes=["mf-tune-keys"],
+                                     name="tune-keys")
+        self.budget = Spinner(title="budget (points)", low=10, step=10, value=200,
+                              width=RIGHT // 3 - 10, css_classes=["mf-budget"], name="budget")
+        self.objective = Select(title="objective", value="iae", options=metric_options,
+                                width=RIGHT // 3 - 10, css_classes=["mf-objective"])
+        self.tune_button = Button(label="Tune", width=70, button_type="success",
+                                  css_classes=["mf-tune"], align="end")
+        self.stop_button = Button(label="Stop", width=60, disabled=True,
+                                  css_classes=["mf-tune-stop"], align="end")
+        self.tune_button.on_click(self.start_tune)
+        self.stop_button.on_click(lambda: self._stop_tune.set())
+        self.tune_status = Div(text="", width=RIGHT, css_classes=["mf-tune-status"],
+                               styles={"font-size": "12px"})
+
+        def heading(text: str) -> Div:
+            return Div(text=f"<b>{text}</b>", width=RIGHT,
+                       styles={"margin-top": "10px", "font-size": "14px"})
+
+        right = column(
+            heading("Metrics"), self.metrics,
+            row(self.freeze_button, self.clear_button, self.save_button),
+            heading("Robustness"), row(self.map_x, self.map_y),
+            row(self.map_metric, self.map_button), self.map_status,
+            heading("Tuning by simulation (mfcontrol.tune)"), self.tune_keys,
+            row(self.budget, self.objective, self.tune_button, self.stop_button),
+            self.tune_status, width=RIGHT)
+        centre = column(self.out_fig, self.u_fig, self.g_fig, self.map_holder)
+        left = column(Div(text="<b>Options the run reads</b> (type a value and press "
+                      "Enter; an empty entry restores the default)", width=LEFT,
+                          styles={"font-size": "13px"}),
+                      self.status_div, self.tabs, width=LEFT)
+        self.doc.add_root(column(self.head, row(left, centre, right, spacing=14)))
+        self.doc.title = f"mfcontrol tuner: {s.name}"
+
+    def _figure(self, title: str, height: int, **kwargs: Any):
+        fig = figure(width=CENTRE, height=height, title=Title(text=title, text_font_size="12pt"),
+                     tools="pan,box_zoom,wheel_zoom,reset,save", toolbar_location="right",
+                     **kwargs)
+        for ax in (fig.xaxis, fig.yaxis):
+            ax.axis_label_text_font_size = "11pt"
+            ax.axis_label_text_font_style = "normal"
+        return fig
+
+    def _draw_traces(self) -> None:
+        o, u, g = self.out_fig, self.u_fig, self.g_fig
+        for fig, col in ((o, "y"), (u, "u"), (g, "gamma")):
+            fig.line("t", col, source=self.frz, color=FROZEN, line_width=2.2,
+                     legend_label="frozen run")
+            fig.vspan(x="t", source=self.events, line_color="#555555", line_dash="dotted",
+                      line_width=1.5, **({"legend_label": "load change"} if fig is o else {}))
+        o.line("t", "y_ref", source=self.src, color=REFERENCE, line_dash="dashed",
+               line_width=1.5, legend_label="reference")
+        o.line("t", "y", source=self.src, color=CURRENT, line_width=1.6,
+               legend_label="output")
+        u.line("t", "u", source=self.src, color="#2ca02c", line_width=1.4,
+               legend_label="controller output")
+        g.line("t", "gamma", source=self.src, color=GAMMA, line_width=1.6,
+               legend_label="gamma")
+        self._frozen_items = [item for fig in (o, u, g) for item in fig.legend.items
+                              if item.label.value == "frozen run"]
+        for fig in (o, u, g):
+            # the ramps and the duty rise to the right; gamma falls from its start
+            fig.legend.location = "bottom_left" if fig is g else "top_left"
+            fig.legend.label_text_font_size = "10pt"
+            fig.legend.background_fill_alpha = 0.7
+            fig.legend.click_policy = "hide"
+
+    def _rebuild_fields(self) -> None:
+        """The option widgets, grouped, and the lists of numbers the map and the tuning
+        offer: again whenever the options the run reads change (a model, a law)."""
+        groups = self.session.groups()
+        self.views = {}
+        panels = []
+        active_title = (self._tab_titles[self.tabs.active] if self._tab_titles
+                        else "controller")
+        for name, fields in groups.items():
+            if not fields:
+                continue
+            views = [FieldView(self, f) for f in fields]
+            self.views.update({v.key: v for v in views})
+            heading = Div(text=f"<i>{html.escape(name)}</i>", styles={"color": "#555"})
+            panels.append(TabPanel(title=TAB_TITLES.get(name, name),
+                                   child=column(heading, *[v.layout for v in views], spacing=4)))
+        titles = self._tab_titles = [p.title for p in panels]
+        self.quiet = True
+        try:
+            self.tabs.update(tabs=panels, active=titles.index(active_title)
+                             if active_title in titles else 0)
+            keys = self.session.numeric_keys()
+            options: list[str | tuple[Any, str]] = list(keys)
+            x, y = self.session.map_axes()
+            if self.map_x.value in keys and self.map_y.value in keys \
+                    and self.map_x.value != self.map_y.value:  # the user's choice stays
+                x, y = self.map_x.value, self.map_y.value
+            self.map_x.update(options=options, value=x)
+            self.map_y.update(options=options, value=y)
+            chosen = [k for k in self.tune_keys.value if k in keys] or \
+                self.session.tuned_keys()
+            self.tune_keys.update(options=keys, value=chosen)
+        finally:
+            self.quiet = False
+
+    # --- changes ----------------------------------------------------------------------
+
+    @_guarded
+    def change(self, view: FieldView, text: str) -> None:
+        """An option typed, slid or chosen: set it, run, redraw; a refused entry shows its
+        message beside the field and changes nothing."""
+        shown = [f.key for f in self.session.fields()]
+        before = self.session.snapshot()
+        error = self.session.set(view.key, text)
+        if error is None:
+            try:
+                self.redraw()
+            except ConfigError as exc:  # the run refused it (a trajectory too long, say)
+                self.session.restore(before)
+                error = str(exc)
+            except Exception:
+                self.session.restore(before)  # as if never set, and reported
+                raise
+        view.show_error(error)
+        if error is not None:
+            self.status(f"{view.key}: not changed", error=True)
+            return
+        if [f.key for f in self.session.fields()] != shown:
+            self._rebuild_fields()
+        else:
+            self._show(view)
+
+    def _show(self, view: FieldView) -> None:
+        self.quiet = True
+        try:
+            view.show_value(self.session.value(view.key))
+        finally:
+            self.quiet = False
+
+    def _show_all(self) -> None:
+        for view in self.views.values():
+            self._show(view)
+            view.show_error(None)
+
+    def status(self, text: str, error: bool = False) -> None:
+        color = "#b42318" if error else "#333333"
+        self.status_div.text = f'<span style="color:{color}">{html.escape(text)}</span>'
+
+    # --- drawing ----------------------------------------------------------------------
+
+    def redraw(self) -> None:
+        """Run the session and show the run: traces, metrics, the case's text."""
+        r = self.session.run()
+        self.runs += 1
+        s = self.session
+        y_label, u_label = plain_labels(s.cfg)
+        t_end = s.cfg["sim.t_end"]
+        self._scale, t_label = (1e3, "time t (ms)") if t_end < 1.0 else (1.0, "time t (s)")
+        # Bokeh's server sends each change as a message of its own, which the browser
+        # applies in order: the traces first, the metrics (which a user, and the round-trip
+        # test, read as "redrawn") after them; and nothing that has not changed
+        self.src.data = self._columns(r, ("y_ref", "y", "u", "gamma"))
+        if s.frozen is not None and self._frozen_shown is not s.frozen:
+            self.frz.data = self._columns(s.frozen, ("y", "u", "gamma"))
+            self._frozen_shown = s.frozen
+        for item in self._frozen_items:
+            item.visible = s.frozen is not None
+        events = [tc * self._scale for tc, what in event_times(r) if what == "load change"]
+        if list(self.events.data["t"]) != events:
+            self.events.data = {"t": events}
+        self.out_fig.yaxis.axis_label = y_label
+        self.u_fig.yaxis.axis_label = u_label
+        self.g_fig.yaxis.axis_label = "gain gamma (1)"
+        self.g_fig.visible = s.adapts()
+        last = self.g_fig if s.adapts() else self.u_fig
+        for fig in (self.out_fig, self.u_fig, self.g_fig):
+            fig.xaxis.axis_label = t_label if fig is last else ""
+        text = self._verdict(r) + self._table(r, s.frozen)
+        if self.runs == 1:  # the page as first sent; afterwards, through page_text
+            self.metrics.text = text
+        self.page_text.data = {"metrics": [text], "toml": [s.toml()],
+                               "filename": [f"{s.name}-tuned.toml"]}
+
+    def _columns(self, r: Result, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+        cols = [r.signals[k] for k in names]
+        keep = keep_points(r.time.size, cols)
+        out = {"t": _finite(r.time[keep] * self._scale)}
+        out.update({k: _finite(c[keep]) for k, c in zip(names, cols, strict=True)})
+        return out
+
+    def _head(self) -> str:
+        s = self.session
+        return (f'<div style="font: 14px system-ui, sans-serif">'
+                f'<span style="font-size:20px;font-weight:600">mfcontrol tuner: '
+                f'{html.escape(s.name)}</span> &nbsp; {html.escape(s.description)}</div>')
+
+    def _verdict(self, r: Result) -> str:
+        s, m = self.session, r.metrics
+        if m["diverged"]:
+            verdict = (f'<span class="verdict-no" style="color:#b42318">diverged at '
+                       f't = {m["t_diverge"]:.4g} s</span>')
+        elif m["stable"]:
+            verdict = '<span style="color:#1a7f37">stable</span>'
+        else:
+            verdict = '<span style="color:#b42318">unstable by the stability rule</span>'
+        changed = ", ".join(f"{k} = {text_of(v)}" for k, v in s.changed().items())
+        return (f'<p class="verdict">{verdict}: {r.time.size:,} samples simulated in '
+                f'{1e3 * s.seconds:.1f} ms.<br>Changed from the case: '
+                f'{html.escape(changed) or "nothing"}</p>')
+
+    def _table(self, r: Result, frozen: Result | None) -> str:
+        """The metrics as an HTML table: each value shown to 4 digits, its exact repr in
+        ``data-value`` (what a test compares with the engine's)."""
+        y_unit, u_unit = units(self.session.cfg)
+        rows = []
+        for m in TABLE_METRICS:
+            now = r.metrics.get(m)
+            then = frozen.metrics.get(m) if frozen is not None else None
+            if m == "final_gamma" and not self.session.adapts():
+                continue
+            if m != "stable" and not _defined(now) and not _defined(then):
+                continue
+            words, unit = _metrics.LABELS.get(m, (m, ""))
+            full = _metrics.label(m, y_unit, u_unit)
+            unit = full[len(words) + 2:-1] if full != words and m != "stable" else ""
+            unit = unit.replace("^2", "\u00b2")
+            cells = [f'<td title="{html.escape(words)}">{html.escape(SHORT.get(m, m))}</td>',
+                     f'<td class="unit">{html.escape(unit)}</td>',
+                     _cell("current", now)]
+            if frozen is not None:
+                cells += [_cell("frozen", then), _change(m, now, then)]
+            rows.append(f'<tr data-metric="{m}">{"".join(cells)}</tr>')
+        head = "<th>metric</th><th>unit</th><th>this run</th>"
+        if frozen is not None:
+            head += '<th class="frozen">frozen</th><th>change</th>'
+        return (f'<table class="metrics" data-run="{self.runs}"><tr>{head}</tr>'
+                f'{"".join(rows)}</table>')
+
+    # --- freeze -----------------------------------------------------------------------
+
+    @_guarded
+    def freeze(self) -> None:
+        self.session.freeze()
+        self.clear_button.disabled = False
+        self.redraw()
+        self.status("this run is frozen: grey in the plots, a column of the table")
+
+    @_guarded
+    def clear(self) -> None:
+        self.session.clear()
+        self.frz.data = {k: [] for k in ("t", "y", "u", "gamma")}
+        self._frozen_shown = None
+        self.clear_button.disabled = True
+        self.redraw()
+        self.status("frozen run cleared")
+
+    # --- the long jobs ----------------------------------------------------------------
+
+    def _later(self, fn: Callable, *args: Any) -> None:
+        """Call ``fn(*args)`` on the document's thread (from a job's thread)."""
+        try:
+            self.doc.add_next_tick_callback(functools.partial(_guarded(fn), self, *args))
+        except Exception:  # noqa: BLE001 - the tab was closed: nothing to show it on
+            log.debug("tuner: no document to report to", exc_info=True)
+
+    def _start(self, job: Callable[[], Any], done: Callable, failed: Callable) -> None:
+        def work() -> None:
+            try:
+                result = job()
+            except Exception as exc:  # noqa: BLE001 - reported on the page
+                self._later(failed, exc)
+            else:
+                self._later(done, result)
+        self._busy = True
+        self.map_button.disabled = self.tune_button.disabled = True
+        threading.Thread(target=work, daemon=True, name="mfcontrol-tuner-job").start()
+
+    def _idle(self) -> None:
+        self._busy = False
+        self.map_button.disabled = self.tune_button.disabled = False
+        self.stop_button.disabled = True
+
+    @_guarded
+    def start_map(self) -> None:
+        x, y, metric = self.map_x.value, self.map_y.value, self.map_metric.value
+        total = 81
+        self.map_status.text = _progress("robustness map", 0, total)
+        t0 = time.perf_counter()
+
+        def progress(done: int, n: int) -> None:
+            self._later(TunerPage._map_progress, done, n, time.perf_counter() - t0)
+
+        self._start(lambda: self.session.robustness_map(x, y, metric, progress=progress),
+                    TunerPage._map_done, TunerPage._map_failed)
+
+    def _map_progress(self, done: int, total: int, seconds: float) -> None:
+        self.map_status.text = _progress("robustness map", done, total, seconds)
+
+    def _map_done(self, m) -> None:
+        self._idle()
+        self.map_holder.children = [heatmap.draw(m, units(self.session.cfg), width=CENTRE)]
+        stable = int(m.stable.sum())
+        self.map_status.text = _finished(f"{m.z.size} runs in {m.seconds:.2f} s: {stable} "
+                                         f"stable, {m.z.size - stable} not "
+                                         f"({int(m.diverged.sum())} diverged).")
+
+    def _map_failed(self, exc: Exception) -> None:
+        self._idle()
+        self.map_status.text = _finished(str(exc), error=True)
+
+    @_guarded
+    def start_tune(self) -> None:
+        keys = list(self.tune_keys.value)
+        budget = int(self.budget.value or 0)
+        objective = self.objective.value
+        self._stop_tune.clear()
+        self.stop_button.disabled = False
+        t0 = time.perf_counter()
+        self.tune_status.text = _progress("tuning", 0, budget)
+
+        def progress(done: int, total: int, best: float) -> None:
+            self._later(TunerPage._tune_progress, done, total, best, time.perf_counter() - t0)
+            if self._stop_tune.is_set():
+                raise KeyboardInterrupt  # tune() stops and returns the best so far
+
+        self._start(lambda: self.session.tune(keys, budget, progress, objective=objective),
+                    TunerPage._tune_done, TunerPage._tune_failed)
+
+    def _tune_progress(self, done: int, total: int, best: float, seconds: float) -> None:
+        self.tune_status.text = _progress("tuning", done, total, seconds,
+                                          f"best {self.objective.value} {fmt(best)}")
+
+    def _tune_done(self, result) -> None:
+        self._idle()
+        if not math.isfinite(result.value):
+            self.tune_status.text = _finished(f"no point was stable in {result.evaluations} "
+                                              "points: the values are kept", error=True)
+            return
+        before = self.session.snapshot()
+        try:
+            self.session.apply(result.best)
+            self.redraw()
+        except Exception:
+            self.session.restore(before)
+            raise
+        if [f.key for f in self.session.fields()] != list(self.views):
+            self._rebuild_fields()
+        self._show_all()
+        best = ", ".join(f"{k} = {fmt(v)}" for k, v in result.best.items())
+        self.tune_status.text = _finished(
+            f"{result.objective.text} {fmt(result.value)} (the values before: "
+            f"{fmt(result.start_value)}) at {best}: applied. {result.evaluations} points in "
+            f"{result.seconds:.1f} s ({result.stopped}).")
+
+    def _tune_failed(self, exc: Exception) -> None:
+        self._idle()
+        self.tune_status.text = _finished(str(exc), error=True)
+
+
+def _finished(text: str, error: bool = False) -> str:
+    """A job's last line (``data-done`` marks it for whoever waits on the page)."""
+    style = ' style="color:#b42318"' if error else ""
+    return f'<span data-done="1"{style}>{html.escape(text)}</span>'
+
+
+def _defined(v: Any) -> bool:
+    return v is not None and not (isinstance(v, float) and math.isnan(v))
+
+
+def _cell(cls: str, v: Any) -> str:
+    exact = "" if v is None else f' data-value="{html.escape(repr(v))}"'
+    style = ' class="verdict-no"' if v is False else ""
+    text = f"<span{style}>{fmt(v)}</span>"
+    return f'<td class="{cls}"{exact}>{text}</td>'
+
+
+def _change(metric: str, now: Any, then: Any) -> str:
+    """The relative change against the frozen run; green where the run is better (every
+    metric of the table but gamma is better smaller)."""
+    if (metric in ("stable", "final_gamma") or not isinstance(now, float)
+            or not isinstance(then, float) or not math.isfinite(now)
+            or not math.isfinite(then) or then == 0):
+        return "<td></td>"
+    pct = 100.0 * (now - then) / abs(then)
+    cls = "better" if pct < 0 else "worse" if pct > 0 else ""
+    ratio = now / then
+    # beyond a factor of ten a ratio reads better than a percentage of six digits
+    def times(r: float) -> str:
+        return f"{r:,.0f}" if r >= 100 else f"{r:.3g}"
+
+    text = (f"x {times(ratio)}" if ratio >= 10 else f"/ {times(1 / ratio)}"
+            if 0 < ratio <= 0.1 else f"{pct:+.1f} %")
+    return f'<td class="{cls}">{text}</td>'
+
+
+def _progress(what: str, done: int, total: int, seconds: float = 0.0, extra: str = "") -> str:
+    share = done / total if total else 0.0
+    tail = f", {extra}" if extra else ""
+    return (f'<progress value="{done}" max="{total}" style="width:160px"></progress> '
+            f'{what}: {done:,}/{total:,} ({100 * share:.0f} %), {seconds:.1f} s{tail}')
+
+
+def make_document(session_factory: Callable[[], Session]) -> Callable[[Document], None]:
+    """The Bokeh application function: a fresh session and page per browser tab."""
+    def modify(doc: Document) -> None:
+        TunerPage(doc, session_factory())
+    return modify
+
+
+__all__ = ["FieldView", "TunerPage", "make_document"]

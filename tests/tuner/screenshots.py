@@ -1,0 +1,46 @@
+"""The README's screenshots of the tuner, in three states: as it opens; after a change
+(kp 2 -> 4) with the case's own run frozen as the reference; after a robustness map
+around the case's own gains.
+
+    python -m tests.tuner.screenshots [FOLDER]    # default docs/: docs/tuner-*.png
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from .browser import ROOT, Tuner, chromium, new_page, open_browser, wait_idle
+
+CASE = "voltage-stable-standard"
+
+
+def main(folder: Path) -> None:
+    from playwright.sync_api import sync_playwright
+
+    folder.mkdir(parents=True, exist_ok=True)
+    tuner = Tuner(CASE)
+    try:
+        with sync_playwright() as p:
+            browser = open_browser(p, chromium())
+            page = new_page(browser, tuner.url, width=1620, height=1060)
+            wait_idle(page)
+            page.screenshot(path=folder / "tuner-initial.png", full_page=True)
+            page.locator(".mf-freeze button").click()
+            page.wait_for_function("() => Object.keys(mf.cells('frozen')).length > 0")
+            page.evaluate("mf.change('mf-entry-controller-kp', '4')")
+            wait_idle(page)
+            page.screenshot(path=folder / "tuner-frozen.png", full_page=True)
+            page.evaluate("mf.change('mf-entry-controller-kp', '2')")  # the case's gain
+            wait_idle(page)
+            page.locator(".mf-map button").click()
+            page.locator(".mf-map-status [data-done]").wait_for(timeout=120_000)
+            page.wait_for_timeout(500)
+            page.screenshot(path=folder / "tuner-map.png", full_page=True)
+            browser.close()
+    finally:
+        tuner.stop()
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "docs")
