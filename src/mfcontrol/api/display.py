@@ -16,8 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from .metrics import SHORT
+
 #: the metrics a summary shows, with their labels
-MAIN = (("iae", "IAE"), ("max_abs_e", "max |e|"), ("tv_u", "TV(u)"), ("iae_load", "IAE load"))
+MAIN = tuple((m, SHORT[m]) for m in ("iae", "max_abs_e", "tv_u", "iae_load"))
 
 
 def fmt(value: Any) -> str:

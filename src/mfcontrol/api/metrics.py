@@ -86,6 +86,13 @@ LABELS = {
 }
 
 
+#: short names for tables and summaries (the words of each are in LABELS)
+SHORT = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "max_abs_e": "max |e|", "tv_u": "TV(u)",
+         "stable": "stable", "iae_load": "IAE load", "overshoot": "overshoot",
+         "rise_time": "rise time", "settling_time": "settling time",
+         "final_gamma": "final gamma", "energy_u": "energy of u"}
+
+
 def label(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") -> str:
     """``metric`` in words with its unit, for an axis or a colour bar:
     ``label("max_abs_e", "V")`` is ``"largest |e| after the settling time (V)"``."""

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..api import display
+from ..api import metrics as _metrics
 from ..api.metrics import COLUMNS
 from ..api.result import Result
 from ..config.resolve import Config
@@ -32,7 +33,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 #: the columns of the markdown table and the figure's table: (metric, header)
-SHOWN = (("iae", "IAE"), ("iae_load", "IAE load"), ("tv_u", "TV(u)"),
+SHOWN = (*((m, _metrics.SHORT[m]) for m in ("iae", "iae_load", "tv_u")),
          ("overshoot", "overshoot %"), ("settling_time", "settling (s)"), ("stable", "stable"))
 #: keys that may differ between compared cases without changing the scenario
 _OWN = ("description", "controller.", "sweep.")

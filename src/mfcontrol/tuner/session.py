@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..api import batch
+from ..api import batch, metrics
 from ..api.elements import unread
 from ..api.result import Result
 from ..api.simulate import simulate
@@ -52,11 +52,8 @@ _SWEEP_KEYS = ("sweep.key", "sweep.values", "sweep.grid")
 TABLE_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "stable", "iae_load",
                  "overshoot", "rise_time", "settling_time", "final_gamma")
 
-#: the metrics' short names (their words: :data:`mfcontrol.api.metrics.LABELS`)
-SHORT = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "max_abs_e": "max |e|", "tv_u": "TV(u)",
-         "stable": "stable", "iae_load": "IAE after the load step", "overshoot": "overshoot",
-         "rise_time": "rise time", "settling_time": "settling time",
-         "final_gamma": "final gamma", "energy_u": "energy of u"}
+#: the metrics' short names: one table for the library (api/metrics.py)
+SHORT = metrics.SHORT
 
 #: metrics a map or a tuning can be asked for
 MAP_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "iae_load", "energy_u",
