@@ -254,6 +254,11 @@ def _cmd_tuner(args) -> int:
     try:
         serve(args.case, _overrides(args.set), port=args.port or 0,
               open_browser=not args.no_browser)
+    except OSError as exc:
+        if exc.errno != errno.EADDRINUSE:
+            raise
+        raise ConfigError("--port", args.port, "is in use on 127.0.0.1: choose another, "
+                          "or 0 for a free one") from None
     except KeyboardInterrupt:
         print("mfcontrol: tuner stopped", file=sys.stderr)
         return 130

@@ -35,3 +35,11 @@ def test_holds_tells_when_the_slider_must_move():
     s = scale_for("controller.kp", 2.0)
     assert s.holds(3.0) and not s.holds(-1.0) and not s.holds(1e6) and not s.holds(None)
     assert scale_for("controller.kp", -1.0).holds(-2.0)  # a negative gain: linear
+
+
+def test_a_huge_value_gets_a_finite_slider():
+    """plant.dR = 1e308 gave the slider the range -inf .. inf (review)."""
+    import math
+
+    s = scale_for("plant.dR", 1e308)
+    assert math.isfinite(s.start) and math.isfinite(s.end) and s.start < 1e308 < s.end

@@ -55,3 +55,19 @@ def test_ctrl_c_stops_it_with_exit_130_and_one_line():
     code, err = Tuner("first-order-ip-algebraic").stop()
     assert code == 130
     assert err.strip().splitlines() == ["mfcontrol: tuner stopped"]
+
+
+def test_a_port_in_use_is_one_line_and_exit_2(capsys):
+    """Found in review: a busy --port ended with a raw OSError and exit code 1."""
+    import socket
+
+    pytest.importorskip("bokeh")
+    from mfcontrol.cli import main
+
+    with socket.socket() as held:
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        port = held.getsockname()[1]
+        rc = main(["tuner", "voltage-stable-standard", "--no-browser", "--port", str(port)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and f"--port = {port}: is in use" in err[0]

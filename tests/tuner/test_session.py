@@ -202,3 +202,14 @@ def test_a_tuning_spans_a_decade_and_applies_when_asked():
     with pytest.raises(ConfigError):
         s.tune([], budget=30)
     assert math.isfinite(r.value)
+
+
+def test_a_horizon_too_long_for_a_change_is_refused_with_the_figure():
+    """Every change runs on the server's event loop: 10^7 samples took 3 s and 1.2 GB
+    there and froze every open page (review)."""
+    s = Session("voltage-stable-standard")
+    msg = s.set("sim.t_end", "10")
+    assert msg.startswith("sim.t_end = 10.0: 10,000,000 samples: the tuner runs at most")
+    assert s.cfg["sim.t_end"] == 0.01
+    with pytest.raises(ConfigError, match="sim.t_end"):
+        Session("voltage-stable-standard", {"sim.t_end": 5.0})

@@ -42,8 +42,10 @@ from .session import MAP_METRICS, SHORT, TABLE_METRICS, Field, Session, text_of
 
 log = logging.getLogger(__name__)
 
-#: plotted points of a trajectory at most; longer runs keep each stretch's extremes
-MAX_POINTS = 10_000
+#: plotted points of a trajectory at most; longer runs keep each stretch's extremes. A
+#: plot is some 600 pixels wide: 2,000 points with each stretch's extremes draw the same
+#: picture as 10,000, and the browser's drawing was most of a change's round trip
+MAX_POINTS = 2_000
 LEFT, CENTRE, RIGHT = 400, 760, 400
 CURRENT, FROZEN, REFERENCE, GAMMA = "#d62728", "#9a9a9a", "#1f4e9c", "#7b3294"
 
@@ -205,6 +207,7 @@ class TunerPage:
         self.views: dict[str, FieldView] = {}
         self._stop_tune = threading.Event()
         self._busy = False
+        self._status_error = False
         self._scale = 1.0
         self._frozen_shown: Result | None = None
         self._tab_titles: list[str] = []
@@ -407,10 +410,16 @@ class TunerPage:
             except Exception:
                 self.session.restore(before)  # as if never set, and reported
                 raise
-        view.show_error(error)
         if error is not None:
+            # the menu or slider back to the value in force (it showed the refused one,
+            # while the session and a saved case kept the old)
+            self._show(view)
+            view.show_error(error)
             self.status(f"{view.key}: not changed", error=True)
             return
+        view.show_error(None)
+        if self._status_error:  # an old refusal no longer applies
+            self.status("")
         if [f.key for f in self.session.fields()] != shown:
             self._rebuild_fields()
         else:
@@ -429,6 +438,8 @@ class TunerPage:
             view.show_error(None)
 
     def status(self, text: str, error: bool = False) -> None:
+        # only when it changes: a Div's new text lays the whole page out again (~50 ms)
+        self._status_error = error
         color = "#b42318" if error else "#333333"
         self.status_div.text = f'<span style="color:{color}">{html.escape(text)}</span>'
 
@@ -549,7 +560,17 @@ class TunerPage:
         except Exception:  # noqa: BLE001 - the tab was closed: nothing to show it on
             log.debug("tuner: no document to report to", exc_info=True)
 
+    def _refuse_while_busy(self) -> bool:
+        """One job at a time: a double click on Map or Tune started two (the buttons are
+        disabled only once the server's answer reaches the page)."""
+        if self._busy:
+            self.status("a map or a tuning is running: wait for it, or stop it", error=True)
+        return self._busy
+
     def _start(self, job: Callable[[], Any], done: Callable, failed: Callable) -> None:
+        """Run ``job`` in a thread; ``done`` or ``failed`` then runs on the document's
+        thread."""
+
         def work() -> None:
             try:
                 result = job()
@@ -568,6 +589,8 @@ class TunerPage:
 
     @_guarded
     def start_map(self) -> None:
+        if self._refuse_while_busy():
+            return
         x, y, metric = self.map_x.value, self.map_y.value, self.map_metric.value
         total = 81
         self.map_status.text = _progress("robustness map", 0, total)
@@ -596,6 +619,8 @@ class TunerPage:
 
     @_guarded
     def start_tune(self) -> None:
+        if self._refuse_while_busy():
+            return
         keys = list(self.tune_keys.value)
         budget = int(self.budget.value or 0)
         objective = self.objective.value
@@ -605,16 +630,19 @@ class TunerPage:
         self.tune_status.text = _progress("tuning", 0, budget)
 
         def progress(done: int, total: int, best: float) -> None:
-            self._later(TunerPage._tune_progress, done, total, best, time.perf_counter() - t0)
+            self._later(TunerPage._tune_progress, done, total, best, time.perf_counter() - t0,
+                        objective)
             if self._stop_tune.is_set():
                 raise KeyboardInterrupt  # tune() stops and returns the best so far
 
         self._start(lambda: self.session.tune(keys, budget, progress, objective=objective),
                     TunerPage._tune_done, TunerPage._tune_failed)
 
-    def _tune_progress(self, done: int, total: int, best: float, seconds: float) -> None:
+    def _tune_progress(self, done: int, total: int, best: float, seconds: float,
+                       objective: str) -> None:
+        # the objective the tuning minimises, not the menu's value of the moment
         self.tune_status.text = _progress("tuning", done, total, seconds,
-                                          f"best {self.objective.value} {fmt(best)}")
+                                          f"best {objective} {fmt(best)}")
 
     def _tune_done(self, result) -> None:
         self._idle()

@@ -85,6 +85,8 @@ def scale_for(key: str, value: Any) -> Scale:
         c = math.log10(v)
         return Scale(c - d, c + d, 0.01, log=True)
     half = 2.0 * abs(v) if v != 0 else 1.0
+    if not math.isfinite(v - half) or not math.isfinite(v + half):
+        half = 0.5 * abs(v)  # near the largest float: a range the slider can still hold
     low, high = v - half, v + half
     if o.check in ("nonnegative", "positive", "fraction"):
         low = max(low, 0.0)

@@ -29,6 +29,7 @@ from ..config.resolve import Config, keys_read, resolve
 from ..config.toml import parse_assignment, toml_value
 from ..errors import ConfigError
 from ..experiments import cases
+from ..numerics.grid import n_samples
 
 #: the groups of the page, in order, and the key prefixes each holds
 GROUPS: dict[str, tuple[str, ...]] = {
@@ -58,6 +59,18 @@ SHORT = metrics.SHORT
 #: metrics a map or a tuning can be asked for
 MAP_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "iae_load", "energy_u",
                "overshoot", "settling_time")
+
+
+#: samples of one run at most: every change runs on the server's event loop, and a run of
+#: 10^7 samples took 3 s and 1.2 GB there, freezing every open page
+MAX_SAMPLES = 1_000_000
+
+
+def _check_size(cfg: Config, key: str) -> None:
+    n = n_samples(cfg["sim.t_end"], cfg["sim.h"], "sim.t_end", "sim.h")
+    if n > MAX_SAMPLES:
+        raise ConfigError(key, cfg[key], f"{n:,} samples: the tuner runs at most "
+                          f"{MAX_SAMPLES:,} a change (mfcontrol run takes longer horizons)")
 
 
 @dataclass(frozen=True)
@@ -233,11 +246,11 @@ class Session:
     --------
     >>> from mfcontrol.tuner.session import Session
     >>> s = Session("voltage-stable-standard", {"sim.t_end": 1e-3})
-    >>> s.set("controller.kp", "3")  # None: accepted
+    >>> s.set("controller.kp", "1.5")  # None: accepted
     >>> s.set("controller.alpha", "-1")
     'controller.alpha = -1: must be a finite number > 0'
-    >>> s.run().metrics["stable"]
-    True
+    >>> s.run().metrics["stable"], s.changed()
+    (True, {'sim.t_end': 0.001, 'controller.kp': 1.5})
     """
 
     def __init__(self, case: str | Path, overrides: Mapping[str, Any] | None = None) -> None:
@@ -246,6 +259,7 @@ class Session:
         self._settings = {k: v for k, v in settings.items() if k not in _SWEEP_KEYS}
         self.overrides: dict[str, Any] = {}
         self.cfg: Config = resolve({**self._settings, **dict(overrides or {})})
+        _check_size(self.cfg, "sim.t_end")
         self.overrides.update(overrides or {})
         self.result: Result | None = None
         self.frozen: Result | None = None
@@ -279,6 +293,7 @@ class Session:
         """Set several options at once (values as the options take them; None unsets);
         raises ConfigError, and then nothing changes."""
         cfg = self.cfg.with_overrides(dict(values))
+        _check_size(cfg, next((k for k in values if k in ("sim.h", "sim.t_end")), "sim.t_end"))
         # a choice, or a number set or unset, can change what the run reads
         if any(BY_KEY[k].kind not in ("float", "int") or BY_KEY[k].choices
                or (self.cfg[k] is None) != (cfg[k] is None) for k in values):
