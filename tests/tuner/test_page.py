@@ -54,3 +54,21 @@ def test_one_job_at_a_time(page, monkeypatch):
     page.start_map()
     page.start_tune()
     assert len(started) == 1 and "running" in page.status_div.text
+
+
+def test_a_tuning_is_not_applied_to_settings_changed_while_it_ran(page):
+    """Found in review: its best values were applied on top of a plant.dR changed during
+    the tuning, and the status showed a value the table did not."""
+
+    class Best:  # what mfcontrol.tune returns, as far as the page reads it
+        value, start_value, evaluations, seconds, stopped = 1e-4, 2e-4, 40, 0.1, "budget"
+        best = {"controller.kp": 3.0}
+
+        class objective:  # noqa: N801
+            text = "iae"
+
+    page._tuned_from = page.session.cfg
+    page.change(page.views["plant.dR"], "2.0")  # while the tuning runs
+    page._tune_done(Best())
+    assert page.session.cfg["controller.kp"] == 2.0
+    assert "not applied" in page.tune_status.text

@@ -35,6 +35,7 @@ from bokeh.plotting import figure
 from ..api import metrics as _metrics
 from ..api.plotting import event_times, plain_labels, units
 from ..api.result import Result
+from ..config.resolve import Config
 from ..errors import ConfigError
 from . import heatmap
 from .scale import scale_for
@@ -208,6 +209,7 @@ class TunerPage:
         self._stop_tune = threading.Event()
         self._busy = False
         self._status_error = False
+        self._tuned_from: Config | None = None
         self._scale = 1.0
         self._frozen_shown: Result | None = None
         self._tab_titles: list[str] = []
@@ -625,6 +627,7 @@ class TunerPage:
         budget = int(self.budget.value or 0)
         objective = self.objective.value
         self._stop_tune.clear()
+        self._tuned_from = self.session.cfg
         self.stop_button.disabled = False
         t0 = time.perf_counter()
         self.tune_status.text = _progress("tuning", 0, budget)
@@ -650,6 +653,14 @@ class TunerPage:
             self.tune_status.text = _finished(f"no point was stable in {result.evaluations} "
                                               "points: the values are kept", error=True)
             return
+        best = ", ".join(f"{k} = {fmt(v)}" for k, v in result.best.items())
+        if self.session.cfg is not self._tuned_from:
+            # the best values are the best under the settings the tuning started from; on
+            # settings changed since, they would be shown as what they are not
+            self.tune_status.text = _finished(
+                f"settings changed while tuning: its best ({best}, {result.objective.text} "
+                f"{fmt(result.value)}) is not applied", error=True)
+            return
         before = self.session.snapshot()
         try:
             self.session.apply(result.best)
@@ -660,7 +671,6 @@ class TunerPage:
         if [f.key for f in self.session.fields()] != list(self.views):
             self._rebuild_fields()
         self._show_all()
-        best = ", ".join(f"{k} = {fmt(v)}" for k, v in result.best.items())
         self.tune_status.text = _finished(
             f"{result.objective.text} {fmt(result.value)} (the values before: "
             f"{fmt(result.start_value)}) at {best}: applied. {result.evaluations} points in "
