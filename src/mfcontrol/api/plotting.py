@@ -33,32 +33,31 @@ _MODELS = {
 }
 
 
+def _label_parts(cfg) -> tuple[tuple[str, str, str], str]:
+    """A configuration's output as (quantity, symbol, unit) and its input's axis label:
+    the one lookup every label and unit below is read from."""
+    model = cfg["plant.model"]
+    if model in _MODELS:
+        return _MODELS[model]
+    return _OUTPUT[cfg["plant.output"]], "duty cycle $d$ (1)"
+
+
 def _labels(result: Result) -> tuple[str, str, str]:
     assert result.config is not None  # a case run's figure: it has a configuration
-    model = result.config["plant.model"]
-    if model in _MODELS:
-        return _MODELS[model][0]
-    return _OUTPUT[result.config["plant.output"]]
+    return _label_parts(result.config)[0]
 
 
 def units(cfg) -> tuple[str, str]:
     """The units of a configuration's output and input: ``("V", "1")`` for the buck's
     voltage under a duty cycle."""
-    model = cfg["plant.model"]
-    if model in _MODELS:
-        (_, _, y_unit), u_label = _MODELS[model]
-        return y_unit, u_label.rpartition("(")[2].rstrip(")")
-    return _OUTPUT[cfg["plant.output"]][2], "1"
+    (_, _, y_unit), u_label = _label_parts(cfg)
+    return y_unit, u_label.rpartition("(")[2].rstrip(")")
 
 
 def plain_labels(cfg) -> tuple[str, str]:
     """The output's and the input's axis labels in plain text, for figures drawn outside
     matplotlib (no TeX): ``("output voltage v (V)", "duty cycle d (1)")`` for the buck."""
-    model = cfg["plant.model"]
-    if model in _MODELS:
-        (quantity, sym, unit), u_label = _MODELS[model]
-    else:
-        (quantity, sym, unit), u_label = _OUTPUT[cfg["plant.output"]], "duty cycle $d$ (1)"
+    (quantity, sym, unit), u_label = _label_parts(cfg)
 
     def plain(text: str) -> str:
         return text.replace("\\omega", "\u03c9").replace("$", "")
@@ -68,8 +67,7 @@ def plain_labels(cfg) -> tuple[str, str]:
 
 def _input_label(result: Result) -> str:
     assert result.config is not None  # a case run's figure: it has a configuration
-    model = result.config["plant.model"]
-    return _MODELS[model][1] if model in _MODELS else "duty cycle $d$ (1)"
+    return _label_parts(result.config)[1]
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> bool:

@@ -24,7 +24,7 @@ from ..api import batch, metrics
 from ..api.elements import unread
 from ..api.result import Result
 from ..api.simulate import simulate
-from ..config.options import BY_KEY, OPTIONS
+from ..config.options import BY_KEY, OPTIONS, POSITIONAL
 from ..config.resolve import Config, keys_read, resolve
 from ..config.toml import parse_assignment, toml_value
 from ..errors import ConfigError
@@ -386,10 +386,7 @@ class Session:
             return cfg["disturbance.kind"] != "table"
         # the law's arrays carry the variational options whatever the gain: they act only
         # when the gain adapts
-        adapts = cfg["controller.law"] == "variational" or (
-            cfg["controller.law"] in ("i-P", "i-PI", "i-PD", "i-PID")
-            and cfg["controller.adapt"] == "variational")
-        if BY_KEY[key].doc.startswith("variational:") and not adapts:
+        if BY_KEY[key].doc.startswith("variational:") and not self.adapts():
             return True
         return key == "controller.k_aw" and cfg["controller.anti_windup"] != "back-calculation"
 
@@ -398,7 +395,7 @@ class Session:
         variational adaptation): the page then plots gamma."""
         c = self.cfg
         return c["controller.law"] == "variational" or (
-            c["controller.law"] not in ("ip", "pid") and c["controller.adapt"] == "variational")
+            c["controller.law"] in POSITIONAL and c["controller.adapt"] == "variational")
 
     # --- runs -------------------------------------------------------------------------
 
