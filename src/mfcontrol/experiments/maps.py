@@ -208,38 +208,47 @@ def _grid(frame: pd.DataFrame, x: str, y: str, metric: str, where: dict | None,
                  decide(x, xs, log_x), decide(y, ys, log_y))
 
 
-def _norm(grids: list[_Grid], log_color: bool | None) -> Normalize:
-    """One colour scale for all grids: logarithmic for positive values spanning more than
-    two decades (or when ``log_color``), linear otherwise."""
-    finite = np.concatenate([g.z[np.isfinite(g.z)] for g in grids])
+def colour_range(maps: list[tuple[np.ndarray, np.ndarray | None]], metric: str,
+                 log_color: bool | None = None) -> tuple[float, float, bool]:
+    """One colour scale for maps of ``metric`` (each its values and its stable column, 1/0
+    or None): ``(low, high, log)``. Logarithmic for positive values spanning more than two
+    decades (or when ``log_color``), linear otherwise. The CLI's maps and the tuner's
+    draw with it."""
+    finite = np.concatenate([z[np.isfinite(z)] for z, _ in maps])
     # the stable members set the scale when there are any: an unstable member that did not
     # diverge (IAE 1e7) flattened every stable cell to one colour; it is hatched, and drawn
     # in the scale's end colour. Not for the columns about divergence itself (a map of
     # `stable` over its stable members would be all one value)
     everything = finite
-    if grids[0].metric not in _ABOUT_DIVERGENCE:
-        stable = np.concatenate([g.z[np.isfinite(g.z) & (g.stable == 1.0)] for g in grids
-                                 if g.stable is not None] or [np.empty(0)])
+    if metric not in _ABOUT_DIVERGENCE:
+        stable = np.concatenate([z[np.isfinite(z) & (s == 1.0)] for z, s in maps
+                                 if s is not None] or [np.empty(0)])
         if stable.size:
             finite = stable
     if finite.size == 0:
-        return Normalize(0.0, 1.0)
+        return 0.0, 1.0, False
     lo, hi = float(finite.min()), float(finite.max())
     if log_color is None:
         # a log scale masks values <= 0, which would then look diverged: every member's
         # value must be positive for it
-        log_color = everything.min() > 0 and hi / lo > 100.0
+        log_color = bool(everything.min() > 0 and hi / lo > 100.0)
     if log_color:
         if lo <= 0:
-            raise ValueError(f"log colour scale needs positive values; {grids[0].metric} "
+            raise ValueError(f"log colour scale needs positive values; {metric} "
                              f"reaches {lo:g}")
         if lo == hi:
-            return LogNorm(lo / math.sqrt(10.0), hi * math.sqrt(10.0))
-        return LogNorm(lo, hi)
+            return lo / math.sqrt(10.0), hi * math.sqrt(10.0), True
+        return lo, hi, True
     if lo == hi:
         pad = 0.5 * abs(lo) if lo != 0 else 0.5
-        return Normalize(lo - pad, hi + pad)
-    return Normalize(lo, hi)
+        return lo - pad, hi + pad, False
+    return lo, hi, False
+
+
+def _norm(grids: list[_Grid], log_color: bool | None) -> Normalize:
+    """One colour scale for all grids (:func:`colour_range`)."""
+    lo, hi, log = colour_range([(g.z, g.stable) for g in grids], grids[0].metric, log_color)
+    return LogNorm(lo, hi) if log else Normalize(lo, hi)
 
 
 def _extend(grids: list[_Grid], norm: Normalize) -> str:
@@ -250,14 +259,14 @@ def _extend(grids: list[_Grid], norm: Normalize) -> str:
         (above, below), "neither")
 
 
-def _quantity(key: str) -> str:
+def quantity(key: str) -> str:
     """A swept key's quantity in words, without its unit (for a title)."""
     return options.label(key).split(" (")[0]
 
 
 def _what(metric: str, x: str, y: str) -> str:
     """A map's title in words: the metric over the two swept quantities."""
-    return f"{_metrics.LABELS.get(metric, (metric,))[0]} over {_quantity(x)} and {_quantity(y)}"
+    return f"{_metrics.LABELS.get(metric, (metric,))[0]} over {quantity(x)} and {quantity(y)}"
 
 
 def _hatch_unstable(ax, grid: _Grid) -> None:

@@ -19,7 +19,7 @@ from bokeh.plotting import figure
 
 from ..api import metrics as _metrics
 from ..config import options
-from ..experiments.maps import cell_edges
+from ..experiments.maps import cell_edges, colour_range, quantity
 from .session import SHORT, RobustnessMap
 
 GREY = "#d1d1d1"  # matplotlib's "0.82": the colour of the CLI maps' diverged cells
@@ -36,25 +36,13 @@ def _any(*renderers: Any) -> list[Any]:
     return list(renderers)
 
 
-def _quantity(key: str) -> str:
-    return options.label(key).split(" (")[0]
-
-
 def _mapper(m: RobustnessMap):
-    """Viridis over the stable members' values (all finite ones when none is stable):
-    logarithmic when they are positive and span more than two decades; members beyond
-    the range take its end colours (they are hatched: unstable)."""
-    finite = np.isfinite(m.z)
-    values = m.z[finite & m.stable] if (finite & m.stable).any() else m.z[finite]
-    if values.size == 0:
-        return LinearColorMapper(palette=Viridis256, low=0.0, high=1.0, nan_color=GREY)
-    lo, hi = float(values.min()), float(values.max())
-    if lo > 0 and hi / lo > 100.0:
-        return LogColorMapper(palette=Viridis256, low=lo, high=hi, nan_color=GREY)
-    if lo == hi:
-        pad = 0.5 * abs(lo) if lo != 0 else 0.5
-        lo, hi = lo - pad, hi + pad
-    return LinearColorMapper(palette=Viridis256, low=lo, high=hi, nan_color=GREY)
+    """Viridis over the CLI maps' colour range (:func:`mfcontrol.experiments.maps.
+    colour_range`: the stable members' values, logarithmic over more than two decades);
+    members beyond it take its end colours (they are hatched: unstable)."""
+    lo, hi, log = colour_range([(m.z, m.stable)], m.metric)
+    mapper = LogColorMapper if log else LinearColorMapper
+    return mapper(palette=Viridis256, low=lo, high=hi, nan_color=GREY)
 
 
 def draw(m: RobustnessMap, units: tuple[str, str], width: int = 720, height: int = 470):
@@ -75,8 +63,8 @@ def draw(m: RobustnessMap, units: tuple[str, str], width: int = 720, height: int
                  x_axis_type="log" if m.log_x else "linear",
                  y_axis_type="log" if m.log_y else "linear",
                  x_range=Range1d(ex[0], ex[-1]), y_range=Range1d(ey[0], ey[-1]),
-                 title=Title(text=f"Robustness map: {metric_words} over {_quantity(m.x)} "
-                                  f"and {_quantity(m.y)}", text_font_size="12pt"),
+                 title=Title(text=f"Robustness map: {metric_words} over {quantity(m.x)} "
+                                  f"and {quantity(m.y)}", text_font_size="12pt"),
                  tools="pan,wheel_zoom,box_zoom,reset,save")
     # Bokeh does not wrap a title: the second line is a title of its own, nearer the plot
     fig.add_layout(Title(text=f"{m.z.size} runs around the current setting (marked), "
