@@ -63,8 +63,13 @@ def stable_identity(dispatcher, *key) -> None:
 #: reciprocals of shared divisors, no signed-zero care. No ``nnan``/``ninf`` (the
 #: divergence test needs NaN and inf), no ``reassoc`` (a reordered sum drifts further).
 FAST_FLAGS = ("contract", "arcp", "nsz")
+#: the same as numba's ``fastmath`` option. A dict, not a set: a compiled function that
+#: calls a fast one pickles the callee's options into its disk-cache key, and a set of
+#: strings pickles in an order that changes with every process's string hashing (the
+#: fast kernels then missed the cache in every new process)
+FASTMATH = dict.fromkeys(FAST_FLAGS, True)
 #: Kernels of the fast mode: compiled on first use, cached on disk.
-fast_kernel_jit = njit(error_model="numpy", cache=True, fastmath=set(FAST_FLAGS))
+fast_kernel_jit = njit(error_model="numpy", cache=True, fastmath=FASTMATH)
 
 _step_jit = njit(inline="always", error_model="numpy", cache=True)
 

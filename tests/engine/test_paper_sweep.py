@@ -184,3 +184,34 @@ def test_members_going_bad_on_a_tiles_first_or_last_sample_equal_their_single_ru
             for name in ALL:
                 assert _same(cols[name][1], single[name]), (k, name, cols[name][1],
                                                              single[name])
+
+
+_CACHED_SWEEPS = """
+import numpy as np
+from mfcontrol.api import batch
+from mfcontrol.experiments.cases import resolve_case
+base = resolve_case("voltage-stable-standard", {"sim.t_end": 2e-3})[1]
+grid = batch.make_grid(base, {"controller.alpha": np.logspace(0, 2, 8)})
+batch.run_grid(grid)  # the generic kernel
+batch.run_grid(grid, specialise=True)  # the shared parameters compiled in
+batch.run_grid(grid, fast=True)  # the fast mode (specialised too)
+"""
+
+
+def test_a_second_process_loads_the_paper_sweep_kernels_from_the_disk_cache():
+    # the tiles closed over plain-njit helpers and the fast kernels over a set of flags,
+    # both of which pickle differently in every process: numba's cache key changed and
+    # every new process compiled the kernels again (about 8 s of CPU per sweep)
+    import os
+    import subprocess
+    import sys
+
+    def run(debug):
+        env = {**os.environ, "NUMBA_DEBUG_CACHE": "1" if debug else "0"}
+        return subprocess.run([sys.executable, "-c", _CACHED_SWEEPS], env=env,
+                              capture_output=True, text=True, timeout=900, check=True).stdout
+
+    run(False)  # compiles what the machine's cache does not hold yet
+    saved = [line for line in run(True).splitlines()
+             if "data saved" in line and "paper_sweep" in line]
+    assert saved == []

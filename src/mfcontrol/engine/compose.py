@@ -300,7 +300,7 @@ def _dispatcher(make, fast: bool):
     """The loop ``make(fast)`` as a dispatcher cached on disk, not compiled yet."""
     options: dict[str, Any] = dict(error_model="numpy", cache=True, nogil=True)
     if fast:
-        options["fastmath"] = set(_jit.FAST_FLAGS)
+        options["fastmath"] = _jit.FASTMATH
     return njit(**options)(make(bool(fast)))
 
 

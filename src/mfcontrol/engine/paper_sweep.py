@@ -93,7 +93,10 @@ _AP, _BAD, _MXT = _row(P_APREV), _row(P_BAD), _row(P_MXT)
         metrics.M_STEP_T0, metrics.M_STEP_FROM, metrics.M_STEP_TO, metrics.M_LOAD_T0))
 
 
-@njit(inline="always", error_model="numpy")
+# step_jit: a stable identity, since the tiles close over one of these two (a plain njit
+# pickles with an identifier drawn per process, and the tiles then missed numba's disk
+# cache in every new process)
+@_jit.step_jit
 def _loop_sums(D, j, t, h, y, r, a, final_start):
     """:func:`metrics.loop_sums` on member j's packed rows."""
     (D[_EN + j], D[_PK + j], D[_T10 + j], D[_T90 + j], D[_TIN + j], D[_TL + j], D[_EF + j],
@@ -103,7 +106,7 @@ def _loop_sums(D, j, t, h, y, r, a, final_start):
         D[_STO + j], D[_LT0 + j], final_start)
 
 
-@njit(inline="always", error_model="numpy")
+@_jit.step_jit
 def _loop_sums_without_step(D, j, t, h, y, r, a, final_start):
     """The same for members with no reference step (step_to NaN): the step's rows keep
     their start, as :func:`metrics.loop_sums` leaves them, and a loop over members neither
@@ -190,7 +193,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     # plain tile need not store them
     CONSTANT_GAIN = (not VARY[P_CP + variational_gain.MODE]
                      and K[P_CP + variational_gain.MODE] == variational_gain.CONSTANT)
-    flags = set(FAST_FLAGS) if fast else False
+    flags = _jit.FASTMATH if fast else False
     options: dict[str, Any] = dict(error_model="numpy", fastmath=flags)
 
     # member j's arguments of buck.rk4 / rk4_map after the state, of buck.measure, and
@@ -219,12 +222,15 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     _jit.stable_identity(law, identity)
     _jit.stable_identity(output, identity)
 
+    # every kernel, specialised or not, exact or fast, is cached on disk: what a closure is
+    # built from enters numba's cache key through its cells (VARY, K, the flags) and the
+    # identities above (the constants), so each set of shared values has its own entry
     def make_tile(checked):
         # a shared reference in a plain tile: r_{k-1} and max |r| are per-sample scalars,
         # not rows every member reads and writes
         HOIST = SHARED_REF and not checked
 
-        @njit(cache=all(VARY), **options)
+        @njit(cache=True, **options)
         def tile(D, RP, R, T, k0, k1, h, settle, final_start, bound):
             """Samples k0 .. k1-1 (at times T[k]) of every member of the block:
             measurement, law (at sample kl), metrics, plant step. ``checked``: the
@@ -310,7 +316,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     # two compiled loops: sample by sample with the divergence test, and the plain one
     tile_checked, tile_plain = make_tile(True), make_tile(False)
 
-    @njit(nogil=True, cache=all(VARY), **options)
+    @njit(nogil=True, cache=True, **options)
     def run_block(T, h, k_settle, k_final, D2, RP, ev_steps, ev_k, ev_row, ev_add, ev_val, S):
         n_steps = T.size
         D = D2.ravel()
