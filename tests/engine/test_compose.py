@@ -376,8 +376,8 @@ def test_vectorised_members_equal_their_single_runs(law, f, monkeypatch):
     M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
                            vectorise=True)
     assert plants[0].block[0].compiled  # the vectorised loop ran (its step is compiled)
-    # the law ran over the blocks, except with the algebraic estimator (member by member)
-    assert (vectorised[0] == 0) == (law == "IPID-algebraic")
+    # the law ran over the blocks (the algebraic estimator's window too)
+    assert vectorised[0] > 0
     assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
     for j in range(m):
         Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
@@ -498,8 +498,10 @@ def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     assert loop(block, compose.RK4, 1, big, False, True) == "member"
     assert loop(block, compose.RK4, m, cold, True, None) == "member"  # trajectory
     assert loop(block, compose.RK4, m, cold, False, False) == "member"
-    # the fast mode's single runs fuse the RK4's arithmetic, the vectorised loop does not
-    assert loop(block, compose.RK4, m, cold, False, True, fast=True) == "member"
+    # a fast sweep runs the vectorised loop (in exact arithmetic): never slower than exact
+    assert loop(block, compose.RK4, m, cold, False, True, fast=True) == "block"
+    # members of their own numbers of substeps run one by one
+    assert loop(block, compose.RK4, m, cold, False, True, uniform=False) == "member"
     # review: under Intel SVML a loop over a block's members (even of the reference) may
     # take vector sin, cos, ... whose last bits differ: never chosen automatically
     monkeypatch.setattr(compose.numba_config, "USING_SVML", True)
@@ -684,8 +686,8 @@ def test_built_in_plants_in_the_vectorised_loop_equal_their_single_runs(sweep, m
     M, CS = batch_metrics(cfgs[0], parts, vectorise=True)
     assert loops == ["lanes" if sweep in ("boost-rk45", "boost-rk4-own-functions")
                      else "block"]
-    # the law ran over the blocks, except with the algebraic estimator (member by member)
-    assert (vectorised[0] == 0) == (sweep == "first-order-algebraic")
+    # the law ran over the blocks (the algebraic estimator's window too)
+    assert vectorised[0] > 0
     assert 0 < M[metrics.M_DIVERGED].sum() < len(cfgs)  # some go bad
     for j in range(len(cfgs)):
         Mj, CSj = batch_metrics(cfgs[j], {k: v[j:j + 1] for k, v in parts.items()})
@@ -768,3 +770,59 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
                                  t_end=t_end, h=h, S=S)
         _assert_same_bits(M[:, j], Mj[:, 0], j)
         _assert_same_bits(CS[:, j], CSj[:, 0], j)
+
+
+# realistic loops in the vectorised loop: sensor noise (a seed per member), quantisation and
+# delays differing between the members of a block, rate limits, disturbances at the input
+# and the output, substeps, the PID, the algebraic estimator (one window for the block, or
+# windows of their own); members going bad at samples of their own
+REALISTIC_SWEEPS = {
+    "motor-algebraic-elements": ("motor-noise-ipi-algebraic", lambda j: {
+        "sim.t_end": 1.5, "sim.diverge_above": 150.0, "sensor.seed": j,
+        "sensor.quantum": 0.05 if j % 2 else 0.0, "sensor.delay": j % 3,
+        "actuator.delay": (j // 3) % 4, "actuator.rate_limit": 2000.0 if j % 5 else 0.0,
+        "disturbance.kind": "sine", "disturbance.amplitude": 0.5,
+        "disturbance.frequency": 3.0, "controller.kp": -20.0 + 1.5 * j,
+        "plant.J": 5e-4 * (0.7 + 0.01 * j)}),
+    "motor-pid-output-step": ("motor-noise-pid", lambda j: {
+        "sim.t_end": 1.5, "sim.diverge_above": 65.0, "sensor.seed": 100 + j,
+        "sensor.delay": 2, "actuator.delay": 3, "actuator.rate_limit": 2000.0,
+        "disturbance.kind": "step", "disturbance.at": "output", "disturbance.t0": 0.9,
+        "disturbance.amplitude": 2.0 + 0.1 * j, "controller.kp": 0.05 + 0.1 * j,
+        "controller.kd": 0.001 * (j % 4)}),
+    "motor-substeps-ramp": ("motor-noise-ipi", lambda j: {
+        "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sim.substeps": 3, "sensor.seed": j,
+        "disturbance.kind": "ramp", "disturbance.amplitude": 0.5, "disturbance.t0": 0.5,
+        "controller.kp": -20.0 + 1.5 * j}),
+    "motor-windows-of-their-own": ("motor-noise-ipi-algebraic", lambda j: {
+        "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": j,
+        "controller.window": 20 + j % 3, "controller.kp": -20.0 + 1.5 * j}),
+    "motor-some-ideal": ("motor-noise-ipi-algebraic", lambda j: {
+        "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": j,
+        "sensor.noise": "gaussian" if j % 2 else "none", "controller.kp": -20.0 + 1.5 * j}),
+    "lag3-ipi-algebraic": ("bench-lag3", lambda j: {
+        "sim.t_end": 30.0, "sim.diverge_above": 5.0, "sensor.seed": j,
+        "controller.law": "i-PI", "controller.alpha": 0.5 + 0.1 * j, "controller.kp": 1.0,
+        "controller.ki": 0.5, "controller.window": 10}),
+}
+
+
+@pytest.mark.parametrize("sweep", list(REALISTIC_SWEEPS))
+def test_realistic_loops_in_the_vectorised_loop_equal_their_single_runs(sweep, monkeypatch):
+    from mfcontrol.api.simulate import batch_metrics, member_parts
+    from mfcontrol.engine import metrics
+
+    cfgs = _case_members(*REALISTIC_SWEEPS[sweep])
+    parts = {name: [build(c) for c in cfgs] for name, build in member_parts().items()}
+    vectorised = _count_vectorised(monkeypatch)
+    loops = _loops_chosen(monkeypatch)
+    M, CS = batch_metrics(cfgs[0], parts, vectorise=True)
+    assert loops[0] in ("block", "lanes")
+    # the law ran over the blocks but where the members' windows differ
+    assert (vectorised[0] == 0) == (sweep == "motor-windows-of-their-own")
+    assert 0 < M[metrics.M_DIVERGED].sum() < len(cfgs)  # some go bad
+    for j in range(len(cfgs)):
+        Mj, CSj = batch_metrics(cfgs[j], {k: v[j:j + 1] for k, v in parts.items()})
+        _assert_same_bits(M[:, j], Mj[:, 0], j)
+        # a batch's law state has the rows of its longest window
+        _assert_same_bits(CS[:CSj.shape[0], j], CSj[:, 0], j)

@@ -46,7 +46,7 @@ from numba.core.errors import NumbaError
 
 from .. import _jit
 from ..elements import actuator, delay, disturbance, layout, sensor
-from ..laws import intelligent, pid, recursive_ip, reference, variational_gain
+from ..laws import estimators, intelligent, pid, recursive_ip, reference, variational_gain
 from ..numerics import blocks, dopri45, grid, rk4
 from ..numerics import signatures as sig
 from . import metrics as engine_metrics
@@ -67,27 +67,37 @@ T_COMP = trajectory.T_X0
 
 
 @_jit.step_jit
-def _sample(law_kind, cp, cs, lane, mj, S, k, t, h, y, r, law_dt, external, alpha, a_prev,
-            bound):
-    """Sample k of the member in column ``lane`` after its measurement y: the divergence
-    test on y, the law, the metrics fold, as the vectorised loop runs its start-up
-    samples, the samples with a bad measurement and the algebraic estimator (the member loop
-    writes the same steps out, for speed). Returns
+def _law(law_kind, cp, cs, lane, ym, r, law_dt, external, alpha):
+    """The law of the member in column ``lane`` on its measurement ym (what the sensor
+    delivered): returns (u, a, g, gamma): the output the metrics see (before the
+    limits), the applied output, the gain and gamma (NaN for the PID: no adaptive
+    gain)."""
+    if law_kind == INTELLIGENT:
+        if external:  # as the live controller writes it (engine.live)
+            cs[variational_gain.ALPHA_EXT, lane] = alpha
+        a = intelligent.step(cp, cs, lane, ym, r, law_dt)
+        u = cs[intelligent.C_UNLIM, lane]
+        gamma = cs[variational_gain.G1, lane]
+        return u, a, gamma, gamma
+    if law_kind == PID:
+        a = pid.step(cp, cs, lane, ym, r, law_dt)
+        return cs[pid.C_UNLIM, lane], a, np.nan, np.nan
+    return recursive_ip.step(cp, cs, lane, ym, r)
+
+
+@_jit.step_jit
+def _sample(law_kind, cp, cs, lane, mj, S, k, t, h, y, ym, r, law_dt, external, alpha,
+            a_prev, bound):
+    """Sample k of the member in column ``lane`` after its output y and measurement ym:
+    the divergence test on y, the law on ym, the metrics fold of y, as the vectorised
+    loop runs its start-up samples and the samples with a bad measurement. Returns
     (ok, u, a, g, gamma); with ok False the member stops at this sample."""
     if not engine_metrics.measurement_ok(y, r, bound):
         # flagged before the law runs: the controller's memory ends at the last good
         # sample, as a loop of live calls would leave it
         engine_metrics.member_metrics(mj, S, lane, k, t, h, y, r, 0.0, 0.0, a_prev, 0.0)
         return False, 0.0, 0.0, 0.0, 0.0
-    if law_kind == INTELLIGENT:
-        if external:  # as the live controller writes it (engine.live)
-            cs[variational_gain.ALPHA_EXT, lane] = alpha
-        a = intelligent.step(cp, cs, lane, y, r, law_dt)
-        u = cs[intelligent.C_UNLIM, lane]
-        gamma = cs[variational_gain.G1, lane]
-        g = gamma
-    else:
-        u, a, g, gamma = recursive_ip.step(cp, cs, lane, y, r)
+    u, a, g, gamma = _law(law_kind, cp, cs, lane, ym, r, law_dt, external, alpha)
     ok = engine_metrics.member_metrics(mj, S, lane, k, t, h, y, r, u, a, a_prev, gamma)
     return ok, u, a, g, gamma
 
@@ -229,19 +239,8 @@ def _make_loop(fast):
                     if k == 0:
                         y_first = ym
                     ym = delay.delayed(ring_y, s_d, k, ym, y_first)
-                if law_kind == INTELLIGENT:
-                    if external:
-                        cs[variational_gain.ALPHA_EXT, 0] = AL[j if own_alpha else 0, k]
-                    a = intelligent.step(cp, cs, 0, ym, r, law_dt)
-                    u = cs[intelligent.C_UNLIM, 0]
-                    gamma = cs[variational_gain.G1, 0]
-                    g = gamma
-                elif law_kind == PID:
-                    a = pid.step(cp, cs, 0, ym, r, law_dt)
-                    u = cs[pid.C_UNLIM, 0]
-                    gamma = g = np.nan  # no adaptive gain
-                else:
-                    u, a, g, gamma = recursive_ip.step(cp, cs, 0, ym, r)
+                alpha = AL[j if own_alpha else 0, k] if external else 0.0
+                u, a, g, gamma = _law(law_kind, cp, cs, 0, ym, r, law_dt, external, alpha)
                 if not engine_metrics.member_metrics(mj, S, 0, k, t, h, y, r, u, a, a_prev, gamma):
                     break
                 a_prev = a
@@ -369,15 +368,19 @@ def _prepare_lane(prepare, pb, ps, lane, h, n_x):
 # Rows of a block's law buffer D (LANES members a row). Every row the vectorised law and
 # metrics fold touch lies a compile-time constant distance from the buffer's start, so
 # the compiler needs no run-time alias checks to vectorise the loops over members.
-_CP0 = 0  # the law's parameters, either law's rows
-_N_CP = max(intelligent.N_PARAMS, recursive_ip.N_PARAMS)
-_Y = _CP0 + _N_CP  # y_k of every member
+_CP0 = 0  # the law's parameters, any law's rows
+_N_CP = max(intelligent.N_PARAMS, recursive_ip.N_PARAMS, pid.N_PARAMS)
+_Y = _CP0 + _N_CP  # y_k of every member (the plant's output, with an output disturbance)
 _R = _Y + 1  # r_k
-_U = _R + 1  # the input applied at sample k, which the plant holds over the coming step
+_U = _R + 1  # the law's applied output at sample k
 _UM = _U + 1  # the law's output as the metrics see it (u_k before the limits)
 _G = _UM + 1  # gamma_k
 _AP = _G + 1  # the input applied at the previous sample
-_M0 = _AP + 1  # the metrics, in the rows of engine.metrics
+_YM = _AP + 1  # what the law reads: the sensor's reading of y_k (y_k without a sensor)
+_UP = _YM + 1  # what the plant receives over the coming step (after the actuator)
+_SY = _UP + 1  # the algebraic estimator's window sums (estimators.sums) of y ...
+_SU = _SY + 1  # ... and of u
+_M0 = _SU + 1  # the metrics, in the rows of engine.metrics
 _CS0 = _M0 + engine_metrics.N_METRICS  # the law's state (as many rows as it has)
 _DIVERGED = _M0 + engine_metrics.M_DIVERGED
 
@@ -404,17 +407,46 @@ def _law_views(D, n_cp, n_cs):
 
 
 @_jit.step_jit
-def _intelligent_lanes(D, dt, simple):
-    """A sample past the start-up of the intelligent law with the backward-difference
-    estimator (:func:`mfcontrol.laws.intelligent.steady_step`, ``simple`` as it takes
-    it), for every member of a block at once: the loop vectorises. Members whose
-    measurement is bad must not be in the block (the caller runs such a sample member by
-    member). Returns how many live members have a non-finite output (they stop at this
-    sample)."""
+def _estimator_lanes(D, n_cs, M, order, live):
+    """The algebraic estimator's sample for every member of a block, all at the same
+    sample with the same window M and model order (what :func:`intelligent.step` does
+    first): y_k (the measurement) and the applied u_{k-1} pushed, then the window's sums
+    into rows ``_SY``, ``_SU`` (NaN until the window is full). The ring's slots are
+    computed once for the block, from lane ``live``, a live member's (a member that
+    stopped before its law ran at some sample pushed one sample fewer), so the loops over
+    members vectorise: O(1) per member-sample but for the resync every M samples."""
+    _, cs = _law_views(D, intelligent.N_PARAMS, n_cs)
+    base = intelligent.EST_BASE
+    n = int(cs[base + estimators.COUNT, live])
+    slot, after = estimators.slots(n, M)
+    for i in range(LANES):
+        estimators.push_at(cs, i, base, M, n, slot, after, D[_YM, i], cs[intelligent.U1, i])
+    for i in range(LANES):
+        estimators.count_pushed(cs, i, base, M, n)
+    full, oldest, newest, parity = estimators.window(cs, live, base, M)
+    if full:
+        for i in range(LANES):
+            D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
+                                                      parity)
+    else:
+        for i in range(LANES):
+            D[_SY, i] = np.nan
+            D[_SU, i] = np.nan
+
+
+@_jit.step_jit
+def _intelligent_lanes(D, dt, simple, algebraic):
+    """A sample past the start-up of the intelligent law
+    (:func:`mfcontrol.laws.intelligent.steady_step`, ``simple`` and ``algebraic`` as it
+    takes them: pass literals; with ``algebraic``, :func:`_estimator_lanes` ran first),
+    for every member of a block at once: the loop vectorises. Members whose measurement
+    is bad must not be in the block (the caller runs such a sample member by member).
+    Returns how many live members have a non-finite output (they stop at this sample)."""
     cp, cs = _law_views(D, intelligent.N_PARAMS, intelligent.EST_BASE)
     n_bad = 0
     for i in range(LANES):
-        u, u_unlim, gamma = intelligent.steady_step(cp, cs, i, D[_Y, i], D[_R, i], dt, simple)
+        u, u_unlim, gamma = intelligent.steady_step(cp, cs, i, D[_YM, i], D[_R, i], dt,
+                                                    simple, algebraic, D[_SY, i], D[_SU, i])
         n_bad += _law_out(D, i, u, u_unlim, gamma)
     return n_bad
 
@@ -426,9 +458,59 @@ def _recursive_lanes(D):
     cp, cs = _law_views(D, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
     n_bad = 0
     for i in range(LANES):
-        u, applied, _, gamma = recursive_ip.steady_step(cp, cs, i, D[_Y, i], D[_R, i])
+        u, applied, _, gamma = recursive_ip.steady_step(cp, cs, i, D[_YM, i], D[_R, i])
         n_bad += _law_out(D, i, applied, u, gamma)
     return n_bad
+
+
+@_jit.step_jit
+def _pid_lanes(D, dt):
+    """As :func:`_intelligent_lanes`, for the PID (:func:`mfcontrol.laws.pid.steady_step`;
+    no adaptive gain: gamma NaN)."""
+    cp, cs = _law_views(D, pid.N_PARAMS, pid.N_STATE)
+    n_bad = 0
+    for i in range(LANES):
+        u, v = pid.steady_step(cp, cs, i, D[_YM, i], D[_R, i], dt)
+        n_bad += _law_out(D, i, u, v, np.nan)
+    return n_bad
+
+
+@_jit.step_jit
+def _sense_lanes(D, acting, sensor_p, ring_y, y_first, k):
+    """What the law reads, for every member of a block: y_k through its sensor
+    (:func:`mfcontrol.elements.sensor.read`, then its delay) where an element acts on
+    its loop (``acting``), y_k itself elsewhere, into row ``_YM``. ``sensor_p``: the
+    block's sensor rows (:mod:`mfcontrol.elements.sensor`), a column per member."""
+    for lane in range(LANES):
+        y = D[_Y, lane]
+        if acting[lane]:
+            ym = sensor.read(sensor_p[sensor.NOISE, lane], sensor_p[sensor.STD, lane],
+                             sensor_p[sensor.SEED, lane], sensor_p[sensor.QUANTUM, lane], k,
+                             y)
+            if k == 0:
+                y_first[lane] = ym
+            y = delay.delayed(ring_y[lane], int(sensor_p[sensor.DELAY, lane]), k, ym,
+                              y_first[lane])
+        D[_YM, lane] = y
+
+
+@_jit.step_jit
+def _actuate_lanes(D, acting, actuator_p, d_in, DP, members, ring_u, u_act, k, t, h):
+    """What the plant receives, for every member of a block: the law's applied output
+    through its actuator (delay, then rate limit) plus an input disturbance where an
+    element acts on its loop, the output itself elsewhere, into row ``_UP``; ``u_act``
+    keeps each actuator's output. ``members[lane]``: the member whose disturbance
+    column of DP the lane reads."""
+    for lane in range(LANES):
+        a = D[_U, lane]
+        if acting[lane]:
+            w = delay.delayed(ring_u[lane], int(actuator_p[actuator.DELAY, lane]), k, a, 0.0)
+            u_act[lane] = actuator.rate_limited(w, u_act[lane], actuator_p[actuator.RATE, lane],
+                                                h)
+            a = u_act[lane]
+            if d_in[lane]:
+                a = a + disturbance.value(DP, members[lane], t)
+        D[_UP, lane] = a
 
 
 @_jit.step_jit
@@ -467,8 +549,8 @@ def _make_block_loop(fast):
     """The vectorised member loop (exact arithmetic only: ``fast`` is not read)."""
 
     def block_loop(law_kind, integ, step, output, rhs, measured, prepare, advance, n_steps,
-                   h, t_end, law_dt, X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val,
-                   S, M, tol, DT, j0, j1):
+                   h, t_end, law_dt, X, P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add,
+                   ev_val, S, M, tol, DT, j0, j1):
         """Members j0 .. j1-1, :data:`LANES` at a time, for n_steps samples; the arrays
         and the plant's functions (``rhs`` .. ``advance``) as :func:`member_loop` takes
         them. With the plant's block functions (``step``, ``output``: addresses, not 0;
@@ -477,14 +559,16 @@ def _make_block_loop(fast):
         the members into vector instructions; with 0, each member's plant runs on its own
         functions, by the integrator ``integ``, as in its single run. Either way what
         ``prepare`` derives is derived per member, at the start and after its changes.
-        Once past its start-up samples the law (either law; the intelligent one with the
-        backward-difference estimator) and the metrics fold run over the members as one
-        loop, vectorised; the start-up samples, a sample on which a
-        member's measurement is bad and the algebraic estimator run member by member
-        (:func:`_sample`), and so does a block whose members are not all at the same law
-        sample or that holds a member that came in stopped. Each member is its single
-        run, bit for bit. No trajectory. Returns how many block-samples ran with the law
-        vectorised."""
+        The loop's elements (``LP``: sensor, actuator, disturbance; one number of
+        substeps for every member) act around the law as in :func:`member_loop`, lane
+        by lane. Once past its start-up samples the law (any law; the algebraic
+        estimator's window when every member of the block has the same) and the
+        metrics fold run over the members as one loop, vectorised; the start-up
+        samples and a sample on which a member's measurement is bad run member by
+        member (:func:`_sample`), and so does a block whose members are not all at the
+        same law sample, mix estimators or windows, or hold a member that came in
+        stopped. Each member is its single run, bit for bit. No trajectory. Returns how
+        many block-samples ran with the law vectorised."""
         by_block = step != 0
         step = sig.as_block_step(step)
         output = sig.as_block_output(output)
@@ -504,7 +588,19 @@ def _make_block_loop(fast):
         settle = S[engine_metrics.S_SETTLE]
         final_start = S[engine_metrics.S_FINAL_START]
         bound = S[engine_metrics.S_DIVERGE_ABOVE]
-        steady = intelligent.STEADY if law_kind == INTELLIGENT else recursive_ip.STEADY
+        if law_kind == INTELLIGENT:
+            steady = intelligent.STEADY
+        elif law_kind == PID:
+            steady = pid.STEADY
+        else:
+            steady = recursive_ip.STEADY
+        k_row = (intelligent.K if law_kind == INTELLIGENT
+                 else (pid.K if law_kind == PID else recursive_ip.K))
+        # one number of substeps for every member (the caller's condition): the plant
+        # steps over the block at the times of the grid of h / sub
+        sub = int(LP[layout.SUBSTEPS, j0])
+        hs = h / sub if sub > 1 else h
+        DP = LP[layout.DISTURBANCE:]
         # the block's arrays are views of raw memory (carray): arrays with a reference
         # count would be counted up and down at every call of the law and the metrics
         # fold (atomic operations; measured 0.55 against 0.21 ms per member, when the
@@ -518,7 +614,7 @@ def _make_block_loop(fast):
         cs = carray(sig.offset(base, lanes * _CS0), (n_cs, lanes))
         mj = carray(sig.offset(base, lanes * _M0), (engine_metrics.N_METRICS, lanes))
         yb = sig.offset(base, lanes * _Y)
-        ub = sig.offset(base, lanes * _U)
+        up = sig.offset(base, lanes * _UP)
         xp = sig.offset(base, lanes * n_law)
         pp = sig.offset(base, lanes * (n_law + n_x))
         wp = sig.offset(base, lanes * (n_law + n_x + n_p))
@@ -534,9 +630,29 @@ def _make_block_loop(fast):
         dtc = np.zeros(lanes)
         alive = np.zeros(lanes, dtype=np.bool_)
         next_ev = np.zeros(lanes, dtype=np.int64)
+        # the loop's elements, a column per lane, and the delays' rings, sized for the
+        # longest delay of these members
+        acting = np.zeros(lanes, dtype=np.bool_)
+        d_in = np.zeros(lanes, dtype=np.bool_)
+        d_out = np.zeros(lanes, dtype=np.bool_)
+        members = np.zeros(lanes, dtype=np.int64)
+        sensor_p = np.zeros((sensor.N_PARAMS, lanes))
+        actuator_p = np.zeros((actuator.N_PARAMS, lanes))
+        y_first = np.zeros(lanes)
+        u_act = np.zeros(lanes)
+        d_y = 0
+        d_u = 0
+        for j in range(j0, j1):
+            d_y = max(d_y, int(LP[layout.SENSOR + sensor.DELAY, j]))
+            d_u = max(d_u, int(LP[layout.ACTUATOR + actuator.DELAY, j]))
+        ring_y = np.zeros((lanes, d_y + 1))
+        ring_u = np.zeros((lanes, d_u + 1))
         n_vector = 0
         for b0 in range(j0, j1, lanes):
             nb = min(lanes, j1 - b0)
+            any_acting = False
+            any_in = False
+            any_out = False
             for lane in range(lanes):
                 j = _member_of(b0, lane, nb)
                 _into_lane(X.T, j, xb, lane)
@@ -549,29 +665,61 @@ def _make_block_loop(fast):
                     D[_DIVERGED, lane] = 1.0
                 D[_AP, lane] = 0.0
                 D[_U, lane] = 0.0
+                D[_UP, lane] = 0.0
                 next_ev[lane] = _events_at(-1, j, ev_k, ev_col, ev_add, ev_val, pb, lane,
                                            n_steps)
+                members[lane] = j
+                acting[lane] = layout.acting(LP, j)
+                dist = DP[disturbance.KIND, j] != disturbance.NONE
+                d_out[lane] = dist and DP[disturbance.AT, j] == disturbance.OUTPUT
+                d_in[lane] = dist and not d_out[lane]
+                any_acting |= acting[lane]
+                any_in |= d_in[lane]
+                any_out |= d_out[lane]
+                for i in range(sensor.N_PARAMS):
+                    sensor_p[i, lane] = LP[layout.SENSOR + i, j]
+                for i in range(actuator.N_PARAMS):
+                    actuator_p[i, lane] = LP[layout.ACTUATOR + i, j]
+                u_act[lane] = 0.0
+                y_first[lane] = 0.0
             for lane in range(lanes):
-                _prepare_lane(prepare, pb, ps, lane, h, n_x)
+                _prepare_lane(prepare, pb, ps, lane, hs, n_x)
                 if not by_block:
                     _into_lane(xb, lane, xs.T, lane)
                     dtc[lane] = DT[_member_of(b0, lane, nb)]
             n_alive = nb
             # the vectorised law needs every member at the same law sample (a sweep's
-            # members start together) and, for the intelligent law, no algebraic window
-            law_k0 = cs[intelligent.K if law_kind == INTELLIGENT else recursive_ip.K, 0]
+            # members start together) and, for the intelligent law, one estimator (the
+            # algebraic one with one window and model order: its ring's slots are the
+            # block's)
+            law_k0 = cs[k_row, 0]
             lanes_law = True
             simple = True
+            algebraic = False
+            m_win = 0
+            order = 1
+            if law_kind == INTELLIGENT:
+                algebraic = cp[intelligent.EST, 0] == intelligent.ALGEBRAIC
+                m_win = int(cp[intelligent.M_WIN, 0])
+                order = int(cp[intelligent.N_ORDER, 0])
+            count0 = cs[intelligent.EST_BASE + estimators.COUNT, 0] if algebraic else 0.0
             for lane in range(lanes):
                 # a member that comes in stopped stops at its first sample, member by member
                 lanes_law &= mj[engine_metrics.M_DIVERGED, lane] == 0.0 or lane >= nb
+                lanes_law &= cs[k_row, lane] == law_k0
                 if law_kind == INTELLIGENT:
-                    lanes_law &= cs[intelligent.K, lane] == law_k0
-                    lanes_law &= cp[intelligent.EST, lane] == intelligent.BACKWARD
+                    lanes_law &= cp[intelligent.EST, lane] == cp[intelligent.EST, 0]
+                    if algebraic:
+                        lanes_law &= cp[intelligent.M_WIN, lane] == m_win
+                        lanes_law &= cp[intelligent.N_ORDER, lane] == order
+                        lanes_law &= (cs[intelligent.EST_BASE + estimators.COUNT, lane]
+                                      == count0)
                     simple &= cp[intelligent.N_ORDER, lane] == 1.0
                     simple &= cp[intelligent.AW, lane] != intelligent.AW_BACK
-                else:
-                    lanes_law &= cs[recursive_ip.K, lane] == law_k0
+                elif law_kind == PID:
+                    # a bumpless start is taken at the first sample, member by member
+                    start = cs[pid.START, lane]
+                    lanes_law &= law_k0 == 0.0 or start != start
             # one reference for the block when its members share it
             shared_ref = not own_ref
             if not use_series:
@@ -592,7 +740,7 @@ def _make_block_loop(fast):
                             if k == next_ev[lane]:
                                 next_ev[lane] = _events_at(k, b0 + lane, ev_k, ev_col,
                                                            ev_add, ev_val, pb, lane, n_steps)
-                                _prepare_lane(prepare, pb, ps, lane, h, n_x)
+                                _prepare_lane(prepare, pb, ps, lane, hs, n_x)
                             block_ev = min(block_ev, next_ev[lane])
                 if by_block:
                     output(xp, pp, yb)
@@ -601,6 +749,15 @@ def _make_block_loop(fast):
                         if alive[lane]:
                             D[_Y, lane] = measured(sig.offset(xsp, lane * n_x),
                                                    sig.offset(psp, lane * n_p), n_x, n_p)
+                if any_out:
+                    for lane in range(lanes):
+                        if d_out[lane]:
+                            D[_Y, lane] = D[_Y, lane] + disturbance.value(DP, members[lane], t)
+                if any_acting:
+                    _sense_lanes(D, acting, sensor_p, ring_y, y_first, k)
+                else:
+                    for lane in range(lanes):
+                        D[_YM, lane] = D[_Y, lane]
                 if shared_ref:
                     r0 = R[0, k] if use_series else reference.value(RP, b0, t)
                     for lane in range(lanes):
@@ -627,10 +784,21 @@ def _make_block_loop(fast):
                         for lane in range(lanes):
                             j = _member_of(b0, lane, nb)
                             cs[variational_gain.ALPHA_EXT, lane] = AL[j if own_alpha else 0, k]
-                    if law_kind == INTELLIGENT and simple:
-                        n_bad = _intelligent_lanes(D, law_dt, True)
+                    if algebraic:
+                        live = 0
+                        while not alive[live]:
+                            live += 1
+                        _estimator_lanes(D, n_cs, m_win, order, live)
+                    if law_kind == INTELLIGENT and simple and algebraic:
+                        n_bad = _intelligent_lanes(D, law_dt, True, True)
+                    elif law_kind == INTELLIGENT and simple:
+                        n_bad = _intelligent_lanes(D, law_dt, True, False)
+                    elif law_kind == INTELLIGENT and algebraic:
+                        n_bad = _intelligent_lanes(D, law_dt, False, True)
                     elif law_kind == INTELLIGENT:
-                        n_bad = _intelligent_lanes(D, law_dt, False)
+                        n_bad = _intelligent_lanes(D, law_dt, False, False)
+                    elif law_kind == PID:
+                        n_bad = _pid_lanes(D, law_dt)
                     else:
                         n_bad = _recursive_lanes(D)
                     if n_bad == 0:
@@ -650,8 +818,9 @@ def _make_block_loop(fast):
                         j = b0 + lane
                         alpha = AL[j if own_alpha else 0, k] if external else 0.0
                         ok, u, a, g, gamma = _sample(law_kind, cp, cs, lane, mj, S, k, t, h,
-                                                     D[_Y, lane], D[_R, lane], law_dt,
-                                                     external, alpha, D[_AP, lane], bound)
+                                                     D[_Y, lane], D[_YM, lane], D[_R, lane],
+                                                     law_dt, external, alpha, D[_AP, lane],
+                                                     bound)
                         if ok:
                             D[_AP, lane] = a
                             D[_U, lane] = a
@@ -668,27 +837,45 @@ def _make_block_loop(fast):
                                          X, CS, M, DT)
                 if n_alive == 0:
                     break
-                if not by_block:
+                if any_acting:
+                    _actuate_lanes(D, acting, actuator_p, d_in, DP, members, ring_u, u_act,
+                                   k, t, h)
+                else:
                     for lane in range(lanes):
-                        if alive[lane]:
-                            dtc[lane] = _advance(
-                                integ, rhs, advance, t,
-                                carray(sig.offset(xsp, lane * n_x), (n_x,)), D[_U, lane],
-                                carray(sig.offset(psp, lane * n_p), (n_p,)), h, rtol, atol,
-                                dtc[lane], ws)
-                    continue
-                if n_alive < lanes:
-                    # a stopped or spare lane steps a copy of a live one: f never sees a
-                    # state that no single run reaches (a diverged one, say)
-                    src = 0
-                    while not alive[src]:
-                        src += 1
-                    for lane in range(lanes):
-                        if not alive[lane]:
-                            D[_U, lane] = D[_U, src]
-                            _into_lane(xb, src, xb, lane)
-                            _into_lane(pb, src, pb, lane)
-                step(t, xp, ub, pp, h, wp)
+                        D[_UP, lane] = D[_U, lane]
+                for i in range(sub):
+                    ti = t
+                    if sub > 1:
+                        # at the times of the grid of h / sub (bit for bit a run at that
+                        # h), an input disturbance evaluated at each of them
+                        ti = grid.time(k * sub + i, t_end, n_steps * sub)
+                        if any_in:
+                            for lane in range(lanes):
+                                if d_in[lane]:
+                                    D[_UP, lane] = u_act[lane] + disturbance.value(
+                                        DP, members[lane], ti)
+                    if not by_block:
+                        for lane in range(lanes):
+                            if alive[lane]:
+                                dtc[lane] = _advance(
+                                    integ, rhs, advance, ti,
+                                    carray(sig.offset(xsp, lane * n_x), (n_x,)), D[_UP, lane],
+                                    carray(sig.offset(psp, lane * n_p), (n_p,)), hs, rtol,
+                                    atol, dtc[lane], ws)
+                        continue
+                    if n_alive < lanes:
+                        # a stopped or spare lane steps a copy of a live one: f never sees
+                        # a state that no single run reaches (a diverged one, say)
+                        src = 0
+                        while not alive[src]:
+                            src += 1
+                        for lane in range(lanes):
+                            if not alive[lane]:
+                                D[_UP, lane] = D[_UP, src]
+                                if i == 0:
+                                    _into_lane(xb, src, xb, lane)
+                                    _into_lane(pb, src, pb, lane)
+                    step(ti, xp, up, pp, hs, wp)
             for lane in range(nb):
                 if alive[lane]:
                     _keep_member(by_block, lane, b0 + lane, xs, xb, cs, mj, dtc, X, CS, M,
@@ -702,7 +889,8 @@ def _make_block_loop(fast):
 BLOCK_SIGNATURE = types.int64(
     types.int64, types.int64, types.intp, types.intp, types.intp, types.intp, types.intp,
     types.intp, types.int64, types.float64, types.float64, types.float64, _m, _m, _m, _m,
-    _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v, types.int64, types.int64)
+    _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v, types.int64,
+    types.int64)
 
 
 @lru_cache(maxsize=1)
@@ -715,25 +903,27 @@ def block_kernel():
 
 
 def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
-             vectorise: bool | None, fast: bool = False, plain: bool = True) -> str:
+             vectorise: bool | None, fast: bool = False, uniform: bool = True) -> str:
     """Which loop runs a batch: ``"member"`` (:func:`member_kernel`), or the vectorised
     loop (:func:`block_kernel`) with each member's plant on its own functions,
     ``"lanes"``, or with the plant's block functions, ``"block"``.
 
-    The vectorised loop runs the ideal loop of either intelligent law (``plain``: no
-    sensor, actuator or disturbance elements, one integration step per sample, not the
-    PID) in exact arithmetic, no trajectory, two members or more, and
-    ``vectorise`` True, or None (automatic): for at least a quarter block of members,
-    once the loop is compiled on this machine (in numba's disk cache), or from
-    :data:`BLOCK_WORTH_COLD` member-samples on. It takes the block functions (built for
-    this integrator, and numba could compile them) when asked to, or automatically when
-    they cost no compilation worth weighing (a library plant's, compiled once per
-    machine; your own ODE's once compiled in this process) or from :data:`BLOCK_WORTH`
-    member-samples on (your own ODE's cost about 3 s per process). Never automatically
-    under Intel SVML (whose vector sin, exp, ... differ from the scalar ones in the last
-    bits: a loop over a block's members, even of the reference, could change a member's
-    bits)."""
-    if record or fast or n_members < 2 or vectorise is False or not plain:
+    The vectorised loop runs any law and any loop elements (sensor, actuator,
+    disturbance) when every member takes the same number of integration steps per
+    sample (``uniform``), no trajectory, two members or more, and ``vectorise`` True, or
+    None (automatic): for at least a quarter block of members, once the loop is compiled
+    on this machine (in numba's disk cache), or from :data:`BLOCK_WORTH_COLD`
+    member-samples on. It runs in exact arithmetic, ``fast`` or not (it has no fast
+    mode: the fast flags measured no gain on its vectorised law), so a fast sweep is
+    never slower than an exact one, and its members are their exact single runs. It
+    takes the block functions (built for this integrator, and numba could compile them)
+    when asked to, or automatically when they cost no compilation worth weighing (a
+    library plant's, compiled once per machine; your own ODE's once compiled in this
+    process) or from :data:`BLOCK_WORTH` member-samples on (your own ODE's cost about
+    3 s per process). Never automatically under Intel SVML (whose vector sin, exp, ...
+    differ from the scalar ones in the last bits: a loop over a block's members, even of
+    the reference, could change a member's bits)."""
+    if record or n_members < 2 or vectorise is False or not uniform:
         return "member"
     has_block = (block is not None and INTEGRATORS[block.integrator] == integ
                  and not block.step.failed and not block.output.failed)
@@ -787,8 +977,8 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
     m = X.shape[0]
     record = traj.shape[1] == n_steps
     n_threads = threads_for(m, n_steps) if threads is None else threads
-    plain = law_kind != PID and layout.plain(LP)
-    which = loop_for(block, integ, m, n_steps, record, vectorise, fast, plain)
+    uniform = bool(np.all(LP[layout.SUBSTEPS] == LP[layout.SUBSTEPS, 0]))
+    which = loop_for(block, integ, m, n_steps, record, vectorise, fast, uniform)
     block_fns = (0, 0)
     if which == "block":
         try:
@@ -803,7 +993,8 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
         _check_block(block if which == "block" else None, X, P, CP, CS, M, law_kind)
         fn = block_kernel()
         args = (law_kind, integ, *block_fns, rhs, output, prepare, advance, n_steps, h, t_end,
-                law_dt, X, P, CP, CS, R, RP, AL, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
+                law_dt, X, P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add, ev_val, S, M, tol,
+                DT)
         tail = ()
         bounds = block_bounds(m, n_threads)
     else:
@@ -841,6 +1032,8 @@ def _check_block(block, X, P, CP, CS, M, law_kind) -> None:
         n_cp = intelligent.N_PARAMS
         windows = CP[intelligent.M_WIN][CP[intelligent.EST] == intelligent.ALGEBRAIC]
         law_rows = intelligent.n_state(int(windows.max()) if windows.size else 0)
+    elif law_kind == PID:
+        n_cp, law_rows = pid.N_PARAMS, pid.N_STATE
     else:
         n_cp, law_rows = recursive_ip.N_PARAMS, recursive_ip.N_STATE
     if (X.shape[1], P.shape[1]) != (n_x, n_p) or CP.shape[0] != n_cp \

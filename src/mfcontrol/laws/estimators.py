@@ -130,18 +130,25 @@ def reset(CS, j, base, M):
 
 
 @step_jit
-def push(CS, j, base, M, y, u_prev):
-    """Add the newest sample: y_k and the control u_{k-1} applied since the previous one.
-
-    O(1) except on every M-th sample, where the moments are recomputed (O(M)).
-    """
-    n = int(CS[base + COUNT, j])  # index of the entering sample
+def slots(n, M):
+    """Where sample n goes in the ring (``n % (M + 1)``) and the slot after it, whose u
+    leaves the window with it."""
     m1 = M + 1
-    half = 0.5 * M
     slot = n % m1
     # the next slot without a second division (a run-time modulus is an integer division,
     # tens of cycles; this law runs it at every sample)
     after = slot + 1 if slot + 1 < m1 else 0
+    return slot, after
+
+
+@step_jit
+def push_at(CS, j, base, M, n, slot, after, y, u_prev):
+    """The arithmetic of :func:`push` for sample n, its slots given (:func:`slots`): the
+    moments slid, the leaving samples out, the entering ones in, the ring written. Apart
+    from the count, so that a loop over members that are all at sample n computes the
+    slots once and vectorises over the members."""
+    m1 = M + 1
+    half = 0.5 * M
     # leaving: y_{n-M-1} in the slot about to be overwritten, u_{n-M-1} in the next slot
     # (stored with y_{n-M}); before the window has filled these read the zeros of reset
     y_out = CS[base + RING + slot, j]
@@ -156,6 +163,12 @@ def push(CS, j, base, M, y, u_prev):
     _add(CS, j, base + U_MOM + N_UMOM * ((n + 1) % 2), N_UMOM, half - 1.0, u_prev)
     CS[base + RING + slot, j] = y
     CS[base + RING + m1 + slot, j] = u_prev
+
+
+@step_jit
+def count_pushed(CS, j, base, M, n):
+    """Sample n pushed: the count moves on, and every M samples the moments are
+    recomputed (O(M))."""
     count = n + 1
     # Every reader takes the count modulo M + 1, M or 2 (all divide M (M + 1)) or asks
     # whether the window has filled; so once past full it wraps by M (M + 1) without
@@ -169,18 +182,34 @@ def push(CS, j, base, M, y, u_prev):
 
 
 @step_jit
-def estimate(CS, j, base, M, h, alpha, order):
-    """F_hat for the window ending at the newest sample; it belongs to t_k - M h / 2.
+def push(CS, j, base, M, y, u_prev):
+    """Add the newest sample: y_k and the control u_{k-1} applied since the previous one.
 
-    NaN until the window is full (fewer than M + 1 samples) and for an invalid (order, M).
+    O(1) except on every M-th sample, where the moments are recomputed (O(M)).
     """
+    n = int(CS[base + COUNT, j])  # index of the entering sample
+    slot, after = slots(n, M)
+    push_at(CS, j, base, M, n, slot, after, y, u_prev)
+    count_pushed(CS, j, base, M, n)
+
+
+@step_jit
+def window(CS, j, base, M):
+    """Where the window ending at the newest sample lies in the ring: (full, oldest slot,
+    newest slot, parity of the newest sample's index); ``full`` False until M + 1 samples
+    have been pushed (or for M < 2)."""
     n = int(CS[base + COUNT, j])
-    if n <= M or M < 2:
-        return np.nan
     k = n - 1
     m1 = M + 1
-    newest = k % m1
+    newest = k % m1 if n > 0 else 0
     oldest = newest + 1 if newest + 1 < m1 else 0  # n % m1, without a second division
+    return n > M and M >= 2, oldest, newest, k % 2 if n > 0 else 0
+
+
+@step_jit
+def sums_at(CS, j, base, M, order, oldest, newest, parity):
+    """The window's weighted sums (sy, su) of y and u, the slots given (:func:`window`):
+    F_hat = :func:`combine` (sy, su, ...). NaN for an invalid (order, M)."""
     y_old = CS[base + RING + oldest, j]  # y_{k-M}
     y_new = CS[base + RING + newest, j]
     fm = float(M)
@@ -193,12 +222,9 @@ def estimate(CS, j, base, M, h, alpha, order):
         uu0 = CS[u0, j] + CS[u0 + N_UMOM, j]
         uu2 = CS[u0 + 2, j] + CS[u0 + N_UMOM + 2, j]
         # trapezoid: y weight -2c, ends halved (c = -M/2 and +M/2)
-        sy = 2.0 * y1 + half * (y_old - y_new)
-        su = h2 * uu0 - uu2
-        m3 = fm * fm * fm
-        return (6.0 / (h * m3)) * sy - (6.0 * alpha / m3) * su
+        return 2.0 * y1 + half * (y_old - y_new), h2 * uu0 - uu2
     if order == 2 and M % 2 == 0:
-        e = k % 2  # absolute parity of the even window positions (M even)
+        e = parity  # absolute parity of the even window positions (M even)
         o = 1 - e
         ye = y0 + N_YMOM * e
         yo = y0 + N_YMOM * o
@@ -210,11 +236,39 @@ def estimate(CS, j, base, M, h, alpha, order):
         gu_o = h2 * h2 * CS[uo, j] - 2.0 * h2 * CS[uo + 2, j] + CS[uo + 4, j]
         # Simpson 1-4-2-...-4-1: 2 everywhere, 4 at odd positions, 1 at the ends where the
         # y weight is M^2 and the u weight 0
-        sy = 2.0 * gy_e + 4.0 * gy_o - fm * fm * (y_old + y_new)
-        su = 2.0 * gu_e + 4.0 * gu_o
-        m5 = fm * fm * fm * fm * fm
-        return (20.0 / (m5 * h * h)) * sy - (10.0 * alpha / m5) * su
-    return np.nan
+        return 2.0 * gy_e + 4.0 * gy_o - fm * fm * (y_old + y_new), 2.0 * gu_e + 4.0 * gu_o
+    return np.nan, np.nan
+
+
+@step_jit
+def sums(CS, j, base, M, order):
+    """(sy, su) of the window ending at the newest sample; NaN until it is full."""
+    full, oldest, newest, parity = window(CS, j, base, M)
+    if not full:
+        return np.nan, np.nan
+    return sums_at(CS, j, base, M, order, oldest, newest, parity)
+
+
+@step_jit
+def combine(sy, su, M, h, alpha, order):
+    """F_hat from the window's sums (:func:`sums`): apart from them because alpha may
+    change at every sample (the variational gain) and the sums do not depend on it."""
+    fm = float(M)
+    if order == 1:
+        m3 = fm * fm * fm
+        return (6.0 / (h * m3)) * sy - (6.0 * alpha / m3) * su
+    m5 = fm * fm * fm * fm * fm
+    return (20.0 / (m5 * h * h)) * sy - (10.0 * alpha / m5) * su
+
+
+@step_jit
+def estimate(CS, j, base, M, h, alpha, order):
+    """F_hat for the window ending at the newest sample; it belongs to t_k - M h / 2.
+
+    NaN until the window is full (fewer than M + 1 samples) and for an invalid (order, M).
+    """
+    sy, su = sums(CS, j, base, M, order)
+    return combine(sy, su, M, h, alpha, order)
 
 
 def weights(order: int, M: int, h: float, alpha: float) -> tuple[np.ndarray, np.ndarray]:

@@ -142,9 +142,11 @@ def output(f_hat, rn, gamma, e, integ1, e1, dt, kp, ki, kd, lo, hi, aw, k_aw):
 
 
 @step_jit
-def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic):
+def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su):
     """Sample k >= n past the hold: the derivatives, gamma, F_hat, the bracket and its
-    terms into the state; returns (u_k applied, u unlimited, gamma_k)."""
+    terms into the state; returns (u_k applied, u unlimited, gamma_k). With ``algebraic``,
+    (sy, su) are the estimator's window sums (:func:`mfcontrol.laws.estimators.sums`:
+    NaN until the window is full, and the backward difference stands in)."""
     e = y - r
     u1 = CS[U1, j]
     yd, rd, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
@@ -152,7 +154,7 @@ def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic):
     alpha = 1.0 / gamma
     f_hat = yn - alpha * u1
     if algebraic:
-        f_alg = estimators.estimate(CS, j, EST_BASE, int(CP[M_WIN, j]), dt, alpha, int(n))
+        f_alg = estimators.combine(sy, su, int(CP[M_WIN, j]), dt, alpha, int(n))
         if not math.isnan(f_alg):
             f_hat = f_alg
     kp, ki, kd = CP[KP, j], CP[KI, j], CP[KD, j]
@@ -192,24 +194,30 @@ def step(CP, CS, j, y, r, dt):
         u = CS[U1, j]
         CS[C_UNLIM, j] = u
     else:
-        u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic)
+        sy = 0.0
+        su = 0.0
+        if algebraic:
+            sy, su = estimators.sums(CS, j, EST_BASE, int(CP[M_WIN, j]), int(n))
+        u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic, sy, su)
     _remember(CS, j, y, r, u)
     return u
 
 
 @step_jit
-def steady_step(CP, CS, j, y, r, dt, simple):
+def steady_step(CP, CS, j, y, r, dt, simple, algebraic, sy, su):
     """:func:`step` for a sample past the start-up (k >= :data:`STEADY`) with the
-    backward-difference estimator, with the start-up's branches compiled out, so that a
-    loop over members vectorises; returns (u_k applied, u unlimited, gamma_k). ``simple``
-    (pass a literal True or False: the caller compiles one loop for each): the member
-    has model order 1 and no back-calculation,
-    which takes the branches of order 2 and of back-calculation, with their divisions,
-    out of the loop (measured 9.8 against 6.6 ns per member-sample)."""
+    start-up's branches compiled out, so that a loop over members vectorises; returns
+    (u_k applied, u unlimited, gamma_k). ``simple`` (pass a literal True or False: the
+    caller compiles one loop for each): the member has model order 1 and no
+    back-calculation, which takes the branches of order 2 and of back-calculation, with
+    their divisions, out of the loop (measured 9.8 against 6.6 ns per member-sample).
+    ``algebraic``: the algebraic estimator, its sample already pushed and its window sums
+    (sy, su) taken (:func:`mfcontrol.laws.estimators.push`, ``sums``), which a loop over
+    members at the same sample does once for all of them."""
     n = 1.0 if simple else CP[N_ORDER, j]
     aw = CP[AW, j]
     if simple:
         aw = AW_CLAMP if aw == AW_CLAMP else AW_NONE
-    u, u_unlim, gamma = _bracket(CP, CS, j, y, r, dt, STEADY, n, aw, False)
+    u, u_unlim, gamma = _bracket(CP, CS, j, y, r, dt, STEADY, n, aw, algebraic, sy, su)
     _remember(CS, j, y, r, u)
     return u, u_unlim, gamma

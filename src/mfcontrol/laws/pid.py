@@ -69,12 +69,16 @@ def reset(CS, j, start):
     CS[START, j] = start
 
 
+#: from this sample on the law depends on k only through its state (the first sample
+#: sets y_old and the bumpless start): a loop over members may run every later sample
+#: through :func:`steady_step`
+STEADY = 1.0
+
+
 @step_jit
-def step(CP, CS, j, y, r, h):
-    """One sample: measurement y, setpoint r and period h in; the limited output out."""
-    kp, ki, kd, n = CP[KP, j], CP[KI, j], CP[KD, j], CP[N, j]
-    if CS[K, j] == 0.0:
-        CS[Y_OLD, j] = y
+def _terms(CP, CS, j, y, r, h):
+    """The proportional and derivative terms of this sample."""
+    kp, kd, n = CP[KP, j], CP[KD, j], CP[N, j]
     p = kp * (CP[B, j] * r - y)
     d = 0.0
     if kd != 0.0:
@@ -82,11 +86,13 @@ def step(CP, CS, j, y, r, h):
         ad = td / (td + n * h)
         bd = kp * td * n / (td + n * h)
         d = ad * CS[D, j] - bd * (y - CS[Y_OLD, j])
-    i = CS[I, j]
-    start = CS[START, j]
-    if start == start:  # bumpless: the integral that makes v the held output
-        i = start - p - d
-        CS[START, j] = math.nan  # used once
+    return p, d
+
+
+@step_jit
+def _output(CP, CS, j, y, r, h, p, i, d):
+    """The output from the terms, limited; the integral updated with back-calculation;
+    the terms into the state. Returns the limited output."""
     v = p + i + d
     lo, hi = CP[OUT_MIN, j], CP[OUT_MAX, j]
     u = hi if v > hi else (lo if v < lo else v)
@@ -94,8 +100,31 @@ def step(CP, CS, j, y, r, h):
     CS[C_I, j] = i
     CS[C_D, j] = d
     CS[C_UNLIM, j] = v
-    CS[I, j] = i + ki * h * (r - y) + (h / CP[TT, j]) * (u - v)
+    CS[I, j] = i + CP[KI, j] * h * (r - y) + (h / CP[TT, j]) * (u - v)
     CS[D, j] = d
     CS[Y_OLD, j] = y
     CS[K, j] = CS[K, j] + 1.0
     return u
+
+
+@step_jit
+def step(CP, CS, j, y, r, h):
+    """One sample: measurement y, setpoint r and period h in; the limited output out."""
+    if CS[K, j] == 0.0:
+        CS[Y_OLD, j] = y
+    p, d = _terms(CP, CS, j, y, r, h)
+    i = CS[I, j]
+    start = CS[START, j]
+    if start == start:  # bumpless: the integral that makes v the held output
+        i = start - p - d
+        CS[START, j] = math.nan  # used once
+    return _output(CP, CS, j, y, r, h, p, i, d)
+
+
+@step_jit
+def steady_step(CP, CS, j, y, r, h):
+    """:func:`step` for a sample from :data:`STEADY` on, the bumpless start used (START
+    NaN): its first-sample branches compiled out, so that a loop over members
+    vectorises. Returns (u limited, u unlimited)."""
+    p, d = _terms(CP, CS, j, y, r, h)
+    return _output(CP, CS, j, y, r, h, p, CS[I, j], d), CS[C_UNLIM, j]
