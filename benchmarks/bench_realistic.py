@@ -198,7 +198,7 @@ def case_loop(name: str, case: str, overrides: Mapping[str, object],
     (``batch.make_grid``, ``batch.run_range``: what ``mfcontrol sweep CASE`` runs)."""
     _, cfg = resolve_case(case, dict(overrides))
     g = batch.make_grid(cfg, batch.parse_grid(dict(axes)))
-    return Loop(name, dict(g.axes), round(cfg["sim.t_end"] / cfg["sim.h"]),
+    return Loop(name, dict(g.axes), time_grid.n_samples(cfg["sim.t_end"], cfg["sim.h"]),
                 lambda: batch.run_range(g, 0, g.n_members),
                 lambda m: mfcontrol.simulate(g.config(m)))
 
