@@ -48,6 +48,60 @@ from mfcontrol.numerics import grid  # noqa: E402
 KI, ALPHA, U_MAX = 50.0, 50.0, 24.0
 
 
+def rk4(f, x, u, h):
+    """One RK4 step of ``f(x, u) -> dx/dt`` (states as tuples of arrays) with u held, in
+    the increment form and operation order of :mod:`mfcontrol.numerics.rk4`, so that a
+    float64 run follows mfcontrol's to rounding."""
+    f1 = tuple(h * d for d in f(x, u))
+    f2 = tuple(h * d for d in f(tuple(xi + fi / 2 for xi, fi in zip(x, f1, strict=True)), u))
+    f3 = tuple(h * d for d in f(tuple(xi + fi / 2 for xi, fi in zip(x, f2, strict=True)), u))
+    f4 = f(tuple(xi + fi for xi, fi in zip(x, f3, strict=True)), u)
+    return tuple(xi + (a + 2 * (b + c) + h * d) / 6
+                 for xi, a, b, c, d in zip(x, f1, f2, f3, f4, strict=True))
+
+
+def motor_rhs(inertia, tau):
+    """The DC motor of ``bench_engine.motor_f`` as ``f(x, u)``, x = (omega, i), for
+    :func:`rk4`: the same expressions in the same order."""
+    return lambda x, u: ((K_T * x[1] - B_F * x[0] - tau) / inertia,
+                         (u - R_A * x[1] - K_T * x[0]) / L_A)
+
+
+def ipi_step(law, y, r, k, kp, *, gamma, ki, lo, hi, h, f_alg=None):
+    """One sample of the i-PI as :func:`mfcontrol.laws.intelligent.step` computes it
+    (model order 1, constant gain gamma = 1/alpha, clamp anti-windup, output limits),
+    operation for operation, in ``jax.numpy``.
+
+    ``law`` is (y_{k-1}, r_{k-1}, u_{k-1} applied, integral, e_{k-1}), all 0 before the
+    first sample. F_hat is the backward difference, or ``f_alg`` where that is given and
+    not NaN (the algebraic estimator, NaN until its window is full). Returns the law's
+    next memory and u_k applied; before the first derivative (k = 0) the output holds
+    ``u_{-1}`` = 0."""
+    import jax.numpy as jnp
+
+    y1, r1, u1, integ1, e1 = law
+    e = y - r
+    yd = (y - y1) / h
+    rd = (r - r1) / h
+    f_hat = yd - (1.0 / gamma) * u1
+    if f_alg is not None:
+        f_hat = jnp.where(jnp.isnan(f_alg), f_hat, f_alg)
+    # the bracket of intelligent.output (kd = 0: its term kept for the same bits)
+    integ = integ1 + e * h
+    base = f_hat - rd + kp * e + 0.0 * ((e - e1) / h)
+    u_unlim = -gamma * (base + ki * integ)
+    u = jnp.clip(u_unlim, lo, hi)
+    pushed = -gamma * ki * (integ - integ1)
+    undo = (u != u_unlim) & (((u_unlim > hi) & (pushed > 0.0))
+                             | ((u_unlim < lo) & (pushed < 0.0)))
+    integ = jnp.where(undo, integ1, integ)
+    u = jnp.where(undo, jnp.clip(-gamma * (base + ki * integ), lo, hi), u)
+    started = k >= 1  # before the first derivative the output holds u_init = 0
+    u = jnp.where(started, u, u1)
+    integ = jnp.where(started, integ, integ1)
+    return (y, r, u, integ, e), u
+
+
 def jax_sweep(kp: np.ndarray, inertia: np.ndarray):
     """A compiled function of (kp, J) arrays of shape (devices, members per device) that
     returns every member's IAE."""
@@ -58,48 +112,19 @@ def jax_sweep(kp: np.ndarray, inertia: np.ndarray):
     jax.config.update("jax_enable_x64", True)
     n = round(T_END / H)
     k_load = grid.first_sample_at(T_LOAD, T_END, n)
-    gamma = 1.0 / ALPHA
-
-    def f(x0, x1, u, inertia, tau):
-        return ((K_T * x1 - B_F * x0 - tau) / inertia, (u - R_A * x1 - K_T * x0) / L_A)
 
     def member(kp, inertia):
         def sample(carry, k):
-            x0, x1, y1, r1, u1, integ, e1, iae = carry
+            x, law, iae = carry
             tau = jnp.where(k >= k_load, LOAD, 0.0)
-            y, r = x0, SPEED
-            e = y - r
-            # the i-PI of mfcontrol.laws.intelligent.step, operation for operation
-            yd = (y - y1) / H
-            rd = (r - r1) / H
-            f_hat = yd - (1.0 / gamma) * u1
-            integ_new = integ + e * H
-            base = f_hat - rd + kp * e + 0.0 * ((e - e1) / H)
-            u_unlim = -gamma * (base + KI * integ_new)
-            u = jnp.clip(u_unlim, -U_MAX, U_MAX)
-            pushed = -gamma * KI * (integ_new - integ)
-            undo = (u != u_unlim) & (((u_unlim > U_MAX) & (pushed > 0.0))
-                                     | ((u_unlim < -U_MAX) & (pushed < 0.0)))
-            integ_new = jnp.where(undo, integ, integ_new)
-            u_unlim = jnp.where(undo, -gamma * (base + KI * integ_new), u_unlim)
-            u = jnp.where(undo, jnp.clip(u_unlim, -U_MAX, U_MAX), u)
-            started = k >= 1  # before the first derivative the output holds u_init = 0
-            u = jnp.where(started, u, u1)
-            integ_new = jnp.where(started, integ_new, integ)
-            # the plant: one RK4 step with u held
-            a0, a1 = f(x0, x1, u, inertia, tau)
-            a0, a1 = H * a0, H * a1
-            b0, b1 = f(x0 + a0 / 2, x1 + a1 / 2, u, inertia, tau)
-            b0, b1 = H * b0, H * b1
-            c0, c1 = f(x0 + b0 / 2, x1 + b1 / 2, u, inertia, tau)
-            c0, c1 = H * c0, H * c1
-            d0, d1 = f(x0 + c0, x1 + c1, u, inertia, tau)
-            x0 = x0 + (a0 + 2 * (b0 + c0) + H * d0) / 6
-            x1 = x1 + (a1 + 2 * (b1 + c1) + H * d1) / 6
-            return (x0, x1, y, r, u, integ_new, e, iae + abs(e) * H), None
+            y, r = x[0], SPEED
+            law, u = ipi_step(law, y, r, k, kp, gamma=1.0 / ALPHA, ki=KI, lo=-U_MAX,
+                              hi=U_MAX, h=H)
+            x = rk4(motor_rhs(inertia, tau), x, u, H)  # the plant: one RK4 step, u held
+            return (x, law, iae + abs(y - r) * H), None
 
         zero = jnp.zeros(())
-        init = (zero, zero, zero, zero, zero, zero, zero, zero)
+        init = ((zero, zero), (zero,) * 5, zero)
         carry, _ = lax.scan(sample, init, jnp.arange(n))
         return carry[-1]
 
