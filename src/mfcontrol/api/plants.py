@@ -750,6 +750,7 @@ class ODE(Plant):
         super().__init__(names, x0, integrator=integrator, rtol=rtol, atol=atol)
         self._compiled = None
         self._block = None
+        self._identity: tuple[str | None, bool] = (None, False)
         #: why the Python driver runs this plant (None while it compiles)
         self.python_reason: str | None = None
         # one call of each up front: a wrong shape is reported here, not mid-run
@@ -771,8 +772,11 @@ class ODE(Plant):
         """The compiled plant; None (with the reason in :attr:`python_reason`) when numba
         cannot compile f or g, and the Python driver runs it."""
         if self._compiled is None and self.python_reason is None:
+            # known by all that numba compiles from f and g: a plant object from the same
+            # functions takes what is compiled already, and from a file numba's disk cache
+            self._identity = ode.identity(self._f, self._g) or (None, False)
             try:
-                self._compiled = ode.compile_functions(self._f, self._g)
+                self._compiled = ode.compile_functions(self._f, self._g, *self._identity)
             except ode.NotCompilable as exc:
                 self.python_reason = f"numba cannot compile f or g: {exc}"
         if self._compiled is None:
@@ -781,7 +785,7 @@ class ODE(Plant):
         if self._block is None:
             self._block = blocks.of_ode(ode.python_function(self._f),
                                         ode.python_function(self._g), self._inplace,
-                                        self.x0.size, self._p.size)
+                                        self.x0.size, self._p.size, *self._identity)
         return self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
                             {name: i for i, name in enumerate(self._names)}, self._block)
 
