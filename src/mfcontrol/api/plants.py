@@ -712,6 +712,22 @@ class ODE(Plant):
     state_names : sequence of str, optional
         Names of the state components; ``x[0]``, ``x[1]``, ... by default.
 
+    Notes
+    -----
+    What compiles when (:mod:`mfcontrol.plants.ode`): f and g are known by a digest of
+    what numba compiles from them (their code and source, the values of the globals they
+    read, their defaults, and the same of the jit functions of yours they call). A new
+    plant object from functions with the same digest reuses what this process compiled.
+    With f, g and those functions defined in a file and closing over no values, the
+    compiled functions are kept in numba's disk cache: compiled once per machine, then
+    loaded in any process. An edit of any of them, or a global they read that differs
+    from the last process (computed at import, say), compiles anew; an edit elsewhere in
+    the file does not. Functions defined in a REPL or by ``exec`` (no source file) and
+    closures compile once per process (per value a closure holds). numba freezes the
+    globals f reads when it compiles, as for any jit function: a global changed later in
+    the same process is seen by new plant objects (a new digest), not by one already
+    compiled.
+
     Examples
     --------
     A damped pendulum driven by a torque u:
