@@ -10,9 +10,13 @@ say so.)
 
 import hashlib
 import os
+from collections import OrderedDict
+from collections.abc import Callable, Hashable
 from pathlib import Path
+from typing import Any
 
 from numba import njit
+from numba.core.caching import FunctionCache, IndexDataCacheFile
 
 
 def _drop_stale_cache() -> None:
@@ -47,6 +51,7 @@ def _drop_stale_cache() -> None:
 
 _drop_stale_cache()
 
+
 def stable_identity(dispatcher, *key) -> None:
     """Let numba's disk cache find a kernel that calls this closure.
 
@@ -57,6 +62,51 @@ def stable_identity(dispatcher, *key) -> None:
     ``key``, what the factory built it from; call this right after creating it."""
     text = repr((dispatcher.py_func.__module__, dispatcher.py_func.__qualname__) + key)
     dispatcher._set_uuid("mfcontrol-" + hashlib.sha256(text.encode()).hexdigest())
+
+
+class IdentityCache(FunctionCache):
+    """numba's disk cache of a compiled closure, keyed on ``identity`` (a digest of what the
+    closure's compiled code depends on) instead of its cells, pickled.
+
+    For closures over your own functions (:mod:`mfcontrol.plants.ode`): pickled, a cell's
+    function would give a key that changes from process to process, or fails. Each
+    identity has index and data files of its own: numba's index is read, extended and
+    written back without a lock, so two processes saving different keys to one index at
+    once could leave a key naming the other's data file (the wrong code, loaded later).
+    Two processes saving the same identity write the same entry. Like any numba cache,
+    the index is dropped when the closure's own file changes (and the package's, by
+    :func:`_drop_stale_cache`)."""
+
+    def __init__(self, py_func: Callable[..., Any], identity: str):
+        super().__init__(py_func)
+        self._identity = identity
+        self._cache_file = IndexDataCacheFile(
+            cache_path=self._cache_path,
+            filename_base=f"{self._impl.filename_base}-{identity[:24]}",
+            source_stamp=self._impl.locator.get_source_stamp())
+
+    def _index_key(self, sig, codegen):
+        code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
+        return (sig, codegen.magic_tuple(), (code, self._identity))
+
+
+class Recent:
+    """What was last built for up to ``size`` keys, the oldest forgotten first: compiled
+    functions that a new object built from the same functions reuses."""
+
+    def __init__(self, size: int = 64):
+        self._size = size
+        self._items: OrderedDict[Hashable, Any] = OrderedDict()
+
+    def get(self, key: Hashable, build: Callable[[], Any]) -> Any:
+        """The value kept for ``key``, or ``build()``, kept (an exception keeps nothing)."""
+        if key in self._items:
+            self._items.move_to_end(key)
+            return self._items[key]
+        value = self._items[key] = build()
+        if len(self._items) > self._size:
+            self._items.popitem(last=False)
+        return value
 
 
 #: LLVM flags of the opt-in fast mode (sweeps and single runs): fused multiply-adds,

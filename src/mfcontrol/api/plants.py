@@ -712,6 +712,22 @@ class ODE(Plant):
     state_names : sequence of str, optional
         Names of the state components; ``x[0]``, ``x[1]``, ... by default.
 
+    Notes
+    -----
+    What compiles when (:mod:`mfcontrol.plants.ode`): f and g are known by a digest of
+    what numba compiles from them (their code and source, the values of the globals they
+    read, their defaults, and the same of the jit functions of yours they call). A new
+    plant object from functions with the same digest reuses what this process compiled.
+    With f, g and those functions defined in a file and closing over no values, the
+    compiled functions are kept in numba's disk cache: compiled once per machine, then
+    loaded in any process. An edit of any of them, or a global they read that differs
+    from the last process (computed at import, say), compiles anew; an edit elsewhere in
+    the file does not. Functions defined in a REPL or by ``exec`` (no source file) and
+    closures compile once per process (per value a closure holds). numba freezes the
+    globals f reads when it compiles, as for any jit function: a global changed later in
+    the same process is seen by new plant objects (a new digest), not by one already
+    compiled.
+
     Examples
     --------
     A damped pendulum driven by a torque u:
@@ -750,6 +766,7 @@ class ODE(Plant):
         super().__init__(names, x0, integrator=integrator, rtol=rtol, atol=atol)
         self._compiled = None
         self._block = None
+        self._identity: tuple[str | None, bool] = (None, False)
         #: why the Python driver runs this plant (None while it compiles)
         self.python_reason: str | None = None
         # one call of each up front: a wrong shape is reported here, not mid-run
@@ -771,8 +788,11 @@ class ODE(Plant):
         """The compiled plant; None (with the reason in :attr:`python_reason`) when numba
         cannot compile f or g, and the Python driver runs it."""
         if self._compiled is None and self.python_reason is None:
+            # known by all that numba compiles from f and g: a plant object from the same
+            # functions takes what is compiled already, and from a file numba's disk cache
+            self._identity = ode.identity(self._f, self._g) or (None, False)
             try:
-                self._compiled = ode.compile_functions(self._f, self._g)
+                self._compiled = ode.compile_functions(self._f, self._g, *self._identity)
             except ode.NotCompilable as exc:
                 self.python_reason = f"numba cannot compile f or g: {exc}"
         if self._compiled is None:
@@ -781,7 +801,7 @@ class ODE(Plant):
         if self._block is None:
             self._block = blocks.of_ode(ode.python_function(self._f),
                                         ode.python_function(self._g), self._inplace,
-                                        self.x0.size, self._p.size)
+                                        self.x0.size, self._p.size, *self._identity)
         return self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
                             {name: i for i, name in enumerate(self._names)}, self._block)
 

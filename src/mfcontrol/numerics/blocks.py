@@ -17,13 +17,15 @@ so a member of a block gives the bits of its single run.
 The functions are built per plant, with the plant's numbers of states and parameters and
 the block's size compiled in (the loops over them unrolled: measured 1.5x faster than
 with the sizes as arguments): :func:`of_ode` for your own ODE (numba compiles them in
-about 3 s, once per plant and process: the engine uses them only for work that repays
-it), :func:`of_library` for the library's plants (compiled once per machine, then loaded
-from numba's disk cache).
+about 3 s, once per machine for functions defined in a file, then loaded from numba's
+disk cache: the engine uses them for work that repays the first compilation, or once
+they are compiled), :func:`of_library` for the library's plants (compiled once per
+machine, then loaded from numba's disk cache).
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable
 from functools import cache
 from types import ModuleType
@@ -53,9 +55,10 @@ class Block(NamedTuple):
     @property
     def cheap(self) -> bool:
         """Whether using them costs no compilation worth weighing: compiled in this
-        process already, or kept in numba's disk cache (a library plant's: compiled once
-        per machine, 2 to 3.5 s, then loaded in under half a second)."""
-        return all(f.compiled or f.cached for f in (self.step, self.output))
+        process already, a library plant's (compiled once per machine, 2 to 3.5 s, then
+        loaded from numba's disk cache in under half a second), or your own ODE's found in
+        that cache (compiled on this machine before)."""
+        return all(f.compiled or f.cached or f.saved for f in (self.step, self.output))
 
 
 def _inline(fn: Callable[..., Any], key: tuple | None):
@@ -68,13 +71,16 @@ def _inline(fn: Callable[..., Any], key: tuple | None):
 
 
 def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_p: int,
-           key: tuple | None) -> Block:
+           key: tuple | None, identity: str | None = None) -> Block:
     """The block functions of right-hand side (or exact step) ``f`` and output ``g``.
 
     ``form``: ``"in-place"``, f(t, x, u, p, dxdt); ``"returning"``, f(t, x, u, p) -> dx/dt;
     ``"library"``, f(t, x, u, p, dxdt, nx, np) and g(x, p, nx, np) as the library's plant
     functions take them (:mod:`mfcontrol.numerics.signatures`); ``"exact"``, f the
-    library's exact step, advance(t, x, u, p, h, nx, np). Cached on disk with ``key``."""
+    library's exact step, advance(t, x, u, p, h, nx, np). Cached on disk with ``key``
+    (numba's own key, the closures' cells pickled with identities derived from ``key``)
+    or ``identity`` (:class:`mfcontrol._jit.IdentityCache`: all the compiled code
+    depends on but this file, the package's own code)."""
     nx, np_, b = int(n_x), int(n_p), LANES
     fi, gi = _inline(f, key and key + ("f",)), _inline(g, key and key + ("g",))
     if form in ("library", "exact"):
@@ -149,20 +155,39 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
             Y[lane] = gi(X[:, lane], P[:, lane])
 
     cache = key is not None
-    return Block(sig.Lazy(sig.BLOCK_STEP, step, cache=cache),
-                 sig.Lazy(sig.BLOCK_OUTPUT, output, cache=cache), nx, np_,
+    return Block(sig.Lazy(sig.BLOCK_STEP, step, cache=identity or cache),
+                 sig.Lazy(sig.BLOCK_OUTPUT, output, cache=identity or cache), nx, np_,
                  "exact" if form == "exact" else "rk4")
 
 
+#: block functions of your own ODEs built in this process, by what they depend on
+_RECENT = _jit.Recent()
+
+
 def of_ode(f: Callable[..., Any], g: Callable[..., Any], in_place: bool, n_x: int,
-           n_p: int) -> Block:
+           n_p: int, identity: str | None = None, on_disk: bool = False) -> Block:
     """The block functions of your own ODE: right-hand side ``f`` (in place,
     ``f(t, x, u, p, dxdt)``, or returning, ``f(t, x, u, p)``), output ``g(x, p)``, n_x
     states and n_p parameters, as :class:`~mfcontrol.numerics.signatures.Lazy`
-    C-callables of the signatures ``BLOCK_STEP`` and ``BLOCK_OUTPUT``; compiled on first
-    use, not cached on disk (a helper f calls, edited in another module, would not be
-    seen)."""
-    return _build(f, g, "in-place" if in_place else "returning", n_x, n_p, None)
+    C-callables of the signatures ``BLOCK_STEP`` and ``BLOCK_OUTPUT``, compiled on first
+    use.
+
+    ``identity``: a digest of all that f and g compile from
+    (:func:`mfcontrol.plants.ode.identity`); every call with it, the same form and sizes
+    gets the same functions in this process (compiled once), and with ``on_disk`` they
+    are kept in numba's disk cache under it (compiled once per machine). None: new
+    functions, compiled on first use in this process."""
+    form = "in-place" if in_place else "returning"
+    nx, np_ = int(n_x), int(n_p)
+    if identity is None:
+        return _build(f, g, form, nx, np_, None)
+    key = _digest(identity, form, nx, np_, LANES, "rk4")
+    return _RECENT.get((key, on_disk), lambda: _build(f, g, form, nx, np_, None,
+                                                      key if on_disk else None))
+
+
+def _digest(*parts: Any) -> str:
+    return hashlib.sha256(repr(parts).encode()).hexdigest()
 
 
 @cache

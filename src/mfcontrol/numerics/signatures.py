@@ -24,10 +24,13 @@ array view. Their signatures, in that order::
 """
 
 import numpy as np
-from numba import carray, cfunc, njit, types
-from numba.core import cgutils
+from numba import carray, njit, types
+from numba.core import cgutils, sigutils
+from numba.core.ccallback import CFunc
 from numba.core.errors import NumbaError
 from numba.extending import intrinsic
+
+from .. import _jit
 
 _ptr = types.CPointer(types.float64)
 _n = types.int64
@@ -50,15 +53,22 @@ BLOCK_OUTPUT_T = types.FunctionType(BLOCK_OUTPUT)
 
 
 class Lazy:
-    """A C-callable compiled (or loaded from numba's disk cache, with ``cache``) on first
-    use, so that importing the package does not load every plant's code."""
+    """A C-callable compiled (or loaded from numba's disk cache) on first use, so that
+    importing the package does not load every plant's code.
 
-    def __init__(self, sig, py_func, cache=True):
+    ``cache``: True, kept in numba's disk cache under numba's own key (the function's
+    bytecode and its closure's cells, pickled: the library's functions, compiled once
+    per machine); a string, kept there under this identity instead
+    (:class:`mfcontrol._jit.IdentityCache`: your own ODE's, whose cells hold your
+    functions); False, compiled in every process."""
+
+    def __init__(self, sig, py_func, cache: bool | str = True):
         self._sig = sig
         self.py_func = py_func
         self._cache = cache
         self._compiled = None
         self._error = None
+        self._saved = False
         self.__doc__ = py_func.__doc__
         self.__name__ = py_func.__name__
 
@@ -69,13 +79,38 @@ class Lazy:
 
     @property
     def cached(self) -> bool:
-        """Whether it is kept in numba's disk cache (compiled once per machine)."""
-        return self._cache
+        """Whether it is one of the library's functions, kept in numba's disk cache: compiled
+        once per machine, so counted as there from the start."""
+        return self._cache is True
+
+    @property
+    def saved(self) -> bool:
+        """Whether its compiled code is in numba's disk cache now: the cache's index looked
+        up, nothing loaded or compiled (your own ODE's, once compiled on this machine)."""
+        if not self._saved and self._cache is not False and self._error is None:
+            try:
+                probe = self._probe()
+                key = probe._cache._index_key(probe._sig,
+                                              probe._targetdescr.target_context.codegen())
+                self._saved = key in probe._cache._cache_file._load_index()
+            except Exception:  # noqa: BLE001 (numba's cache internals moved: not saved)
+                self._saved = False
+        return self._saved
 
     @property
     def failed(self) -> bool:
         """Whether numba could not compile it (then :attr:`cfunc` raises that again)."""
         return self._error is not None
+
+    def _probe(self) -> CFunc:
+        """The C callable, not compiled yet, with its disk cache (if any)."""
+        fn = CFunc(self.py_func, sigutils.normalize_signature(self._sig), {},
+                   {"error_model": "numpy"})
+        if isinstance(self._cache, str):
+            fn._cache = _jit.IdentityCache(self.py_func, self._cache)
+        elif self._cache:
+            fn.enable_caching()
+        return fn
 
     @property
     def cfunc(self):
@@ -83,11 +118,12 @@ class Lazy:
             raise self._error
         if self._compiled is None:
             try:
-                self._compiled = cfunc(self._sig, error_model="numpy", cache=self._cache)(
-                    self.py_func)
+                fn = self._probe()
+                fn.compile()
             except NumbaError as exc:
                 self._error = exc
                 raise
+            self._compiled = fn
         return self._compiled
 
     @property
