@@ -13,3 +13,18 @@ def test_the_output_is_the_input_d_samples_earlier(d):
     out = np.array([delay.delayed(ring, d, k, v[k], -7.0) for k in range(v.size)])
     assert np.array_equal(out[d:], v[:v.size - d])
     assert np.all(out[:d] == -7.0)
+
+
+def test_members_of_a_block_sharing_one_ring_get_what_their_own_rings_give():
+    # delays of their own (0 to 5) in one ring of 6 rows: each lane's output is the one of
+    # delayed() on a ring of its own, sample by sample, before included
+    ds = np.array([0, 1, 2, 3, 5, 4])
+    v = np.random.default_rng(1).normal(size=(200, ds.size))
+    shared = np.full((ds.max() + 1, ds.size), np.nan)
+    own = [np.full(d + 1, np.nan) for d in ds]
+    for k in range(v.shape[0]):
+        slot = k % shared.shape[0]
+        for lane, d in enumerate(ds):
+            a = delay.delayed_lane(shared, lane, int(d), slot, k, v[k, lane], -7.0)
+            b = delay.delayed(own[lane], int(d), k, v[k, lane], -7.0)
+            assert a == b, (k, lane)

@@ -142,25 +142,33 @@ def slots(n, M):
 
 
 @step_jit
+def moments_push(CS, j, base, half, par_in, par_out, y_out, u_out, y, u_prev):
+    """The moments' part of :func:`push` for sample n (``half`` = M / 2): slid, the
+    leaving samples y_out, u_out (of index parity ``par_out``, that of n - M - 1) out,
+    the entering ones in (y_n of parity ``par_in`` = n % 2, u_{n-1} of the other). Apart
+    from the ring, so that a loop over members at the same sample, given the parities as
+    constants, finds every moment row at a constant distance and vectorises."""
+    for par in range(2):
+        _slide(CS, j, base + Y_MOM + N_YMOM * par, N_YMOM)
+        _slide(CS, j, base + U_MOM + N_UMOM * par, N_UMOM)
+    _add(CS, j, base + Y_MOM + N_YMOM * par_out, N_YMOM, -half - 1.0, -y_out)
+    _add(CS, j, base + U_MOM + N_UMOM * par_out, N_UMOM, -half - 1.0, -u_out)
+    _add(CS, j, base + Y_MOM + N_YMOM * par_in, N_YMOM, half, y)
+    _add(CS, j, base + U_MOM + N_UMOM * (1 - par_in), N_UMOM, half - 1.0, u_prev)
+
+
+@step_jit
 def push_at(CS, j, base, M, n, slot, after, y, u_prev):
     """The arithmetic of :func:`push` for sample n, its slots given (:func:`slots`): the
-    moments slid, the leaving samples out, the entering ones in, the ring written. Apart
-    from the count, so that a loop over members that are all at sample n computes the
-    slots once and vectorises over the members."""
+    leaving samples read from the ring, the moments updated (:func:`moments_push`), the
+    entering samples written to the ring."""
     m1 = M + 1
-    half = 0.5 * M
     # leaving: y_{n-M-1} in the slot about to be overwritten, u_{n-M-1} in the next slot
     # (stored with y_{n-M}); before the window has filled these read the zeros of reset
     y_out = CS[base + RING + slot, j]
     u_out = CS[base + RING + m1 + after, j]
-    for par in range(2):
-        _slide(CS, j, base + Y_MOM + N_YMOM * par, N_YMOM)
-        _slide(CS, j, base + U_MOM + N_UMOM * par, N_UMOM)
-    out_par = (n + M + 1) % 2  # parity of n - M - 1, kept non-negative
-    _add(CS, j, base + Y_MOM + N_YMOM * out_par, N_YMOM, -half - 1.0, -y_out)
-    _add(CS, j, base + U_MOM + N_UMOM * out_par, N_UMOM, -half - 1.0, -u_out)
-    _add(CS, j, base + Y_MOM + N_YMOM * (n % 2), N_YMOM, half, y)
-    _add(CS, j, base + U_MOM + N_UMOM * ((n + 1) % 2), N_UMOM, half - 1.0, u_prev)
+    # (n + M + 1) % 2: the parity of n - M - 1, kept non-negative
+    moments_push(CS, j, base, 0.5 * M, n % 2, (n + M + 1) % 2, y_out, u_out, y, u_prev)
     CS[base + RING + slot, j] = y
     CS[base + RING + m1 + slot, j] = u_prev
 
