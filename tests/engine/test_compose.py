@@ -475,6 +475,13 @@ def test_the_vectorised_loop_is_chosen_when_it_pays(monkeypatch):
     # the loop itself compiled on this machine already: it runs a quarter block or more,
     # on the block functions when they are worth compiling or cost nothing to use
     monkeypatch.setattr(compose, "_block_kernel_ready", lambda: True)
+    kept = compose.BLOCK_WORTH_KEPT // m
+    # your ODE from a file: its block functions, once compiled, are kept on disk
+    assert block.kept
+    assert loop(block, compose.RK4, m, kept - 1, False, None) == "lanes"
+    assert loop(block, compose.RK4, m, kept, False, None) == "block"
+    # your ODE compiled once per process (no source file, a closure)
+    monkeypatch.setattr(blocks.Block, "kept", property(lambda self: False))
     assert loop(block, compose.RK4, m, big - 1, False, None) == "lanes"
     assert loop(block, compose.RK4, m, big, False, None) == "block"
     # a library plant's: compiled once per machine, then loaded from the disk cache
@@ -716,9 +723,10 @@ def _final_states(monkeypatch) -> list[tuple[np.ndarray, np.ndarray]]:
 def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs(
         plant, monkeypatch):
     # the LTI's discretisation derived per member (with h) and again after its change of
-    # A; your own ODE under the adaptive integrator (neither has block functions: each
-    # member on its plant's own functions); the first-order plant's exact step over the
-    # block: each member as in its single run, bit for bit, and the final states and
+    # A, its exact step over the block; your own ODE under the adaptive integrator (no
+    # block functions: each member on its plant's own functions); the first-order plant's
+    # exact step over the block: each member as in its single run, bit for bit, and the
+    # final states and
     # carried steps those of the member loop. 130 members (two blocks and a part block)
     # over enough samples for two threads.
     from mfcontrol.api.loop import law_arrays, run_members
@@ -759,7 +767,7 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
     finals = _final_states(monkeypatch)
     M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, vectorise=True)
     assert vectorised[0] > 0
-    assert loops == ["block" if plant == "first-order-exact" else "lanes"]
+    assert loops == ["lanes" if plant == "motor-rk45" else "block"]
     assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
     run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, vectorise=False)
     (X, DT), (X_member, DT_member) = finals

@@ -676,7 +676,8 @@ class LTI(Plant):
     def engine(self) -> EnginePlant:
         n = self._A.shape[0]
         return self._engine((lti.rhs, lti.measured, lti.derive, lti.advance),
-                            self._parameter_vector(), lti.names(n))
+                            self._parameter_vector(), lti.names(n),
+                            blocks.of_library(lti, self.integrator, n, lti.size(n)))
 
     def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
         x = self._state(x)

@@ -313,12 +313,17 @@ def _compile(make, signature, fast: bool):
 
 #: members a block of the vectorised loop runs side by side
 LANES = blocks.LANES
-#: member-samples from which a sweep compiles your ODE's block functions (about 3 s, once
-#: per plant and process) to run in the vectorised loop: about what they save there
-#: against f member by member (measured on the DC motor of benchmarks/bench_engine.py,
-#: 1,024 members of 10,000 samples on two cores: about 0.49 -> 0.13 ms per member, some
-#: 36 ns per member-sample)
+#: member-samples from which a sweep compiles your ODE's block functions when they compile
+#: once per process (f and g with no source file, or closures: about 1.5 to 3 s) to run
+#: in the vectorised loop: about what they save there against f member by member
+#: (measured on the DC motor of benchmarks/bench_engine.py, 1,024 members of 10,000
+#: samples on two cores: about 0.49 -> 0.13 ms per member, some 36 ns per member-sample)
 BLOCK_WORTH = 80_000_000
+#: the same for block functions kept in numba's disk cache once compiled (your ODE
+#: defined in a file): their compilation is paid once per machine, so a sweep of 1,024
+#: members of 10,000 samples, which saves about a quarter of it in its own process,
+#: compiles them for every later one
+BLOCK_WORTH_KEPT = 10_000_000
 #: the same while the vectorised loop itself is not compiled yet on this machine (about
 #: 75 s, once: then it is in numba's disk cache)
 BLOCK_WORTH_COLD = 700_000_000
@@ -958,10 +963,11 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     takes the block functions (built for this integrator, and numba could compile them)
     when asked to, or automatically when they cost no compilation worth weighing (a
     library plant's, compiled once per machine; your own ODE's once compiled in this
-    process) or from :data:`BLOCK_WORTH` member-samples on (your own ODE's cost about
-    3 s per process). Never automatically under Intel SVML (whose vector sin, exp, ...
-    differ from the scalar ones in the last bits: a loop over a block's members, even of
-    the reference, could change a member's bits)."""
+    process or on this machine) or from :data:`BLOCK_WORTH_KEPT` member-samples on (your
+    own ODE's from a file, compiled once per machine) or :data:`BLOCK_WORTH` (your own
+    ODE's compiled once per process). Never automatically under Intel SVML (whose
+    vector sin, exp, ... differ from the scalar ones in the last bits: a loop over a
+    block's members, even of the reference, could change a member's bits)."""
     if record or n_members < 2 or vectorise is False or not uniform:
         return "member"
     has_block = (block is not None and INTEGRATORS[block.integrator] == integ
@@ -973,7 +979,8 @@ def loop_for(block, integ: int, n_members: int, n_steps: int, record: bool,
     if (n_members < LANES // 4 or numba_config.USING_SVML  # type: ignore[attr-defined]
             or not (work >= BLOCK_WORTH_COLD or _block_kernel_ready())):
         return "member"
-    if has_block and (work >= BLOCK_WORTH or block.cheap):
+    if has_block and (work >= (BLOCK_WORTH_KEPT if block.kept else BLOCK_WORTH)
+                      or block.cheap):
         return "block"
     return "lanes"
 

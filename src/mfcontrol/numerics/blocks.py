@@ -60,6 +60,12 @@ class Block(NamedTuple):
         that cache (compiled on this machine before)."""
         return all(f.compiled or f.cached or f.saved for f in (self.step, self.output))
 
+    @property
+    def kept(self) -> bool:
+        """Whether, once compiled, they are kept in numba's disk cache: their compilation
+        is paid once per machine, not once per process."""
+        return all(f.kept for f in (self.step, self.output))
+
 
 def _inline(fn: Callable[..., Any], key: tuple | None):
     """fn compiled to be inlined, with an identity numba's disk cache finds again when

@@ -84,6 +84,12 @@ class Lazy:
         return self._cache is True
 
     @property
+    def kept(self) -> bool:
+        """Whether, once compiled, it is kept in numba's disk cache for later processes (a
+        library function, or one of your own with an identity: defined in a file)."""
+        return self._cache is not False
+
+    @property
     def saved(self) -> bool:
         """Whether its compiled code is in numba's disk cache now: the cache's index looked
         up, nothing loaded or compiled (your own ODE's, once compiled on this machine)."""

@@ -7,6 +7,9 @@ Parameter vector (one column)::
     then          B (n), C (n), and the derived Ad (n x n), Bd (n) of the zero-order-hold
                   discretisation over the sample h, recomputed by :func:`derive` after
                   every parameter change (:mod:`mfcontrol.numerics.zoh`)
+    then          n values of scratch, where :func:`advance` puts the new state while it
+                  still reads the old (an array allocated at every step would cost more
+                  than the step, and keep a loop over a sweep's members from vectorising)
 
 ``integrator = "exact"`` steps ``x+ = Ad x + Bd u`` (:func:`advance`), exact for u held;
 ``"rk4"`` and ``"rk45"`` integrate :func:`rhs`.
@@ -22,7 +25,7 @@ A_OFF = 1
 
 def size(n: int) -> int:
     """Length of the parameter vector of an n-state model."""
-    return A_OFF + 2 * n * n + 3 * n
+    return A_OFF + 2 * n * n + 4 * n
 
 
 def offsets(n: int) -> tuple[int, int, int, int, int]:
@@ -99,11 +102,11 @@ def advance(t, x, u, p, h, nx, np_):
     n = nx
     ad = A_OFF + 2 * n + n * n
     bd = ad + n * n
-    xn = np.empty(n)  # x is read to the end: the new state goes to a copy first
+    xn = bd + n  # x is read to the end: the new state goes to the scratch first
     for i in range(n):
         s = 0.0
         for j in range(n):
             s += p[ad + i * n + j] * x[j]
-        xn[i] = s + p[bd + i] * u
+        p[xn + i] = s + p[bd + i] * u
     for i in range(n):
-        x[i] = xn[i]
+        x[i] = p[xn + i]
