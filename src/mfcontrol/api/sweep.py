@@ -207,23 +207,29 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         The axes combine as a product, member m the m-th combination, the last key
         fastest.
     fast : bool
-        The engine's fast mode (about 1e-12 relative of the exact runs).
+        The engine's fast mode (about 1e-12 relative of the exact runs) where the
+        members run in the member loop; in the vectorised loop (the default for
+        sweeps that pay for it) they run in exact arithmetic either way, which is
+        never slower.
     keep : int
         Also run this many members, spread over the grid, with their trajectories
         (``result.kept``).
     vectorise : bool or None
-        Run the members in the engine's vectorised loop (exact arithmetic: not with
-        ``fast=True``): blocks of 64 members whose law and metrics, past the first
-        samples, run over the block as vector instructions (the algebraic estimator
-        member by member), the plant too when it has block functions: the library's
-        plants (compiled once per machine) and your own ODE under RK4, whose f and g
-        numba compiles over the block (about 3 s, once per plant and process);
-        otherwise each member's f runs through its compiled function. The same bits
+        Run the members in the engine's vectorised loop (exact arithmetic, also with
+        ``fast=True``): blocks of 64 members whose loop elements (sensor, actuator,
+        disturbance), law (any, the algebraic estimator's window included) and
+        metrics, past the first samples, run over the block as vector instructions,
+        the plant too when it has block functions: the library's plants and LTI
+        models (compiled once per machine) and your own ODE under RK4, whose f and g
+        numba compiles over the block (about 1.5 s, once per machine when they are
+        defined in a file); otherwise each member's f runs through its compiled
+        function. Members with numbers of substeps of their own run in the member
+        loop. The same bits
         either way; on the DC motor of the README's Speed section, about 1.6x faster
         than the member loop with f member by member and about 6x with f over the
         block. True: always, f over the block where it can; False: the member loop;
         None (default): when it pays (:func:`mfcontrol.engine.compose.loop_for`: once
-        the vectorised loop is compiled on the machine, about 75 s the first time ever,
+        the vectorised loop is compiled on the machine, about 2 min the first time ever,
         then cached on disk; f over the block for large sweeps or once compiled so).
 
     Returns

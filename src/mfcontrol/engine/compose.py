@@ -19,11 +19,13 @@ them over threads (the kernel releases the GIL).
 
 Sweeps run in the vectorised loop (:func:`block_kernel`, chosen by :func:`loop_for`):
 members in blocks of :data:`LANES`, the plant's step and output compiled over the block
-(:mod:`mfcontrol.numerics.blocks`: the library's plants and your own ODE) or, where it has
-none (the LTI, the adaptive integrator), each member's plant on its own functions; past
-the start-up, the law (``steady_step`` of either law) and the metrics fold run as loops
-over the block that the compiler turns into vector instructions. Each member is still
-its single run, bit for bit.
+(:mod:`mfcontrol.numerics.blocks`: the library's plants, LTI models and your own ODE)
+or, where it has none (the adaptive integrator), each member's plant on its own
+functions; the loop's elements (sensor, actuator, disturbance, substeps) around the law
+lane by lane, and, past the start-up, the law (``steady_step`` of every law, the
+algebraic estimator's window included) and the metrics fold, as loops over the block
+that the compiler turns into vector instructions. Each member is still its single run,
+bit for bit.
 
 The paper's buck under the recursive law keeps its own tuned kernels
 (:mod:`mfcontrol.engine.paper_single`, :mod:`mfcontrol.engine.paper_sweep`): state in registers and
@@ -325,7 +327,7 @@ BLOCK_WORTH = 80_000_000
 #: compiles them for every later one
 BLOCK_WORTH_KEPT = 10_000_000
 #: the same while the vectorised loop itself is not compiled yet on this machine (about
-#: 75 s, once: then it is in numba's disk cache)
+#: 2 min, once: then it is in numba's disk cache)
 BLOCK_WORTH_COLD = 700_000_000
 
 
@@ -941,8 +943,8 @@ BLOCK_SIGNATURE = types.int64(
 def block_kernel():
     """The compiled vectorised member loop, exact arithmetic only (the fast mode's single
     runs fuse the RK4's arithmetic, which the plant's block step does not); cached on
-    disk like :func:`member_kernel` (about 75 s the first time on the machine of the
-    README's figures)."""
+    disk like :func:`member_kernel` (see the README's Speed section for what its first
+    compilation costs)."""
     return _compile(_make_block_loop, BLOCK_SIGNATURE, False)
 
 
