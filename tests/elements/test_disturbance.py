@@ -1,7 +1,5 @@
 """d(t) of every kind against its formula, and a table against numpy.interp."""
 
-import math
-
 import numpy as np
 import pytest
 
@@ -20,8 +18,12 @@ T = np.linspace(0.0, 2.0, 401)
 @pytest.mark.parametrize(("dist", "expected"), [
     (Disturbance("step", amplitude=-0.5, t0=0.7), lambda t: np.where(t >= 0.7, -0.5, 0.0)),
     (Disturbance("ramp", amplitude=3.0, t0=0.5), lambda t: np.where(t >= 0.5, 3 * (t - 0.5), 0)),
+    # the turns f (t - t0) as the double they are, their sine to long-double precision
+    # (numpy's 2 pi f (t - t0) rounds the angle differently: about 1e-15 apart)
     (Disturbance("sine", amplitude=2.0, t0=0.25, frequency=5.0),
-     lambda t: np.where(t >= 0.25, 2 * np.sin(2 * math.pi * 5 * (t - 0.25)), 0.0)),
+     lambda t: np.where(t >= 0.25, 2 * np.sin(2 * np.arccos(np.longdouble(-1))
+                                              * (5 * (t - 0.25)).astype(np.longdouble)),
+                        0.0).astype(float)),
     (Disturbance(), lambda t: np.zeros_like(t)),
 ])
 def test_each_kind_is_its_formula(dist, expected):
