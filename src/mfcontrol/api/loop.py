@@ -207,10 +207,15 @@ def restored(plant):
     try:
         yield original
     finally:
-        now = plant.params  # built anew at each read (an ODE's): read once
-        for key, value in original.items():
-            if now[key] != value:
-                plant.set_param(key, value)
+        _restore(plant, original)
+
+
+def _restore(plant, original: Mapping[str, float]) -> None:
+    """Set back every parameter of the plant that differs from ``original``."""
+    now = plant.params  # built anew at each read (an ODE's): read once
+    for key, value in original.items():
+        if now[key] != value:
+            plant.set_param(key, value)
 
 
 def _check_changes(plant, changes: Sequence[Change]) -> None:
@@ -218,7 +223,8 @@ def _check_changes(plant, changes: Sequence[Change]) -> None:
     checks, applied in order to the plant and undone)."""
     if not changes:
         return
-    with restored(plant) as original:
+    original = dict(plant.params)
+    try:  # restored's work, without its generator (every run of a schedule checks it)
         for c in changes:
             if not isinstance(c, Change):
                 raise TypeError(f"changes: {c!r} is not a mfcontrol.Change")
@@ -228,6 +234,8 @@ def _check_changes(plant, changes: Sequence[Change]) -> None:
                 raise ConfigError(c.name, c.value, "unknown parameter; allowed: "
                                   + (", ".join(original) or "none"))
             plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
+    finally:
+        _restore(plant, original)
 
 
 def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mapping[str, int],
@@ -329,7 +337,7 @@ def load_step_of(LP: np.ndarray, changes_per_member, t_end: float, n: int) -> np
     first = np.array([min((c.time for c in ch), default=np.inf) for ch in changes_per_member])
     load = np.minimum(step, first)
     seen = np.array([math.isfinite(x) and grid.first_sample_at(x, t_end, n) < n
-                     for x in load])
+                     for x in load.tolist()])
     return np.where(seen, load, np.inf)
 
 
