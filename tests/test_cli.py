@@ -774,6 +774,6 @@ def test_main_called_in_a_process_leaves_its_garbage_collector_alone(capsys):
     # caller's process (main(argv), as here) keeps its own settings
     import gc
 
-    before = gc.get_threshold(), gc.get_freeze_count()
+    before = gc.isenabled(), gc.get_threshold(), gc.get_freeze_count()
     assert main(["cases"]) == 0
-    assert (gc.get_threshold(), gc.get_freeze_count()) == before
+    assert (gc.isenabled(), gc.get_threshold(), gc.get_freeze_count()) == before
