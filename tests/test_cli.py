@@ -767,3 +767,13 @@ def test_map_writes_into_a_folder_it_creates(tmp_path, capsys):
     assert main(["map", str(out), "--x", "controller.alpha", "--y", "plant.dR", "--out",
                  str(png)]) == 0
     assert png.stat().st_size > 10_000
+
+
+def test_main_called_in_a_process_leaves_its_garbage_collector_alone(capsys):
+    # the command's own process tunes its collector (mfcontrol.cli._own_process); a
+    # caller's process (main(argv), as here) keeps its own settings
+    import gc
+
+    before = gc.isenabled(), gc.get_threshold(), gc.get_freeze_count()
+    assert main(["cases"]) == 0
+    assert (gc.isenabled(), gc.get_threshold(), gc.get_freeze_count()) == before

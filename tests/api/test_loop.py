@@ -126,3 +126,75 @@ def test_your_own_controller_is_given_alpha_at_every_sample():
 
     with pytest.raises(mfcontrol.ConfigError, match="^alpha = 2.0: your controller must take"):
         simulate_loop(FirstOrder(a=-1.0, b=1.0), NoAlpha(), 1.0, t_end=1.0, h=h, alpha=2.0)
+
+
+def _same_run(a, b):
+    assert list(a.signals) == list(b.signals) and list(a.states) == list(b.states)
+    for k in a.signals:
+        np.testing.assert_array_equal(a.signals[k], b.signals[k])
+    for k in a.states:
+        np.testing.assert_array_equal(a.states[k], b.states[k])
+    np.testing.assert_array_equal(a.time, b.time)
+
+
+def test_elements_not_given_are_the_default_elements_bit_for_bit():
+    # no element given takes a column built once; the default objects take the checked
+    # path: the same run, metrics and controller memory
+    from mfcontrol import Actuator, Disturbance, Sensor
+
+    changes = [Change(0.5, "w", 1.0)]
+    ctrl_a, ctrl_b = (mfcontrol.IPI(alpha=2.0, kp=8.0, ki=4.0, sample_time=1e-3)
+                      for _ in range(2))
+    a = simulate_loop(FirstOrder(-1.0, 1.0), ctrl_a, 1.0, t_end=1.0, changes=changes)
+    b = simulate_loop(FirstOrder(-1.0, 1.0), ctrl_b, 1.0, t_end=1.0, changes=changes,
+                      sensor=Sensor(), actuator=Actuator(), disturbance=Disturbance(),
+                      substeps=1)
+    _same_run(a, b)
+    assert a.metrics == b.metrics
+    np.testing.assert_array_equal(ctrl_a._CS, ctrl_b._CS)
+    # the column is the run's own: changing it changes no later run
+    from mfcontrol.api import loop
+
+    loop._elements(n=1000)[:] = 7.0
+    assert not np.any(loop._elements(n=1000) == 7.0)
+
+
+def test_a_constant_reference_or_alpha_is_checked_as_that_value_at_every_sample():
+    # a number is checked once, an array at every sample: the same runs, the same errors
+    plant = FirstOrder(a=-1.0, b=1.0)
+    n = 100
+
+    def run(reference, alpha=None):
+        ext = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=0.01, gain="external")
+        return simulate_loop(plant, ext, reference, t_end=n * 0.01, alpha=alpha)
+
+    _same_run(run(1.5, alpha=2.0), run(np.full(n, 1.5), alpha=np.full(n, 2.0)))
+    for value in (math.nan, math.inf, -math.inf, 0.0, -0.0, -2.0, 5e-324, 1e308):
+        for key in ("reference", "alpha"):
+            errors = []
+            for given in (value, np.full(n, value)):
+                try:
+                    run(given, 1.0) if key == "reference" else run(1.0, given)
+                except mfcontrol.ConfigError as exc:
+                    errors.append(str(exc))
+                else:
+                    errors.append(None)
+            assert errors[0] == errors[1], (key, value, errors)
+
+
+def test_metric_settings_are_checked_at_every_run():
+    # checks that passed are remembered; a failure is not, and numpy's numbers are checked
+    plant = FirstOrder(a=-1.0, b=1.0)
+    ip = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=0.01)
+    for _ in range(2):
+        with pytest.raises(mfcontrol.ConfigError, match="^final_window = 1.5"):
+            simulate_loop(plant, ip, 1.0, t_end=1.0, final_window=1.5)
+        with pytest.raises(mfcontrol.ConfigError, match="^stable_tol = .*-1.0.*> 0"):
+            simulate_loop(plant, ip, 1.0, t_end=1.0, stable_tol=np.float64(-1.0))
+        with pytest.raises(mfcontrol.ConfigError, match="^settle_time = True"):
+            simulate_loop(plant, ip, 1.0, t_end=1.0, settle_time=True)
+    a = simulate_loop(plant, mfcontrol.IP(1.0, 5.0, sample_time=0.01), 1.0, t_end=1.0,
+                      final_window=0.5)
+    b = simulate_loop(plant, mfcontrol.IP(1.0, 5.0, sample_time=0.01), 1.0, t_end=1.0,
+                      final_window=np.float64(0.5))
+    assert a.metrics == b.metrics

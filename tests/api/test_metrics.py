@@ -1,5 +1,7 @@
 """Streaming metrics against their definitions evaluated on the trajectory."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -57,3 +59,33 @@ def test_metric_units_read_as_units():
     assert label("iae", "1", "1") == "IAE, the integral of |e| (s)"
     assert label("energy_u", "V", "1") == "energy of u (s)"
     assert label("max_abs_e", "V", "1") == "largest |e| after the settling time (V)"
+
+
+def test_one_members_metrics_are_the_tables_bit_for_bit():
+    # from_kernel computes one member on Python floats; table on arrays: the same values,
+    # types and order, on metric rows mixing ordinary values, zeros, NaN and infinities
+    from mfcontrol.api.metrics import from_kernel, table
+    from mfcontrol.engine import metrics as em
+
+    rng = np.random.default_rng(7)
+    m = 4000
+    special = np.array([np.nan, np.inf, -np.inf, 0.0, -0.0, 1.0, -1.0])
+    M = np.where(rng.random((em.N_METRICS, m)) < 0.3,
+                 special[rng.integers(special.size, size=(em.N_METRICS, m))],
+                 rng.standard_normal((em.N_METRICS, m)) * 10.0 ** rng.integers(-3, 4, (1, m)))
+    M[em.M_DIVERGED] = rng.integers(0, 2, m)
+    M[em.M_N_SAMPLES] = rng.integers(0, 10_000, m)
+    M[em.M_N_FINAL] = np.where(rng.random(m) < 0.3, 0.0, rng.integers(1, 99, m))
+    M[em.M_T_IN] = np.where(rng.random(m) < 0.5, M[em.M_T_LAST] - 1.0, M[em.M_T_IN])
+    assert any(v["stable"] for v in (from_kernel(M, j, 0.1) for j in range(m)))
+    with np.errstate(invalid="ignore"):  # inf - inf in the made-up step rows
+        whole = table(M, 0.1)
+    for j in range(m):
+        ours = from_kernel(M, j, 0.1)
+        theirs = {k: v[j].item() for k, v in whole.items()}
+        assert list(ours) == list(theirs), j
+        for k, v in theirs.items():
+            assert type(ours[k]) is type(v), (j, k)
+            assert ours[k] == v or (v != v and ours[k] != ours[k]), (j, k, ours[k], v)
+            if isinstance(v, float) and v == 0.0:
+                assert math.copysign(1.0, ours[k]) == math.copysign(1.0, v), (j, k)

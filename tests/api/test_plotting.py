@@ -106,3 +106,28 @@ def test_a_loop_run_names_its_parameter_changes():
     res = mfcontrol.simulate_loop(plant, ctrl, 1.0, t_end=2.0,
                                   changes=[mfcontrol.Change(1.0, "b", 0.5, add=True)])
     assert _texts(res.plot()).count("b += 0.5") == 2  # both panels
+
+
+def test_a_saved_figure_is_savefig_own_drawn_once(tmp_path, monkeypatch):
+    from matplotlib.backend_bases import FigureCanvasBase
+    from matplotlib.figure import Figure
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from mfcontrol.api.plotting import DPI
+
+    r = mfcontrol.run_case("voltage-stable-standard")  # constrained layout and a zoom inset
+    draws = []
+    monkeypatch.setattr(Figure, "draw", lambda self, renderer, _draw=Figure.draw:
+                        draws.append(1) or _draw(self, renderer))
+    fig = r.plot(tmp_path / "ours.png")
+    assert len(draws) == 1
+    r.plot().savefig(tmp_path / "savefig.png", dpi=DPI)
+    assert (tmp_path / "ours.png").read_bytes() == (tmp_path / "savefig.png").read_bytes()
+    # left as savefig leaves it: its own canvas, resolution and layout engine
+    assert type(fig.canvas) is FigureCanvasBase and fig.canvas.figure is fig
+    assert fig.dpi == 100.0 and isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+    fig.savefig(tmp_path / "again.png", dpi=DPI)
+    assert (tmp_path / "again.png").read_bytes() == (tmp_path / "savefig.png").read_bytes()
+    # another suffix: savefig's format
+    r.plot(tmp_path / "run.svg")
+    assert (tmp_path / "run.svg").read_text().lstrip().startswith("<?xml")

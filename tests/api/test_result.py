@@ -60,3 +60,42 @@ def test_one_result_type_with_the_same_signal_names_on_every_path():
     assert (case.config is not None, loop.config) == (True, None)
     assert list(case.to_pandas().columns)[:9] == ["t", "y_ref", "y", "y_meas", "u", "u_plant",
                                                   "u_raw", "gamma", "gain"]
+
+
+def test_the_csv_writer_writes_what_pandas_writes_byte_for_byte(tmp_path):
+    # NaN (an empty field), infinities, signed zero, the extremes, 17 digits; a header
+    # with names the csv module quotes; more rows than one formatted block
+    from mfcontrol.api import result as result_module
+
+    rng = np.random.default_rng(1)
+    special = np.array([np.nan, -np.nan, np.inf, -np.inf, -0.0, 0.0, 5e-324, 1.7976931348623157e308,
+                        -1e-300, 0.1, 1 / 3, 2.0**53 + 2, 123456789012345678.0])
+    n = result_module._CSV_ROWS + 7
+    cols = {"t": np.concatenate([special, rng.standard_normal(n)]),
+            'odd, "name"': np.concatenate([special[::-1], rng.standard_normal(n) * 1e10]),
+            "": np.concatenate([special, np.exp(rng.standard_normal(n) * 50)])}
+    assert result_module.write_csv(tmp_path / "ours.csv", cols)
+    pd.DataFrame(cols).to_csv(tmp_path / "pandas.csv", index=False, float_format="%.17g")
+    assert (tmp_path / "ours.csv").read_bytes() == (tmp_path / "pandas.csv").read_bytes()
+    back = pd.read_csv(tmp_path / "ours.csv", keep_default_na=True)
+    for i, column in enumerate(cols.values()):
+        np.testing.assert_array_equal(back.iloc[:, i].to_numpy(), column)
+    # what it does not cover it leaves to pandas, writing nothing
+    assert not result_module.write_csv(tmp_path / "no.csv", {"a": np.zeros(3, np.float32)})
+    assert not result_module.write_csv(tmp_path / "no.csv", {"a": np.zeros(3), "b": np.zeros(2)})
+    assert not (tmp_path / "no.csv").exists()
+
+
+def test_a_result_csv_is_pandas_own(tmp_path):
+    from mfcontrol.api.plants import FirstOrder
+
+    def mine(y, setpoint):  # the Python driver: components absent, NaN columns
+        return 2.0 * (setpoint - y)
+
+    runs = [mfcontrol.run_case("sweep-epsM", {"sim.t_end": 1e-3}),
+            mfcontrol.simulate_loop(FirstOrder(-1.0, 1.0), mine, 1.0, t_end=0.05, h=1e-3)]
+    for j, r in enumerate(runs):
+        r.to_csv(tmp_path / f"{j}.csv")
+        r.to_pandas().to_csv(tmp_path / f"{j}-pandas.csv", index=False, float_format="%.17g")
+        assert (tmp_path / f"{j}.csv").read_bytes() == \
+            (tmp_path / f"{j}-pandas.csv").read_bytes()

@@ -123,13 +123,17 @@ def unread(key: str, settings) -> str:
     return ""
 
 
+#: the elements' defaults, none acting: made and checked once, for every element not given
+_DEFAULTS = (Sensor(), Actuator(), Disturbance())
+
+
 def column(sensor: Sensor | None = None, actuator: Actuator | None = None,
            disturbance_: Disturbance | None = None, substeps: int = 1) -> np.ndarray:
     """One member's elements as the engine's LP column
     (:mod:`mfcontrol.elements.layout`)."""
-    s = sensor or Sensor()
-    a = actuator or Actuator()
-    d = disturbance_ or Disturbance()
+    s = sensor or _DEFAULTS[0]
+    a = actuator or _DEFAULTS[1]
+    d = disturbance_ or _DEFAULTS[2]
     return layout.column(
         noise=noise.KINDS[s.noise], noise_std=s.noise_std, seed=s.seed, quantum=s.quantum,
         sensor_delay=s.delay, actuator_delay=a.delay, rate_limit=a.rate_limit,

@@ -16,6 +16,7 @@ Python driver, one call per sample, and the result's ``engine`` says ``"python"`
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -25,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config.resolve import check_elements, check_value
 from ..elements import disturbance as disturbance_law
 from ..elements import layout
 from ..engine import compose, trajectory
@@ -34,6 +36,8 @@ from ..laws import intelligent, pid, reference
 from ..laws import reference as reference_law
 from ..numerics import grid
 from . import metrics as _metrics
+from .controllers import PID, IntelligentController, RecursiveIP, _Controller
+from .elements import Actuator, Disturbance, Sensor, column
 from .result import SIGNALS, Result
 
 Reference = float | Callable[[float], float] | Sequence[float] | np.ndarray
@@ -88,13 +92,16 @@ def _series(name: str, value: Reference, t: np.ndarray, positive: bool = False) 
     except (TypeError, ValueError):
         shown = value if isinstance(value, bool | str | bytes) else type(value).__name__
         raise ConfigError(name, shown, allowed) from None
-    if arr.ndim == 0:
-        arr = np.full(t.size, float(arr))
+    if arr.ndim == 0:  # one value for every sample: checked once (the same test on floats)
+        v = float(arr)
+        arr = np.full(t.size, v)
+        ok = np.array([math.isfinite(v) and (not positive or v > 0 and math.isfinite(1.0 / v))])
     elif arr.shape != t.shape:
         raise ConfigError(name, f"an array of shape {arr.shape}",
                           f"{allowed} ({t.size} samples)")
-    with np.errstate(divide="ignore", over="ignore"):
-        ok = np.isfinite(arr) & ((arr > 0) & np.isfinite(1.0 / arr) if positive else True)
+    else:
+        with np.errstate(divide="ignore", over="ignore"):
+            ok = np.isfinite(arr) & ((arr > 0) & np.isfinite(1.0 / arr) if positive else True)
     if not ok.all():
         k = int(np.flatnonzero(~ok)[0])
         what = "finite and > 0 (with a finite 1/value)" if positive else "finite"
@@ -133,23 +140,22 @@ class LawArrays:
 ReferenceStep = tuple[float, float, float] | tuple[np.ndarray, ...]
 
 
+#: each law's recorded components: (signal names, CS rows)
+_COMPONENTS = {law: (tuple(name for name, _ in law.COMPONENTS),
+                     tuple(row for _, row in law.COMPONENTS)) for law in (pid, intelligent)}
+
+
 def law_arrays(controller) -> LawArrays | None:
     """The engine's view of ``controller``; None when only the Python driver can run it
     (not a library controller, or in manual mode)."""
-    from .controllers import PID, IntelligentController, RecursiveIP
-
     if not getattr(controller, "auto_mode", False):
         return None
     if isinstance(controller, PID):
-        names = tuple(name for name, _ in pid.COMPONENTS)
-        rows = tuple(row for _, row in pid.COMPONENTS)
         return LawArrays(compose.PID, controller._CP.copy(), controller._CS.copy(),
-                         controller.sample_time, names, rows)
+                         controller.sample_time, *_COMPONENTS[pid])
     if isinstance(controller, IntelligentController):
-        names = tuple(name for name, _ in intelligent.COMPONENTS)
-        rows = tuple(row for _, row in intelligent.COMPONENTS)
         return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
-                         controller.sample_time, names, rows)
+                         controller.sample_time, *_COMPONENTS[intelligent])
     if isinstance(controller, RecursiveIP):
         return LawArrays(compose.RECURSIVE_IP, controller._CP.copy(), controller._CS.copy(),
                          1.0, (), ())
@@ -158,8 +164,6 @@ def law_arrays(controller) -> LawArrays | None:
 
 def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None:
     """Leave the controller as the Python driver would: its memory and last output."""
-    from .controllers import RecursiveIP
-
     if k_end == 0:
         return
     controller._CS[:, 0] = CS[:, 0]
@@ -173,8 +177,18 @@ def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None
 def _settings(settle_time: float, t_end: float, final_window: float,
               diverge_above: float, stable_tol: float = 0.1) -> np.ndarray:
     """The kernels' metric settings, each checked as its option is (one-line errors)."""
-    from ..config.resolve import check_value
+    values = (settle_time, final_window, stable_tol, diverge_above)
+    if all(type(v) is float or type(v) is int for v in values):
+        _check_settings(*values)  # numbers seen before are not checked again
+    else:
+        _check_settings.__wrapped__(*values)  # numpy's (unhashable ones, too): each time
+    return engine_metrics.settings(settle_time, t_end, final_window, diverge_above)
 
+
+@functools.lru_cache(maxsize=256)
+def _check_settings(settle_time, final_window, stable_tol, diverge_above) -> None:
+    """Each metric setting checked as its option is; what passed is remembered (a failure
+    raises, and is not)."""
     for name, key, value in (("settle_time", "metrics.settle_time", settle_time),
                              ("final_window", "metrics.final_window", final_window),
                              ("stable_tol", "metrics.stable_tol", stable_tol),
@@ -183,7 +197,6 @@ def _settings(settle_time: float, t_end: float, final_window: float,
             check_value(key, value)
         except ConfigError as exc:
             raise ConfigError(name, value, exc.allowed) from None
-    return engine_metrics.settings(settle_time, t_end, final_window, diverge_above)
 
 
 @contextmanager
@@ -194,15 +207,24 @@ def restored(plant):
     try:
         yield original
     finally:
-        for key, value in original.items():
-            if plant.params[key] != value:
-                plant.set_param(key, value)
+        _restore(plant, original)
+
+
+def _restore(plant, original: Mapping[str, float]) -> None:
+    """Set back every parameter of the plant that differs from ``original``."""
+    now = plant.params  # built anew at each read (an ODE's): read once
+    for key, value in original.items():
+        if now[key] != value:
+            plant.set_param(key, value)
 
 
 def _check_changes(plant, changes: Sequence[Change]) -> None:
     """Every change names a parameter of the plant and leaves it valid (the plant's own
     checks, applied in order to the plant and undone)."""
-    with restored(plant) as original:
+    if not changes:
+        return
+    original = dict(plant.params)
+    try:  # restored's work, without its generator (every run of a schedule checks it)
         for c in changes:
             if not isinstance(c, Change):
                 raise TypeError(f"changes: {c!r} is not a mfcontrol.Change")
@@ -212,6 +234,8 @@ def _check_changes(plant, changes: Sequence[Change]) -> None:
                 raise ConfigError(c.name, c.value, "unknown parameter; allowed: "
                                   + (", ".join(original) or "none"))
             plant.set_param(c.name, plant.params[c.name] + c.value if c.add else c.value)
+    finally:
+        _restore(plant, original)
 
 
 def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mapping[str, int],
@@ -263,9 +287,10 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
         if law.kind != l0.kind or law.CP.shape != l0.CP.shape or law.dt != l0.dt:
             raise ValueError("members of one run must share the law and its sample time")
     m = len(plants)
-    X = np.ascontiguousarray(np.stack([ep.x0 for ep in plants]))
-    P = np.ascontiguousarray(np.stack([ep.p for ep in plants]))
-    CP = np.ascontiguousarray(np.hstack([law.CP for law in laws]))
+    # fresh arrays (the engine writes X, P and CS in place), C-ordered
+    X = np.array([ep.x0 for ep in plants])
+    P = np.array([ep.p for ep in plants])
+    CP = np.concatenate([law.CP for law in laws], axis=1)
     rows = max(law.CS.shape[0] for law in laws)
     CS = np.zeros((rows, m))
     for j, law in enumerate(laws):
@@ -312,7 +337,7 @@ def load_step_of(LP: np.ndarray, changes_per_member, t_end: float, n: int) -> np
     first = np.array([min((c.time for c in ch), default=np.inf) for ch in changes_per_member])
     load = np.minimum(step, first)
     seen = np.array([math.isfinite(x) and grid.first_sample_at(x, t_end, n) < n
-                     for x in load])
+                     for x in load.tolist()])
     return np.where(seen, load, np.inf)
 
 
@@ -337,8 +362,6 @@ def _alpha(controller, alpha, t: np.ndarray) -> np.ndarray | None:
     """The alpha of every sample for a controller that is given one (None for any other
     controller), checked: finite and > 0 everywhere. A library controller takes it when
     its gain is external; a controller of your own when it has an ``alpha`` parameter."""
-    from .controllers import _Controller
-
     external = getattr(controller, "_external", False)
     if alpha is None:
         if external:
@@ -460,9 +483,11 @@ def _elements(sensor=None, actuator=None, disturbance=None, substeps=1, *,
               n: int) -> np.ndarray:
     """The elements' LP column, checked: the objects' types, and their options against the
     run's n samples as a case file's (:func:`mfcontrol.config.resolve.check_elements`)."""
-    from ..config.resolve import check_elements, check_value
-    from .elements import Actuator, Disturbance, Sensor, column
-
+    if sensor is None and actuator is None and disturbance is None \
+            and type(substeps) is int and substeps == 1:
+        # none given (most runs): nothing to check, and the ideal loop's column is the same
+        # every time (a copy: the engine's arrays are the run's own)
+        return _ideal_loop().copy()
     for name, obj, kind in (("sensor", sensor, Sensor), ("actuator", actuator, Actuator),
                             ("disturbance", disturbance, Disturbance)):
         if obj is not None and not isinstance(obj, kind):
@@ -475,6 +500,13 @@ def _elements(sensor=None, actuator=None, disturbance=None, substeps=1, *,
     except ConfigError as exc:
         raise ConfigError(exc.key.replace("sim.", ""), exc.value, exc.allowed) from None
     return column(sensor, actuator, disturbance, substeps)
+
+
+@functools.cache
+def _ideal_loop() -> np.ndarray:
+    """The LP column of a loop without elements (no sensor, actuator or disturbance, one
+    integration step per sample)."""
+    return column()
 
 
 def _constant_step(plant, reference) -> tuple[float, float, float] | None:

@@ -166,12 +166,60 @@ def _event(ax, x: float, text: str, color: str) -> None:
                 color=color)
 
 
+#: resolution of every saved figure (dots per inch)
+DPI = 120
+
+
 def save_figure(fig: Figure, path: str | Path | None) -> Figure:
-    """Write ``fig`` as ``path`` (its folder created) unless path is None; return fig."""
-    if path is not None:
-        # a figure asked for in a folder that does not exist yet is the user's intent
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=120)
+    """Write ``fig`` as ``path`` (its folder created) unless path is None; return fig.
+    The format is the path's (PNG without a suffix), as ``Figure.savefig`` chooses it."""
+    if path is None:
+        return fig
+    # a figure asked for in a folder that does not exist yet is the user's intent
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    if Path(path).suffix.lower() != ".png":
+        fig.savefig(path, dpi=DPI)
+        return fig
+    # savefig draws a figure with a layout engine twice: once with rendering turned off,
+    # to lay it out (every artist walked: a third of the figure's time), then for real.
+    # The Agg canvas printing it itself draws it once, laying it out at the start of that
+    # draw at the same resolution: the same bytes. The figure is left as savefig leaves
+    # it: laid out, its canvas and resolution its own again
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas, dpi = fig.canvas, fig.dpi
+    try:
+        agg = FigureCanvasAgg(fig)
+        fig.set_dpi(DPI)
+        try:
+            agg.print_png(path)
+        finally:
+            fig.set_dpi(dpi)
+    finally:
+        fig.set_canvas(canvas)
+    return fig
+    # a figure asked for in a folder that does not exist yet is the user's intent
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    engine = fig.get_layout_engine()
+    if engine is None:
+        fig.savefig(path, dpi=DPI)
+        return fig
+    # savefig draws a figure with a layout engine twice: once with rendering turned off
+    # for the layout (every artist walked, about a third of a figure's drawing), then for
+    # real. Laid out here at the saved resolution, as that first draw lays it out, it is
+    # drawn once, to the same pixels; the figure is left as savefig leaves it (laid out,
+    # its engine and resolution restored)
+    dpi = fig.dpi
+    fig.set_dpi(DPI)
+    try:
+        engine.execute(fig)
+        fig.set_layout_engine("none")
+        try:
+            fig.savefig(path, dpi=DPI)
+        finally:
+            fig.set_layout_engine(engine)
+    finally:
+        fig.set_dpi(dpi)
     return fig
 
 

