@@ -227,13 +227,13 @@ def test_side_by_side_shares_the_colour_norm(tmp_path, monkeypatch):
     a = frame()
     b = frame(metric=lambda x, y: 3.0 * f(x, y))
     captured = []
-    orig = Figure.savefig
+    orig = maps.save_figure
 
-    def spy(self, *args, **kwargs):
-        captured.append(self)
-        return orig(self, *args, **kwargs)
+    def spy(fig, path):  # the figure as it is written
+        captured.append(fig)
+        return orig(fig, path)
 
-    monkeypatch.setattr(Figure, "savefig", spy)
+    monkeypatch.setattr(maps, "save_figure", spy)
     out = maps.draw_maps_side_by_side([(a, "standard"), (b, "variational")],
                                       "controller.alpha", "plant.dR", "iae",
                                       tmp_path / "both.png")
