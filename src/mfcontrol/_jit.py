@@ -117,7 +117,7 @@ FAST_FLAGS = ("contract", "arcp", "nsz")
 #: calls a fast one pickles the callee's options into its disk-cache key, and a set of
 #: strings pickles in an order that changes with every process's string hashing (the
 #: fast kernels then missed the cache in every new process)
-FASTMATH = dict.fromkeys(FAST_FLAGS, True)
+FASTMATH: Any = dict.fromkeys(FAST_FLAGS, True)  # numba's stubs say set; it takes a dict
 #: Kernels of the fast mode: compiled on first use, cached on disk.
 fast_kernel_jit = njit(error_model="numpy", cache=True, fastmath=FASTMATH)
 

@@ -30,7 +30,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-from scipy.integrate import solve_ivp
 
 from ..errors import ConfigError
 from ..numerics import blocks, rk4
@@ -210,6 +209,8 @@ class Plant(ABC):
         # not an exception that would end a sweep of runs
         if not (math.isfinite(u) and np.all(np.isfinite(x))):
             return np.full_like(x, np.nan)
+        from scipy.integrate import solve_ivp  # here: 0.2 s of import that only rk45 needs
+
         sol = solve_ivp(lambda s, y: self.derivative(s, y, u), (t, t + h), x, method="RK45",
                         rtol=self._rtol, atol=self._atol)
         if not sol.success:

@@ -263,9 +263,21 @@ def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progre
             if progress:
                 progress(done)
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        # closing ends the scheduler's comms while messages may still be on their way (after
+        # a Ctrl-C): the scheduler, in this process, logs that at CRITICAL, with a
+        # traceback, over the one line the command prints. Its logs are off while it closes
+        # (a failed task has already reached fut.result() with its error)
+        loggers = [logging.getLogger(name) for name in ("distributed", "tornado")]
+        levels = [lg.level for lg in loggers]
+        for lg in loggers:
+            lg.setLevel(logging.CRITICAL + 1)
+        try:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        finally:
+            for lg, level in zip(loggers, levels, strict=True):
+                lg.setLevel(level)
     return done
 
 

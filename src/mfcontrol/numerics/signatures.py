@@ -23,6 +23,8 @@ array view. Their signatures, in that order::
     advance(t, x*, u, p*, h, nx, np)
 """
 
+from typing import Any
+
 import numpy as np
 from numba import carray, njit, types
 from numba.core import cgutils, sigutils
@@ -108,9 +110,10 @@ class Lazy:
         """Whether numba could not compile it (then :attr:`cfunc` raises that again)."""
         return self._error is not None
 
-    def _probe(self) -> CFunc:
-        """The C callable, not compiled yet, with its disk cache (if any)."""
-        fn = CFunc(self.py_func, sigutils.normalize_signature(self._sig), {},
+    def _probe(self) -> Any:
+        """The C callable (a numba CFunc, whose cache internals it reaches: Any), not
+        compiled yet, with its disk cache (if any)."""
+        fn: Any = CFunc(self.py_func, sigutils.normalize_signature(self._sig), {},
                    {"error_model": "numpy"})
         if isinstance(self._cache, str):
             fn._cache = _jit.IdentityCache(self.py_func, self._cache)
