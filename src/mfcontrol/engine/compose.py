@@ -435,9 +435,9 @@ def _estimator_lanes(D, n_cs, M, order, live):
     applied u_{k-1} pushed, then the window's sums into rows ``_SY``, ``_SU`` (NaN until
     the window is full). The ring's slots are computed once for the block, from lane
     ``live``, a live member's (a member that stopped before its law ran at some sample
-    pushed one sample fewer); the ring's moves, the moments, the count and the sums run
-    as loops of their own over the members: O(1) per member-sample but for the resync
-    every M samples."""
+    pushed one sample fewer); the ring's moves, the moments, the count, the resync every
+    M samples and the sums run as loops of their own over the members: O(1) per
+    member-sample."""
     _, cs = _law_views(D, intelligent.N_PARAMS, n_cs)
     base = intelligent.EST_BASE
     n = int(cs[base + estimators.COUNT, live])
@@ -459,8 +459,11 @@ def _estimator_lanes(D, n_cs, M, order, live):
         _moments_lanes(D, half, 1, 0)
     else:
         _moments_lanes(D, half, 1, 1)
+    count = estimators.counted(n, M)
     for i in range(LANES):
-        estimators.count_pushed(cs, i, base, M, n)
+        cs[base + estimators.COUNT, i] = count
+    if estimators.resync_due(n, M):
+        estimators.resync_members(cs, 0, LANES, base, M)
     full, oldest, newest, parity = estimators.window(cs, live, base, M)
     if full:
         for i in range(LANES):

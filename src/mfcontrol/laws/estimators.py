@@ -106,20 +106,31 @@ def _slide(CS, j, row, n_mom):
 
 
 @step_jit
-def resync(CS, j, base, M):
-    """Recompute every moment from the ring buffer (O(M)); push calls it every M samples."""
+def resync_members(CS, j0, j1, base, M):
+    """Recompute every moment of members j0 .. j1-1, all at the same count, from the ring
+    buffer (O(M)); push calls it every M samples. Each member's sums run in the same
+    order whatever the range; the members are the innermost loop, so that over a block
+    of them it vectorises (measured: most of the estimator's time in a sweep, scalar)."""
     for row in range(Y_MOM, RING):
-        CS[base + row, j] = 0.0
-    k = int(CS[base + COUNT, j]) - 1  # newest sample
+        for j in range(j0, j1):
+            CS[base + row, j] = 0.0
+    k = int(CS[base + COUNT, j0]) - 1  # newest sample
     m1 = M + 1
     half = 0.5 * M
     for m in range(max(0, k - M), k + 1):  # oldest first, as the direct sum
         slot = m % m1
         c = m - k + half
-        _add(CS, j, base + Y_MOM + N_YMOM * (m % 2), N_YMOM, c, CS[base + RING + slot, j])
-        if m - 1 >= k - M:  # u_{m-1}, stored with y_m, is in the u window
-            _add(CS, j, base + U_MOM + N_UMOM * ((m + 1) % 2), N_UMOM, c - 1.0,
-                 CS[base + RING + m1 + slot, j])
+        for j in range(j0, j1):
+            _add(CS, j, base + Y_MOM + N_YMOM * (m % 2), N_YMOM, c, CS[base + RING + slot, j])
+            if m - 1 >= k - M:  # u_{m-1}, stored with y_m, is in the u window
+                _add(CS, j, base + U_MOM + N_UMOM * ((m + 1) % 2), N_UMOM, c - 1.0,
+                     CS[base + RING + m1 + slot, j])
+
+
+@step_jit
+def resync(CS, j, base, M):
+    """Recompute every moment of member j from the ring buffer (O(M))."""
+    resync_members(CS, j, j + 1, base, M)
 
 
 @step_jit
@@ -174,9 +185,8 @@ def push_at(CS, j, base, M, n, slot, after, y, u_prev):
 
 
 @step_jit
-def count_pushed(CS, j, base, M, n):
-    """Sample n pushed: the count moves on, and every M samples the moments are
-    recomputed (O(M))."""
+def counted(n, M):
+    """The count once sample n is pushed."""
     count = n + 1
     # Every reader takes the count modulo M + 1, M or 2 (all divide M (M + 1)) or asks
     # whether the window has filled; so once past full it wraps by M (M + 1) without
@@ -184,8 +194,21 @@ def count_pushed(CS, j, base, M, n):
     # (M <= 46339) however long the controller runs (:mod:`mfcontrol.cexport`)
     if count >= M + 1 + M * (M + 1):
         count -= M * (M + 1)
-    CS[base + COUNT, j] = count
-    if (n + 1) % M == 0:
+    return count
+
+
+@step_jit
+def resync_due(n, M):
+    """Whether the moments are recomputed once sample n is pushed: every M samples."""
+    return (n + 1) % M == 0
+
+
+@step_jit
+def count_pushed(CS, j, base, M, n):
+    """Sample n pushed: the count moves on, and every M samples the moments are
+    recomputed (O(M))."""
+    CS[base + COUNT, j] = counted(n, M)
+    if resync_due(n, M):
         resync(CS, j, base, M)
 
 
