@@ -685,7 +685,7 @@ def test_built_in_plants_in_the_vectorised_loop_equal_their_single_runs(sweep, m
     from mfcontrol.numerics import blocks
 
     if sweep == "boost-rk4-own-functions":  # no block functions: each plant on its own
-        monkeypatch.setattr(blocks, "of_library", lambda *args: None)
+        monkeypatch.setattr(blocks, "of_library", lambda *args, **kwargs: None)
     cfgs = _case_members(*LIBRARY_SWEEPS[sweep.replace("-own-functions", "")])
     parts = {name: [build(c) for c in cfgs] for name, build in member_parts().items()}
     vectorised = _count_vectorised(monkeypatch)
@@ -834,3 +834,76 @@ def test_realistic_loops_in_the_vectorised_loop_equal_their_single_runs(sweep, m
         _assert_same_bits(M[:, j], Mj[:, 0], j)
         # a batch's law state has the rows of its longest window
         _assert_same_bits(CS[:CSj.shape[0], j], CSj[:, 0], j)
+
+
+def _member_step_used(monkeypatch, off: bool) -> list[int]:
+    """The member loop's one-member step addresses of the runs that follow (0: f and g
+    through their addresses); with ``off``, every run without it."""
+    from mfcontrol.engine import compose
+
+    seen, choose = [], compose.member_step
+
+    def spy(*args):
+        seen.append(0 if off else choose(*args))
+        return seen[-1]
+
+    monkeypatch.setattr(compose, "member_step", spy)
+    return seen
+
+
+MEMBER_STEP_PLANTS = {
+    **PLANTS,
+    "ode-in-place": lambda: _motor(),
+    "ode-returning": lambda: _motor(_motor_returning),
+    "ode-tuple": lambda: _motor(_motor_tuple),
+}
+
+
+@pytest.mark.parametrize("substeps", [1, 3])
+@pytest.mark.parametrize("plant", list(MEMBER_STEP_PLANTS))
+def test_the_one_member_step_gives_the_bits_of_f_through_its_address(plant, substeps,
+                                                                     monkeypatch):
+    # the plant's step with f and g compiled in (the member loop calls it once a sample)
+    # against f four times and g once through their addresses: the same arithmetic, and
+    # a scheduled change between two samples is measured (y recomputed after it)
+    motor = plant.startswith("ode")
+    h, n = (1e-3, 2000) if motor else (0.01, 300)
+    key = {"first-order": "a", "lti-exact": "A[1,0]", "lti-rk4": "A[1,0]"}.get(
+        plant, "tau" if motor else "R")
+    ctrl = (lambda: VECTORISED_LAWS["IPI"](20.0)) if motor else (
+        lambda: CONTROLLERS["IPI-back"](h))
+    runs = []
+    for off in (False, True):
+        used = _member_step_used(monkeypatch, off)
+        runs.append(simulate_loop(MEMBER_STEP_PLANTS[plant](), ctrl(), 60.0 if motor else 1.0,
+                                  t_end=n * h, substeps=substeps,
+                                  changes=[Change(n * h / 2, key, 0.05, add=True)]))
+        assert bool(used[0]) is not off, "the one-member step was not taken"
+    with_step, without = runs
+    for name in ("y", "u", "u_plant"):
+        _assert_same_bits(with_step.signals[name], without.signals[name], name)
+    for s in with_step.states:
+        _assert_same_bits(with_step.states[s], without.states[s], s)
+    np.testing.assert_equal(with_step.metrics, without.metrics)
+
+
+def test_the_one_member_step_is_taken_when_it_costs_no_compilation_worth_weighing(
+        monkeypatch):
+    from mfcontrol.engine import compose
+    from mfcontrol.numerics import blocks
+
+    library = Boost().engine().member
+    ode = _motor().engine().member
+    assert library.lanes == 1 and library.cheap
+    step = compose.member_step
+    assert step(library, compose.RK4, 10, False)
+    assert not step(library, compose.RK4, 10, True)  # fast: the RK4's fused arithmetic
+    assert not step(library, compose.DP45, 10, False)
+    assert not step(None, compose.RK4, 10, False)
+    assert step(ode, compose.RK4, 10, False)  # from a file: compiled once per machine
+    assert not step(Buck().engine().member, compose.EXACT, 10, False)  # built for RK4
+    # an ODE compiled once per process (no source file, a closure): from enough work on
+    monkeypatch.setattr(blocks.Block, "kept", property(lambda self: False))
+    monkeypatch.setattr(blocks.Block, "cheap", property(lambda self: False))
+    assert not step(ode, compose.RK4, compose.MEMBER_STEP_WORTH - 1, False)
+    assert step(ode, compose.RK4, compose.MEMBER_STEP_WORTH, False)

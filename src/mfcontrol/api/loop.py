@@ -313,7 +313,8 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
                 RP, np.zeros((0, n)) if AL is None else np.ascontiguousarray(AL, dtype=np.float64),
                 LP, events, S, M, tol,
-                DT, traj, comp_rows, fast=fast, block=p0.block, vectorise=vectorise)
+                DT, traj, comp_rows, fast=fast, block=p0.block, vectorise=vectorise,
+                member=p0.member)
     return M, traj, CS
 
 

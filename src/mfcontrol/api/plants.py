@@ -57,6 +57,8 @@ class EnginePlant(NamedTuple):
     #: (step, output) over a block of members, the plant's functions compiled in
     #: (:mod:`mfcontrol.numerics.blocks`), for plants that have them
     block: blocks.Block | None = None
+    #: the same for one member (its RK4 step with f compiled in, for the member loop)
+    member: blocks.Block | None = None
 
 # ---------------------------------------------------------------------------------------------
 # validation
@@ -228,9 +230,10 @@ class Plant(ABC):
         return None
 
     def _engine(self, functions, p: np.ndarray, columns: Mapping[str, int],
-                block: blocks.Block | None = None) -> EnginePlant:
+                block: blocks.Block | None = None,
+                member: blocks.Block | None = None) -> EnginePlant:
         return EnginePlant(functions, np.array(p, dtype=np.float64), self.x0, self.integrator,
-                           (self._rtol, self._atol), columns, block)
+                           (self._rtol, self._atol), columns, block, member)
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
@@ -311,7 +314,9 @@ class _CompiledPlant(Plant):
     def engine(self) -> EnginePlant:
         mod = self._module
         return self._engine(self._functions(), self._p, mod.PARAM_ROWS,
-                            blocks.of_library(mod, self.integrator, mod.N_STATE, mod.N_PARAMS))
+                            blocks.of_library(mod, self.integrator, mod.N_STATE, mod.N_PARAMS),
+                            blocks.of_library(mod, self.integrator, mod.N_STATE, mod.N_PARAMS,
+                                              lanes=1))
 
 
 class Buck(_CompiledPlant):
@@ -678,7 +683,8 @@ class LTI(Plant):
         n = self._A.shape[0]
         return self._engine((lti.rhs, lti.measured, lti.derive, lti.advance),
                             self._parameter_vector(), lti.names(n),
-                            blocks.of_library(lti, self.integrator, n, lti.size(n)))
+                            blocks.of_library(lti, self.integrator, n, lti.size(n)),
+                            blocks.of_library(lti, self.integrator, n, lti.size(n), lanes=1))
 
     def _exact(self, t: float, x: np.ndarray, u: float, h: float) -> np.ndarray:
         x = self._state(x)
@@ -768,6 +774,7 @@ class ODE(Plant):
         super().__init__(names, x0, integrator=integrator, rtol=rtol, atol=atol)
         self._compiled = None
         self._block = None
+        self._member = None
         self._identity: tuple[str | None, bool] = (None, False)
         #: why the Python driver runs this plant (None while it compiles)
         self.python_reason: str | None = None
@@ -801,11 +808,13 @@ class ODE(Plant):
             return None
         rhs, output = self._compiled
         if self._block is None:
-            self._block = blocks.of_ode(ode.python_function(self._f),
-                                        ode.python_function(self._g), self._inplace,
-                                        self.x0.size, self._p.size, *self._identity)
+            f, g = ode.python_function(self._f), ode.python_function(self._g)
+            self._block, self._member = (
+                blocks.of_ode(f, g, self._inplace, self.x0.size, self._p.size,
+                              *self._identity, lanes=lanes) for lanes in (blocks.LANES, 1))
         return self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
-                            {name: i for i, name in enumerate(self._names)}, self._block)
+                            {name: i for i, name in enumerate(self._names)}, self._block,
+                            self._member)
 
     def set_param(self, name: str, value: float) -> None:
         if name not in self._names:

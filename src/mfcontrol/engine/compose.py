@@ -140,9 +140,9 @@ def _make_loop(fast):
     numba's cache the two apart)."""
     FAST = fast
 
-    def member_loop(law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt,
-                    X, P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT, j0,
-                    j1, traj, comp_rows):
+    def member_loop(law_kind, integ, rhs, output, prepare, advance, step, n_steps, h, t_end,
+                    law_dt, X, P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add, ev_val, S, M, tol,
+                    DT, j0, j1, traj, comp_rows):
         """Members j0 .. j1-1 from their present state, for n_steps samples.
 
         ``X[j]``/``P[j]``: plant state/parameters of member j; ``CP[:, j]``/``CS[:, j]``:
@@ -156,8 +156,15 @@ def _make_loop(fast):
         integration steps of h / substeps); ``M[:, j]`` the metrics, of the true y;
         ``DT[j]`` the adaptive integrator's carried step. When ``traj`` has n_steps columns,
         member j0's trajectory is recorded there (rows as ``trajectory.T_REF`` .. ``T_U_PLANT``,
-        the CS rows ``comp_rows`` from :data:`T_COMP` on, then the states).
+        the CS rows ``comp_rows`` from :data:`T_COMP` on, then the states). ``step``, when
+        not 0: the plant's step of one member by ``integ`` with f and g compiled in (a
+        one-lane :class:`mfcontrol.numerics.blocks.Block`), called once a sample where
+        the RK4 calls f four times and g once through their addresses; it returns the new
+        state's output, which the next sample measures unless a scheduled change came
+        between. The same arithmetic either way.
         """
+        own_step = step != 0
+        step = sig.as_member_step(step)
         rhs = sig.as_rhs(rhs)
         output = sig.as_output(output)
         prepare = sig.as_prepare(prepare)
@@ -218,12 +225,14 @@ def _make_loop(fast):
             a_prev = 0.0
             dt_carry = DT[j]
             ref_row = j if own_ref else 0
+            y_next = output(sig.pointer(x), sig.pointer(p), n_x, n_p)
             for k in range(n_steps):
                 t = grid.time(k, t_end, n_steps)
                 if k == next_ev:
                     next_ev = _events_at(k, j, ev_k, ev_col, ev_add, ev_val, P.T, j, n_steps)
                     prepare(sig.pointer(p), hs, n_x, n_p)
-                y = output(sig.pointer(x), sig.pointer(p), n_x, n_p)
+                    y_next = output(sig.pointer(x), sig.pointer(p), n_x, n_p)
+                y = y_next
                 if d_out:
                     y = y + disturbance.value(DP, j, t)
                 if use_series:
@@ -259,16 +268,26 @@ def _make_loop(fast):
                         traj[T_COMP + c, k] = cs[comp_rows[c], 0]
                     for i in range(n_x):
                         traj[t_x0 + i, k] = x[i]
-                if sub == 1:
+                if sub == 1 and own_step:
+                    y_next = step(t, sig.pointer(x), u_plant, sig.pointer(p), h,
+                                  sig.pointer(w))
+                elif sub == 1:
                     dt_carry = _advance(integ, rhs, advance, t, x, u_plant, p, h, rtol, atol,
                                         dt_carry, w)
+                    y_next = output(sig.pointer(x), sig.pointer(p), n_x, n_p)
                 else:  # at the times of the grid of h / sub (bit for bit a run at that h),
                     # an input disturbance evaluated at each of them
                     for i in range(sub):
                         ti = grid.time(k * sub + i, t_end, n_steps * sub)
                         ui = u_act + disturbance.value(DP, j, ti) if d_in else u_plant
-                        dt_carry = _advance(integ, rhs, advance, ti, x, ui, p, hs, rtol, atol,
-                                            dt_carry, w)
+                        if own_step:
+                            y_next = step(ti, sig.pointer(x), ui, sig.pointer(p), hs,
+                                          sig.pointer(w))
+                        else:
+                            dt_carry = _advance(integ, rhs, advance, ti, x, ui, p, hs, rtol,
+                                                atol, dt_carry, w)
+                    if not own_step:
+                        y_next = output(sig.pointer(x), sig.pointer(p), n_x, n_p)
             DT[j] = dt_carry
             for i in range(CS.shape[0]):
                 CS[i, j] = cs[i, 0]
@@ -284,7 +303,7 @@ _v = types.float64[::1]
 _i2 = types.int64[:, ::1]
 _i1 = types.int64[::1]
 SIGNATURE = types.boolean(
-    types.int64, types.int64, types.intp, types.intp, types.intp, types.intp,
+    types.int64, types.int64, types.intp, types.intp, types.intp, types.intp, types.intp,
     types.int64, types.float64, types.float64, types.float64,
     _m, _m, _m, _m, _m, _m, _m, _m, _i2, _i1, types.boolean[::1], _m, _v, _m, _v, _v,
     types.int64, types.int64, _m, _i1)
@@ -329,6 +348,31 @@ BLOCK_WORTH_KEPT = 10_000_000
 #: the same while the vectorised loop itself is not compiled yet on this machine (about
 #: 2 min, once: then it is in numba's disk cache)
 BLOCK_WORTH_COLD = 700_000_000
+#: member-samples from which the member loop compiles your ODE's one-member RK4 step (f
+#: inlined) when it compiles once per process (f and g with no source file, or closures:
+#: about 0.5 s): about what it saves against f called four times through its address
+#: (some 30 ns a sample on the DC motor of benchmarks/bench_single_loop.py)
+MEMBER_STEP_WORTH = 20_000_000
+
+
+def member_step(member, integ: int, work: int, fast: bool) -> int:
+    """The address of the plant's one-member step (``member``, a one-lane
+    :class:`mfcontrol.numerics.blocks.Block`, or None) for the member loop, or 0: f and
+    g through their addresses. Taken for its integrator (the RK4 or the plant's exact
+    step) in exact arithmetic (the fast mode fuses the RK4's arithmetic, which the step
+    does not) when it costs no compilation worth
+    weighing (a library plant's, or your own ODE's compiled in this process or kept in
+    numba's disk cache: once per machine) or from :data:`MEMBER_STEP_WORTH`
+    member-samples on; 0 where numba cannot compile it over f (it is not asked again)."""
+    if (member is None or fast or integ not in (RK4, EXACT)
+            or INTEGRATORS[member.integrator] != integ
+            or member.step.failed
+            or not (member.cheap or member.kept or work >= MEMBER_STEP_WORTH)):
+        return 0
+    try:
+        return member.step.address
+    except NumbaError:
+        return 0
 
 
 @_jit.step_jit
@@ -1012,7 +1056,7 @@ def threads_for(n_members: int, n_samples: int) -> int:
 
 def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, RP, AL, LP,
         events, S, M, tol, DT, traj, comp_rows, *, fast=False, threads=None, block=None,
-        vectorise=None):
+        vectorise=None, member=None):
     """Run every member (all columns) through the member loop or the vectorised loop
     (:func:`loop_for`; ``vectorise`` True, False or None, automatic); arrays in place.
 
@@ -1020,7 +1064,8 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
     (:mod:`mfcontrol.elements.layout`); ``events`` (ev_k, ev_col, ev_add, ev_val). ``traj`` with
     n_steps columns records member 0 (then only one member runs).
     ``block``: the plant's block functions (:class:`mfcontrol.numerics.blocks.Block`),
-    or None. The vectorised loop leaves P as it was (the member loop writes the scheduled
+    or None; ``member`` its one-member RK4 step (:func:`member_step`), or None. The
+    vectorised loop leaves P as it was (the member loop writes the scheduled
     changes and what ``prepare`` derives into it; nothing reads P after a run). Returns
     how many block-samples ran with the law vectorised (0 in the member loop).
     """
@@ -1050,8 +1095,10 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
         bounds = block_bounds(m, n_threads)
     else:
         fn = member_kernel(fast)
-        args = (law_kind, integ, rhs, output, prepare, advance, n_steps, h, t_end, law_dt, X,
-                P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add, ev_val, S, M, tol, DT)
+        step = member_step(member, integ, m * n_steps, fast)
+        args = (law_kind, integ, rhs, output, prepare, advance, step, n_steps, h, t_end,
+                law_dt, X, P, CP, CS, R, RP, AL, LP, ev_k, ev_col, ev_add, ev_val, S, M, tol,
+                DT)
         tail = (traj, comp_rows)
         bounds = np.linspace(0, m, n_threads + 1).astype(int)
     if n_threads <= 1 or record:

@@ -51,6 +51,15 @@ class Block(NamedTuple):
     n_p: int
     #: the integrator the step is: "rk4", or "exact" (the plant's own exact step)
     integrator: str = "rk4"
+    #: the members a block holds: :data:`LANES`, or 1: one member's step with the plant
+    #: compiled in (signature ``MEMBER_STEP``: it returns the new state's output), which
+    #: the member loop calls once a sample where the RK4 calls f four times and g once
+    #: through their addresses (``output`` is then not used)
+    lanes: int = LANES
+
+    @property
+    def _used(self) -> tuple[sig.Lazy, ...]:
+        return (self.step,) if self.lanes == 1 else (self.step, self.output)
 
     @property
     def cheap(self) -> bool:
@@ -58,13 +67,13 @@ class Block(NamedTuple):
         process already, a library plant's (compiled once per machine, 2 to 3.5 s, then
         loaded from numba's disk cache in under half a second), or your own ODE's found in
         that cache (compiled on this machine before)."""
-        return all(f.compiled or f.cached or f.saved for f in (self.step, self.output))
+        return all(f.compiled or f.cached or f.saved for f in self._used)
 
     @property
     def kept(self) -> bool:
         """Whether, once compiled, they are kept in numba's disk cache: their compilation
         is paid once per machine, not once per process."""
-        return all(f.kept for f in (self.step, self.output))
+        return all(f.kept for f in self._used)
 
 
 def _inline(fn: Callable[..., Any], key: tuple | None):
@@ -77,7 +86,7 @@ def _inline(fn: Callable[..., Any], key: tuple | None):
 
 
 def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_p: int,
-           key: tuple | None, identity: str | None = None) -> Block:
+           key: tuple | None, identity: str | None = None, lanes: int = LANES) -> Block:
     """The block functions of right-hand side (or exact step) ``f`` and output ``g``.
 
     ``form``: ``"in-place"``, f(t, x, u, p, dxdt); ``"returning"``, f(t, x, u, p) -> dx/dt;
@@ -87,7 +96,7 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
     (numba's own key, the closures' cells pickled with identities derived from ``key``)
     or ``identity`` (:class:`mfcontrol._jit.IdentityCache`: all the compiled code
     depends on but this file, the package's own code)."""
-    nx, np_, b = int(n_x), int(n_p), LANES
+    nx, np_, b = int(n_x), int(n_p), int(lanes)
     fi, gi = _inline(f, key and key + ("f",)), _inline(g, key and key + ("g",))
     if form in ("library", "exact"):
         # the library's functions take the sizes as well: given them here, they take the
@@ -124,6 +133,8 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
                                else rk4.half(X[i, lane], F[i, lane]))
     increments = _inline(increments, key and key + ("increments",))
 
+    if b == 1:
+        return _member(fi, gi, form, nx, np_, key, identity or key is not None)
     if form == "exact":
         def step(t, xp, up, pp, h, wp):
             """The plant's exact step for every member of the block, its input U[l] held."""
@@ -163,7 +174,62 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
     cache = key is not None
     return Block(sig.Lazy(sig.BLOCK_STEP, step, cache=identity or cache),
                  sig.Lazy(sig.BLOCK_OUTPUT, output, cache=identity or cache), nx, np_,
-                 "exact" if form == "exact" else "rk4")
+                 "exact" if form == "exact" else "rk4", b)
+
+
+def _member(fi, gi, form: str, nx: int, np_: int, key: tuple | None,
+            cache: bool | str) -> Block:
+    """One member's step (``form`` and the inlined ``fi``, ``gi`` as :func:`_build` makes
+    them), returning the output of the new state: the one RK4's arithmetic
+    (:func:`mfcontrol.numerics.rk4.step`, operation for operation) or the plant's exact
+    step, then g."""
+    if form == "exact":
+        def step(t, xp, u, pp, h, wp):
+            """The plant's exact step of one member; returns y of the new state."""
+            x = carray(xp, (nx,), np.float64)
+            p = carray(pp, (np_,), np.float64)
+            fi(t, x, u, p, h)
+            return gi(x, p)
+    else:
+        if form == "in-place":
+            def derivative(t, x, u, p, out):
+                fi(t, x, u, p, out)
+        else:
+            def derivative(t, x, u, p, out):
+                d = fi(t, x, u, p)
+                for i in range(nx):
+                    out[i] = d[i]
+        derivative = _inline(derivative, key and key + ("derivative",))
+
+        def step(t, xp, u, pp, h, wp):
+            """One RK4 step of one member, u held; returns y of the new state."""
+            x = carray(xp, (nx,), np.float64)
+            p = carray(pp, (np_,), np.float64)
+            W = carray(wp, (5, nx), np.float64)
+            f1, f2, f3, f4, xt = W[0], W[1], W[2], W[3], W[4]
+            derivative(t, x, u, p, f1)
+            for i in range(nx):
+                f1[i] = h * f1[i]
+                xt[i] = rk4.half(x[i], f1[i])
+            derivative(t + h / 2, xt, u, p, f2)
+            for i in range(nx):
+                f2[i] = h * f2[i]
+                xt[i] = rk4.half(x[i], f2[i])
+            derivative(t + h / 2, xt, u, p, f3)
+            for i in range(nx):
+                f3[i] = h * f3[i]
+                xt[i] = rk4.whole(x[i], f3[i])
+            derivative(t + h, xt, u, p, f4)
+            for i in range(nx):
+                x[i] = rk4.combine(x[i], f1[i], f2[i], f3[i], h * f4[i])
+            return gi(x, p)
+
+    def output(xp, pp, yp):
+        """Not used (the step returns y)."""
+
+    return Block(sig.Lazy(sig.MEMBER_STEP, step, cache=cache),
+                 sig.Lazy(sig.BLOCK_OUTPUT, output, cache=False), nx, np_,
+                 "exact" if form == "exact" else "rk4", 1)
 
 
 #: block functions of your own ODEs built in this process, by what they depend on
@@ -171,7 +237,8 @@ _RECENT = _jit.Recent()
 
 
 def of_ode(f: Callable[..., Any], g: Callable[..., Any], in_place: bool, n_x: int,
-           n_p: int, identity: str | None = None, on_disk: bool = False) -> Block:
+           n_p: int, identity: str | None = None, on_disk: bool = False,
+           lanes: int = LANES) -> Block:
     """The block functions of your own ODE: right-hand side ``f`` (in place,
     ``f(t, x, u, p, dxdt)``, or returning, ``f(t, x, u, p)``), output ``g(x, p)``, n_x
     states and n_p parameters, as :class:`~mfcontrol.numerics.signatures.Lazy`
@@ -186,10 +253,10 @@ def of_ode(f: Callable[..., Any], g: Callable[..., Any], in_place: bool, n_x: in
     form = "in-place" if in_place else "returning"
     nx, np_ = int(n_x), int(n_p)
     if identity is None:
-        return _build(f, g, form, nx, np_, None)
-    key = _digest(identity, form, nx, np_, LANES, "rk4")
+        return _build(f, g, form, nx, np_, None, lanes=lanes)
+    key = _digest(identity, form, nx, np_, lanes, "rk4")
     return _RECENT.get((key, on_disk), lambda: _build(f, g, form, nx, np_, None,
-                                                      key if on_disk else None))
+                                                      key if on_disk else None, lanes))
 
 
 def _digest(*parts: Any) -> str:
@@ -197,15 +264,17 @@ def _digest(*parts: Any) -> str:
 
 
 @cache
-def of_library(module: ModuleType, integrator: str, n_x: int, n_p: int) -> Block | None:
+def of_library(module: ModuleType, integrator: str, n_x: int, n_p: int,
+               lanes: int = LANES) -> Block | None:
     """The block functions of a library plant (a module of :mod:`mfcontrol.plants`, its
     ``rhs``, ``measured`` and, for ``integrator="exact"``, ``advance``), or None where
     the plant has none for that integrator (``"rk45"``). Compiled once per machine, then
     loaded from numba's disk cache."""
-    key = (module.__name__, integrator, int(n_x), int(n_p))
+    key = (module.__name__, integrator, int(n_x), int(n_p)) + ((lanes,) if lanes != LANES else ())
     if integrator == "rk4":
-        return _build(module.rhs.py_func, module.measured.py_func, "library", n_x, n_p, key)
+        return _build(module.rhs.py_func, module.measured.py_func, "library", n_x, n_p, key,
+                      lanes=lanes)
     if integrator == "exact" and hasattr(module, "advance"):
         return _build(module.advance.py_func, module.measured.py_func, "exact", n_x, n_p,
-                      key)
+                      key, lanes=lanes)
     return None

@@ -45,6 +45,9 @@ ADVANCE = types.void(types.float64, _ptr, types.float64, _ptr, types.float64, _n
 #: its sizes compiled in
 BLOCK_STEP = types.void(types.float64, _ptr, _ptr, _ptr, types.float64, _ptr)
 BLOCK_OUTPUT = types.void(_ptr, _ptr, _ptr)
+#: one member's step with the plant compiled in, returning the output of the new state:
+#: (t, x*, u, p*, h, scratch*) -> y
+MEMBER_STEP = types.float64(types.float64, _ptr, types.float64, _ptr, types.float64, _ptr)
 
 RHS_T = types.FunctionType(RHS)
 OUTPUT_T = types.FunctionType(OUTPUT)
@@ -52,6 +55,7 @@ PREPARE_T = types.FunctionType(PREPARE)
 ADVANCE_T = types.FunctionType(ADVANCE)
 BLOCK_STEP_T = types.FunctionType(BLOCK_STEP)
 BLOCK_OUTPUT_T = types.FunctionType(BLOCK_OUTPUT)
+MEMBER_STEP_T = types.FunctionType(MEMBER_STEP)
 
 
 class Lazy:
@@ -169,6 +173,7 @@ as_prepare = _caster(PREPARE_T)
 as_advance = _caster(ADVANCE_T)
 as_block_step = _caster(BLOCK_STEP_T)
 as_block_output = _caster(BLOCK_OUTPUT_T)
+as_member_step = _caster(MEMBER_STEP_T)
 
 
 @intrinsic
