@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.api import batch
+from mfcontrol.api.run import batch
 from mfcontrol.engine import paper_sweep
 from mfcontrol.experiments.cases import resolve_case
 from mfcontrol.laws import recursive_ip

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import live
-from .controllers import IntelligentController, RecursiveIP
+from .model.controllers import IntelligentController, RecursiveIP
 
 
 def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):

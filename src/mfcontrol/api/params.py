@@ -4,9 +4,9 @@
   :func:`recursive_law_column`, :func:`reference_column`, :func:`buck_state_column`): one
   column per member, or one column per value of a swept key given as an array;
 * plant and controller objects and the schedule (:func:`plant`, :func:`controller`,
-  :func:`changes`), what the general engine (:mod:`mfcontrol.api.loop`) runs. A positional
+  :func:`changes`), what the general engine (:mod:`mfcontrol.api.run.loop`) runs. A positional
   law's constructor fills its own parameter column (:mod:`mfcontrol.laws.intelligent`),
-  the live :class:`~mfcontrol.api.controllers.RecursiveIP` calls
+  the live :class:`~mfcontrol.api.model.controllers.RecursiveIP` calls
   :func:`recursive_law_column`.
 """
 
@@ -22,13 +22,13 @@ from ..elements import layout
 from ..engine import metrics as engine_metrics
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
-from .controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
-from .elements import Actuator, Disturbance, Sensor, column
-from .loop import Change
+from .model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
+from .model.elements import Actuator, Disturbance, Sensor, column
+from .run.loop import Change
 
 
 def plant(cfg: Config):
-    from .plants import LTI, Boost, Buck, DCMotor, FirstOrder
+    from .model.plants import LTI, Boost, Buck, DCMotor, FirstOrder
 
     model, integ = cfg["plant.model"], cfg["sim.integrator"]
     if model == "dc-motor":
@@ -134,7 +134,7 @@ def plant_and_changes(cfg: Config):
     """The plant and its schedule, the schedule checked against the plant's own rules
     (a value that would make a parameter invalid is refused here, at the edge)."""
     from ..errors import ConfigError
-    from .loop import _check_changes
+    from .run.loop import _check_changes
 
     p, ch = plant(cfg), changes(cfg)
     try:
@@ -172,7 +172,7 @@ def buck_column(cfg: Config) -> np.ndarray:
 def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
     """The recursive law's parameter column (rows of :mod:`mfcontrol.laws.recursive_ip`):
     the one translator of its options, for cases, sweeps and the live
-    :class:`~mfcontrol.api.controllers.RecursiveIP` alike. ``h``: the sample period
+    :class:`~mfcontrol.api.model.controllers.RecursiveIP` alike. ``h``: the sample period
     back-calculation uses (default ``sim.h``)."""
     col = np.zeros((recursive_ip.N_PARAMS, _width(cfg)))
     variational = cfg["controller.law"] == "variational"

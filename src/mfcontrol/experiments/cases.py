@@ -7,14 +7,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..api.result import Result, SweepResult
-from ..api.simulate import simulate, simulate_sweep
+from ..api.results.result import Result, SweepResult
+from ..api.run.simulate import simulate, simulate_sweep
 from ..config.resolve import Config, resolve
 from ..config.toml import flatten
 from ..errors import CaseError
 
 if TYPE_CHECKING:
-    from ..api.controllers import PID, IntelligentController, RecursiveIP
+    from ..api.model.controllers import PID, IntelligentController, RecursiveIP
 
 CASES_DIR = Path(__file__).parent / "cases"
 

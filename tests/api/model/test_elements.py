@@ -20,7 +20,7 @@ from mfcontrol import (
     FirstOrder,
     Sensor,
 )
-from mfcontrol.api import batch
+from mfcontrol.api.run import batch
 from mfcontrol.experiments.cases import resolve_case
 
 

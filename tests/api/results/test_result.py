@@ -35,7 +35,7 @@ def test_plots_save_png(tmp_path):
 
 
 def test_one_result_type_with_the_same_signal_names_on_every_path():
-    from mfcontrol.api.plants import FirstOrder
+    from mfcontrol.api.model.plants import FirstOrder
 
     case = mfcontrol.run_case("first-order-ip-algebraic", {"sim.t_end": 0.5})
     paper = mfcontrol.run_case("voltage-stable-standard", {"sim.t_end": 1e-3})
@@ -65,7 +65,7 @@ def test_one_result_type_with_the_same_signal_names_on_every_path():
 def test_the_csv_writer_writes_what_pandas_writes_byte_for_byte(tmp_path):
     # NaN (an empty field), infinities, signed zero, the extremes, 17 digits; a header
     # with names the csv module quotes; more rows than one formatted block
-    from mfcontrol.api import result as result_module
+    from mfcontrol.api.results import result as result_module
 
     rng = np.random.default_rng(1)
     special = np.array([np.nan, -np.nan, np.inf, -np.inf, -0.0, 0.0, 5e-324, 1.7976931348623157e308,
@@ -87,7 +87,7 @@ def test_the_csv_writer_writes_what_pandas_writes_byte_for_byte(tmp_path):
 
 
 def test_a_result_csv_is_pandas_own(tmp_path):
-    from mfcontrol.api.plants import FirstOrder
+    from mfcontrol.api.model.plants import FirstOrder
 
     def mine(y, setpoint):  # the Python driver: components absent, NaN columns
         return 2.0 * (setpoint - y)

@@ -20,14 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from ..config.options import BY_KEY
-from ..config.resolve import Config, axis_value, check_axis
-from ..engine import metrics as engine_metrics
-from ..engine import paper_single, paper_sweep
-from ..errors import ConfigError
-from ..laws import recursive_ip, reference
-from ..numerics.grid import check_members
-from . import metrics as _metrics
+from ...config.options import BY_KEY
+from ...config.resolve import Config, axis_value, check_axis
+from ...engine import metrics as engine_metrics
+from ...engine import paper_single, paper_sweep
+from ...errors import ConfigError
+from ...laws import recursive_ip, reference
+from ...numerics.grid import check_members
+from ..results import metrics as _metrics
 from . import scenario
 from .simulate import batch_metrics, compiled, general_metrics, member_parts
 
@@ -157,7 +157,7 @@ def make_grid(base: Config, axes: Mapping[str, np.ndarray],
     they involve (:func:`mfcontrol.config.resolve.check_axis`); ``points`` as
     :class:`Grid` takes them (the checks across options see one key's value at a time:
     a caller that needs each point's combination checked builds its configuration)."""
-    from .elements import unread
+    from ..model.elements import unread
 
     if points and len({np.size(axes[k]) for k in points}) != 1:
         raise ValueError("the keys of points must have values of one length")
@@ -318,10 +318,10 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
 
 def paper_grid(grid: Grid) -> bool:
     """Whether the paper's sweep kernel runs every member of the grid: its base is a
-    configuration it covers (:func:`mfcontrol.api.simulate.compiled`) and no axis is read
+    configuration it covers (:func:`mfcontrol.api.run.simulate.compiled`) and no axis is read
     by the translator of the loop's elements (the kernel has none)."""
-    from ..config.resolve import keys_read
-    from .params import elements
+    from ...config.resolve import keys_read
+    from ..params import elements
 
     return compiled(grid.base) and not set(grid.axes) & keys_read(elements, grid.base)
 
@@ -330,7 +330,7 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
     """Metrics (kernel rows) of members start .. stop-1 of a grid the paper's kernel does
     not cover, in one batch of the general engine.
 
-    Each member's parts (:func:`mfcontrol.api.simulate.member_parts`: its plant with its
+    Each member's parts (:func:`mfcontrol.api.run.simulate.member_parts`: its plant with its
     schedule, its law, its reference) are what its single run builds from its
     configuration, but each part is built once per distinct setting of the swept keys it
     reads: the plant and the controller of an n x m grid of a plant key and a controller
@@ -340,8 +340,8 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
     shares) is swept the plain way, a configuration per member, and so is a grid with
     keys of different parts among those the checks across options read (each part's
     configuration is checked with its own keys set only)."""
-    from ..config.resolve import _check_consistency, keys_read
-    from . import params
+    from ...config.resolve import _check_consistency, keys_read
+    from .. import params
 
     parts = member_parts()
     probe = grid.config(start)

@@ -2,8 +2,8 @@
 
 An objective is written as metrics with optional weights, ``"iae"``,
 ``"iae + 0.01*tv_u"``, ``"2*ise - 0.5 * final_gamma"``: the metric names of
-:data:`mfcontrol.api.metrics.COLUMNS` that are numbers. A run that diverged, that the
-stability rule calls unstable (:data:`mfcontrol.api.metrics.STABILITY_RULE`) or whose
+:data:`mfcontrol.api.results.metrics.COLUMNS` that are numbers. A run that diverged, that the
+stability rule calls unstable (:data:`mfcontrol.api.results.metrics.STABILITY_RULE`) or whose
 weighted sum is not a finite number (a settling time that never came) scores ``inf``:
 infinitely bad, so an optimiser moves away from it and never stops on it.
 """
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError
+from ...errors import ConfigError
 from .metrics import COLUMNS
 
 #: metrics an objective may weigh (the flags and counts of a run are not quantities to
@@ -37,7 +37,7 @@ class Objective:
 
     Examples
     --------
-    >>> from mfcontrol.api.objective import Objective
+    >>> from mfcontrol.api.results.objective import Objective
     >>> import numpy as np
     >>> obj = Objective.parse("iae + 0.01*tv_u")
     >>> obj.terms
@@ -79,7 +79,7 @@ class Objective:
         return tuple(dict.fromkeys(name for name, _ in self.terms))
 
     def score(self, table: Mapping[str, np.ndarray]) -> np.ndarray:
-        """Each run's score (rows of a metrics table as :func:`mfcontrol.api.metrics.table`
+        """Each run's score (rows of a metrics table as :func:`mfcontrol.api.results.metrics.table`
         or a sweep writes it): the weighted sum, ``inf`` where the run diverged, is
         unstable or the sum is not finite."""
         with np.errstate(invalid="ignore", over="ignore"):

@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 
 import mfcontrol
-from mfcontrol.api.plotting import units
+from mfcontrol.api.results.plotting import units
 
 
 def _texts(fig):
@@ -70,7 +70,7 @@ def test_an_unstable_member_does_not_widen_what_counts_as_coinciding():
 def test_a_transient_too_small_to_see_gets_a_zoom_and_a_failure_does_not():
     """The paper's figures zoom on the load change: the 0.17 V transient of the stable
     variational run at 4 ms is under 3 % of a 7.5 V axis (issue 15)."""
-    from mfcontrol.api.plotting import plot_run
+    from mfcontrol.api.results.plotting import plot_run
 
     stable = mfcontrol.run_case("voltage-stable-variational")
     (inset,) = plot_run(stable).axes[0].child_axes
@@ -90,7 +90,7 @@ def test_a_transient_too_small_to_see_gets_a_zoom_and_a_failure_does_not():
 def test_titles_wrap_into_even_lines_without_splitting_a_figure_number():
     """'(paper Fig.' / '6)' was a title's last two lines (the text wrapped at 95 characters
     as it came)."""
-    from mfcontrol.api.plotting import title_in_words
+    from mfcontrol.api.results.plotting import title_in_words
 
     title = title_in_words(mfcontrol.run_case("voltage-unstable-variational"), extra="x")
     lines = title.split("\n")
@@ -113,7 +113,7 @@ def test_a_saved_figure_is_savefig_own_drawn_once(tmp_path, monkeypatch):
     from matplotlib.figure import Figure
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
-    from mfcontrol.api.plotting import DPI
+    from mfcontrol.api.results.plotting import DPI
 
     r = mfcontrol.run_case("voltage-stable-standard")  # constrained layout and a zoom inset
     draws = []

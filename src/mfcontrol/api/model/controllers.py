@@ -23,11 +23,11 @@ from typing import Any, Literal, Self, cast, overload
 
 import numpy as np
 
-from .._version import __version__
-from ..config import options
-from ..engine import live
-from ..laws import estimators, intelligent, pid, recursive_ip
-from ..laws import variational_gain as gain_law
+from ..._version import __version__
+from ...config import options
+from ...engine import live
+from ...laws import estimators, intelligent, pid, recursive_ip
+from ...laws import variational_gain as gain_law
 
 _INF = math.inf
 # a tuple, built once: ``int | float | ...`` in a call builds a union type every time
@@ -607,9 +607,9 @@ class RecursiveIP(_Controller):
 
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
                  sample_time: float | None = None, **controller_keys: Any):
-        from ..config.resolve import resolve
-        from ..errors import ConfigError
-        from .params import recursive_law_column
+        from ...config.resolve import resolve
+        from ...errors import ConfigError
+        from ..params import recursive_law_column
 
         keys = {"controller.alpha": alpha, "controller.kp": kp}
         for name, value in controller_keys.items():
@@ -681,7 +681,7 @@ class RecursiveIP(_Controller):
     def components(self) -> dict[str, float]:
         return dict(zip(("u_raw", "gain", "gamma"), self._components, strict=True))
 
-#: the case keys the recursive law reads (tests/api/test_controllers.py holds this equal
+#: the case keys the recursive law reads (tests/api/model/test_controllers.py holds this equal
 #: to what api.params.recursive_law_column reads), documented from config/options.py
 RECURSIVE_KEYS = ("controller.law", "controller.alpha", "controller.kp",
                   "controller.anti_windup", "controller.k_aw", "controller.gamma0",
@@ -739,8 +739,8 @@ class PID(_Sampled):
                  N: float = 10.0, b: float = 1.0, Tt: float | None = None,
                  output_limits: tuple[float | None, float | None] = (None, None),
                  setpoint: float = 0.0):
-        from ..config.resolve import _check_pid
-        from ..errors import ConfigError
+        from ...config.resolve import _check_pid
+        from ...errors import ConfigError
 
         lo, hi = _limits(output_limits)
         params: dict[str, Any] = {

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.api.plants import ODE, FirstOrder
+from mfcontrol.api.model.plants import ODE, FirstOrder
 
 
 def _motor(t, x, u, p, dxdt):
@@ -64,7 +64,7 @@ def test_bad_grids_name_the_key(grid, match):
 
 @pytest.mark.parametrize("integrator", ["rk4", "exact", "rk45"])
 def test_lti_members_equal_their_single_runs(integrator):
-    from mfcontrol.api.plants import LTI
+    from mfcontrol.api.model.plants import LTI
 
     def make():
         return LTI([[0.0, 1.0], [-4.0, -0.6]], [0.0, 2.0], [1.0, 0.0], integrator=integrator)

@@ -7,7 +7,7 @@ import pytest
 
 import mfcontrol
 from mfcontrol import Change, simulate_loop
-from mfcontrol.api.plants import LTI, FirstOrder
+from mfcontrol.api.model.plants import LTI, FirstOrder
 
 control = pytest.importorskip("control")
 
@@ -153,7 +153,7 @@ def test_elements_not_given_are_the_default_elements_bit_for_bit():
     assert a.metrics == b.metrics
     np.testing.assert_array_equal(ctrl_a._CS, ctrl_b._CS)
     # the column is the run's own: changing it changes no later run
-    from mfcontrol.api import loop
+    from mfcontrol.api.run import loop
 
     loop._elements(n=1000)[:] = 7.0
     assert not np.any(loop._elements(n=1000) == 7.0)

@@ -31,10 +31,10 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import ConfigError
-from ..numerics import blocks, rk4
-from ..numerics import signatures as sig
-from ..plants import boost, buck, dc_motor, first_order, lti, ode
+from ...errors import ConfigError
+from ...numerics import blocks, rk4
+from ...numerics import signatures as sig
+from ...plants import boost, buck, dc_motor, first_order, lti, ode
 
 __all__ = ["LTI", "ODE", "Boost", "Buck", "FirstOrder", "Plant", "EnginePlant"]
 
@@ -224,7 +224,7 @@ class Plant(ABC):
 
     def engine(self) -> EnginePlant | None:
         """The plant as the compiled engine runs it, or None: a subclass written in Python
-        runs through the Python driver (:func:`mfcontrol.api.loop.simulate_loop` says so)."""
+        runs through the Python driver (:func:`mfcontrol.api.run.loop.simulate_loop` says so)."""
         return None
 
     def _engine(self, functions, p: np.ndarray, columns: Mapping[str, int],

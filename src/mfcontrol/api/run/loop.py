@@ -1,8 +1,8 @@
 """A closed loop of any plant object and any controller: compiled, or in Python.
 
-The plant is a :class:`mfcontrol.api.plants.Plant` (converters, a first-order plant, an
+The plant is a :class:`mfcontrol.api.model.plants.Plant` (converters, a first-order plant, an
 LTI model, python-control systems, your own ODE), the controller one of
-:mod:`mfcontrol.api.controllers`. Each sample: scheduled parameter changes due at t_k, the
+:mod:`mfcontrol.api.model.controllers`. Each sample: scheduled parameter changes due at t_k, the
 measurement ``y_k`` (before the plant step), ``u_k`` from the law, the plant advanced
 over [t_k, t_k + h] with ``u_k`` held.
 
@@ -26,19 +26,19 @@ from typing import Any
 
 import numpy as np
 
-from ..config.resolve import check_elements, check_value
-from ..elements import disturbance as disturbance_law
-from ..elements import layout
-from ..engine import compose, trajectory
-from ..engine import metrics as engine_metrics
-from ..errors import ConfigError
-from ..laws import intelligent, pid, reference
-from ..laws import reference as reference_law
-from ..numerics import grid
-from . import metrics as _metrics
-from .controllers import PID, IntelligentController, RecursiveIP, _Controller
-from .elements import Actuator, Disturbance, Sensor, column
-from .result import SIGNALS, Result
+from ...config.resolve import check_elements, check_value
+from ...elements import disturbance as disturbance_law
+from ...elements import layout
+from ...engine import compose, trajectory
+from ...engine import metrics as engine_metrics
+from ...errors import ConfigError
+from ...laws import intelligent, pid, reference
+from ...laws import reference as reference_law
+from ...numerics import grid
+from ..model.controllers import PID, IntelligentController, RecursiveIP, _Controller
+from ..model.elements import Actuator, Disturbance, Sensor, column
+from ..results import metrics as _metrics
+from ..results.result import SIGNALS, Result
 
 Reference = float | Callable[[float], float] | Sequence[float] | np.ndarray
 
@@ -112,7 +112,7 @@ def _series(name: str, value: Reference, t: np.ndarray, positive: bool = False) 
 
 def _as_plant(plant):
     if type(plant).__module__.startswith("control."):  # a python-control system
-        from .plants import LTI
+        from ..model.plants import LTI
 
         return LTI.from_control(plant)
     return plant
@@ -269,7 +269,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     rows, the configured reference of each member, ``RP[:, j]`` (see
     :mod:`mfcontrol.laws.reference`). ``AL`` (one row, or one per member): the alpha of
     an external gain at every sample. ``LP`` (one column, or one per member): the loop's
-    elements (:func:`mfcontrol.api.elements.column`; default none). ``step``: the
+    elements (:func:`mfcontrol.api.model.elements.column`; default none). ``step``: the
     reference step (t0, from, to) the step metrics measure, for a reference given as R
     (from RP, a smooth-step is one). ``vectorise``: run the members in the engine's
     vectorised loop (True, False, or None: when it pays,
@@ -408,7 +408,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     Parameters
     ----------
     plant : Plant or control.LTI
-        Any :class:`mfcontrol.api.plants.Plant`, or a continuous-time python-control
+        Any :class:`mfcontrol.api.model.plants.Plant`, or a continuous-time python-control
         ``StateSpace`` / ``TransferFunction`` (converted with ``LTI.from_control``).
     controller : callable
         A live controller (``u = controller(y, setpoint=r)``), e.g. :class:`mfcontrol.IP`.
@@ -430,7 +430,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         library controller with ``gain="external"`` (the others set their own gain), or a
         controller of your own that takes it (``controller(y, setpoint=r, alpha=a)``).
     sensor, actuator, disturbance : Sensor, Actuator, Disturbance, optional
-        The loop's elements (:mod:`mfcontrol.api.elements`): what the controller
+        The loop's elements (:mod:`mfcontrol.api.model.elements`): what the controller
         receives of y (noise, quantisation, delay), what reaches the plant of u (delay,
         rate limit) and a disturbance on the plant's input or output. The compiled
         engine runs them; ``y_meas`` and ``u_plant`` record what they made of y and u.

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..config import options
+from ...config import options
 
 if TYPE_CHECKING:
     from .result import Result, SweepResult

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import mfcontrol
-from mfcontrol.api import batch
+from mfcontrol.api.run import batch
 from mfcontrol.engine import paper_sweep
 from mfcontrol.experiments.cases import resolve_case
 
@@ -132,7 +132,7 @@ def test_axis_translation_equals_one_scenario_per_member(case, fidelity):
         except mfcontrol.ConfigError:
             continue  # a value this case does not allow
         scn = batch.build_members(grid, 0, grid.n_members)
-        one = mfcontrol.api.scenario.build([grid.config(m) for m in range(grid.n_members)])
+        one = mfcontrol.api.run.scenario.build([grid.config(m) for m in range(grid.n_members)])
         for name in ("PP", "X0", "CP", "RP", "ev_k", "ev_val"):
             np.testing.assert_array_equal(getattr(scn, name), getattr(one, name),
                                           err_msg=f"{key} {name}")
@@ -179,7 +179,7 @@ def test_a_general_grid_builds_each_part_once_per_distinct_setting(monkeypatch):
     # an n x m grid of a plant key and a controller key: n plants and m laws (and one
     # reference) built, not n m configurations; each member still its single run (a
     # range from a member past the first)
-    from mfcontrol.api import simulate
+    from mfcontrol.api.run import simulate
 
     _, base = resolve_case("boost-ipd", {"sim.t_end": 0.01})
     axes = {"plant.R": np.linspace(8.0, 12.0, 5), "controller.kp": np.linspace(2e7, 6e7, 6)}
@@ -211,7 +211,7 @@ def test_a_general_grid_builds_each_part_once_per_distinct_setting(monkeypatch):
 ])
 def test_a_general_grid_whose_keys_cannot_be_split_by_part_runs_a_configuration_per_member(
         axes, monkeypatch):
-    from mfcontrol.api import simulate
+    from mfcontrol.api.run import simulate
 
     _, base = resolve_case("boost-ipd", {"sim.t_end": 0.005})
     grid = batch.make_grid(base, {k: np.array(v, dtype=float) for k, v in axes.items()})

@@ -22,7 +22,7 @@ import pytest
 from numba.core.ccallback import CFunc
 
 import mfcontrol
-from mfcontrol.api.plants import ODE
+from mfcontrol.api.model.plants import ODE
 from mfcontrol.numerics import signatures as sig
 from mfcontrol.plants import ode
 

@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from ..engine import metrics as engine_metrics
+from ...engine import metrics as engine_metrics
 
 STABILITY_RULE = (
     "A run is *stable* when it did not diverge (no NaN/inf, |y| within sim.diverge_above) "
@@ -176,7 +176,7 @@ def from_kernel(M: np.ndarray, j: int, tol: float) -> dict:
     object, so that two runs with equal metrics give dicts that compare equal.
 
     What :func:`table` gives for that member, bit for bit, in the same order (held so by
-    tests/api/test_metrics.py), computed on Python floats: one run's metrics in a few
+    tests/api/results/test_metrics.py), computed on Python floats: one run's metrics in a few
     microseconds instead of numpy's per-call cost on one-element arrays."""
     em, nan = engine_metrics, math.nan
     m = M[:, j].tolist()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.api.simulate import _simulate_loop, compiled
+from mfcontrol.api.run.simulate import _simulate_loop, compiled
 from mfcontrol.experiments.cases import resolve_case
 
 

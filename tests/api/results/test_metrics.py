@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.api.metrics import is_stable
+from mfcontrol.api.results.metrics import is_stable
 
 
 @pytest.mark.parametrize("case", ["voltage-stable-variational", "power-standard",
@@ -51,7 +51,7 @@ def test_paper_fidelity_classification(case, stable):
 
 def test_metric_units_read_as_units():
     """'rad/s s' is 'rad'; a dimensionless output's IAE is in s, not '1 s' (review)."""
-    from mfcontrol.api.metrics import label
+    from mfcontrol.api.results.metrics import label
 
     assert label("iae", "rad/s", "V") == "IAE, the integral of |e| (rad)"
     assert label("itae", "rad/s", "V") == "ITAE, the integral of t |e| (rad s)"
@@ -64,7 +64,7 @@ def test_metric_units_read_as_units():
 def test_one_members_metrics_are_the_tables_bit_for_bit():
     # from_kernel computes one member on Python floats; table on arrays: the same values,
     # types and order, on metric rows mixing ordinary values, zeros, NaN and infinities
-    from mfcontrol.api.metrics import from_kernel, table
+    from mfcontrol.api.results.metrics import from_kernel, table
     from mfcontrol.engine import metrics as em
 
     rng = np.random.default_rng(7)

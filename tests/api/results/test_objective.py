@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mfcontrol.api.objective import METRICS, Objective, aggregate
+from mfcontrol.api.results.objective import METRICS, Objective, aggregate
 from mfcontrol.errors import ConfigError
 
 

@@ -1,7 +1,7 @@
 """How results show themselves: a repr of a few lines for a terminal and an HTML table for a
 notebook, instead of every array they hold (a 500-sample run printed 60 kB).
 
->>> from mfcontrol.api.display import metric_line, verdict
+>>> from mfcontrol.api.results.display import metric_line, verdict
 >>> m = {"iae": 6.5e-4, "max_abs_e": 0.19, "tv_u": 0.77, "stable": True, "diverged": False}
 >>> verdict(m), metric_line(m)
 ('stable', 'IAE 0.00065, max |e| 0.19, TV(u) 0.77')

@@ -11,9 +11,9 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from ..config import options
-from ..config.resolve import check_elements, check_value
-from ..elements import disturbance, layout, noise
+from ...config import options
+from ...config.resolve import check_elements, check_value
+from ...elements import disturbance, layout, noise
 
 
 def _checked(obj, section: str) -> None:

@@ -42,7 +42,7 @@ def test_ip_error_decays_as_exp_minus_kp_t():
 
 
 def test_ip_with_algebraic_estimator_tracks_a_first_order_plant():
-    from mfcontrol.api.plants import FirstOrder
+    from mfcontrol.api.model.plants import FirstOrder
 
     ctrl = IP(alpha=1.0, kp=10.0, sample_time=1e-3, estimator="algebraic", window=20)
     res = mfcontrol.simulate_loop(FirstOrder(a=-2.0, b=1.0, w=0.5), ctrl, 1.0, t_end=2.0)
@@ -371,7 +371,7 @@ def test_the_live_benchmark_feeds_plain_floats():
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_live.py"
+    path = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_live.py"
     spec = importlib.util.spec_from_file_location("bench_live", path)
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
@@ -428,7 +428,7 @@ def test_help_shows_every_option(cls):
 def test_recursive_ip_documents_the_keys_its_law_reads():
     """help(RecursiveIP) lists the case keys from config/options.py; the list is what the
     law's translator reads, under every variant (found by running it)."""
-    from mfcontrol.api.controllers import RECURSIVE_KEYS
+    from mfcontrol.api.model.controllers import RECURSIVE_KEYS
     from mfcontrol.api.params import recursive_law_column
     from mfcontrol.config.resolve import keys_read, resolve
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from mfcontrol.api import plants as models
-from mfcontrol.api.plants import LTI, ODE, Boost, Buck, FirstOrder, Plant
+from mfcontrol.api.model import plants as models
+from mfcontrol.api.model.plants import LTI, ODE, Boost, Buck, FirstOrder, Plant
 
 
 def _run(plant, u, h, n, t0=0.0):

@@ -8,13 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from .._version import __version__
-from ..config.resolve import Config, axis_value
-from ..elements import layout
-from ..engine import trajectory
-from ..numerics import grid
-from . import metrics, scenario
-from .result import Result, SweepResult
+from ..._version import __version__
+from ...config.resolve import Config, axis_value
+from ...elements import layout
+from ...engine import trajectory
+from ...numerics import grid
+from ..results import metrics
+from ..results.result import Result, SweepResult
+from . import scenario
 
 
 def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: int,
@@ -30,7 +31,7 @@ def compiled(cfg: Config) -> bool:
     """Whether the paper's tuned kernel covers this configuration (the paper's laws on the
     buck with RK4); everything else runs in the general engine
     (:mod:`mfcontrol.engine.compose`) with the same laws."""
-    from .params import ideal_loop
+    from ..params import ideal_loop
 
     return (cfg["plant.model"] == "buck" and cfg["controller.law"] in ("ip", "variational")
             and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"]
@@ -67,7 +68,7 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
 
 
 def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
-    from . import params
+    from .. import params
     from .loop import compiled_run, law_arrays
 
     n = scenario.n_steps(cfg)
@@ -89,7 +90,7 @@ def member_parts() -> dict[str, Callable[[Config], Any]]:
     by the translators a single run calls (:mod:`mfcontrol.api.params`): ``"plant"``,
     its engine plant and scheduled changes; ``"law"``, its law's arrays;
     ``"reference"``, its reference column; ``"elements"``, its loop elements' column."""
-    from . import params
+    from .. import params
     from .loop import law_arrays
 
     def plant(cfg: Config) -> tuple[Any, list]:
@@ -104,7 +105,7 @@ def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
                     vectorise: bool | None = None) -> np.ndarray:
     """The metrics (kernel rows, one column per member) of configurations that share a
     model, law and time grid, in one batch of the general engine (``vectorise`` as
-    :func:`mfcontrol.api.loop.run_members` takes it)."""
+    :func:`mfcontrol.api.run.loop.run_members` takes it)."""
     parts = {name: [build(c) for c in cfgs] for name, build in member_parts().items()}
     return batch_metrics(cfgs[0], parts, fast=fast, vectorise=vectorise)[0]
 
@@ -115,7 +116,7 @@ def batch_metrics(first: Config, parts: Mapping[str, Sequence[Any]], *, fast: bo
     list as :func:`member_parts` builds it, one item per member), built from
     configurations that share the time grid and metric settings of ``first``, in one
     batch of the general engine."""
-    from . import params
+    from .. import params
     from .loop import run_members
 
     n = scenario.n_steps(first)

@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._version import __version__
-from ..config.resolve import Config
+from ..._version import __version__
+from ...config.resolve import Config
 from . import display
 
 if TYPE_CHECKING:
@@ -106,7 +106,7 @@ class Result(_Trajectory):
     states : dict of ndarray
         Plant states at t_k (``i_L``, ``v_C`` for the converters).
     metrics : dict
-        See :mod:`mfcontrol.api.metrics`.
+        See :mod:`mfcontrol.api.results.metrics`.
     version : str
         mfcontrol version that produced it.
     config : Config or None

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.api import display
+from mfcontrol.api.results import display
 
 
 @pytest.fixture(scope="module")

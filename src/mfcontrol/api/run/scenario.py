@@ -12,13 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config.resolve import Config
-from ..elements import layout
-from ..engine import metrics, paper_single, trajectory
-from ..laws import recursive_ip
-from ..numerics import grid
-from ..plants import buck
-from . import loop, params
+from ...config.resolve import Config
+from ...elements import layout
+from ...engine import metrics, paper_single, trajectory
+from ...laws import recursive_ip
+from ...numerics import grid
+from ...plants import buck
+from .. import params
+from . import loop
 
 
 @dataclass
@@ -60,7 +61,7 @@ def axis_columns(base: Config, key: str, values: np.ndarray) -> dict[str, np.nda
     """The one-member arrays (``PP``, ``X0``, ``CP``, ``RP``, ``ev_val``) for every value
     of one swept key at once, one column per value: the same translators as
     :func:`build`, given an array where they read ``key``. The values must have been
-    validated (:func:`mfcontrol.api.batch.make_grid`)."""
+    validated (:func:`mfcontrol.api.run.batch.make_grid`)."""
     cfg = Config({**base.values, key: np.asarray(values, dtype=float)})
     n = n_steps(base)
     m = np.size(values)
@@ -132,7 +133,7 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
     """Run every member from its initial state; return (metrics M, trajectories traj).
 
     ``traj[row, m, k]`` holds the kept members (all by default), NaN after divergence.
-    Each member runs through the single-run kernel (sweeps use :mod:`mfcontrol.api.batch`);
+    Each member runs through the single-run kernel (sweeps use :mod:`mfcontrol.api.run.batch`);
     ``fast``: through its fast mode (:data:`mfcontrol.engine.paper_single.run_single_fast`).
     """
     run_single = paper_single.run_single_fast if fast else paper_single.run_single

@@ -13,16 +13,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._version import __version__
-from ..config.options import BY_KEY, OPTIONS
-from ..elements import layout
-from ..engine.compose import T_COMP
-from ..errors import ConfigError
-from ..numerics.grid import check_members, check_recording
-from . import display
-from . import metrics as _metrics
-from .controllers import RecursiveIP
-from .elements import Actuator, Disturbance, Sensor, unread
+from ..._version import __version__
+from ...config.options import BY_KEY, OPTIONS
+from ...elements import layout
+from ...engine.compose import T_COMP
+from ...errors import ConfigError
+from ...numerics.grid import check_members, check_recording
+from ..model.controllers import RecursiveIP
+from ..model.elements import Actuator, Disturbance, Sensor, unread
+from ..results import display
+from ..results import metrics as _metrics
+from ..results.result import Result
 from .loop import (
     Change,
     Reference,
@@ -36,7 +37,6 @@ from .loop import (
     run_members,
     simulate_loop,
 )
-from .result import Result
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -1,0 +1,5 @@
+"""What a run gives back and how it is read: the result types (:mod:`.result`), the
+metrics' columns and stability rule (:mod:`.metrics`), their text and HTML display
+(:mod:`.display`), figures (:mod:`.plotting`) and what a tuner minimises over them
+(:mod:`.objective`).
+"""
