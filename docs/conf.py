@@ -63,6 +63,7 @@ SECTIONS = {  # the order and the words of the reference's sections
     ".api.model.controllers": "Live controllers",
     ".api.model.plants": "Plants",
     ".api.model.elements": "Loop elements: sensor, actuator, disturbance",
+    ".api.model.schedule": "Scheduled changes of a plant's parameters",
     ".api.run.loop": "Simulating a loop",
     ".api.run.sweep": "Sweeping a loop",
     ".api.run.simulate": "Simulating a configuration",

@@ -18,10 +18,11 @@ from ._version import __version__
 # scipy and numba, and a Ctrl-C in that time reaches the command's own handling.
 _EXPORTS = {
     ".api.model.controllers": ("IP", "IPD", "IPI", "IPID", "PID", "IntelligentController",
-                         "RecursiveIP"),
+                               "RecursiveIP"),
     ".api.model.elements": ("Actuator", "Disturbance", "Sensor"),
-    ".api.run.loop": ("Change", "LoopResult", "simulate_loop"),
     ".api.model.plants": ("LTI", "ODE", "Boost", "Buck", "DCMotor", "FirstOrder", "Plant"),
+    ".api.model.schedule": ("Change",),
+    ".api.run.loop": ("LoopResult", "simulate_loop"),
     ".api.results.result": ("Result", "SweepResult"),
     ".api.run.simulate": ("simulate", "simulate_many", "simulate_sweep"),
     ".api.run.sweep": ("LoopSweepResult", "sweep"),
@@ -66,8 +67,9 @@ if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eage
     from .api.model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
     from .api.model.elements import Actuator, Disturbance, Sensor
     from .api.model.plants import LTI, ODE, Boost, Buck, DCMotor, FirstOrder, Plant
+    from .api.model.schedule import Change
     from .api.results.result import Result, SweepResult
-    from .api.run.loop import Change, LoopResult, simulate_loop
+    from .api.run.loop import LoopResult, simulate_loop
     from .api.run.simulate import simulate, simulate_many, simulate_sweep
     from .api.run.sweep import LoopSweepResult, sweep
     from .cexport import export_c

@@ -24,7 +24,7 @@ from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
 from .model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
 from .model.elements import Actuator, Disturbance, Sensor, column
-from .run.loop import Change
+from .model.schedule import Change
 
 
 def plant(cfg: Config):
@@ -134,7 +134,7 @@ def plant_and_changes(cfg: Config):
     """The plant and its schedule, the schedule checked against the plant's own rules
     (a value that would make a parameter invalid is refused here, at the edge)."""
     from ..errors import ConfigError
-    from .run.loop import _check_changes
+    from .model.schedule import _check_changes
 
     p, ch = plant(cfg), changes(cfg)
     try:

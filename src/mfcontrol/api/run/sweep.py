@@ -21,19 +21,17 @@ from ...errors import ConfigError
 from ...numerics.grid import check_members, check_recording
 from ..model.controllers import RecursiveIP
 from ..model.elements import Actuator, Disturbance, Sensor, unread
+from ..model.schedule import Change, _check_changes, restored
 from ..results import display
 from ..results import metrics as _metrics
 from ..results.result import Result
 from .loop import (
-    Change,
     Reference,
     _alpha,
-    _check_changes,
     _constant_step,
     _elements,
     _setup,
     law_arrays,
-    restored,
     run_members,
     simulate_loop,
 )
