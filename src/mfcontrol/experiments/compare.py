@@ -143,7 +143,7 @@ def format_number(v: Any, digits: int = 4) -> str:
 def controller_label(cfg: Config) -> str:
     """The controller in a few words: its law and gains, e.g. ``i-PI (alpha 50, kp 10,
     ki 30)``."""
-    from ..api.params import controller
+    from ..api.run.from_config import controller
     from ..config.resolve import keys_read
 
     law = cfg["controller.law"]

@@ -548,13 +548,13 @@ def _refuse_undefined_objective(obj: Objective, base: Config) -> None:
     """An objective that the case leaves undefined (``iae_load`` without a load step
     within the horizon, a step metric without a step reference) would score inf at every
     point: refused before the search."""
-    from ..api import params
+    from ..api.run import from_config
     from ..api.run.loop import load_step_of
 
     names = set(obj.metrics)
     if "iae_load" in names:
         n = scenario.n_steps(base)
-        load = load_step_of(params.elements(base), [params.changes(base)],
+        load = load_step_of(from_config.elements(base), [from_config.changes(base)],
                             base["sim.t_end"], n)[0]
         if not math.isfinite(load):
             raise ConfigError("--objective", obj.text, "iae_load is not defined for this "

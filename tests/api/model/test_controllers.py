@@ -241,10 +241,11 @@ def test_recursive_ip_live_equals_the_simulator():
 def test_the_controller_of_a_configuration_has_the_kernels_parameter_column(overrides):
     # the live controller of a case is built from the keys the column translator reads
     from mfcontrol.api import params
+    from mfcontrol.api.run import from_config
     from mfcontrol.experiments.cases import resolve_case
 
     cfg = resolve_case("voltage-stable-standard")[1].with_overrides(overrides)
-    ctrl = params.controller(cfg)
+    ctrl = from_config.controller(cfg)
     np.testing.assert_array_equal(ctrl._CP[:, 0],
                                   params.recursive_law_column(cfg, cfg["sim.h"])[:, 0])
 

@@ -28,6 +28,7 @@ from ...config import options
 from ...engine import live
 from ...laws import estimators, intelligent, pid, recursive_ip
 from ...laws import variational_gain as gain_law
+from ..params import recursive_law_column
 
 _INF = math.inf
 # a tuple, built once: ``int | float | ...`` in a call builds a union type every time
@@ -609,7 +610,6 @@ class RecursiveIP(_Controller):
                  sample_time: float | None = None, **controller_keys: Any):
         from ...config.resolve import resolve
         from ...errors import ConfigError
-        from ..params import recursive_law_column
 
         keys = {"controller.alpha": alpha, "controller.kp": kp}
         for name, value in controller_keys.items():

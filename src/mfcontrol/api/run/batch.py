@@ -21,14 +21,16 @@ from typing import Any
 import numpy as np
 
 from ...config.options import BY_KEY
-from ...config.resolve import Config, axis_value, check_axis
+from ...config.resolve import Config, _check_consistency, axis_value, check_axis, keys_read
 from ...engine import metrics as engine_metrics
 from ...engine import paper_single, paper_sweep
 from ...errors import ConfigError
 from ...laws import recursive_ip, reference
 from ...numerics.grid import check_members
+from .. import params
+from ..model.elements import unread
 from ..results import metrics as _metrics
-from . import scenario
+from . import from_config, scenario
 from .simulate import batch_metrics, compiled, general_metrics, member_parts
 
 _SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
@@ -157,8 +159,6 @@ def make_grid(base: Config, axes: Mapping[str, np.ndarray],
     they involve (:func:`mfcontrol.config.resolve.check_axis`); ``points`` as
     :class:`Grid` takes them (the checks across options see one key's value at a time:
     a caller that needs each point's combination checked builds its configuration)."""
-    from ..model.elements import unread
-
     if points and len({np.size(axes[k]) for k in points}) != 1:
         raise ValueError("the keys of points must have values of one length")
     # before validating 10^7-value axes for minutes
@@ -320,10 +320,7 @@ def paper_grid(grid: Grid) -> bool:
     """Whether the paper's sweep kernel runs every member of the grid: its base is a
     configuration it covers (:func:`mfcontrol.api.run.simulate.compiled`) and no axis is read
     by the translator of the loop's elements (the kernel has none)."""
-    from ...config.resolve import keys_read
-    from ..params import elements
-
-    return compiled(grid.base) and not set(grid.axes) & keys_read(elements, grid.base)
+    return compiled(grid.base) and not set(grid.axes) & keys_read(from_config.elements, grid.base)
 
 
 def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
@@ -340,9 +337,6 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
     shares) is swept the plain way, a configuration per member, and so is a grid with
     keys of different parts among those the checks across options read (each part's
     configuration is checked with its own keys set only)."""
-    from ...config.resolve import _check_consistency, keys_read
-    from .. import params
-
     parts = member_parts()
     probe = grid.config(start)
     shared = keys_read(lambda c: (scenario.n_steps(c), params.metric_settings(c)), probe)

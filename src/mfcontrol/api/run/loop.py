@@ -36,6 +36,7 @@ from ...laws import reference as reference_law
 from ...numerics import grid
 from ..model.controllers import PID, IntelligentController, RecursiveIP, _Controller
 from ..model.elements import Actuator, Disturbance, Sensor, column
+from ..model.plants import LTI
 from ..model.schedule import Change, _check_changes, restored
 from ..results import metrics as _metrics
 from ..results.result import SIGNALS, Result
@@ -82,8 +83,6 @@ def _series(name: str, value: Reference, t: np.ndarray, positive: bool = False) 
 
 def _as_plant(plant):
     if type(plant).__module__.startswith("control."):  # a python-control system
-        from ..model.plants import LTI
-
         return LTI.from_control(plant)
     return plant
 

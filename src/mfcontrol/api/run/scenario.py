@@ -19,7 +19,7 @@ from ...laws import recursive_ip
 from ...numerics import grid
 from ...plants import buck
 from .. import params
-from . import loop
+from . import from_config, loop
 
 
 @dataclass
@@ -83,10 +83,10 @@ def _columns(cfg: Config) -> dict[str, np.ndarray]:
 
 def _events(cfg: Config, n: int) -> list[tuple[int, int, bool, float]]:
     """(sample, parameter row, additive?, value) for every scheduled change, in order:
-    the changes of :func:`mfcontrol.api.params.changes` (the paper's kernels take no
+    the changes of :func:`mfcontrol.api.run.from_config.changes` (the paper's kernels take no
     general schedule)."""
     return [(grid.first_sample_at(c.time, cfg["sim.t_end"], n), buck.PARAM_ROWS[c.name],
-             c.add, c.value) for c in params.changes(cfg)]
+             c.add, c.value) for c in from_config.changes(cfg)]
 
 
 def build(configs: Sequence[Config]) -> Scenario:
@@ -116,7 +116,7 @@ def build(configs: Sequence[Config]) -> Scenario:
         S=params.metric_settings(first),
         ev_steps=ev_steps.astype(np.int64), ev_k=ev_k, ev_row=ev_row, ev_add=ev_add,
         ev_val=ev_val, state_names=buck.STATE_NAMES,
-        load_t0=np.concatenate([loop.load_step_of(layout.column(), [params.changes(c)],
+        load_t0=np.concatenate([loop.load_step_of(layout.column(), [from_config.changes(c)],
                                                   c["sim.t_end"], n) for c in configs]),
     )
 

@@ -13,9 +13,11 @@ from ...config.resolve import Config, axis_value
 from ...elements import layout
 from ...engine import trajectory
 from ...numerics import grid
+from .. import params
 from ..results import metrics
 from ..results.result import Result, SweepResult
-from . import scenario
+from . import from_config, scenario
+from .loop import compiled_run, law_arrays, run_members
 
 
 def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: int,
@@ -31,11 +33,9 @@ def compiled(cfg: Config) -> bool:
     """Whether the paper's tuned kernel covers this configuration (the paper's laws on the
     buck with RK4); everything else runs in the general engine
     (:mod:`mfcontrol.engine.compose`) with the same laws."""
-    from ..params import ideal_loop
-
     return (cfg["plant.model"] == "buck" and cfg["controller.law"] in ("ip", "variational")
             and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"]
-            and ideal_loop(cfg))
+            and from_config.ideal_loop(cfg))
 
 
 def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
@@ -68,37 +68,32 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
 
 
 def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
-    from .. import params
-    from .loop import compiled_run, law_arrays
-
     n = scenario.n_steps(cfg)
     t_end = cfg["sim.t_end"]
     t = grid.times(n, t_end)
-    plant, changes = params.plant_and_changes(cfg)
-    ctrl = params.controller(cfg)
+    plant, changes = from_config.plant_and_changes(cfg)
+    ctrl = from_config.controller(cfg)
     S = params.metric_settings(cfg)
     # the reference evaluated in the kernel, as a batch of these members evaluates it
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
                        params.reference_column(cfg), changes, t,
                        cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast,
-                       LP=params.elements(cfg), t_end_key="sim.t_end")
+                       LP=from_config.elements(cfg), t_end_key="sim.t_end")
     return dataclasses.replace(res, config=cfg, changes=())
 
 
 def member_parts() -> dict[str, Callable[[Config], Any]]:
     """How a member of the general engine is built from its configuration, part by part,
-    by the translators a single run calls (:mod:`mfcontrol.api.params`): ``"plant"``,
-    its engine plant and scheduled changes; ``"law"``, its law's arrays;
+    by the translators a single run calls (:mod:`mfcontrol.api.run.from_config`,
+    :mod:`mfcontrol.api.params`): ``"plant"``, its engine plant and scheduled changes;
+    ``"law"``, its law's arrays;
     ``"reference"``, its reference column; ``"elements"``, its loop elements' column."""
-    from .. import params
-    from .loop import law_arrays
-
     def plant(cfg: Config) -> tuple[Any, list]:
-        p, changes = params.plant_and_changes(cfg)
+        p, changes = from_config.plant_and_changes(cfg)
         return p.engine(), changes
 
-    return {"plant": plant, "law": lambda cfg: law_arrays(params.controller(cfg)),
-            "reference": params.reference_column, "elements": params.elements}
+    return {"plant": plant, "law": lambda cfg: law_arrays(from_config.controller(cfg)),
+            "reference": params.reference_column, "elements": from_config.elements}
 
 
 def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
@@ -116,9 +111,6 @@ def batch_metrics(first: Config, parts: Mapping[str, Sequence[Any]], *, fast: bo
     list as :func:`member_parts` builds it, one item per member), built from
     configurations that share the time grid and metric settings of ``first``, in one
     batch of the general engine."""
-    from .. import params
-    from .loop import run_members
-
     n = scenario.n_steps(first)
     M, _, CS = run_members([ep for ep, _ in parts["plant"]], parts["law"], np.zeros((0, n)),
                            [ch for _, ch in parts["plant"]], t_end=first["sim.t_end"],
