@@ -590,7 +590,7 @@ class LTI(Plant):
             ``sys`` is discrete-time, not SISO, or has a feedthrough (D != 0, e.g. a
             biproper transfer function).
         """
-        import control
+        import control  # here: python-control takes about 2 s to import
 
         if not isinstance(sys, control.StateSpace | control.TransferFunction):
             raise TypeError(f"sys must be a control.StateSpace or control.TransferFunction, "

@@ -8,16 +8,43 @@ caller's backend.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from ...config import options
+from ...config.resolve import Config
 
-if TYPE_CHECKING:
-    from .result import Result, SweepResult
+
+class Run(Protocol):
+    """What a run's figures read: a :class:`~mfcontrol.Result` is one. The result types
+    draw themselves through this module (``Result.plot``), so it names what it reads
+    instead of importing them."""
+
+    name: str
+    label: str
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    metrics: dict[str, Any]
+    config: Config | None
+    changes: tuple
+
+    @property
+    def error(self) -> np.ndarray: ...
+
+
+class Sweep(Protocol):
+    """What a sweep's figure reads: a :class:`~mfcontrol.SweepResult` is one."""
+
+    name: str
+    key: str
+    values: list[float]
+
+    @property
+    def members(self) -> Sequence[Run]: ...
 
 _OUTPUT = {
     "voltage": ("output voltage", "v", "V"),
@@ -42,7 +69,7 @@ def _label_parts(cfg) -> tuple[tuple[str, str, str], str]:
     return _OUTPUT[cfg["plant.output"]], "duty cycle $d$ (1)"
 
 
-def _labels(result: Result) -> tuple[str, str, str]:
+def _labels(result: Run) -> tuple[str, str, str]:
     assert result.config is not None  # a case run's figure: it has a configuration
     return _label_parts(result.config)[0]
 
@@ -65,7 +92,7 @@ def plain_labels(cfg) -> tuple[str, str]:
     return plain(f"{quantity} {sym} ({unit})"), plain(u_label)
 
 
-def _input_label(result: Result) -> str:
+def _input_label(result: Run) -> str:
     assert result.config is not None  # a case run's figure: it has a configuration
     return _label_parts(result.config)[1]
 
@@ -79,7 +106,7 @@ def _time_scale(t: np.ndarray) -> tuple[float, str]:
     return (1e3, "time $t$ (ms)") if t.size and t[-1] < 1.0 else (1.0, "time $t$ (s)")
 
 
-def event_times(result: Result) -> list[tuple[float, str]]:
+def event_times(result: Run) -> list[tuple[float, str]]:
     """A case run's events inside its horizon: (time in s, what: "load change" or
     "disturbance"), in time order."""
     cfg = result.config
@@ -93,7 +120,7 @@ def event_times(result: Result) -> list[tuple[float, str]]:
     return sorted(events)
 
 
-def _mark_changes(ax, result: Result, scale: float = 1e3) -> None:
+def _mark_changes(ax, result: Run, scale: float = 1e3) -> None:
     for tc, what in event_times(result):
         _event(ax, tc * scale, what, "0.45" if what == "load change" else "tab:orange")
 
@@ -271,7 +298,7 @@ def _input_panel(ax, t, result) -> None:
         ax.plot(t, u, color="tab:green", lw=1.0)
 
 
-def plot_run(result: Result, path: str | Path | None = None, title: str | None = None,
+def plot_run(result: Run, path: str | Path | None = None, title: str | None = None,
              with_gamma: bool | None = None) -> Figure:
     """Output and reference (top), duty cycle (middle/bottom), gamma (bottom, optional)."""
     if with_gamma is None:
@@ -305,14 +332,14 @@ def plot_run(result: Result, path: str | Path | None = None, title: str | None =
     return save_figure(fig, path)
 
 
-def _gamma_axes(ax, result: Result) -> None:
+def _gamma_axes(ax, result: Run) -> None:
     scale, _ = _time_scale(result.time)
     ax.plot(result.time * scale, result.signals["gamma"], color="tab:purple", lw=1.2)
     ax.set_ylabel(r"gain $\gamma$ (1)")
     ax.ticklabel_format(axis="y", useOffset=False)
 
 
-def plot_gamma(result: Result, path: str | Path | None = None,
+def plot_gamma(result: Run, path: str | Path | None = None,
                title: str | None = None) -> Figure:
     """gamma(t) on its own axes (the paper's Figs. 4 and 8)."""
     fig = Figure(figsize=(8, 3.2), layout="constrained")
@@ -326,7 +353,7 @@ def plot_gamma(result: Result, path: str | Path | None = None,
     return save_figure(fig, path)
 
 
-def plot_sweep(sweep: SweepResult, kind: str = "gamma", path: str | Path | None = None,
+def plot_sweep(sweep: Sweep, kind: str = "gamma", path: str | Path | None = None,
                title: str | None = None) -> Figure:
     """One curve per member: gamma(t) (``kind='gamma'``) or |y - y*| on a log axis
     (``kind='error'``)."""
@@ -503,7 +530,7 @@ def convergence(point: np.ndarray, value: np.ndarray, params: dict[str, np.ndarr
     return save_figure(fig, path)
 
 
-def comparison(results: list[Result], labels: list[str], table: list[list[str]],
+def comparison(results: Sequence[Run], labels: list[str], table: list[list[str]],
                header: list[str], title: str, path: str | Path | None = None) -> Figure:
     """Several runs of one scenario: their outputs on one axis with the reference, their
     controls below, and the metrics table beside."""

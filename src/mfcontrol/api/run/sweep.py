@@ -71,7 +71,7 @@ class LoopSweepResult(display.Shown):
 
     def to_pandas(self) -> pd.DataFrame:
         """One row per member: ``member``, the swept values, the metrics."""
-        import pandas as pd
+        import pandas as pd  # here: about 0.5 s of import, for to_pandas only
 
         return pd.DataFrame(self.table)
 
