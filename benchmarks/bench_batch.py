@@ -2,7 +2,7 @@
 
 Measured in one process, medians of repeated runs after warm-up (compilation):
 
-* batch: ``mfcontrol.api.batch.run_range`` over N members of the voltage-stable case (standard
+* batch: ``mfcontrol.api.run.batch.run_range`` over N members of the voltage-stable case (standard
   and variational law), all cores; simulations per second and ns per scenario-sample, for
   the three kernels: generic (what small sweeps run, cached on disk), specialised (the
   parameters all members share compiled in; exact, bit-identical) and fast (specialised,
@@ -36,7 +36,7 @@ import control
 import numpy as np
 
 import mfcontrol
-from mfcontrol.api import batch, scenario
+from mfcontrol.api.run import batch, scenario
 from mfcontrol.experiments.cases import resolve_case
 
 

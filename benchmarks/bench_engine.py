@@ -42,9 +42,9 @@ import numpy as np
 
 import mfcontrol
 from bench_batch import median_time  # noqa: I001 (a sibling script: run from anywhere)
-from mfcontrol.api import batch
-from mfcontrol.api.plants import ODE
-from mfcontrol.api.simulate import batch_metrics, member_parts
+from mfcontrol.api.model.plants import ODE
+from mfcontrol.api.run import batch
+from mfcontrol.api.run.simulate import batch_metrics, member_parts
 from mfcontrol.engine import compose
 from mfcontrol.experiments.cases import resolve_case
 

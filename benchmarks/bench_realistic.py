@@ -15,7 +15,7 @@ key fastest) of 10,000 samples:
    zero-order hold, 1 % sensor noise, an input load step at 20 s) with
    ``controller.law = "i-PI"`` (its algebraic estimator, window 10; alpha 30, ki 0.3,
    output +-10), run for 200 s (10,000 samples of 20 ms); ``controller.kp`` x
-   ``plant.time_scale`` through the case API (``mfcontrol.api.batch``, what ``mfcontrol
+   ``plant.time_scale`` through the case API (``mfcontrol.api.run.batch``, what ``mfcontrol
    sweep`` runs).
 
 Every member of a sweep has the same noise seed: ``mfcontrol.sweep`` sweeps
@@ -70,7 +70,7 @@ import numpy as np
 import mfcontrol
 from bench_engine import CHANGES, LOAD, SPEED, T_END, T_LOAD, H, motor  # noqa: I001 (siblings)
 from bench_jax import ALPHA, KI, U_MAX, ipi_step, motor_rhs, rk4
-from mfcontrol.api import batch
+from mfcontrol.api.run import batch
 from mfcontrol.engine import compose
 from mfcontrol.experiments.cases import resolve_case
 from mfcontrol.laws.estimators import weights

@@ -34,7 +34,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 import mfcontrol
-from mfcontrol.api import scenario
+from mfcontrol.api.run import scenario
 from mfcontrol.experiments.cases import resolve_case
 
 CASE = "voltage-stable-standard"

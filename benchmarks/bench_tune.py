@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 import mfcontrol
-from mfcontrol.api import batch
+from mfcontrol.api.run import batch
 from mfcontrol.experiments.cases import resolve_case
 
 CASE = "first-order-ip-algebraic"

@@ -60,13 +60,14 @@ intersphinx_mapping: dict[str, tuple[str, None]] = {}  # offline build: no inven
 # --- the API reference: one autosummary table per defining module, from __all__ -------
 
 SECTIONS = {  # the order and the words of the reference's sections
-    ".api.controllers": "Live controllers",
-    ".api.plants": "Plants",
-    ".api.elements": "Loop elements: sensor, actuator, disturbance",
-    ".api.loop": "Simulating a loop",
-    ".api.sweep": "Sweeping a loop",
-    ".api.simulate": "Simulating a configuration",
-    ".api.result": "Results",
+    ".api.model.controllers": "Live controllers",
+    ".api.model.plants": "Plants",
+    ".api.model.elements": "Loop elements: sensor, actuator, disturbance",
+    ".api.model.schedule": "Scheduled changes of a plant's parameters",
+    ".api.run.loop": "Simulating a loop",
+    ".api.run.sweep": "Sweeping a loop",
+    ".api.run.simulate": "Simulating a configuration",
+    ".api.results.result": "Results",
     ".experiments.cases": "Built-in cases",
     ".config.resolve": "Configuration",
     ".experiments.tune": "Tuning",

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 import mfcontrol
-from mfcontrol.api.plants import Boost
+from mfcontrol.api.model.plants import Boost
 
 E, L, R, C = 20.0, 1e-3, 10.0, 10e-6  # V, H, ohm, F
 V_START, V_END = 20.0, 30.0  # V: natural output at d = 0, target

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import mfcontrol
-from mfcontrol.api.plants import ODE
+from mfcontrol.api.model.plants import ODE
 
 AREA, ORIFICE, G = 0.5, 0.01, 9.81
 

@@ -24,8 +24,9 @@ MODULES = _modules_with_examples()
 
 
 def test_the_main_entry_points_have_examples():
-    for name in ("mfcontrol.api.controllers", "mfcontrol.api.loop", "mfcontrol.api.sweep",
-                 "mfcontrol.api.elements", "mfcontrol.api.display",
+    for name in ("mfcontrol.api.model.controllers", "mfcontrol.api.run.loop",
+                 "mfcontrol.api.run.sweep", "mfcontrol.api.model.elements",
+                 "mfcontrol.api.results.display",
                  "mfcontrol.experiments.tune", "mfcontrol.cexport.export"):
         assert name in MODULES
 

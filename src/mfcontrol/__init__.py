@@ -17,14 +17,15 @@ from ._version import __version__
 # (and the command line's start, --help, --version) no longer waits 1.6 s for numpy,
 # scipy and numba, and a Ctrl-C in that time reaches the command's own handling.
 _EXPORTS = {
-    ".api.controllers": ("IP", "IPD", "IPI", "IPID", "PID", "IntelligentController",
-                         "RecursiveIP"),
-    ".api.elements": ("Actuator", "Disturbance", "Sensor"),
-    ".api.loop": ("Change", "LoopResult", "simulate_loop"),
-    ".api.plants": ("LTI", "ODE", "Boost", "Buck", "DCMotor", "FirstOrder", "Plant"),
-    ".api.result": ("Result", "SweepResult"),
-    ".api.simulate": ("simulate", "simulate_many", "simulate_sweep"),
-    ".api.sweep": ("LoopSweepResult", "sweep"),
+    ".api.model.controllers": ("IP", "IPD", "IPI", "IPID", "PID", "IntelligentController",
+                               "RecursiveIP"),
+    ".api.model.elements": ("Actuator", "Disturbance", "Sensor"),
+    ".api.model.plants": ("LTI", "ODE", "Boost", "Buck", "DCMotor", "FirstOrder", "Plant"),
+    ".api.model.schedule": ("Change",),
+    ".api.run.loop": ("LoopResult", "simulate_loop"),
+    ".api.results.result": ("Result", "SweepResult"),
+    ".api.run.simulate": ("simulate", "simulate_many", "simulate_sweep"),
+    ".api.run.sweep": ("LoopSweepResult", "sweep"),
     ".cexport": ("export_c",),
     ".config.resolve": ("Config", "resolve"),
     ".errors": ("CaseError", "ConfigError"),
@@ -63,13 +64,14 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eagerly
-    from .api.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
-    from .api.elements import Actuator, Disturbance, Sensor
-    from .api.loop import Change, LoopResult, simulate_loop
-    from .api.plants import LTI, ODE, Boost, Buck, DCMotor, FirstOrder, Plant
-    from .api.result import Result, SweepResult
-    from .api.simulate import simulate, simulate_many, simulate_sweep
-    from .api.sweep import LoopSweepResult, sweep
+    from .api.model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
+    from .api.model.elements import Actuator, Disturbance, Sensor
+    from .api.model.plants import LTI, ODE, Boost, Buck, DCMotor, FirstOrder, Plant
+    from .api.model.schedule import Change
+    from .api.results.result import Result, SweepResult
+    from .api.run.loop import LoopResult, simulate_loop
+    from .api.run.simulate import simulate, simulate_many, simulate_sweep
+    from .api.run.sweep import LoopSweepResult, sweep
     from .cexport import export_c
     from .config.resolve import Config, resolve
     from .errors import CaseError, ConfigError

@@ -67,7 +67,7 @@ def _cmd_show(args) -> int:
 
 
 def _cmd_run(args) -> int:
-    from .api.result import SweepResult
+    from .api.results.result import SweepResult
     from .experiments import cases
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set))
@@ -93,7 +93,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_sweep(args) -> int:
-    from .api.batch import parse_grid
+    from .api.run.batch import parse_grid
     from .experiments import cases
     from .experiments.sweeps import Progress, run_sweep
 

@@ -5,7 +5,7 @@ import pytest
 
 import mfcontrol
 from mfcontrol.api.interop import as_nlsys, as_nlsys_state
-from mfcontrol.api.plants import FirstOrder
+from mfcontrol.api.model.plants import FirstOrder
 
 control = pytest.importorskip("control")
 

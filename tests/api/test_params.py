@@ -6,6 +6,7 @@ import pytest
 
 import mfcontrol
 from mfcontrol.api import params
+from mfcontrol.api.run import from_config
 
 LTI = {"plant.model": "lti", "controller.law": "pid", "controller.kp": 1.0,
        "controller.ki": 0.5, "reference.kind": "smooth-step", "sim.h": 0.01,
@@ -34,7 +35,7 @@ def test_an_lti_run_equals_the_same_plant_given_as_an_object():
     cfg = mfcontrol.resolve({**LTI, "plant.num": [1.0], "plant.den": [1.0, 3.0, 3.0, 1.0]})
     run = mfcontrol.simulate(cfg)
     plant = mfcontrol.LTI(*params.transfer_function_state_space(cfg), integrator="exact")
-    loop = mfcontrol.simulate_loop(plant, params.controller(cfg), t_end=20.0, h=0.01,
+    loop = mfcontrol.simulate_loop(plant, from_config.controller(cfg), t_end=20.0, h=0.01,
                                    reference=1.0)
     assert run.metrics["stable"]
     assert np.array_equal(run.signals["u"], loop.signals["u"])

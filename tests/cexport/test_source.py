@@ -233,7 +233,7 @@ def test_float_build_keeps_the_paper_voltage_loop_stable(tmp_path):
     exact = mfcontrol.run_case(case)
     src = c_source(mfcontrol.make_controller(case), real="float")
     ctrl = _CController(H.build(src, tmp_path, shared=True), src)
-    plant, changes = mfcontrol.api.params.plant_and_changes(cfg)
+    plant, changes = mfcontrol.api.run.from_config.plant_and_changes(cfg)
     res = mfcontrol.simulate_loop(plant, ctrl, exact.signals["y_ref"], t_end=cfg["sim.t_end"],
                                   h=cfg["sim.h"], changes=changes)
     assert res.engine == "python"

@@ -314,7 +314,7 @@ def test_t_end_not_whole_message():
     (0.3, 0.1, 3),
 ])
 def test_whole_number_of_steps_allowing_rounding(t_end, h, n):
-    from mfcontrol.api.scenario import n_steps
+    from mfcontrol.api.run.scenario import n_steps
 
     cfg = resolve({"sim.t_end": t_end, "sim.h": h})
     assert n_steps(cfg) == n

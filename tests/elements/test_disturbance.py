@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mfcontrol.api.elements import Disturbance, column
+from mfcontrol.api.model.elements import Disturbance, column
 from mfcontrol.elements import disturbance, layout
 
 

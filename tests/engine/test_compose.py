@@ -5,7 +5,7 @@ import pytest
 
 import mfcontrol
 from mfcontrol import Change, simulate_loop
-from mfcontrol.api.plants import LTI, ODE, Boost, Buck, FirstOrder
+from mfcontrol.api.model.plants import LTI, ODE, Boost, Buck, FirstOrder
 
 
 class _Opaque:
@@ -197,7 +197,7 @@ def test_lti_exact_step_follows_a_scheduled_change_and_matches_python_control():
 
 
 def test_rk45_in_the_engine_agrees_with_scipy_in_the_python_driver():
-    class PyFirstOrder(mfcontrol.api.plants.Plant):
+    class PyFirstOrder(mfcontrol.api.model.plants.Plant):
         def __init__(self):
             super().__init__(("y",), (0.0,), integrator="rk45", rtol=1e-10, atol=1e-12)
 
@@ -357,7 +357,7 @@ def test_vectorised_members_equal_their_single_runs(law, f, monkeypatch):
     # 70 members in the vectorised loop (a block of 64 and a part block), each with its own
     # J and gain, its load step at its own sample, some going bad at different samples:
     # the metrics and law memory of each are those of its single run, bit for bit
-    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.api.run.loop import law_arrays, run_members
     from mfcontrol.engine import compose, metrics
 
     assert 64 < 70 < 2 * compose.LANES
@@ -425,7 +425,7 @@ def test_vectorised_members_with_references_of_their_own_equal_their_single_runs
         own, monkeypatch):
     # each member its own reference: a row of R, or its own reference parameters (half
     # the blocks sharing them, half not): as its single run, bit for bit
-    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.api.run.loop import law_arrays, run_members
     from mfcontrol.engine import metrics
     from mfcontrol.laws import reference
 
@@ -572,7 +572,7 @@ def test_a_member_whose_law_output_goes_non_finite_in_the_vectorised_loop_stops_
     # the vectorised law flags a non-finite output (here an external alpha of 0: an
     # infinite gain) while every measurement is good: that member stops at that sample,
     # with the metrics and law memory of its single run, and the others run on
-    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.api.run.loop import law_arrays, run_members
     from mfcontrol.engine import metrics
 
     h, t_end, m = 1e-3, 0.3, 70
@@ -604,7 +604,7 @@ def test_vectorised_members_whose_references_differ_in_the_sign_of_zero_keep_it(
     # review: members sharing a block were taken to share the reference when their
     # parameters compared equal, and +0 == -0: a level of -0.0 gave r = +0.0 in the law's
     # memory, where the single run keeps -0.0
-    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.api.run.loop import law_arrays, run_members
     from mfcontrol.engine import metrics
     from mfcontrol.laws import intelligent, reference
 
@@ -680,7 +680,7 @@ def _loops_chosen(monkeypatch) -> list[str]:
 
 @pytest.mark.parametrize("sweep", [*LIBRARY_SWEEPS, "boost-rk4-own-functions"])
 def test_built_in_plants_in_the_vectorised_loop_equal_their_single_runs(sweep, monkeypatch):
-    from mfcontrol.api.simulate import batch_metrics, member_parts
+    from mfcontrol.api.run.simulate import batch_metrics, member_parts
     from mfcontrol.engine import metrics
     from mfcontrol.numerics import blocks
 
@@ -729,7 +729,7 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
     # final states and
     # carried steps those of the member loop. 130 members (two blocks and a part block)
     # over enough samples for two threads.
-    from mfcontrol.api.loop import law_arrays, run_members
+    from mfcontrol.api.run.loop import law_arrays, run_members
     from mfcontrol.engine import compose, metrics
 
     m = 130
@@ -817,7 +817,7 @@ REALISTIC_SWEEPS = {
 
 @pytest.mark.parametrize("sweep", list(REALISTIC_SWEEPS))
 def test_realistic_loops_in_the_vectorised_loop_equal_their_single_runs(sweep, monkeypatch):
-    from mfcontrol.api.simulate import batch_metrics, member_parts
+    from mfcontrol.api.run.simulate import batch_metrics, member_parts
     from mfcontrol.engine import metrics
 
     cfgs = _case_members(*REALISTIC_SWEEPS[sweep])

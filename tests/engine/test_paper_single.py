@@ -5,7 +5,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mfcontrol
-from mfcontrol.api import scenario
+from mfcontrol.api.run import scenario
 from mfcontrol.experiments.cases import resolve_case
 
 
@@ -14,7 +14,7 @@ def _cfg(case, **over):
 
 
 def _batch_metrics(base, key, values):
-    from mfcontrol.api import batch
+    from mfcontrol.api.run import batch
 
     grid = batch.make_grid(base, {key: np.asarray(values, dtype=float)})
     return grid, batch.run_grid(grid)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.api import batch
+from mfcontrol.api.run import batch
 from mfcontrol.engine import paper_sweep
 from mfcontrol.experiments.cases import resolve_case
 from mfcontrol.laws import recursive_ip
@@ -188,7 +188,7 @@ def test_members_going_bad_on_a_tiles_first_or_last_sample_equal_their_single_ru
 
 _CACHED_SWEEPS = """
 import numpy as np
-from mfcontrol.api import batch
+from mfcontrol.api.run import batch
 from mfcontrol.experiments.cases import resolve_case
 base = resolve_case("voltage-stable-standard", {"sim.t_end": 2e-3})[1]
 grid = batch.make_grid(base, {"controller.alpha": np.logspace(0, 2, 8)})

@@ -32,7 +32,7 @@ def test_every_benchmark_case_is_complete():
         assert cfg["reference.kind"] == "smooth-step"
         for key in ("benchmark.pid", "benchmark.ip", "benchmark.ipi"):
             assert bm.parse_parameters(cfg[key])
-        assert len(mfcontrol.api.batch.parse_grid(cfg["benchmark.robustness"])) == 2
+        assert len(mfcontrol.api.run.batch.parse_grid(cfg["benchmark.robustness"])) == 2
 
 
 def test_same_budget_seed_and_objective_for_every_controller(run):
@@ -60,13 +60,13 @@ def test_the_table_is_the_tuned_controllers_runs(run):
         assert n_map == 25 and n_stable >= int(np.isfinite(e.map_scores).sum())
         # the map's member (i, j) is the run of the i-th value of the first axis and the
         # j-th of the second
-        (ky, vy), (kx, vx) = list(mfcontrol.api.batch.parse_grid(
+        (ky, vy), (kx, vx) = list(mfcontrol.api.run.batch.parse_grid(
             best["benchmark.robustness"]).items())
         for i, j in ((0, 4), (4, 0), (2, 2)):
             m = mfcontrol.simulate(best.with_overrides({ky: float(vy[i]),
                                                         kx: mfcontrol.config.resolve.axis_value(
                                                             kx, vx[j])})).metrics
-            obj = mfcontrol.api.objective.Objective.parse(best["benchmark.objective"])
+            obj = mfcontrol.api.results.objective.Objective.parse(best["benchmark.objective"])
             assert e.map_scores[i, j] == obj.score_run(m)
         finite = e.map_scores[np.isfinite(e.map_scores)]
         assert row.worst_map_stable == (finite.max() if finite.size else math.inf)

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 import mfcontrol
-from mfcontrol.api.objective import Objective
+from mfcontrol.api.results.objective import Objective
 from mfcontrol.experiments import cases
 from mfcontrol.experiments.tune import parse_parameters, tune
 
@@ -216,7 +216,7 @@ def test_a_population_that_fails_everywhere_is_not_converged(closed_form):
 
 def test_ctrl_c_during_the_first_batch_writes_what_it_can(closed_form, tmp_path,
                                                           monkeypatch):
-    from mfcontrol.api import batch
+    from mfcontrol.api.run import batch
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
@@ -230,7 +230,7 @@ def test_ctrl_c_during_the_first_batch_writes_what_it_can(closed_form, tmp_path,
 
 
 def test_an_error_inside_the_search_is_the_error_not_scipys(closed_form, monkeypatch):
-    from mfcontrol.api import batch
+    from mfcontrol.api.run import batch
 
     def refused(*args, **kwargs):
         raise mfcontrol.ConfigError("plant.a", 1.0, "a message of ours")

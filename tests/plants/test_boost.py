@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from mfcontrol.api.plants import Boost
+from mfcontrol.api.model.plants import Boost
 from mfcontrol.plants import boost
 
 P = {"E": 20.0, "L": 1e-3, "R": 10.0, "C": 10e-6}

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from mfcontrol.api.plants import FirstOrder
+from mfcontrol.api.model.plants import FirstOrder
 from mfcontrol.plants import first_order as fo
 
 # the plant object steps with the engine's functions: the one RK4 on fo.rhs, or fo.advance

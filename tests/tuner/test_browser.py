@@ -16,7 +16,7 @@ import sys
 
 import pytest
 
-from mfcontrol.api.simulate import simulate
+from mfcontrol.api.run.simulate import simulate
 from mfcontrol.cli import main
 from mfcontrol.experiments.cases import resolve_case
 

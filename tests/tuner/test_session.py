@@ -9,7 +9,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from mfcontrol.api.simulate import simulate
+from mfcontrol.api.run.simulate import simulate
 from mfcontrol.cli import main
 from mfcontrol.config.toml import parse_assignment
 from mfcontrol.errors import CaseError, ConfigError

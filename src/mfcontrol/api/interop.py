@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import live
-from .controllers import IntelligentController, RecursiveIP
+from .model.controllers import IntelligentController, RecursiveIP
 
 
 def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
@@ -38,7 +38,7 @@ def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
     >>> sys.ninputs, sys.noutputs, sys.isdtime()
     (2, 1, True)
     """
-    import control
+    import control  # here: python-control takes about 2 s to import
 
     CP = controller._CP
     inputs = ["y", "r"]

@@ -1,13 +1,15 @@
-"""The one translator from a resolved configuration to what the engines run.
+"""The one translator from a resolved configuration to the engines' arrays: parameter
+columns of the paper's kernels (:func:`buck_column`, :func:`recursive_law_column`,
+:func:`reference_column`, :func:`buck_state_column`), one column per member, or one column
+per value of a swept key given as an array; the metric settings; an LTI model's state
+space.
 
-* parameter columns of the paper's kernels (:func:`buck_column`,
-  :func:`recursive_law_column`, :func:`reference_column`, :func:`buck_state_column`): one
-  column per member, or one column per value of a swept key given as an array;
-* plant and controller objects and the schedule (:func:`plant`, :func:`controller`,
-  :func:`changes`), what the general engine (:mod:`mfcontrol.api.loop`) runs. A positional
-  law's constructor fills its own parameter column (:mod:`mfcontrol.laws.intelligent`),
-  the live :class:`~mfcontrol.api.controllers.RecursiveIP` calls
-  :func:`recursive_law_column`.
+It builds on no other module of :mod:`mfcontrol.api`: the live
+:class:`~mfcontrol.api.model.controllers.RecursiveIP` fills its column through
+:func:`recursive_law_column` as a case and a sweep do. A positional law's constructor fills
+its own parameter column (:mod:`mfcontrol.laws.intelligent`); the plant, controller and
+schedule objects a configuration describes are built by
+:mod:`mfcontrol.api.run.from_config`.
 """
 
 from __future__ import annotations
@@ -16,36 +18,10 @@ import math
 
 import numpy as np
 
-from ..config.options import POSITIONAL
-from ..config.resolve import Config, keys_read
-from ..elements import layout
+from ..config.resolve import Config
 from ..engine import metrics as engine_metrics
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
-from .controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
-from .elements import Actuator, Disturbance, Sensor, column
-from .loop import Change
-
-
-def plant(cfg: Config):
-    from .plants import LTI, Boost, Buck, DCMotor, FirstOrder
-
-    model, integ = cfg["plant.model"], cfg["sim.integrator"]
-    if model == "dc-motor":
-        return DCMotor(**{k: cfg[f"plant.{k}"] for k in ("J", "friction", "Km", "Ra", "La",
-                                                          "load")},
-                       x0=(cfg["plant.y0"], cfg["plant.i0"]), integrator=integ)
-    if model == "lti":
-        return LTI(*transfer_function_state_space(cfg), integrator=integ)
-    if model == "first-order":
-        return FirstOrder(cfg["plant.a"], cfg["plant.b"], cfg["plant.w"],
-                          x0=cfg["plant.y0"], integrator=integ)
-    x0 = (cfg["plant.i0"], cfg["plant.v0"])
-    electrical = {k: cfg[f"plant.{k}"] for k in ("E", "L", "R", "C")}
-    if model == "boost":
-        return Boost(**electrical, x0=x0, integrator=integ)
-    return Buck(**electrical, coupling=cfg["plant.coupling"], output=cfg["plant.output"],
-                x0=x0, integrator=integ)
 
 
 def transfer_function_state_space(cfg: Config) -> tuple[np.ndarray, np.ndarray,
@@ -53,7 +29,7 @@ def transfer_function_state_space(cfg: Config) -> tuple[np.ndarray, np.ndarray,
     """(A, B, C) of K G(time_scale s) for the lti model: scipy's controllable canonical
     realisation of the (strictly proper) transfer function ``plant.num / plant.den``, with
     the coefficient of s^i scaled by time_scale^i (every time constant multiplied)."""
-    from scipy import signal
+    from scipy import signal  # here: nearly 1 s of import that only the lti model needs
 
     tau = cfg["plant.time_scale"]
     num, den = (np.trim_zeros(np.asarray(cfg[k], dtype=float), "f")
@@ -62,86 +38,6 @@ def transfer_function_state_space(cfg: Config) -> tuple[np.ndarray, np.ndarray,
     den = den * tau ** np.arange(den.size - 1, -1, -1.0)
     A, B, C, _ = signal.tf2ss(num, den)
     return A, B.reshape(-1), C.reshape(-1)
-
-
-def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
-    law = cfg["controller.law"]
-    limits = (cfg["controller.duty_min"], cfg["controller.duty_max"])
-    if law == "pid":
-        return PID(cfg["controller.kp"], cfg["controller.ki"], cfg["controller.kd"],
-                   sample_time=cfg["sim.h"], N=cfg["controller.N"], b=cfg["controller.b"],
-                   Tt=cfg["controller.Tt"], output_limits=limits)
-    if law not in POSITIONAL:
-        # the controller keys its parameter column reads, given to the live controller
-        # (which builds the same column from them)
-        read = keys_read(recursive_law_column, cfg, cfg["sim.h"])
-        keys = {k.removeprefix("controller.") for k in read
-                if k.startswith("controller.")} - {"alpha", "kp"}
-        return RecursiveIP(cfg["controller.alpha"], cfg["controller.kp"],
-                           sample_time=cfg["sim.h"],
-                           **{k: cfg[f"controller.{k}"] for k in sorted(keys)})
-    options = {
-        "sample_time": cfg["sim.h"], "order": cfg["controller.order"],
-        "output_limits": limits, "estimator": cfg["controller.estimator"],
-        "window": cfg["controller.window"] if cfg["controller.estimator"] == "algebraic"
-        else None,
-        "anti_windup": ("clamp" if cfg["controller.anti_windup"] == "auto"
-                        else cfg["controller.anti_windup"]),
-        "k_aw": cfg["controller.k_aw"], "gain": cfg["controller.adapt"],
-        "gamma0": cfg["controller.gamma0"], "Gamma": cfg["controller.Gamma"],
-        "eps_M": cfg["controller.eps_M"], "integrator": cfg["controller.integrator"],
-    }
-    # each law reads only its own gains (a translator's reads say what a key affects)
-    a, kp = cfg["controller.alpha"], cfg["controller.kp"]
-    if law == "i-P":
-        return IP(a, kp, **options)
-    if law == "i-PI":
-        return IPI(a, kp, cfg["controller.ki"], **options)
-    if law == "i-PD":
-        return IPD(a, kp, cfg["controller.kd"], **options)
-    return IPID(a, kp, cfg["controller.ki"], cfg["controller.kd"], **options)
-
-
-def elements(cfg: Config) -> np.ndarray:
-    """The loop's elements (``[sensor]``, ``[actuator]``, ``[disturbance]``,
-    ``sim.substeps``) as the engine's LP column."""
-    def section(name: str, kind):
-        return kind(**{k: cfg[f"{name}.{k}"] for k in kind.__dataclass_fields__})
-
-    return column(section("sensor", Sensor), section("actuator", Actuator),
-                  section("disturbance", Disturbance), cfg["sim.substeps"])
-
-
-def ideal_loop(cfg: Config) -> bool:
-    """No sensor, actuator or disturbance element, one integration step per sample: the
-    loop the paper's kernels run."""
-    return layout.plain(elements(cfg))
-
-
-def changes(cfg: Config) -> list[Change]:
-    """The converters' load changes (R += dR, C += dC) and the general schedule."""
-    out = []
-    if cfg["plant.model"] in ("buck", "boost"):
-        for t in cfg["plant.change_times"]:
-            out += [Change(t, "R", cfg["plant.dR"], add=True),
-                    Change(t, "C", cfg["plant.dC"], add=True)]
-    for e in cfg["plant.schedule"]:
-        out.append(Change(e["t"], e["name"], e.get("set", e.get("add")), add="add" in e))
-    return out
-
-
-def plant_and_changes(cfg: Config):
-    """The plant and its schedule, the schedule checked against the plant's own rules
-    (a value that would make a parameter invalid is refused here, at the edge)."""
-    from ..errors import ConfigError
-    from .loop import _check_changes
-
-    p, ch = plant(cfg), changes(cfg)
-    try:
-        _check_changes(p, ch)
-    except ConfigError as exc:
-        raise ConfigError("plant.schedule", f"{exc.key} = {exc.value!r}", exc.allowed) from None
-    return p, ch
 
 
 def metric_settings(cfg: Config) -> np.ndarray:
@@ -172,7 +68,7 @@ def buck_column(cfg: Config) -> np.ndarray:
 def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
     """The recursive law's parameter column (rows of :mod:`mfcontrol.laws.recursive_ip`):
     the one translator of its options, for cases, sweeps and the live
-    :class:`~mfcontrol.api.controllers.RecursiveIP` alike. ``h``: the sample period
+    :class:`~mfcontrol.api.model.controllers.RecursiveIP` alike. ``h``: the sample period
     back-calculation uses (default ``sim.h``)."""
     col = np.zeros((recursive_ip.N_PARAMS, _width(cfg)))
     variational = cfg["controller.law"] == "variational"

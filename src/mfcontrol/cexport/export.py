@@ -6,7 +6,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..api.controllers import _Controller
+from ..api.model.controllers import _Controller
 from ..config.resolve import Config
 from ..errors import ConfigError
 from .source import CSource, c_source

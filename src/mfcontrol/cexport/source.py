@@ -1,7 +1,7 @@
 """A live controller as a C99 header and source file.
 
 The law is translated from :mod:`mfcontrol.laws` (:mod:`mfcontrol.cexport.translate`); this
-module adds what the live controller of :mod:`mfcontrol.api.controllers` adds around it:
+module adds what the live controller of :mod:`mfcontrol.api.model.controllers` adds around it:
 the measurement guard (a NaN or infinite measurement returns the last output and is
 counted; so is a step whose output is not finite, which leaves the state as it was), the
 manual mode with its bumpless return to automatic, and the parameter table baked in.
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._version import __version__
-from ..api.controllers import PID, IntelligentController, RecursiveIP
+from ..api.model.controllers import PID, IntelligentController, RecursiveIP
 from ..errors import ConfigError
 from ..laws import estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
@@ -343,7 +343,7 @@ void @P@_set_auto(@P@_state *s);
 #endif
 """
 
-_DRIVER = """/* the live controller around the law (as mfcontrol.api.controllers) */
+_DRIVER = """/* the live controller around the law (as mfcontrol.api.model.controllers) */
 static void @P@_save(@P@_state *s)
 {
     long i;

@@ -43,8 +43,8 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..api import batch
-from ..api.objective import Objective
+from ..api.results.objective import Objective
+from ..api.run import batch
 from ..config.resolve import Config
 from ..errors import ConfigError
 from . import cases
@@ -208,7 +208,7 @@ def _tuned(plant: _Plant, name: str, law: str, budget: int, seed: int, out: Path
 
 def _evaluate(plant: _Plant, name: str, cfg: Config | None, tuned: dict, evaluations: int,
               seconds: float) -> Entry:
-    from ..api.simulate import simulate
+    from ..api.run.simulate import simulate
 
     if cfg is None:  # the search found no stable point: nothing to evaluate
         shape = tuple(v.size for v in plant.robustness.values())
@@ -315,7 +315,7 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
     """report.md, results.csv and robustness.png from the entries."""
     import pandas as pd
 
-    from ..api.plotting import robustness_maps
+    from ..api.results.plotting import robustness_maps
     from .compare import format_number as num
 
     out.mkdir(parents=True, exist_ok=True)

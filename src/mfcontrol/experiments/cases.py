@@ -7,14 +7,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..api.result import Result, SweepResult
-from ..api.simulate import simulate, simulate_sweep
+from ..api.results.result import Result, SweepResult
+from ..api.run.simulate import simulate, simulate_sweep
 from ..config.resolve import Config, resolve
 from ..config.toml import flatten
 from ..errors import CaseError
 
 if TYPE_CHECKING:
-    from ..api.controllers import PID, IntelligentController, RecursiveIP
+    from ..api.model.controllers import PID, IntelligentController, RecursiveIP
 
 CASES_DIR = Path(__file__).parent / "cases"
 
@@ -107,7 +107,8 @@ def run_config(cfg: Config, name: str = "", *, fast: bool = False) -> Result | S
 def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | None = None
                     ) -> IntelligentController | RecursiveIP | PID:
     """The live controller of a case: the object a sampling loop (or exported C) runs, built
-    by the translator every run of the case uses (:func:`mfcontrol.api.params.controller`).
+    by the translator every run of the case uses
+    (:func:`mfcontrol.api.run.from_config.controller`).
 
     Parameters
     ----------
@@ -134,7 +135,7 @@ def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | No
     >>> bool((u == r.signals["u"]).all())
     True
     """
-    from ..api.params import controller
+    from ..api.run.from_config import controller
 
     cfg = case.with_overrides(dict(overrides or {})) if isinstance(case, Config) else \
         resolve_case(case, overrides)[1]

@@ -22,10 +22,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..api import display
-from ..api import metrics as _metrics
-from ..api.metrics import COLUMNS
-from ..api.result import Result
+from ..api.results import display
+from ..api.results import metrics as _metrics
+from ..api.results.metrics import COLUMNS
+from ..api.results.result import Result
 from ..config.resolve import Config
 from ..errors import ConfigError
 
@@ -110,7 +110,7 @@ class Comparison(display.Shown):
 
     def save(self, out: str | Path, title: str | None = None) -> Path:
         """Write comparison.csv, comparison.md and comparison.png into ``out``."""
-        from ..api.plotting import comparison
+        from ..api.results.plotting import comparison
 
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
@@ -143,7 +143,7 @@ def format_number(v: Any, digits: int = 4) -> str:
 def controller_label(cfg: Config) -> str:
     """The controller in a few words: its law and gains, e.g. ``i-PI (alpha 50, kp 10,
     ki 30)``."""
-    from ..api.params import controller
+    from ..api.run.from_config import controller
     from ..config.resolve import keys_read
 
     law = cfg["controller.law"]
@@ -179,7 +179,7 @@ def compare(cases: Sequence[str | Path | Config],
     >>> [row["case"] for row in c.rows()], c.differences()
     (['motor-noise-pid', 'motor-noise-ipi-algebraic'], {})
     """
-    from ..api.simulate import simulate
+    from ..api.run.simulate import simulate
     from . import cases as _cases
 
     if len(cases) < 2:

@@ -8,7 +8,7 @@ the rows into a grid ``metric(x, y)`` and draws it with ``pcolormesh`` on the ce
 diverged: their metrics only cover the samples before divergence, so a member that blew up
 early would otherwise look like the best one.
 
-Uses matplotlib's object API (no pyplot), like :mod:`mfcontrol.api.plotting`.
+Uses matplotlib's object API (no pyplot), like :mod:`mfcontrol.api.results.plotting`.
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
-from ..api import metrics as _metrics
-from ..api.plotting import save_figure
+from ..api.results import metrics as _metrics
+from ..api.results.plotting import save_figure
 from ..config import options
 
 if TYPE_CHECKING:
@@ -393,7 +393,7 @@ def heatmap(frame: pd.DataFrame, x: str, y: str, metric: str, *, ax=None,
 
 def _units(frame) -> tuple[str, str]:
     """The output's and input's units of the case a sweep's frame came from, when known."""
-    from ..api.plotting import units
+    from ..api.results.plotting import units
     from .cases import resolve_case
 
     meta = frame.attrs.get("sweep") or {}

@@ -10,8 +10,8 @@ import datetime as _dt
 import numpy as np
 
 from .._version import __version__
-from ..api.metrics import STABILITY_RULE
-from ..api.result import Result
+from ..api.results.metrics import STABILITY_RULE
+from ..api.results.result import Result
 from .cases import resolve_case
 from .stability import growth_rate, spectral_radius
 

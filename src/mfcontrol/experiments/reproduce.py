@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from ..api.plotting import (
+from ..api.results.plotting import (
     plot_gamma,
     plot_long_horizon,
     plot_run,
@@ -26,7 +26,7 @@ from ..api.plotting import (
     title_in_words,
     units,
 )
-from ..api.result import Result, SweepResult
+from ..api.results.result import Result, SweepResult
 from . import maps, report
 from .cases import resolve_case, run_case
 
@@ -47,7 +47,7 @@ def run_map(case: str, fidelity: str):
     """All members of a map case's grid, as a DataFrame."""
     import pandas as pd
 
-    from ..api import batch
+    from ..api.run import batch
 
     _, cfg = resolve_case(case, {"fidelity": fidelity})
     axes = batch.parse_grid(cfg["sweep.grid"])

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..api import scenario
+from ..api.run import scenario
 from ..config.resolve import Config
 from ..engine import metrics, paper_single, trajectory
 from ..laws import recursive_ip

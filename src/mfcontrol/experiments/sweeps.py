@@ -32,9 +32,9 @@ import numpy as np
 from filelock import FileLock, Timeout
 
 from .._version import __version__
-from ..api import batch
-from ..api.simulate import simulate
-from ..api.sweep import keep_members
+from ..api.run import batch
+from ..api.run.simulate import simulate
+from ..api.run.sweep import keep_members
 from ..config.resolve import Config
 from ..errors import ConfigError
 
@@ -141,7 +141,7 @@ def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str,
               out: Path, *, keep: int = 0, chunk: int = CHUNK, dask: str | None = None,
               progress: Callable[[int], None] | None = None, fast: bool = False) -> Path:
     """Run (or resume) a sweep into ``out``; return the path of results.parquet.
-    ``fast``: the batch kernel's fast arithmetic (see :func:`mfcontrol.api.batch.run_range`);
+    ``fast``: the batch kernel's fast arithmetic (see :func:`mfcontrol.api.run.batch.run_range`);
     a folder holds one kind, and resuming with the other is refused."""
 
     grid = batch.make_grid(cfg, axes)

@@ -1,10 +1,10 @@
 """``mfcontrol tune``: gains found by simulation, a whole population per batch call.
 
 The search is scipy's differential evolution with ``vectorized=True``: every generation
-is one call of the batch engine (:func:`mfcontrol.api.batch.run_range`) on a grid whose
-first dimension is the population (:class:`mfcontrol.api.batch.Grid`'s ``points``) and
+is one call of the batch engine (:func:`mfcontrol.api.run.batch.run_range`) on a grid whose
+first dimension is the population (:class:`mfcontrol.api.run.batch.Grid`'s ``points``) and
 whose other dimensions are the scenarios. Each member's score is the objective
-(:mod:`mfcontrol.api.objective`) of its run; a point's value is the worst or the mean over
+(:mod:`mfcontrol.api.results.objective`) of its run; a point's value is the worst or the mean over
 its scenarios. A point whose configuration is invalid (the checks across options) or
 whose run diverged scores ``inf``. The case's own values of the tuned keys start in the
 first population when they lie within the bounds (unless ``start_from_case=False``), so
@@ -33,8 +33,9 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..api import batch, display, scenario
-from ..api.objective import AGGREGATES, Objective, aggregate
+from ..api.results import display
+from ..api.results.objective import AGGREGATES, Objective, aggregate
+from ..api.run import batch, scenario
 from ..config.options import BY_KEY
 from ..config.resolve import Config, axis_value
 from ..errors import ConfigError
@@ -197,7 +198,7 @@ class TuneResult(display.Shown):
     def save(self, out: str | Path) -> Path:
         """Write best.toml, summary.json, history.parquet and convergence.png into
         ``out``; return the folder."""
-        from ..api.plotting import convergence
+        from ..api.results.plotting import convergence
 
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
@@ -259,7 +260,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     params : list of "KEY=LO:HI", or {KEY: (LO, HI)}
         The tuned keys and their bounds.
     objective : str
-        A metric or a weighted sum (:mod:`mfcontrol.api.objective`), default ``"iae"``.
+        A metric or a weighted sum (:mod:`mfcontrol.api.results.objective`), default ``"iae"``.
     scenarios : list of "KEY=SPEC", or {KEY: SPEC or values}, optional
         Every point runs on each member of this grid (as ``mfcontrol sweep --grid`` takes
         it): plant variations, noise seeds. None: the case alone.
@@ -530,7 +531,7 @@ class _Abort(Exception):
 def _refuse_keys_without_effect(base: Config, keys: tuple[str, ...]) -> None:
     """A tuned key that nothing a run is built from reads (``controller.ki`` under an
     i-P) would be a flat dimension of the search: refused."""
-    from ..api.simulate import member_parts
+    from ..api.run.simulate import member_parts
     from ..config.resolve import keys_read
 
     read: set[str] = set()
@@ -547,13 +548,13 @@ def _refuse_undefined_objective(obj: Objective, base: Config) -> None:
     """An objective that the case leaves undefined (``iae_load`` without a load step
     within the horizon, a step metric without a step reference) would score inf at every
     point: refused before the search."""
-    from ..api import params
-    from ..api.loop import load_step_of
+    from ..api.run import from_config
+    from ..api.run.loop import load_step_of
 
     names = set(obj.metrics)
     if "iae_load" in names:
         n = scenario.n_steps(base)
-        load = load_step_of(params.elements(base), [params.changes(base)],
+        load = load_step_of(from_config.elements(base), [from_config.changes(base)],
                             base["sim.t_end"], n)[0]
         if not math.isfinite(load):
             raise ConfigError("--objective", obj.text, "iae_load is not defined for this "
@@ -589,6 +590,6 @@ def _badness(cols: dict[str, np.ndarray], n_scen: int, tol: float, n: int) -> np
 
 def _nominal(cfg: Config, obj: Objective) -> float:
     """The objective of the configuration's single run, the way ``mfcontrol run`` runs it."""
-    from ..api.simulate import simulate
+    from ..api.run.simulate import simulate
 
     return obj.score_run(simulate(cfg).metrics)

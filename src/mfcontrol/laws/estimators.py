@@ -106,31 +106,46 @@ def _slide(CS, j, row, n_mom):
 
 
 @step_jit
-def resync_members(CS, j0, j1, base, M):
-    """Recompute every moment of members j0 .. j1-1, all at the same count, from the ring
-    buffer (O(M)); push calls it every M samples. Each member's sums run in the same
-    order whatever the range; the members are the innermost loop, so that over a block
-    of them it vectorises (measured: most of the estimator's time in a sweep, scalar)."""
+def _clear(CS, j, base):
+    """Member j's moments set to zero."""
     for row in range(Y_MOM, RING):
-        for j in range(j0, j1):
-            CS[base + row, j] = 0.0
-    k = int(CS[base + COUNT, j0]) - 1  # newest sample
+        CS[base + row, j] = 0.0
+
+
+@step_jit
+def _add_sample(CS, j, base, M, k, m):
+    """Sample m of the ring added to member j's moments of the window that ends at sample
+    k: y_m, and u_{m-1} (stored with y_m) when it is in the u window."""
     m1 = M + 1
-    half = 0.5 * M
-    for m in range(max(0, k - M), k + 1):  # oldest first, as the direct sum
-        slot = m % m1
-        c = m - k + half
-        for j in range(j0, j1):
-            _add(CS, j, base + Y_MOM + N_YMOM * (m % 2), N_YMOM, c, CS[base + RING + slot, j])
-            if m - 1 >= k - M:  # u_{m-1}, stored with y_m, is in the u window
-                _add(CS, j, base + U_MOM + N_UMOM * ((m + 1) % 2), N_UMOM, c - 1.0,
-                     CS[base + RING + m1 + slot, j])
+    slot = m % m1
+    c = m - k + 0.5 * M
+    _add(CS, j, base + Y_MOM + N_YMOM * (m % 2), N_YMOM, c, CS[base + RING + slot, j])
+    if m - 1 >= k - M:
+        _add(CS, j, base + U_MOM + N_UMOM * ((m + 1) % 2), N_UMOM, c - 1.0,
+             CS[base + RING + m1 + slot, j])
 
 
 @step_jit
 def resync(CS, j, base, M):
-    """Recompute every moment of member j from the ring buffer (O(M))."""
-    resync_members(CS, j, j + 1, base, M)
+    """Recompute every moment of member j from the ring buffer (O(M)); push calls it every
+    M samples."""
+    _clear(CS, j, base)
+    k = int(CS[base + COUNT, j]) - 1  # newest sample
+    for m in range(max(0, k - M), k + 1):  # oldest first, as the direct sum
+        _add_sample(CS, j, base, M, k, m)
+
+
+@step_jit
+def resync_members(CS, j0, j1, base, M):
+    """:func:`resync` of members j0 .. j1-1, all at the same count: the same sums in the
+    same order for each member, with the members the innermost loop, so that over a block
+    of them it vectorises (measured: most of the estimator's time in a sweep, scalar)."""
+    for j in range(j0, j1):
+        _clear(CS, j, base)
+    k = int(CS[base + COUNT, j0]) - 1
+    for m in range(max(0, k - M), k + 1):
+        for j in range(j0, j1):
+            _add_sample(CS, j, base, M, k, m)
 
 
 @step_jit

@@ -7,7 +7,7 @@ reproduces the published trajectories bit for bit.
 The scheme's arithmetic is written once, in :func:`half`, :func:`whole` and
 :func:`combine`, on floats or arrays alike. :func:`step` applies it to a compiled plant
 (the engine); the paper's buck kernel (:func:`mfcontrol.plants.buck.rk4`, its state in
-registers) and a plant written in Python (:meth:`mfcontrol.api.plants.Plant.step`) call
+registers) and a plant written in Python (:meth:`mfcontrol.api.model.plants.Plant.step`) call
 the same three functions.
 """
 

@@ -17,7 +17,7 @@ from bokeh.models.annotations import ColorBar, Legend, LegendItem, Title
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
-from ..api import metrics as _metrics
+from ..api.results import metrics as _metrics
 from ..config import options
 from ..experiments.maps import cell_edges, colour_range, quantity
 from .session import SHORT, RobustnessMap

@@ -32,9 +32,9 @@ from bokeh.models.layouts import TabPanel, Tabs
 from bokeh.models.widgets import Button, Div, MultiChoice, Select, Slider, Spinner, TextInput
 from bokeh.plotting import figure
 
-from ..api import metrics as _metrics
-from ..api.plotting import event_times, plain_labels, units
-from ..api.result import Result
+from ..api.results import metrics as _metrics
+from ..api.results.plotting import event_times, plain_labels, units
+from ..api.results.result import Result
 from ..config.resolve import Config
 from ..errors import ConfigError
 from . import heatmap

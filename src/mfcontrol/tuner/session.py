@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..api import batch, metrics
-from ..api.elements import unread
-from ..api.result import Result
-from ..api.simulate import simulate
+from ..api.model.elements import unread
+from ..api.results import metrics
+from ..api.results.result import Result
+from ..api.run import batch
+from ..api.run.simulate import simulate
 from ..config.options import BY_KEY, OPTIONS, POSITIONAL
 from ..config.resolve import Config, keys_read, resolve
 from ..config.toml import parse_assignment, toml_value
@@ -53,7 +54,7 @@ _SWEEP_KEYS = ("sweep.key", "sweep.values", "sweep.grid")
 TABLE_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "stable", "iae_load",
                  "overshoot", "rise_time", "settling_time", "final_gamma")
 
-#: the metrics' short names: one table for the library (api/metrics.py)
+#: the metrics' short names: one table for the library (api/results/metrics.py)
 SHORT = metrics.SHORT
 
 #: metrics a map or a tuning can be asked for
@@ -431,7 +432,7 @@ class Session:
                        factor: float = 3.0) -> RobustnessMap:
         """A metric over two options, each over n values spanning its current value
         / factor .. * factor (:func:`axis_values`), every member run in a batch
-        (:func:`mfcontrol.api.batch.run_grid`), a row of the map per progress call.
+        (:func:`mfcontrol.api.run.batch.run_grid`), a row of the map per progress call.
 
         Raises ConfigError for an option that is not a member key, the same key twice,
         an unknown metric or values the case refuses.

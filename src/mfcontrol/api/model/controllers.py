@@ -1,0 +1,797 @@
+"""Controllers for a user's own sampling loop, shaped like simple-pid.
+
+>>> import mfcontrol
+>>> ctrl = mfcontrol.IP(alpha=2.0, kp=5.0, sample_time=0.01, output_limits=(-10, 10))
+>>> u = ctrl(0.0, setpoint=1.0)      # first sample: no derivative yet, holds the start
+>>> u = ctrl(0.02, setpoint=1.0)
+>>> sorted(ctrl.components)
+['D', 'F_hat', 'I', 'P', 'feedforward', 'gamma', 'unlimited']
+
+Each call runs the same compiled law as the simulators (:mod:`mfcontrol.laws`). A NaN or
+infinite measurement never reaches the law: the controller returns its last output and
+counts the event in ``nan_count`` (so does a finite measurement that would overflow the
+law). ``snapshot()`` returns plain data (JSON and pickle
+safe); ``restore()`` makes a controller continue bit for bit from it.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable, Mapping
+from typing import Any, Literal, Self, cast, overload
+
+import numpy as np
+
+from ..._version import __version__
+from ...config import options
+from ...engine import live
+from ...laws import estimators, intelligent, pid, recursive_ip
+from ...laws import variational_gain as gain_law
+from ..params import recursive_law_column
+
+_INF = math.inf
+# a tuple, built once: ``int | float | ...`` in a call builds a union type every time
+_REAL = (int, float, np.integer, np.floating)
+
+
+@overload
+def _number(name: str, value: Any, *, positive: bool = ..., nonneg: bool = ...,
+            allow_none: Literal[False] = ...) -> float: ...
+@overload
+def _number(name: str, value: Any, *, positive: bool = ..., nonneg: bool = ...,
+            allow_none: bool) -> float | None: ...
+def _number(name: str, value: Any, *, positive: bool = False, nonneg: bool = False,
+            allow_none: bool = False) -> float | None:
+    if value is None and allow_none:
+        return None
+    ok = isinstance(value, _REAL) and not isinstance(value, bool)
+    if ok:
+        value = float(value)
+        ok = math.isfinite(value) and (not positive or value > 0) and (not nonneg or value >= 0)
+    if not ok:
+        what = "> 0" if positive else (">= 0" if nonneg else "")
+        raise ValueError(f"{name} = {value!r}: must be a finite number {what}".rstrip())
+    return value
+
+
+def _choice(name: str, value: Any, allowed) -> Any:
+    # True == 1: a bool is not a choice among numbers
+    if isinstance(value, bool) or value not in allowed:
+        raise ValueError(f"{name} = {value!r}: must be one of {', '.join(map(str, allowed))}")
+    return value
+
+
+def _limits(value: Any) -> tuple[float | None, float | None]:
+    try:
+        lo, hi = value
+    except (TypeError, ValueError):
+        raise ValueError(f"output_limits = {value!r}: must be a pair (low, high), "
+                         "None for no limit") from None
+    lo = _number("output_limits[0]", lo, allow_none=True)
+    hi = _number("output_limits[1]", hi, allow_none=True)
+    if lo is not None and hi is not None and lo > hi:
+        raise ValueError(f"output_limits = {value!r}: low must not exceed high")
+    return lo, hi
+
+
+class _Controller:
+    """What every live controller shares: call protocol, NaN guard, modes, snapshots."""
+
+    def __init__(self, params: dict[str, Any], n_cp: int, n_cs: int):
+        self._params = params
+        self._CP = np.zeros((n_cp, 1))
+        self._CS = np.zeros((n_cs, 1))
+        self._backup = np.zeros(n_cs)
+        self.nan_count = 0
+        self.auto_mode = True
+        self._setpoint = float(params.get("setpoint", 0.0))
+        self._last_output = 0.0
+        # time of the samples the law did not take since the last one it took (a rejected
+        # measurement or output): the next call's derivatives span it
+        self._skipped = 0.0
+
+    #: the compiled step in :mod:`mfcontrol.engine.live` and how many floats follow its
+    #: three arrays
+    _KERNEL: tuple[str, int]
+
+    #: restart the law from an output applied in manual (set_auto_mode): subclasses define it
+    _bumpless_start: Callable[[float], None]
+
+    def _bind(self) -> None:
+        """Bind the compiled step to this controller's arrays as ``self._step``. It is called
+        without numba's type checks: the arrays must never be replaced, only written."""
+        kernel, n_scalars = self._KERNEL
+        self._step = live.entry_point(getattr(live, kernel), self._CP, self._CS,
+                                      self._backup, *(0.0,) * n_scalars)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        del state["_step"]  # compiled code: bound again on unpickling
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        state.pop("_kernel", None)  # pickles of 0.1.0 before the class held it
+        if "setpoint" in state:
+            state["_setpoint"] = state.pop("setpoint")
+        if isinstance(state.get("_components"), dict):
+            state["_components"] = tuple(state["_components"].values())
+        self.__dict__.update(state)
+        self._bind()
+
+    # subclasses set _KERNEL, fill the parameter column, _bind(), define _reset_state
+    def _reset_state(self) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Forget all history (derivatives, integral, estimator window, adapted gain)."""
+        self._reset_state()
+        self.nan_count = 0
+        self._skipped = 0.0
+
+    @property
+    def setpoint(self) -> float:
+        """The setpoint the next calls use (a call's ``setpoint=`` replaces it)."""
+        return self._setpoint
+
+    @setpoint.setter
+    def setpoint(self, value: float) -> None:
+        self._setpoint = _number("setpoint", value)
+
+    @property
+    def last_output(self) -> float:
+        return self._last_output
+
+    def set_auto_mode(self, enabled: bool, last_output: float | None = None) -> None:
+        """Switch between automatic and manual. Turning automatic on restarts the law from
+        ``last_output`` (the output applied in manual), so the output does not jump."""
+        if enabled and not self.auto_mode:
+            start = self._last_output if last_output is None else _number(
+                "last_output", last_output)
+            self._bumpless_start(start)
+            self._skipped = 0.0
+        elif not enabled and last_output is not None:
+            self._last_output = _number("last_output", last_output)
+        self.auto_mode = bool(enabled)
+
+    def _plain(self, y: Any, setpoint: Any) -> bool:
+        """True for the common call, finite Python floats in automatic mode (and takes the
+        setpoint): the caller skips the general checks of :meth:`_measurement_ok`, which
+        cost as much again as the law; anything else takes the general path."""
+        if (type(y) is float and y - y == 0.0 and self.auto_mode
+                and (setpoint is None or type(setpoint) is float and setpoint - setpoint == 0.0)):
+            if setpoint is not None:
+                self._setpoint = setpoint
+            return True
+        return False
+
+    def _measurement_ok(self, y: float, setpoint: float | None, dt: float = 0.0) -> bool:
+        """Take the setpoint (a finite number, or None to keep it); False when the law must
+        not run (manual mode, or a NaN/inf measurement, which is counted and whose period
+        ``dt`` the next sample's derivatives span): the caller returns the last output."""
+        # both checked before either is taken: a refused call changes nothing
+        if not isinstance(y, _REAL) or isinstance(y, bool):
+            raise ValueError(f"y = {y!r}: the measurement must be a number (NaN and inf are "
+                             "counted in nan_count and hold the output)")
+        if setpoint is not None:
+            self.setpoint = setpoint  # the property checks it
+        if not self.auto_mode:
+            return False
+        if not math.isfinite(y):
+            self.nan_count += 1
+            self._skipped += dt
+            return False
+        return True
+
+    def snapshot(self) -> dict[str, Any]:
+        """Everything needed to continue bit for bit, as plain data."""
+        return {
+            "controller": type(self).__name__, "mfcontrol": __version__,
+            "params": dict(self._params), "state": self._CS[:, 0].tolist(),
+            "last_output": self._last_output, "nan_count": self.nan_count,
+            "auto_mode": self.auto_mode, "setpoint": self.setpoint, "skipped": self._skipped,
+            **self._snapshot_extra(),
+        }
+
+    def _snapshot_extra(self) -> dict[str, Any]:
+        return {}
+
+    _SNAPSHOT_KEYS = ("controller", "params", "state", "last_output", "nan_count",
+                      "auto_mode", "setpoint")
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        """Continue from a snapshot taken of a controller with the same parameters. A
+        snapshot that is not one (missing keys, wrong types) is refused with a ValueError
+        and leaves the controller exactly as it was."""
+        if not isinstance(snap, Mapping):
+            raise ValueError(f"snapshot = {snap!r}: must be the dict snapshot() returns")
+        missing = [k for k in self._SNAPSHOT_KEYS if k not in snap]
+        if missing:
+            raise ValueError(f"snapshot lacks {', '.join(missing)}: must be the dict "
+                             "snapshot() returns")
+        if snap["controller"] != type(self).__name__:
+            raise ValueError(f"snapshot is of a {snap['controller']!r} controller, "
+                             f"not {type(self).__name__!r}")
+        if not isinstance(snap["params"], Mapping) or dict(snap["params"]) != self._params:
+            raise ValueError("snapshot parameters differ from this controller's: build it "
+                             f"with {type(self).__name__}.from_snapshot(snap) instead")
+        try:
+            state = np.asarray(snap["state"], dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"snapshot state = {snap['state']!r:.60}: must be a list of "
+                             "numbers") from None
+        if state.shape != (self._CS.shape[0],):
+            raise ValueError(f"snapshot state has {state.size} values, expected "
+                             f"{self._CS.shape[0]}")
+        nan_count = snap["nan_count"]
+        if not isinstance(nan_count, int | np.integer) or isinstance(nan_count, bool) \
+                or nan_count < 0:
+            raise ValueError(f"snapshot nan_count = {nan_count!r}: must be a whole number "
+                             ">= 0")
+        if not isinstance(snap["auto_mode"], bool | np.bool_):
+            raise ValueError(f"snapshot auto_mode = {snap['auto_mode']!r}: must be True or "
+                             "False")
+        last = _number("snapshot last_output", snap["last_output"])
+        setpoint = _number("snapshot setpoint", snap["setpoint"])
+        skipped = _number("snapshot skipped", snap.get("skipped", 0.0), nonneg=True)
+        extra = self._checked_extra(snap)
+        # everything checked: now write
+        self._CS[:, 0] = state
+        self._last_output, self.nan_count = last, int(nan_count)
+        self.auto_mode, self._setpoint, self._skipped = bool(snap["auto_mode"]), setpoint, skipped
+        self._restore_extra(extra)
+
+    def _checked_extra(self, snap: Mapping[str, Any]) -> Any:
+        return None
+
+    def _restore_extra(self, extra: Any) -> None:
+        pass
+
+    @classmethod
+    def from_snapshot(cls, snap: dict[str, Any]) -> Self:
+        ctrl = cls(**snap["params"])
+        ctrl.restore(snap)
+        return ctrl
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self._params.items())
+        return f"{type(self).__name__}({args})"
+
+
+class _Sampled(_Controller):
+    """A controller with a sample time and output limits: the positional laws."""
+
+    _dt: float
+
+    @property
+    def sample_time(self) -> float:
+        return self._dt
+
+    @property
+    def output_limits(self) -> tuple[float | None, float | None]:
+        lo, hi = self._params["output_limits"]
+        return lo, hi
+
+    def _period(self, dt: float | None) -> float:
+        return self._dt if dt is None else _number("dt", dt, positive=True)
+
+    def _output(self, u: float, dt: float) -> float:
+        """The law's output, or the last one held when the law overflowed (NaN: the
+        compiled step left its state untouched), counted in ``nan_count``."""
+        if u != u:
+            self.nan_count += 1
+            self._skipped += dt
+            return self._last_output
+        self._last_output = u
+        self._skipped = 0.0
+        return u
+
+
+class IntelligentController(_Sampled):
+    """Positional intelligent controller of order n: i-P, i-PI, i-PD or i-PID.
+
+    ``u = -(F_hat - y*^(n) + kp e + ki int(e) + kd e') / alpha`` with ``e = y - y*``
+    (see :mod:`mfcontrol.laws.intelligent`).
+
+    Parameters
+    ----------
+    alpha : float
+        Key gain of the ultra-local model ``y^(n) = F + alpha u`` (> 0; with
+        ``gain="variational"`` its initial value is 1/gamma0).
+    kp, ki, kd : float
+        Proportional, integral and derivative gains on the error.
+    sample_time : float
+        Nominal sample period (s); a call may pass another ``dt``.
+    order : {1, 2}
+        Order n of the ultra-local model.
+    output_limits : (low, high)
+        Output limits, None for none.
+    estimator : {"backward-difference", "algebraic"}
+        How F is estimated; ``window`` (samples, even for order 2) for the algebraic one.
+    anti_windup : {"clamp", "back-calculation", "none"}
+        Integral anti-windup when the output is limited; ``k_aw`` is the back-calculation
+        gain (1/s), by default 1/sample_time: the integral sheds the whole excess of the
+        unlimited output over the limit at each sample.
+    gain : {"constant", "variational", "external"}
+        Gain adaptation: constant alpha, the paper's variational update (``gamma0``,
+        ``Gamma``, ``eps_M``, ``integrator``), or alpha passed to every call
+        (``simulate_loop`` and ``sweep`` take it as ``alpha=``). With an external alpha
+        the constructor's ``alpha`` only shows as ``gamma`` before the first derivative
+        exists, and the algebraic estimator weighs its window's past inputs by the
+        present alpha.
+    setpoint, starting_output : float
+        Initial setpoint and the output held until the first derivative exists.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPID(alpha=1.0, kp=4.0, ki=1.0, kd=2.0, sample_time=0.01)
+    >>> [round(ctrl(y, setpoint=1.0), 4) for y in (0.0, 0.0, 0.01)]
+    [0.0, 0.0, -98.0301]
+
+    Order 2 (the i-PID's default) holds the start for two samples; at the third,
+    F_hat = y'' - alpha u = 0.01 / 0.01**2 = 100, P = 4 (-0.99), I = 1 (-0.99 * 0.01),
+    D = 2 (0.01 / 0.01), and u = -(100 - 3.96 - 0.0099 + 2) / 1:
+
+    >>> {k: round(v, 4) for k, v in ctrl.components.items() if k in ("F_hat", "P", "I", "D")}
+    {'F_hat': 100.0, 'P': -3.96, 'I': -0.0099, 'D': 2.0}
+    """
+
+    _KERNEL = ("intelligent_step", 4)
+
+    def __init__(self, alpha: float, kp: float = 0.0, ki: float = 0.0, kd: float = 0.0, *,
+                 sample_time: float, order: int = 1,
+                 output_limits: tuple[float | None, float | None] = (None, None),
+                 estimator: str = "backward-difference", window: int | None = None,
+                 anti_windup: str = "clamp", k_aw: float | None = None,
+                 gain: str = "constant",
+                 gamma0: float | None = None, Gamma: float = 5e-8, eps_M: float = 0.1,
+                 integrator: str = "first-order", setpoint: float = 0.0,
+                 starting_output: float = 0.0):
+        alpha = _number("alpha", alpha, positive=True)
+        _choice("order", order, (1, 2))
+        _choice("estimator", estimator, tuple(intelligent.ESTIMATORS))
+        _choice("anti_windup", anti_windup, tuple(intelligent.ANTI_WINDUP))
+        _choice("gain", gain, tuple(gain_law.MODES))
+        _choice("integrator", integrator, ("first-order", "second-order"))
+        lo, hi = _limits(output_limits)
+        if estimator == "algebraic":
+            if (not isinstance(window, int) or isinstance(window, bool) or window < 2
+                    or window > estimators.MAX_WINDOW):
+                raise ValueError(f"window = {window!r}: must be a whole number of samples "
+                                 f"from 2 to {estimators.MAX_WINDOW:,} for the algebraic "
+                                 "estimator")
+            if order == 2 and window % 2:
+                raise ValueError(f"window = {window!r}: must be even for order 2 (Simpson)")
+        elif window is not None:
+            raise ValueError(f"window = {window!r}: only the algebraic estimator has one")
+        params: dict[str, Any] = {
+            "alpha": alpha, "kp": _number("kp", kp), "ki": _number("ki", ki),
+            "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
+                                                            positive=True),
+            "order": int(order), "output_limits": [lo, hi], "estimator": estimator,
+            "window": window, "anti_windup": anti_windup,
+            "k_aw": None if k_aw is None else _number("k_aw", k_aw, nonneg=True),
+            "gain": gain,
+            # None (1/alpha) stays None: a controller rebuilt with another alpha (a sweep,
+            # from_snapshot) starts from its own 1/alpha
+            "gamma0": _number("gamma0", gamma0, allow_none=True),
+            "Gamma": _number("Gamma", Gamma), "eps_M": _number("eps_M", eps_M),
+            "integrator": integrator, "setpoint": _number("setpoint", setpoint),
+            "starting_output": _number("starting_output", starting_output),
+        }
+        # (the algebraic estimator's window is a whole number: checked above)
+        m = window if estimator == "algebraic" and window is not None else 0
+        super().__init__(params, intelligent.N_PARAMS, intelligent.n_state(m))
+        cp = self._CP[:, 0]
+        cp[gain_law.MODE] = gain_law.MODES[gain]
+        cp[gain_law.INV_ALPHA] = 1 / alpha
+        cp[gain_law.GAMMA0] = 1 / alpha if params["gamma0"] is None else params["gamma0"]
+        cp[gain_law.GAMMA_RATE] = params["Gamma"]
+        cp[gain_law.EPS_M] = params["eps_M"]
+        cp[gain_law.ORDER] = 2.0 if integrator == "second-order" else 1.0
+        cp[intelligent.N_ORDER] = order
+        cp[intelligent.KP] = params["kp"]
+        cp[intelligent.KI] = params["ki"]
+        cp[intelligent.KD] = params["kd"]
+        cp[intelligent.EST] = intelligent.ESTIMATORS[estimator]
+        cp[intelligent.M_WIN] = m
+        cp[intelligent.OUT_MIN] = -_INF if lo is None else lo
+        cp[intelligent.OUT_MAX] = _INF if hi is None else hi
+        cp[intelligent.AW] = intelligent.ANTI_WINDUP[anti_windup]
+        # default: remove the whole excess over the limit each sample (tracking)
+        cp[intelligent.K_AW] = 1 / params["sample_time"] if k_aw is None else params["k_aw"]
+        cp[intelligent.U_INIT] = min(max(params["starting_output"], cp[intelligent.OUT_MIN]),
+                                     cp[intelligent.OUT_MAX])
+        self._dt = params["sample_time"]
+        self._external = gain == "external"
+        self._bind()
+        self._check_law(params)  # drops the terms this law does not have from _params
+        self._reset_state()
+
+    def _check_law(self, params: dict[str, Any]) -> None:
+        """Subclasses restrict which terms exist."""
+
+    def _reset_state(self) -> None:
+        live.intelligent_reset(self._CP, self._CS)
+        self._last_output = float(self._CP[intelligent.U_INIT, 0])
+
+    def _bumpless_start(self, start: float) -> None:
+        # the C export writes these steps out in C (mfcontrol/cexport/source.py), held
+        # equal by tests/cexport
+        lo, hi = self._CP[intelligent.OUT_MIN, 0], self._CP[intelligent.OUT_MAX, 0]
+        self._reset_state()
+        start = min(max(start, lo), hi)
+        self._CS[intelligent.U1, 0] = start
+        self._last_output = start
+
+    def __call__(self, y: float, setpoint: float | None = None, dt: float | None = None,
+                 alpha: float | None = None) -> float:
+        """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
+        since the previous call, by default ``sample_time``; after a rejected sample the
+        law's derivatives span both periods."""
+        if dt is None and alpha is None and not self._external and self._plain(y, setpoint):
+            return self._output(self._step(self._CP, self._CS, self._backup, y, self._setpoint,
+                                           self._dt + self._skipped, 1.0), self._dt)
+        dt = self._period(dt)
+        if alpha is not None and not self._external:
+            raise ValueError(f"alpha = {alpha!r}: only a controller built with "
+                             "gain='external' takes alpha at each call")
+        if self._external:
+            if alpha is None:
+                raise ValueError("alpha = None: gain='external' needs a finite alpha > 0 "
+                                 "at every call")
+            alpha = _number("alpha", alpha, positive=True)
+        if not self._measurement_ok(y, setpoint, dt):
+            return self._last_output
+        u = self._step(self._CP, self._CS, self._backup, float(y), self._setpoint,
+                       dt + self._skipped, 1.0 if alpha is None else float(alpha))
+        return self._output(u, dt)
+
+    @property
+    def components(self) -> dict[str, float]:
+        """The terms of the last output: F_hat, feed-forward y*^(n), P, I, D (as they enter
+        the bracket), the output before limiting, and gamma = 1/alpha used."""
+        s = self._CS[:, 0]
+        return {**{name: float(s[row]) for name, row in intelligent.COMPONENTS},
+                "unlimited": float(s[intelligent.C_UNLIM]), "gamma": float(s[gain_law.G1])}
+
+    @property
+    def gamma(self) -> float:
+        """The gain 1/alpha used at the last sample."""
+        return float(self._CS[gain_law.G1, 0])
+
+
+class IP(IntelligentController):
+    """Intelligent proportional controller (i-P), ``u = -(F_hat - y*' + kp e)/alpha``.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IP(alpha=1.0, kp=10.0, sample_time=0.01, output_limits=(-5, 5))
+    >>> y, out = 0.0, []
+    >>> for _ in range(3):
+    ...     u = ctrl(y, setpoint=1.0)
+    ...     y += 0.01 * (-y + u)             # the plant y' = -y + u, Euler
+    ...     out.append(round(u, 3))
+    >>> out
+    [0.0, 5.0, 5.0]
+    """
+
+    _drop: tuple[str, ...] = ("ki", "kd")
+
+    def __init__(self, alpha: float, kp: float, **options: Any):
+        super().__init__(alpha, kp, 0.0, 0.0, **options)
+
+    def _check_law(self, params):
+        for key in self._drop:
+            params.pop(key)
+
+
+class IPI(IP):
+    """Intelligent PI controller: the i-P plus ``ki`` times the integral of the error.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPI(alpha=1.0, kp=10.0, ki=5.0, sample_time=0.01,
+    ...                      output_limits=(-5, 5))
+    >>> y, out = 0.0, []
+    >>> for _ in range(4):
+    ...     u = ctrl(y, setpoint=1.0)
+    ...     y += 0.01 * (-y + u)             # the plant y' = -y + u, Euler
+    ...     out.append(round(u, 3))
+    >>> out                                  # the start held, then the limit
+    [0.0, 5.0, 5.0, 5.0]
+    """
+
+    _drop = ("kd",)
+
+    def __init__(self, alpha: float, kp: float, ki: float, **options: Any):
+        IntelligentController.__init__(self, alpha, kp, ki, 0.0, **options)
+
+
+class IPD(IP):
+    """Intelligent PD controller, ultra-local model of order 2 by default.
+
+    Examples
+    --------
+    A double integrator y'' = u: order 2 holds the start for two samples (y'' needs three
+    measurements), then F_hat = y'' - alpha u is zero and u = kp (1 - y) - kd y'.
+
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPD(alpha=1.0, kp=25.0, kd=10.0, sample_time=0.01)
+    >>> y = v = 0.0
+    >>> out = []
+    >>> for _ in range(4):
+    ...     u = ctrl(y, setpoint=1.0)
+    ...     v += 0.01 * u
+    ...     y += 0.01 * v
+    ...     out.append(round(u, 3))
+    >>> out
+    [0.0, 0.0, 25.0, 22.438]
+    """
+
+    _drop = ("ki",)
+
+    def __init__(self, alpha: float, kp: float, kd: float, *, order: int = 2, **options: Any):
+        IntelligentController.__init__(self, alpha, kp, 0.0, kd, order=order, **options)
+
+
+class IPID(IP):
+    """Intelligent PID controller, ultra-local model of order 2 by default.
+
+    Examples
+    --------
+    A measurement held at 0 under a setpoint of 1: order 2 holds the start for two
+    samples; at the third, F_hat = y'' - alpha u = 0 and u = -(kp e + ki int(e) + kd e') /
+    alpha with e = -1, int(e) = -0.01 and e' = 0:
+
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.IPID(alpha=1.0, kp=25.0, ki=5.0, kd=10.0, sample_time=0.01)
+    >>> [round(ctrl(y, setpoint=1.0), 3) for y in (0.0, 0.0, 0.0)]
+    [0.0, 0.0, 25.05]
+    """
+
+    _drop = ()
+
+    def __init__(self, alpha: float, kp: float, ki: float, kd: float, *, order: int = 2,
+                 **options: Any):
+        IntelligentController.__init__(self, alpha, kp, ki, kd, order=order, **options)
+
+
+def _show_options(cls: type[IntelligentController]) -> None:
+    """Give an i-P .. i-PID class its full signature and the options' documentation, which
+    live once, on IntelligentController: ``help(mfcontrol.IP)`` showed ``IP(alpha, kp,
+    **options)`` and no option."""
+    own = inspect.signature(cls.__init__, eval_str=True).parameters
+    shown = [p for name, p in own.items() if name != "self" and p.kind is not p.VAR_KEYWORD]
+    taken = {p.name for p in shown}
+    shown += [p for name, p in inspect.signature(IntelligentController.__init__, eval_str=True)
+              .parameters.items() if p.kind is p.KEYWORD_ONLY and name not in taken]
+    # inspect.signature reads a class's __signature__, which typeshed does not declare
+    cast(Any, cls).__signature__ = inspect.Signature(shown)
+    parent = inspect.cleandoc(IntelligentController.__doc__ or "")
+    options = parent[parent.index("Parameters\n"):parent.index("Examples\n")].rstrip()
+    doc = inspect.cleandoc(cls.__doc__ or "")
+    head, sep, examples = doc.partition("Examples\n")
+    cls.__doc__ = f"{head.rstrip()}\n\n{options}\n\n{sep}{examples}".rstrip() + "\n"
+
+
+for _cls in (IP, IPI, IPD, IPID):
+    _show_options(_cls)
+
+
+class RecursiveIP(_Controller):
+    """The paper's recursive i-P (eq. 8) or its variational form (eq. 33), live.
+
+    Takes the configuration keys of ``[controller]`` in a case file (see the README's
+    option table), e.g. ``RecursiveIP(alpha=10, kp=2, law="variational", gamma0=1)``.
+    Returns the applied output ``clip(output_gain * u_k)``; the raw u_k, the gain and gamma
+    are in :attr:`components`. Samples are taken to be equally spaced (the law's
+    derivative scale is ``deriv_scale``, not the sample time). ``sample_time`` (s) is the
+    period of a simulated loop (``simulate_loop``'s default ``h``) and sets
+    back-calculation's share k_aw h; without it, back-calculation uses the paper's 1e-6 s
+    and ``simulate_loop`` needs ``h``.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.RecursiveIP(alpha=10.0, kp=2.0)
+    >>> ctrl(0.0, setpoint=0.0), ctrl(2.0e-5, setpoint=1e-3)
+    (0.001, 0.001)
+    >>> round(ctrl.components["u_raw"], 6)  # 1 - 0.1 (0.02 - 1) + 2 (1e-3 - 0), published
+    1.1
+    """
+
+    _KERNEL = ("recursive_step", 2)
+
+    def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
+                 sample_time: float | None = None, **controller_keys: Any):
+        from ...config.resolve import resolve
+        from ...errors import ConfigError
+
+        keys = {"controller.alpha": alpha, "controller.kp": kp}
+        for name, value in controller_keys.items():
+            keys[f"controller.{name}"] = value
+        try:
+            cfg = resolve(keys)
+        except ConfigError as exc:
+            if exc.key.startswith("controller.") and "unknown key" in str(exc):
+                raise TypeError(f"RecursiveIP() got an unexpected keyword argument "
+                                f"{exc.key.removeprefix('controller.')!r}") from None
+            raise ValueError(str(exc).removeprefix("controller.")) from None
+        if cfg["controller.law"] not in ("ip", "variational"):
+            raise ValueError(f"law = {cfg['controller.law']!r}: RecursiveIP is the paper's law, "
+                             "'ip' or 'variational' (the positional laws are IP, IPI, IPD, "
+                             "IPID)")
+        # the values as resolved (plain Python numbers): the snapshot is JSON
+        params = {"alpha": cfg["controller.alpha"], "kp": cfg["controller.kp"],
+                  "setpoint": _number("setpoint", setpoint),
+                  **{name: cfg[f"controller.{name}"] for name in controller_keys}}
+        if sample_time is not None:
+            params["sample_time"] = _number("sample_time", sample_time, positive=True)
+        self.sample_time: float | None = params.get("sample_time")
+        super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
+        self._CP[:, 0] = recursive_law_column(cfg, self.sample_time)[:, 0]
+        self._u0 = float(self._CP[recursive_ip.U0, 0])  # the start as built
+        self._bind()
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        # a bumpless start rewrites the law's u0 (its first raw output): a reset undoes it
+        self._CP[recursive_ip.U0, 0] = self._u0
+        live.recursive_reset(self._CP, self._CS)
+        self._last_output = 0.0
+        self._components: tuple[float, ...] = (math.nan, math.nan, math.nan)  # u_raw, gain, gamma
+
+    def _bumpless_start(self, start: float) -> None:
+        # continue from the raw control that produced the manual output
+        raw = start / float(self._CP[recursive_ip.OUT_GAIN, 0])
+        if not math.isfinite(raw):  # checked before anything changes
+            raise ValueError(f"last_output = {start!r}: the raw control it needs, last_output "
+                             f"/ output_gain = {raw!r}, is not a finite number")
+        self._reset_state()
+        self._CP[recursive_ip.U0, 0] = raw
+        self._last_output = start
+
+    def _snapshot_extra(self) -> dict[str, Any]:
+        # the first raw output after a bumpless start lives in the parameter column
+        return {"start": float(self._CP[recursive_ip.U0, 0])}
+
+    def _checked_extra(self, snap: Mapping[str, Any]) -> float:
+        return _number("snapshot start", snap.get("start", self._u0))
+
+    def _restore_extra(self, start: float) -> None:
+        self._CP[recursive_ip.U0, 0] = start
+
+    def __call__(self, y: float, setpoint: float | None = None) -> float:
+        if not self._plain(y, setpoint) and not self._measurement_ok(y, setpoint):
+            return self._last_output
+        u, applied, g, gamma = self._step(self._CP, self._CS, self._backup, float(y),
+                                          self._setpoint)
+        if applied != applied:
+            self.nan_count += 1
+            return self._last_output
+        self._components = (u, g, gamma)  # the dict is built when asked for
+        self._last_output = applied
+        return applied
+
+    @property
+    def components(self) -> dict[str, float]:
+        return dict(zip(("u_raw", "gain", "gamma"), self._components, strict=True))
+
+#: the case keys the recursive law reads (tests/api/model/test_controllers.py holds this equal
+#: to what api.params.recursive_law_column reads), documented from config/options.py
+RECURSIVE_KEYS = ("controller.law", "controller.alpha", "controller.kp",
+                  "controller.anti_windup", "controller.k_aw", "controller.gamma0",
+                  "controller.Gamma", "controller.eps_M", "controller.k_gamma",
+                  "controller.integrator", "controller.rate_term", "controller.rate_sign",
+                  "controller.gain", "controller.deriv_scale", "controller.output_gain",
+                  "controller.duty_min", "controller.duty_max", "controller.p_sample",
+                  "controller.p_error", "controller.u0")
+RecursiveIP.__doc__ = options.with_parameters(
+    RecursiveIP.__doc__, options.numpydoc_parameters(RECURSIVE_KEYS) + """
+setpoint : float
+    Initial setpoint.
+sample_time : float, optional
+    Period of a simulated loop (s), see above.""")
+
+class PID(_Sampled):
+    """The discrete PID of Astrom and Hagglund, the baseline of every comparison
+    (:mod:`mfcontrol.laws.pid`): ``P = kp (b r - y)``, a derivative on the measurement
+    filtered with time constant Td / N, back-calculation anti-windup with tracking time
+    Tt (``Ti = kp / ki``, ``Td = kd / kp``). Gains act on ``r - y``: positive for a plant
+    whose output rises with its input, as in simple-pid.
+
+    Parameters
+    ----------
+    kp, ki, kd : float
+        Proportional, integral (1/s) and derivative (s) gains; kd needs kp of its sign,
+        ki too unless ``Tt`` is given.
+    sample_time : float
+        Sample period h (s); a call may pass another ``dt``.
+    N : float
+        Derivative filter: time constant Td / N (default 10).
+    b : float
+        Setpoint weight of the proportional term (default 1).
+    Tt : float, optional
+        Tracking time (s); default sqrt(Ti Td) with an integral and a derivative, else Ti.
+    output_limits : (low, high)
+        Output limits, None for none.
+    setpoint : float
+        Initial setpoint.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1, output_limits=(0, 10))
+    >>> ctrl(0.0, setpoint=1.0), round(ctrl(0.5, setpoint=1.0), 6)
+    (2.0, 1.1)
+
+    The first output is P = 2 (1 - 0); the integral then holds 1 * 0.1 * 1 = 0.1, and the
+    second output is 2 (1 - 0.5) + 0.1.
+    """
+
+    _KERNEL = ("pid_step", 3)
+
+    def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, *, sample_time: float,
+                 N: float = 10.0, b: float = 1.0, Tt: float | None = None,
+                 output_limits: tuple[float | None, float | None] = (None, None),
+                 setpoint: float = 0.0):
+        from ...config.resolve import _check_pid
+        from ...errors import ConfigError
+
+        lo, hi = _limits(output_limits)
+        params: dict[str, Any] = {
+            "kp": _number("kp", kp), "ki": _number("ki", ki), "kd": _number("kd", kd),
+            "sample_time": _number("sample_time", sample_time, positive=True),
+            "N": _number("N", N, positive=True), "b": _number("b", b),
+            "Tt": _number("Tt", Tt, positive=True, allow_none=True),
+            "output_limits": [lo, hi], "setpoint": _number("setpoint", setpoint)}
+        try:
+            _check_pid(params["kp"], params["ki"], params["kd"], params["Tt"])
+        except ConfigError as exc:
+            raise ValueError(str(exc)) from None
+        super().__init__(params, pid.N_PARAMS, pid.N_STATE)
+        cp = self._CP[:, 0]
+        cp[pid.KP], cp[pid.KI], cp[pid.KD] = params["kp"], params["ki"], params["kd"]
+        cp[pid.N], cp[pid.B] = params["N"], params["b"]
+        cp[pid.TT] = pid.tracking_time(params["kp"], params["ki"], params["kd"], params["Tt"])
+        cp[pid.OUT_MIN] = -_INF if lo is None else lo
+        cp[pid.OUT_MAX] = _INF if hi is None else hi
+        self._dt = params["sample_time"]
+        self._bind()
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        live.pid_reset(self._CS, math.nan)
+        self._last_output = 0.0
+
+    def _bumpless_start(self, start: float) -> None:
+        lo, hi = self._CP[pid.OUT_MIN, 0], self._CP[pid.OUT_MAX, 0]
+        start = min(max(start, lo), hi)
+        live.pid_reset(self._CS, start)
+        self._last_output = start
+
+    def __call__(self, y: float, setpoint: float | None = None,
+                 dt: float | None = None) -> float:
+        """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
+        since the previous call, by default ``sample_time``; after a rejected sample the
+        integral and the derivative span both periods."""
+        if dt is None and self._plain(y, setpoint):
+            return self._output(self._step(self._CP, self._CS, self._backup, y, self._setpoint,
+                                           self._dt + self._skipped), self._dt)
+        dt = self._period(dt)
+        if not self._measurement_ok(y, setpoint, dt):
+            return self._last_output
+        u = self._step(self._CP, self._CS, self._backup, float(y), self._setpoint,
+                       dt + self._skipped)
+        return self._output(u, dt)
+
+    @property
+    def components(self) -> dict[str, float]:
+        """The terms of the last output: P, I, D and the output before limiting."""
+        s = self._CS[:, 0]
+        return {**{name: float(s[row]) for name, row in pid.COMPONENTS},
+                "unlimited": float(s[pid.C_UNLIM])}

@@ -1,0 +1,116 @@
+"""A resolved configuration's loop as the objects the general engine
+(:mod:`mfcontrol.api.run.loop`) runs: the plant and its schedule (:func:`plant`,
+:func:`changes`, :func:`plant_and_changes`), the controller (:func:`controller`) and the
+loop elements' column (:func:`elements`). The parameter columns of the paper's kernels
+come from :mod:`mfcontrol.api.params`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...config.options import POSITIONAL
+from ...config.resolve import Config, keys_read
+from ...elements import layout
+from ...errors import ConfigError
+from ..model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
+from ..model.elements import Actuator, Disturbance, Sensor, column
+from ..model.plants import LTI, Boost, Buck, DCMotor, FirstOrder
+from ..model.schedule import Change, _check_changes
+from ..params import recursive_law_column, transfer_function_state_space
+
+
+def plant(cfg: Config):
+    model, integ = cfg["plant.model"], cfg["sim.integrator"]
+    if model == "dc-motor":
+        return DCMotor(**{k: cfg[f"plant.{k}"] for k in ("J", "friction", "Km", "Ra", "La",
+                                                          "load")},
+                       x0=(cfg["plant.y0"], cfg["plant.i0"]), integrator=integ)
+    if model == "lti":
+        return LTI(*transfer_function_state_space(cfg), integrator=integ)
+    if model == "first-order":
+        return FirstOrder(cfg["plant.a"], cfg["plant.b"], cfg["plant.w"],
+                          x0=cfg["plant.y0"], integrator=integ)
+    x0 = (cfg["plant.i0"], cfg["plant.v0"])
+    electrical = {k: cfg[f"plant.{k}"] for k in ("E", "L", "R", "C")}
+    if model == "boost":
+        return Boost(**electrical, x0=x0, integrator=integ)
+    return Buck(**electrical, coupling=cfg["plant.coupling"], output=cfg["plant.output"],
+                x0=x0, integrator=integ)
+
+
+def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
+    law = cfg["controller.law"]
+    limits = (cfg["controller.duty_min"], cfg["controller.duty_max"])
+    if law == "pid":
+        return PID(cfg["controller.kp"], cfg["controller.ki"], cfg["controller.kd"],
+                   sample_time=cfg["sim.h"], N=cfg["controller.N"], b=cfg["controller.b"],
+                   Tt=cfg["controller.Tt"], output_limits=limits)
+    if law not in POSITIONAL:
+        # the controller keys its parameter column reads, given to the live controller
+        # (which builds the same column from them)
+        read = keys_read(recursive_law_column, cfg, cfg["sim.h"])
+        keys = {k.removeprefix("controller.") for k in read
+                if k.startswith("controller.")} - {"alpha", "kp"}
+        return RecursiveIP(cfg["controller.alpha"], cfg["controller.kp"],
+                           sample_time=cfg["sim.h"],
+                           **{k: cfg[f"controller.{k}"] for k in sorted(keys)})
+    options = {
+        "sample_time": cfg["sim.h"], "order": cfg["controller.order"],
+        "output_limits": limits, "estimator": cfg["controller.estimator"],
+        "window": cfg["controller.window"] if cfg["controller.estimator"] == "algebraic"
+        else None,
+        "anti_windup": ("clamp" if cfg["controller.anti_windup"] == "auto"
+                        else cfg["controller.anti_windup"]),
+        "k_aw": cfg["controller.k_aw"], "gain": cfg["controller.adapt"],
+        "gamma0": cfg["controller.gamma0"], "Gamma": cfg["controller.Gamma"],
+        "eps_M": cfg["controller.eps_M"], "integrator": cfg["controller.integrator"],
+    }
+    # each law reads only its own gains (a translator's reads say what a key affects)
+    a, kp = cfg["controller.alpha"], cfg["controller.kp"]
+    if law == "i-P":
+        return IP(a, kp, **options)
+    if law == "i-PI":
+        return IPI(a, kp, cfg["controller.ki"], **options)
+    if law == "i-PD":
+        return IPD(a, kp, cfg["controller.kd"], **options)
+    return IPID(a, kp, cfg["controller.ki"], cfg["controller.kd"], **options)
+
+
+def elements(cfg: Config) -> np.ndarray:
+    """The loop's elements (``[sensor]``, ``[actuator]``, ``[disturbance]``,
+    ``sim.substeps``) as the engine's LP column."""
+    def section(name: str, kind):
+        return kind(**{k: cfg[f"{name}.{k}"] for k in kind.__dataclass_fields__})
+
+    return column(section("sensor", Sensor), section("actuator", Actuator),
+                  section("disturbance", Disturbance), cfg["sim.substeps"])
+
+
+def ideal_loop(cfg: Config) -> bool:
+    """No sensor, actuator or disturbance element, one integration step per sample: the
+    loop the paper's kernels run."""
+    return layout.plain(elements(cfg))
+
+
+def changes(cfg: Config) -> list[Change]:
+    """The converters' load changes (R += dR, C += dC) and the general schedule."""
+    out = []
+    if cfg["plant.model"] in ("buck", "boost"):
+        for t in cfg["plant.change_times"]:
+            out += [Change(t, "R", cfg["plant.dR"], add=True),
+                    Change(t, "C", cfg["plant.dC"], add=True)]
+    for e in cfg["plant.schedule"]:
+        out.append(Change(e["t"], e["name"], e.get("set", e.get("add")), add="add" in e))
+    return out
+
+
+def plant_and_changes(cfg: Config):
+    """The plant and its schedule, the schedule checked against the plant's own rules
+    (a value that would make a parameter invalid is refused here, at the edge)."""
+    p, ch = plant(cfg), changes(cfg)
+    try:
+        _check_changes(p, ch)
+    except ConfigError as exc:
+        raise ConfigError("plant.schedule", f"{exc.key} = {exc.value!r}", exc.allowed) from None
+    return p, ch

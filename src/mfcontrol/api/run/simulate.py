@@ -1,0 +1,175 @@
+"""Run resolved configurations through the compiled engine."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..._version import __version__
+from ...config.resolve import Config, axis_value
+from ...elements import layout
+from ...engine import trajectory
+from ...numerics import grid
+from .. import params
+from ..results import metrics
+from ..results.result import Result, SweepResult
+from . import from_config, scenario
+from .loop import compiled_run, law_arrays, run_members
+
+
+def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: int,
+            fast: bool = False) -> Result:
+    met = metrics.from_kernel(M, j, cfg["metrics.stable_tol"])
+    n = met["n_samples"]
+    signals, states = trajectory.named_rows(traj[:, m, :n], (), scn.state_names)
+    return Result(name=name, config=cfg, time=scn.time()[:n], signals=signals, states=states,
+                  metrics=met, version=__version__, arithmetic="fast" if fast else "exact")
+
+
+def compiled(cfg: Config) -> bool:
+    """Whether the paper's tuned kernel covers this configuration (the paper's laws on the
+    buck with RK4); everything else runs in the general engine
+    (:mod:`mfcontrol.engine.compose`) with the same laws."""
+    return (cfg["plant.model"] == "buck" and cfg["controller.law"] in ("ip", "variational")
+            and cfg["sim.integrator"] == "rk4" and not cfg["plant.schedule"]
+            and from_config.ideal_loop(cfg))
+
+
+def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
+    """Simulate one resolved configuration and return its full trajectory and metrics.
+
+    Parameters
+    ----------
+    cfg : Config
+        A resolved configuration (see :func:`mfcontrol.resolve`).
+    name : str
+        The result's name.
+    fast : bool
+        The compiled engine's fast mode (fused multiply-adds, reciprocals; on the paper's
+        buck also the plant's RK4 step as its linear map): within about 1e-12 relative of
+        the default, which is bit for bit the published arithmetic (``Result.arithmetic``
+        says which). Every configuration has it.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> from mfcontrol.experiments.cases import resolve_case
+    >>> _, cfg = resolve_case("voltage-stable-standard")
+    >>> exact, fast = mfcontrol.simulate(cfg), mfcontrol.simulate(cfg, fast=True)
+    >>> abs(fast.metrics["iae"] / exact.metrics["iae"] - 1) < 1e-12
+    True
+    """
+    if not compiled(cfg):
+        return _simulate_loop(cfg, name, fast)
+    return simulate_many([cfg], name=name, fast=fast)[0]
+
+
+def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
+    n = scenario.n_steps(cfg)
+    t_end = cfg["sim.t_end"]
+    t = grid.times(n, t_end)
+    plant, changes = from_config.plant_and_changes(cfg)
+    ctrl = from_config.controller(cfg)
+    S = params.metric_settings(cfg)
+    # the reference evaluated in the kernel, as a batch of these members evaluates it
+    res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
+                       params.reference_column(cfg), changes, t,
+                       cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast,
+                       LP=from_config.elements(cfg), t_end_key="sim.t_end")
+    return dataclasses.replace(res, config=cfg, changes=())
+
+
+def member_parts() -> dict[str, Callable[[Config], Any]]:
+    """How a member of the general engine is built from its configuration, part by part,
+    by the translators a single run calls (:mod:`mfcontrol.api.run.from_config`,
+    :mod:`mfcontrol.api.params`): ``"plant"``, its engine plant and scheduled changes;
+    ``"law"``, its law's arrays;
+    ``"reference"``, its reference column; ``"elements"``, its loop elements' column."""
+    def plant(cfg: Config) -> tuple[Any, list]:
+        p, changes = from_config.plant_and_changes(cfg)
+        return p.engine(), changes
+
+    return {"plant": plant, "law": lambda cfg: law_arrays(from_config.controller(cfg)),
+            "reference": params.reference_column, "elements": from_config.elements}
+
+
+def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
+                    vectorise: bool | None = None) -> np.ndarray:
+    """The metrics (kernel rows, one column per member) of configurations that share a
+    model, law and time grid, in one batch of the general engine (``vectorise`` as
+    :func:`mfcontrol.api.run.loop.run_members` takes it)."""
+    parts = {name: [build(c) for c in cfgs] for name, build in member_parts().items()}
+    return batch_metrics(cfgs[0], parts, fast=fast, vectorise=vectorise)[0]
+
+
+def batch_metrics(first: Config, parts: Mapping[str, Sequence[Any]], *, fast: bool = False,
+                  vectorise: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(M, CS): the metrics and law memory of members given as their parts (each part's
+    list as :func:`member_parts` builds it, one item per member), built from
+    configurations that share the time grid and metric settings of ``first``, in one
+    batch of the general engine."""
+    n = scenario.n_steps(first)
+    M, _, CS = run_members([ep for ep, _ in parts["plant"]], parts["law"], np.zeros((0, n)),
+                           [ch for _, ch in parts["plant"]], t_end=first["sim.t_end"],
+                           h=first["sim.h"], S=params.metric_settings(first), fast=fast,
+                           RP=np.hstack(parts["reference"]),
+                           LP=layout.stack(parts["elements"]), vectorise=vectorise)
+    return M, CS
+
+
+def simulate_many(cfgs: Sequence[Config], name: str = "", *,
+                  fast: bool = False) -> list[Result]:
+    """Simulate members that share a model, law and time grid in one kernel call
+    (``fast`` as in :func:`simulate`).
+
+    Parameters
+    ----------
+    cfgs : sequence of Config
+        The members' resolved configurations.
+    name : str
+        Prefix of the results' names.
+    fast : bool
+        The engine's fast mode (within about 1e-13 relative of the exact arithmetic).
+
+    Returns
+    -------
+    list of Result
+        One per member, each equal to its single run."""
+    if not all(compiled(c) for c in cfgs):
+        return [simulate(c, name=name, fast=fast) for c in cfgs]
+    scn = scenario.build(cfgs)
+    M, traj = scenario.execute(scn, fast=fast)
+    return [_result(name, c, scn, M, traj, j, j, fast) for j, c in enumerate(cfgs)]
+
+
+def simulate_sweep(cfg: Config, name: str = "", *, fast: bool = False) -> SweepResult:
+    """Every value of ``sweep.key`` on the same, freshly reset scenario (``fast`` as in
+    :func:`simulate`).
+
+    Parameters
+    ----------
+    cfg : Config
+        A resolved configuration with ``sweep.key`` and ``sweep.values``.
+    name : str
+        The result's name.
+    fast : bool
+        The engine's fast mode.
+
+    Returns
+    -------
+    SweepResult"""
+    key, values = cfg["sweep.key"], list(cfg["sweep.values"])
+    members = [_member(cfg, key, v) for v in values]
+    results = simulate_many(members, name=name, fast=fast)
+    for v, r in zip(values, results, strict=True):
+        r.label = f"{key} = {v:g}"
+    return SweepResult(name=name, config=cfg, key=key, values=values, members=results,
+                       version=__version__)
+
+
+def _member(cfg: Config, key: str, value: float) -> Config:
+    return cfg.with_overrides({key: axis_value(key, value), "sweep.key": None,
+                               "sweep.values": None})
