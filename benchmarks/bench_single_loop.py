@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit
 
 import mfcontrol
-from bench_engine import CHANGES, H, LOAD, SPEED, T_LOAD, controller, motor  # noqa: I001
+from bench_engine import CHANGES, LOAD, SPEED, T_LOAD, H, controller, motor  # noqa: I001
 from mfcontrol.engine import compose
 from mfcontrol.engine import metrics as em
 from mfcontrol.laws import intelligent

@@ -13,7 +13,9 @@ by the one RK4 (:mod:`mfcontrol.numerics.rk4`), the one Dormand-Prince 5(4)
 The plant comes in as the addresses of its compiled functions
 (:mod:`mfcontrol.numerics.signatures`),
 so this one kernel, compiled once and cached on disk, runs every plant: the converters,
-the first-order plant, LTI models and your own ODE. Members (columns of the law arrays,
+the first-order plant, LTI models and your own ODE. Where the plant has it, a member
+advances by its one-member step (:func:`member_step`: f and g compiled in, one call a
+sample instead of five; the same arithmetic). Members (columns of the law arrays,
 rows of the plant arrays) run one after another, each a single run; :func:`run` spreads
 them over threads (the kernel releases the GIL).
 
