@@ -46,7 +46,6 @@ from typing import Any
 import numpy as np
 from numba import carray, njit, types
 from numba.core import config as numba_config
-from numba.core.errors import NumbaError
 
 from .. import _jit
 from ..elements import actuator, delay, disturbance, layout, sensor
@@ -373,7 +372,7 @@ def member_step(member, integ: int, work: int, fast: bool) -> int:
         return 0
     try:
         return member.step.address
-    except NumbaError:
+    except sig.COMPILE_ERRORS:
         return 0
 
 
@@ -1081,7 +1080,7 @@ def run(law_kind, integ, plant_fns, n_steps, h, t_end, law_dt, X, P, CP, CS, R, 
     if which == "block":
         try:
             block_fns = (block[0].address, block[1].address)
-        except NumbaError:
+        except sig.COMPILE_ERRORS:
             # f or g compile as a single run's functions but not over a block (an
             # operation that needs contiguous arrays, say): each member's plant runs on
             # its own functions, and loop_for will not ask again (the failure is kept)

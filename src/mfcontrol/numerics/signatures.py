@@ -29,7 +29,7 @@ import numpy as np
 from numba import carray, njit, types
 from numba.core import cgutils, sigutils
 from numba.core.ccallback import CFunc
-from numba.core.errors import NumbaError
+from numba.core.errors import NumbaError, UnsupportedBytecodeError
 from numba.extending import intrinsic
 
 from .. import _jit
@@ -48,6 +48,10 @@ BLOCK_OUTPUT = types.void(_ptr, _ptr, _ptr)
 #: one member's step with the plant compiled in, returning the output of the new state:
 #: (t, x*, u, p*, h, scratch*) -> y
 MEMBER_STEP = types.float64(types.float64, _ptr, types.float64, _ptr, types.float64, _ptr)
+
+#: what numba raises when it cannot compile a function: its own errors, and the bytecode
+#: it does not take (an ``import`` inside f, say), which is not one of them
+COMPILE_ERRORS = (NumbaError, UnsupportedBytecodeError)
 
 RHS_T = types.FunctionType(RHS)
 OUTPUT_T = types.FunctionType(OUTPUT)
@@ -133,7 +137,7 @@ class Lazy:
             try:
                 fn = self._probe()
                 fn.compile()
-            except NumbaError as exc:
+            except COMPILE_ERRORS as exc:
                 self._error = exc
                 raise
             self._compiled = fn

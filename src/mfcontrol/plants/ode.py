@@ -50,7 +50,6 @@ import numpy as np
 from numba import njit
 from numba.core import types as nb_types
 from numba.core.dispatcher import Dispatcher
-from numba.core.errors import NumbaError
 
 from .. import _jit
 from ..numerics import signatures as sig
@@ -274,7 +273,7 @@ def _compile(f: Callable[..., Any], g: Callable[..., Any], in_place: bool,
     try:
         for fn in functions:
             fn.cfunc  # noqa: B018 (compiled or loaded now: a failure is told here, not mid-run)
-    except NumbaError as exc:
+    except sig.COMPILE_ERRORS as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise NotCompilable(first) from exc
     return functions
