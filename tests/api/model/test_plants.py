@@ -232,6 +232,19 @@ def test_ode_checks_what_f_returns_and_its_params():
         plant.set_param("m", 1.0)
 
 
+@pytest.mark.parametrize(("f", "g", "told"), [
+    (lambda t, x, u, p: [x[1], u], lambda x, p: x[0], r"f\(t, x, u, p\) at x = x0.*index 1"),
+    (lambda t, x, u, p: [-p["k"] * x[0] + u], lambda x, p: x[0], "only integers"),
+    (lambda t, x, u, p: [u], lambda x, p: x[0] + p[2], r"g\(x, p\).*index 2"),
+])
+def test_an_ode_indexing_past_x0_or_params_says_what_x_and_p_hold(f, g, told):
+    # review (issue 28): numpy's bare IndexError named neither x0 nor the params
+    with pytest.raises(ValueError, match=told) as info:
+        ODE(f, g, x0=[0.0], params={"k": 2.0, "c": 0.1})
+    assert "1 state(s) of x0 (x[0] .. x[0])" in str(info.value)
+    assert "(p[0] = k, p[1] = c)" in str(info.value)
+
+
 # --- parameters and validation --------------------------------------------------------------
 
 

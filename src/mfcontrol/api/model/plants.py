@@ -780,14 +780,26 @@ class ODE(Plant):
         self.python_reason: str | None = None
         # one call of each up front: a wrong shape is reported here, not mid-run
         self._inplace = ode.arity(f) == 5
-        dx = self.derivative(0.0, self.x0, 0.0)
+        dx = self._probe("f(t, x, u, p)", lambda: self.derivative(0.0, self.x0, 0.0))
         if dx.shape != (n,):
             raise ValueError(f"f(t, x, u, p) returned shape {dx.shape}; x0 has shape ({n},)")
         if self._inplace and np.isnan(dx).any():
             i = int(np.flatnonzero(np.isnan(dx))[0])
             raise ValueError(f"f(t, x, u, p, dxdt) left dxdt[{i}] unwritten (NaN) at t = 0, "
                              "x = x0, u = 0: write every entry")
-        g(self.x0, self._p)
+        self._probe("g(x, p)", lambda: g(self.x0, self._p))
+
+    def _probe(self, call: str, fn: Callable[[], Any]) -> Any:
+        """``fn()``, the first call of f or g at x0; an index past x or p, or a name used
+        as an index, is told with what x and p hold (numpy's own message names neither)."""
+        try:
+            return fn()
+        except IndexError as exc:
+            p = ", ".join(f"p[{i}] = {k}" for i, k in enumerate(self._names)) or "empty"
+            raise ValueError(
+                f"{call} at x = x0, u = 0: {exc}. x holds the {self.x0.size} state(s) of x0 "
+                f"(x[0] .. x[{self.x0.size - 1}]); p is an array of the params in their "
+                f"order ({p})") from exc
 
     @property
     def params(self) -> dict[str, float]:
