@@ -454,15 +454,21 @@ def test_version():
 
 
 def test_cases_lists_every_builtin_case():
-    proc = cli("cases")
+    proc = subprocess.run([sys.executable, "-m", "mfcontrol.cli", "cases"],
+                          capture_output=True, text=True, timeout=120,
+                          env={**_env(), "COLUMNS": "80"})
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr == ""
     lines = proc.stdout.splitlines()
-    assert len(lines) == len(ALL_CASES)
-    listed = [line.split()[0] for line in lines]
+    # review (issue 28): lines of up to 293 characters; each description is wrapped to
+    # the terminal's width now, indented under its case's name
+    assert max(len(line) for line in lines) <= 80
+    entries = [line for line in lines if not line.startswith(" ")]
+    assert len(entries) == len(ALL_CASES)
+    listed = [line.split()[0] for line in entries]
     assert sorted(listed) == sorted(ALL_CASES)
     assert sorted(listed) == sorted(mfcontrol.case_names())
-    for line in lines:  # a description follows every name
+    for line in entries:  # a description follows every name
         assert len(line.split(maxsplit=1)) == 2
 
 

@@ -13,7 +13,9 @@ import errno
 import gc
 import math
 import os
+import shutil
 import sys
+import textwrap
 import time
 from pathlib import Path
 from typing import Any
@@ -53,8 +55,12 @@ def _cmd_cases(args) -> int:
 
     names = cases.names()
     width = max(len(n) for n in names)
+    # each description wrapped to the terminal (80 columns when not one), indented under
+    # its first line
+    columns = max(shutil.get_terminal_size().columns, width + 40)
     for n in names:
-        print(f"{n:<{width}}  {cases.describe(n)}")
+        print(textwrap.fill(cases.describe(n), columns, initial_indent=f"{n:<{width}}  ",
+                            subsequent_indent=" " * (width + 2)))
     return 0
 
 
@@ -324,7 +330,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("reproduce", help="reproduce every result of the paper's section IV")
     s.add_argument("--out", default="results", help="output folder (default results)")
-    s.add_argument("--fidelity", choices=("published", "paper", "both"), default="both")
+    s.add_argument("--fidelity", choices=("published", "paper", "both"), default="both",
+                   help="published: the options as the published code sets them (its "
+                   "trajectories, bit for bit); paper: as the printed equations state "
+                   "them, where the two differ; both (default): each in its own folder")
     s.set_defaults(func=_cmd_reproduce)
 
     s = sub.add_parser("tune", help="tune a case's gains by simulation (differential "
