@@ -697,6 +697,15 @@ def test_export_c_writes_a_header_and_a_source_that_compile(tmp_path):
                     str(tmp_path / "motor.o")], check=True)
 
 
+def test_export_c_of_a_sweep_case_says_it_exports_the_base_setting(tmp_path):
+    # review (issue 28): the sweep's base point was exported without a word
+    proc = cli("export-c", "sweep-Gamma", "--out", str(tmp_path / "c"))
+    assert proc.returncode == 0, proc.stderr
+    assert "note: sweep-Gamma sweeps controller.Gamma" in proc.stderr
+    assert "controller.Gamma = 5e-08" in proc.stderr
+    assert "note" not in cli("export-c", CASE, "--out", str(tmp_path / "d")).stderr
+
+
 def test_a_change_after_the_run_never_happens(tmp_path):
     """plant.change_times = [1e308] was an OverflowError traceback."""
     proc = cli("run", CASE, "--set", "plant.change_times=[1e308]", "--set", "sim.t_end=1e-4",

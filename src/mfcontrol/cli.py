@@ -247,6 +247,10 @@ def _cmd_export_c(args) -> int:
                               description=f"case {args.case}{sets}")
     print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}); compile "
           f"with: cc {' '.join(CFLAGS)} -c {source}")
+    key = cfg["sweep.key"]
+    if key is not None:  # the controller of one setting, not of the sweep: said, not silent
+        print(f"note: {name} sweeps {key}; this is the controller of its base setting, "
+              f"{key} = {cfg[key]!r} (--set {key}=VALUE exports another)", file=sys.stderr)
     return 0
 
 
