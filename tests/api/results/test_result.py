@@ -23,6 +23,19 @@ def test_result_carries_config_version_and_frames(tmp_path):
     assert meta["case"] == "voltage-stable-variational" and meta["t_diverge"] is None
 
 
+def test_a_signal_it_does_not_hold_says_which_it_does_and_where_time_is():
+    # review (issue 28): r.signals["t"] was a bare KeyError while the CSV and the
+    # DataFrame call time t
+    import pytest
+
+    r = mfcontrol.run_case("first-order-ip-algebraic", {"sim.t_end": 0.1})
+    with pytest.raises(KeyError, match=r"time is Result\.time .*the signals are y_ref, y,"):
+        r.signals["t"]
+    with pytest.raises(KeyError, match="'v': the signals are y_ref"):
+        r.signals["v"]
+    assert r.signals.get("t") is None and "y" in r.signals  # a dict otherwise
+
+
 def test_plots_save_png(tmp_path):
     r = mfcontrol.run_case("voltage-stable-variational", {"sim.t_end": 1e-3})
     fig = r.plot(tmp_path / "run.png")

@@ -56,6 +56,17 @@ class _Files(display.Shown):
         return json.dumps(_jsonable(payload), indent=2)
 
 
+class Signals(dict):
+    """A run's signals by name (a dict): a name it does not hold is a KeyError that lists
+    the names it does, and says where time is (``Result.time``; the column ``t`` of the
+    CSV and the DataFrame)."""
+
+    def __missing__(self, key: Any) -> np.ndarray:
+        where = (" time is Result.time (the column t of the CSV and the DataFrame);"
+                 if key in ("t", "time") else "")
+        raise KeyError(f"{key!r}:{where} the signals are {', '.join(self)}")
+
+
 class _Trajectory(_Files):
     """A single trajectory: time, signals (y_ref, y, ...) and plant states."""
 
@@ -133,6 +144,9 @@ class Result(_Trajectory):
     changes: tuple = ()
     engine: str = "compiled"
     engine_note: str = ""
+
+    def __post_init__(self) -> None:
+        self.signals = Signals(self.signals)
 
     def _metrics_payload(self) -> dict[str, Any]:
         return {"arithmetic": self.arithmetic, **self.metrics}
