@@ -24,7 +24,8 @@ def test_each_row_is_the_cases_own_run(written):
         m = mfcontrol.run_case(name, SHORT).metrics
         assert row.iae == m["iae"] and row.tv_u == m["tv_u"] and row.stable == m["stable"]
     assert table["controller"].tolist() == ["PI (kp 0.2, ki 0.54)",
-                                            "i-PI (alpha 50, kp 20, ki 50)"]
+                                            "i-PI, algebraic F (M 40) (alpha 50, kp 20, "
+                                            "ki 50)"]
 
 
 def test_markdown_has_the_numbers_and_says_the_scenario_is_shared(written):
@@ -44,9 +45,12 @@ def test_a_difference_outside_the_controller_is_reported():
     assert "`plant.J`" in comp.markdown()
 
 
-def test_labels_name_law_and_gains():
+def test_labels_name_law_estimator_and_gains():
     _, cfg = mfcontrol.experiments.cases.resolve_case("motor-noise-ipi")
-    assert controller_label(cfg) == "i-PI (alpha 50, kp 20, ki 50)"
+    assert controller_label(cfg) == "i-PI, backward-difference F (alpha 50, kp 20, ki 50)"
+    # review (issue 28): two i-PIs that differ in their estimators had the same label
+    _, alg = mfcontrol.experiments.cases.resolve_case("motor-noise-ipi-algebraic")
+    assert controller_label(alg).startswith("i-PI, algebraic F (M 40) (alpha")
     assert controller_label(cfg.with_overrides({"controller.law": "pid", "controller.kd":
                                                 0.01})) == "PID (kp 20, ki 50, kd 0.01)"
 

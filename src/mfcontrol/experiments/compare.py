@@ -141,7 +141,8 @@ def format_number(v: Any, digits: int = 4) -> str:
 
 
 def controller_label(cfg: Config) -> str:
-    """The controller in a few words: its law and gains, e.g. ``i-PI (alpha 50, kp 10,
+    """The controller in a few words: its law, its estimator of F (the positional
+    intelligent laws) and its gains, e.g. ``i-PI, algebraic F (M 40) (alpha 50, kp 10,
     ki 30)``."""
     from ..api.run.from_config import controller
     from ..config.resolve import keys_read
@@ -154,6 +155,9 @@ def controller_label(cfg: Config) -> str:
                       if not (law == "pid" and k != "kp" and cfg[f"controller.{k}"] == 0))
     name = {"pid": "PID" if cfg["controller.kd"] else "PI" if cfg["controller.ki"] else "P",
             "ip": "paper's i-P", "variational": "variational i-P"}.get(law, law)
+    if "controller.estimator" in read:  # two i-PIs told apart by their estimators of F
+        name += (f", algebraic F (M {cfg['controller.window']})"
+                 if cfg["controller.estimator"] == "algebraic" else ", backward-difference F")
     return f"{name} ({gains})"
 
 
