@@ -65,15 +65,17 @@ def _cmd_cases(args) -> int:
 
 
 def _cmd_show(args) -> int:
+    from .api.run.simulate import shown_keys
     from .experiments import cases
 
     _, cfg = cases.resolve_case(args.case, _overrides(args.set))
-    sys.stdout.write(cfg.to_toml())
+    sys.stdout.write(cfg.to_toml(shown_keys(cfg)))
     return 0
 
 
 def _cmd_run(args) -> int:
     from .api.results.result import SweepResult
+    from .api.run.simulate import shown_keys
     from .experiments import cases
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set))
@@ -82,7 +84,7 @@ def _cmd_run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)  # after the run: a refused run writes nothing
     result.to_csv(out / "trajectory.csv")
     (out / "metrics.json").write_text(result.metrics_json() + "\n")
-    (out / "config.toml").write_text(cfg.to_toml())
+    (out / "config.toml").write_text(cfg.to_toml(shown_keys(cfg)))
     if isinstance(result, SweepResult):
         result.plot(out / "figure.png", kind="error")
         result.plot(out / "figure-gamma.png", kind="gamma")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -162,10 +162,12 @@ class Config(Mapping[str, Any]):
     def public(self) -> dict[str, Any]:
         return {k: v for k, v in self.values.items() if not k.startswith("_")}
 
-    def nested(self) -> dict[str, Any]:
+    def nested(self, keys: Collection[str] | None = None) -> dict[str, Any]:
+        """The options as nested tables (``{"plant": {"R": 10.0, ...}, ...}``), unset ones
+        left out; with ``keys``, only those."""
         out: dict[str, Any] = {}
         for key, v in self.public().items():
-            if v is None:
+            if v is None or (keys is not None and key not in keys):
                 continue
             *heads, last = key.split(".")
             d = out
@@ -174,8 +176,10 @@ class Config(Mapping[str, Any]):
             d[last] = v
         return out
 
-    def to_toml(self) -> str:
-        return to_toml(self.nested())
+    def to_toml(self, keys: Collection[str] | None = None) -> str:
+        """The configuration as a case file: every option, or only ``keys`` (what a run
+        reads, say: :func:`mfcontrol.api.run.simulate.shown_keys`)."""
+        return to_toml(self.nested(keys))
 
 
 def resolve(settings: Mapping[str, Any]) -> Config:
@@ -291,8 +295,10 @@ def _check_consistency(v: dict[str, Any]) -> None:
     if v["controller.duty_min"] > v["controller.duty_max"]:
         raise ConfigError("controller.duty_min", v["controller.duty_min"],
                           f"must not exceed controller.duty_max = {v['controller.duty_max']!r}")
-    n_changes = len(v["plant.change_times"])
-    for name, delta in (("R", v["plant.dR"]), ("C", v["plant.dC"])):
+    # the converters' load changes (only they have them: another plant reads none of
+    # these keys)
+    n_changes = len(v["plant.change_times"]) if v["plant.model"] in ("buck", "boost") else 0
+    for name, delta in (("R", v["plant.dR"]), ("C", v["plant.dC"])) if n_changes else ():
         lowest = min(v[f"plant.{name}"], v[f"plant.{name}"] + n_changes * delta)
         if lowest <= 0:
             raise ConfigError(f"plant.d{name}", delta,

@@ -36,6 +36,7 @@ from .._version import __version__
 from ..api.results import display
 from ..api.results.objective import AGGREGATES, Objective, aggregate
 from ..api.run import batch, scenario
+from ..api.run.simulate import shown_keys
 from ..config.options import BY_KEY
 from ..config.resolve import Config, axis_value
 from ..errors import ConfigError
@@ -215,7 +216,7 @@ class TuneResult(display.Shown):
         if self.scenarios and self.evaluations:
             head += (f";\n# {self.aggregate} over the {self.n_scenarios} "
                      f"scenarios of sweep.grid (mfcontrol sweep): {self.value!r}")
-        (out / "best.toml").write_text(head + "\n" + cfg.to_toml())
+        (out / "best.toml").write_text(head + "\n" + cfg.to_toml(shown_keys(cfg)))
         (out / "summary.json").write_text(json.dumps(self.summary(), indent=2) + "\n")
         self.history.to_parquet(out / "history.parquet", index=False)
         per_point = self.history.drop_duplicates("point") if len(self.history) else \

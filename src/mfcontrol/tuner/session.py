@@ -24,7 +24,7 @@ from ..api.model.elements import unread
 from ..api.results import metrics
 from ..api.results.result import Result
 from ..api.run import batch
-from ..api.run.simulate import simulate
+from ..api.run.simulate import shown_keys, simulate
 from ..config.options import BY_KEY, OPTIONS, POSITIONAL
 from ..config.resolve import Config, keys_read, resolve
 from ..config.toml import parse_assignment, toml_value
@@ -419,11 +419,12 @@ class Session:
 
     def toml(self) -> str:
         """The current configuration as a case file: ``mfcontrol run`` on it reproduces
-        this session's run bit for bit (every option written, floats by their repr)."""
+        this session's run bit for bit (every option it sets or its run reads, floats by
+        their repr: :func:`mfcontrol.api.run.simulate.shown_keys`)."""
         changed = ", ".join(f"{k} = {text_of(v)}" for k, v in self.changed().items())
         head = (f"# {self.name} as set in the mfcontrol tuner (mfcontrol {__version__})\n"
                 f"# changed: {changed or 'nothing'}\n")
-        return head + self.cfg.to_toml()
+        return head + self.cfg.to_toml(shown_keys(self.cfg))
 
     # --- the longer jobs --------------------------------------------------------------
 

@@ -136,3 +136,54 @@ def test_a_sweep_case_may_vary_an_integer_option():
     res = mfcontrol.simulate_sweep(cfg)
     assert [m.config["controller.window"] for m in res.members] == [10, 20]
     assert res.members[0].metrics != res.members[1].metrics
+
+
+def _short(case: str):
+    """A built-in case's configuration cut to 300 samples (its window still fits)."""
+    cfg = resolve_case(case)[1]
+    return cfg.with_overrides({"sim.t_end": 300 * cfg["sim.h"]})
+
+
+SINGLE_CASES = [c for c in mfcontrol.case_names() if resolve_case(c)[1]["sweep.key"] is None]
+
+
+@pytest.mark.parametrize("case", SINGLE_CASES)
+def test_a_run_reads_no_option_but_those_its_translators_read(case):
+    # shown_keys (mfcontrol show, config.toml) leaves out what a run does not read: the
+    # simulation itself must read nothing else
+    from mfcontrol.api.run.simulate import keys_read_by_run, simulate
+    from mfcontrol.config.resolve import keys_read
+
+    cfg = _short(case)
+    assert keys_read(simulate, cfg) - {"_explicit"} <= keys_read_by_run(cfg)
+
+
+@pytest.mark.parametrize("case", ["first-order-ip-algebraic", "motor-noise-ipi-algebraic",
+                                  "bench-lag3", "voltage-stable-variational", "boost-ipd"])
+def test_the_shown_options_resolve_to_the_same_run(case, tmp_path):
+    from mfcontrol.api.run.simulate import shown_keys
+
+    cfg = _short(case)
+    path = tmp_path / "case.toml"
+    path.write_text(cfg.to_toml(shown_keys(cfg)))
+    back = resolve_case(str(path))[1]
+    a, b = mfcontrol.simulate(cfg), mfcontrol.simulate(back)
+    np.testing.assert_equal(a.metrics, b.metrics)
+    np.testing.assert_array_equal(a.signals["y"], b.signals["y"])
+
+
+def test_show_leaves_out_the_options_of_plants_and_choices_not_taken():
+    # review (issue 28): a first-order case's configuration carried every buck parameter
+    # (E, L, R, C, change_times, ...), the DC motor's and the variational gain's
+    from mfcontrol.api.run.simulate import shown_keys
+
+    cfg = resolve_case("first-order-ip-algebraic")[1]
+    shown = shown_keys(cfg)
+    for key in ("plant.E", "plant.R", "plant.change_times", "plant.J", "plant.num",
+                "controller.Gamma", "controller.k_aw", "sensor.noise_std"):
+        assert key not in shown
+    for key in ("plant.model", "plant.a", "plant.schedule", "controller.window",
+                "sensor.noise", "sim.h", "metrics.stable_tol", "description"):
+        assert key in shown
+    noisy = shown_keys(resolve_case("motor-noise-ipi")[1])
+    assert {"sensor.noise_std", "sensor.seed", "plant.J"} <= noisy

@@ -14,7 +14,7 @@ from ...config.resolve import Config, keys_read
 from ...elements import layout
 from ...errors import ConfigError
 from ..model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
-from ..model.elements import Actuator, Disturbance, Sensor, column
+from ..model.elements import Actuator, Disturbance, Sensor, column, unread
 from ..model.plants import LTI, Boost, Buck, DCMotor, FirstOrder
 from ..model.schedule import Change, _check_changes
 from ..params import recursive_law_column, transfer_function_state_space
@@ -62,10 +62,15 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
         else None,
         "anti_windup": ("clamp" if cfg["controller.anti_windup"] == "auto"
                         else cfg["controller.anti_windup"]),
-        "k_aw": cfg["controller.k_aw"], "gain": cfg["controller.adapt"],
-        "gamma0": cfg["controller.gamma0"], "Gamma": cfg["controller.Gamma"],
-        "eps_M": cfg["controller.eps_M"], "integrator": cfg["controller.integrator"],
+        "gain": cfg["controller.adapt"],
     }
+    # the options of a choice made, read only under it (what is read is what matters:
+    # mfcontrol show and a run's config.toml print these keys)
+    if options["anti_windup"] == "back-calculation":
+        options["k_aw"] = cfg["controller.k_aw"]
+    if options["gain"] == "variational":
+        options.update(gamma0=cfg["controller.gamma0"], Gamma=cfg["controller.Gamma"],
+                       eps_M=cfg["controller.eps_M"], integrator=cfg["controller.integrator"])
     # each law reads only its own gains (a translator's reads say what a key affects)
     a, kp = cfg["controller.alpha"], cfg["controller.kp"]
     if law == "i-P":
@@ -81,7 +86,10 @@ def elements(cfg: Config) -> np.ndarray:
     """The loop's elements (``[sensor]``, ``[actuator]``, ``[disturbance]``,
     ``sim.substeps``) as the engine's LP column."""
     def section(name: str, kind):
-        return kind(**{k: cfg[f"{name}.{k}"] for k in kind.__dataclass_fields__})
+        # an option its element's kind does not use is not read (the element's default
+        # stands in: the same run)
+        return kind(**{k: cfg[f"{name}.{k}"] for k in kind.__dataclass_fields__
+                       if not unread(f"{name}.{k}", cfg)})
 
     return column(section("sensor", Sensor), section("actuator", Actuator),
                   section("disturbance", Disturbance), cfg["sim.substeps"])

@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 
 from ..._version import __version__
-from ...config.resolve import Config, axis_value
+from ...config.options import BY_KEY
+from ...config.resolve import Config, _check_consistency, axis_value, keys_read
 from ...elements import layout
 from ...engine import trajectory
 from ...numerics import grid
@@ -94,6 +95,35 @@ def member_parts() -> dict[str, Callable[[Config], Any]]:
 
     return {"plant": plant, "law": lambda cfg: law_arrays(from_config.controller(cfg)),
             "reference": params.reference_column, "elements": from_config.elements}
+
+
+def keys_read_by_run(cfg: Config) -> set[str]:
+    """The options a single run of ``cfg`` reads: those its translators read (the paper's
+    kernel's scenario, or each part of :func:`member_parts`), with the time grid, the
+    metric settings and the checks across options, found by running the translators
+    (:func:`mfcontrol.config.resolve.keys_read`), not the simulation (a test checks that
+    the simulation reads no other). Any other option cannot change the run."""
+    # the engine's choice, the time grid, the metrics' settings and stability verdict
+    read = keys_read(lambda c: (compiled(c), scenario.n_steps(c), params.metric_settings(c),
+                                c["metrics.stable_tol"]), cfg)
+    read |= keys_read(_check_consistency, cfg)
+    if compiled(cfg):
+        read |= keys_read(lambda c: scenario.build([c]), cfg)
+    else:
+        for build in member_parts().values():
+            read |= keys_read(build, cfg)
+    return read
+
+
+def shown_keys(cfg: Config) -> set[str]:
+    """The options worth showing of ``cfg`` (``mfcontrol show``, a run's config.toml):
+    those it sets and those its single run reads. The others are the defaults of plants,
+    laws and elements it does not use, which cannot change the run: a file of these
+    keys resolves to the same run. ``fidelity`` is shown when a key it presets is."""
+    read = keys_read_by_run(cfg)
+    # the fidelity that set the presets of the keys the run reads, said with them
+    fidelity = {"fidelity"} if any(BY_KEY[k].preset for k in read if k in BY_KEY) else set()
+    return {"description"} | fidelity | set(cfg.explicit) | read
 
 
 def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
