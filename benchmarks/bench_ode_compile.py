@@ -4,7 +4,8 @@ and as a second plant object in one process.
 The plant is the DC motor of the README and the user guide's own-plant page, ``f`` in
 place and ``g``, written to a module file in a temporary folder. Each round writes it with
 a new comment in ``f`` (a new identity: nothing of it is in numba's cache yet) and runs
-two fresh processes on one numba cache of its own (``NUMBA_CACHE_DIR`` in a temporary folder, so the machine's cache plays no part):
+two fresh processes on one numba cache of its own (``NUMBA_CACHE_DIR`` in a temporary
+folder, so the machine's cache plays no part):
 
 * first ever     the first process, first plant object: ``ODE(f, g, ...)``, its
                  ``engine()`` (the single-run functions) and its block functions (the
