@@ -1,10 +1,11 @@
 """What your own ODE costs to compile: the first time on a machine, in a second process,
 and as a second plant object in one process.
 
-The plant is the README's DC motor, ``f`` in place and ``g``, written to a module file in
-a temporary folder. Each round writes it with a new comment in ``f`` (a new identity:
-nothing of it is in numba's cache yet) and runs two fresh processes on one numba cache of
-its own (``NUMBA_CACHE_DIR`` in a temporary folder, so the machine's cache plays no part):
+The plant is the DC motor of the README and the user guide's own-plant page, ``f`` in
+place and ``g``, written to a module file in a temporary folder. Each round writes it with
+a new comment in ``f`` (a new identity: nothing of it is in numba's cache yet) and runs
+two fresh processes on one numba cache of its own (``NUMBA_CACHE_DIR`` in a temporary
+folder, so the machine's cache plays no part):
 
 * first ever     the first process, first plant object: ``ODE(f, g, ...)``, its
                  ``engine()`` (the single-run functions) and its block functions (the
@@ -114,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     def median(which: str, part: str, clock: int) -> float:
         return statistics.median(r[part][clock] for r in rows[which])
 
-    print(f"Your own ODE (the README's DC motor), medians of {args.rounds} rounds; "
+    print(f"Your own ODE (the user guide's DC motor), medians of {args.rounds} rounds; "
           "single: ODE(...) and engine(), total: with the block functions")
     print(f"{'':16}{'single wall':>13}{'single CPU':>12}{'total wall':>12}{'total CPU':>11}"
           f"{'first / this (CPU)':>20}")

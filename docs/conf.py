@@ -40,8 +40,6 @@ exclude_patterns = ["_build", "_generated", "_templates", "reports/benchmark/**"
 templates_path = ["_templates"]
 myst_enable_extensions = ["dollarmath"]
 myst_heading_anchors = 3
-# the guide's pages are the README's sections, which start at "##"
-suppress_warnings = ["myst.header"]
 
 # every page offline: MathJax is the one script a page would fetch; the theme ships the rest
 html_theme = "pydata_sphinx_theme"

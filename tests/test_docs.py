@@ -1,15 +1,19 @@
-"""The README states what the code does: its option table and quick-start commands."""
+"""The README and the user guide state what the code does: the guide's option table,
+the README's quick-start commands and links, the examples of both."""
 
 import re
 from pathlib import Path
+
+import pytest
 
 from mfcontrol.config.options import options_markdown
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_readme_option_table_is_the_schema():
-    assert options_markdown() in (ROOT / "README.md").read_text(encoding="utf-8")
+def test_guide_option_table_is_the_schema():
+    page = ROOT / "docs" / "guide" / "options.md"
+    assert options_markdown() in page.read_text(encoding="utf-8")
 
 
 def test_readme_quick_start_commands():
@@ -29,26 +33,38 @@ def test_readme_docs_command_is_what_ci_runs():
     assert "python docs/check_links.py docs/_build/html" in ci
 
 
-def test_guide_pages_include_readme_sections_that_exist():
-    """The guide's pages are the README's sections between <!-- docs: NAME --> markers:
-    each marker a page names exists once in the README (a renamed marker would fail the
-    build; this says which)."""
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    pages = [*(ROOT / "docs" / "guide").glob("*.md"), ROOT / "docs" / "index.md"]
-    named = set()
-    for page in pages:
-        named |= set(re.findall(r'"(<!-- docs: [a-z-]+ -->)"', page.read_text()))
-    assert named and all(readme.count(marker) == 1 for marker in named), named
-    assert named == set(re.findall(r"<!-- docs: [a-z-]+ -->", readme))
+def test_guide_pages_are_their_own_text_and_all_listed():
+    """The guide's pages hold their text (none includes the README, which is short and
+    links to them), and the guide's table of contents lists every page."""
+    guide = ROOT / "docs" / "guide"
+    pages = sorted(p.stem for p in guide.glob("*.md") if p.stem != "index")
+    assert pages
+    for page in [*guide.glob("*.md"), ROOT / "docs" / "index.md"]:
+        assert not re.search(r"\{include\}.*README", page.read_text(encoding="utf-8")), page
+    toctree = (guide / "index.md").read_text(encoding="utf-8").split("{toctree}")[1]
+    assert pages == sorted(line.strip() for line in toctree.split("```")[0].splitlines()
+                           if line.strip() and not line.startswith(":")), pages
 
 
-def test_readme_plant_example_runs(tmp_path, monkeypatch):
+def test_readme_links_point_to_files_that_exist():
+    """The README's relative links (the guide's pages, images) work on GitHub: each names
+    a file of the repository."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
+    links = [link.split("#")[0] for link in re.findall(r"\]\(([^)\s]+)\)", text)
+             if "://" not in link and not link.startswith("#")]
+    assert any(link.startswith("docs/guide/") for link in links)
+    missing = [link for link in links if not (ROOT / link).exists()]
+    assert not missing, missing
+
+
+@pytest.mark.parametrize("name", ["README.md", "docs/guide/own-plant.md"])
+def test_plant_example_runs(name, tmp_path, monkeypatch):
+    text = (ROOT / name).read_text(encoding="utf-8")
     blocks = text.split("```python\n")[1:]
     code = next(b.split("```")[0] for b in blocks if "plant = ODE(" in b)
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
-    exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102
+    exec(compile(code, name, "exec"), namespace)  # noqa: S102
     assert namespace["res"].metrics["stable"] and namespace["res"].engine == "compiled"
     assert (tmp_path / "motor.png").exists()
     table = namespace["sweep"].to_pandas()

@@ -1,6 +1,6 @@
-"""The README's screenshots of the tuner, in three states: as it opens; after a change
-(kp 2 -> 4) with the case's own run frozen as the reference; after a robustness map
-around the case's own gains.
+"""The screenshots of the tuner's guide page (docs/guide/tuner.md), in three states: as it
+opens; after a change (kp 2 -> 4) with the case's own run frozen as the reference; after a
+robustness map around the case's own gains.
 
     python -m tests.tuner.screenshots [FOLDER]    # default docs/: docs/tuner-*.png
 """

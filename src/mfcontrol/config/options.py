@@ -1,6 +1,6 @@
 """Every configuration option, declared once: key, kind, default, check, meaning and the
-fidelity preset it belongs to. Validation (:mod:`.resolve`), the README's option table
-(:func:`options_markdown`) and ``mfcontrol show`` read this one table.
+fidelity preset it belongs to. Validation (:mod:`.resolve`), the user guide's option table
+(:func:`options_markdown`, in ``docs/guide/options.md``) and ``mfcontrol show`` read this one table.
 """
 
 from __future__ import annotations
@@ -317,7 +317,8 @@ POSITIONAL = ("i-P", "i-PI", "i-PD", "i-PID")
 
 
 def options_markdown() -> str:
-    """The option table of the README, generated from :data:`OPTIONS`."""
+    """The option table of the user guide (``docs/guide/options.md``), generated from
+    :data:`OPTIONS`."""
     def default(o: Option) -> str:
         if o.preset:
             return " / ".join(f"{f}: `{toml_value(v)}`" for f, v in o.preset.items())

@@ -190,7 +190,7 @@ def resolve(settings: Mapping[str, Any]) -> Config:
     ----------
     settings : mapping of str to value
         Options by dotted key (``{"controller.kp": 5.0, "fidelity": "paper"}``), as a
-        case file's tables flattened; the README's option table lists them.
+        case file's tables flattened; the user guide's option table lists them.
 
     Returns
     -------

@@ -991,8 +991,8 @@ BLOCK_SIGNATURE = types.int64(
 def block_kernel():
     """The compiled vectorised member loop, exact arithmetic only (the fast mode's single
     runs fuse the RK4's arithmetic, which the plant's block step does not); cached on
-    disk like :func:`member_kernel` (see the README's Speed section for what its first
-    compilation costs)."""
+    disk like :func:`member_kernel` (the user guide's Speed page, ``docs/guide/speed.md``,
+    says what its first compilation costs)."""
     return _compile(_make_block_loop, BLOCK_SIGNATURE, False)
 
 

@@ -585,8 +585,8 @@ for _cls in (IP, IPI, IPD, IPID):
 class RecursiveIP(_Controller):
     """The paper's recursive i-P (eq. 8) or its variational form (eq. 33), live.
 
-    Takes the configuration keys of ``[controller]`` in a case file (see the README's
-    option table), e.g. ``RecursiveIP(alpha=10, kp=2, law="variational", gamma0=1)``.
+    Takes the configuration keys of ``[controller]`` in a case file (see the user
+    guide's option table), e.g. ``RecursiveIP(alpha=10, kp=2, law="variational", gamma0=1)``.
     Returns the applied output ``clip(output_gain * u_k)``; the raw u_k, the gain and gamma
     are in :attr:`components`. Samples are taken to be equally spaced (the law's
     derivative scale is ``deriv_scale``, not the sample time). ``sample_time`` (s) is the

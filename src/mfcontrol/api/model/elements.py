@@ -1,7 +1,7 @@
 """The loop's elements as Python objects: the sensor, the actuator and the disturbance
 that :func:`mfcontrol.simulate_loop` and :func:`mfcontrol.sweep` put around a plant and a
 controller, with the options and checks of the case keys ``[sensor]``, ``[actuator]``
-and ``[disturbance]`` (the README's option table); the engine runs them
+and ``[disturbance]`` (the user guide's option table); the engine runs them
 (:mod:`mfcontrol.elements`)."""
 
 from __future__ import annotations

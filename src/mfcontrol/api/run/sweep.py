@@ -223,7 +223,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         defined in a file); otherwise each member's f runs through its compiled
         function. Members with numbers of substeps of their own run in the member
         loop. The same bits
-        either way; on the DC motor of the README's Speed section, about 1.6x faster
+        either way; on the DC motor of the user guide's Speed page, about 1.6x faster
         than the member loop with f member by member and about 6x with f over the
         block. True: always, f over the block where it can; False: the member loop;
         None (default): when it pays (:func:`mfcontrol.engine.compose.loop_for`: once
