@@ -213,7 +213,8 @@ def test_a_general_grid_whose_keys_cannot_be_split_by_part_runs_a_configuration_
         axes, monkeypatch):
     from mfcontrol.api.run import simulate
 
-    _, base = resolve_case("boost-ipd", {"sim.t_end": 0.005})
+    # a load change, whose check reads plant.R (no change: no check reads it)
+    _, base = resolve_case("boost-ipd", {"sim.t_end": 0.005, "plant.change_times": [0.004]})
     grid = batch.make_grid(base, {k: np.array(v, dtype=float) for k, v in axes.items()})
     plain = []
     monkeypatch.setattr(batch, "general_metrics",
