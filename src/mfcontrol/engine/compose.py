@@ -350,9 +350,9 @@ BLOCK_WORTH_KEPT = 10_000_000
 #: 2 min, once: then it is in numba's disk cache)
 BLOCK_WORTH_COLD = 700_000_000
 #: member-samples from which the member loop compiles your ODE's one-member RK4 step (f
-#: inlined) when it compiles once per process (f and g with no source file, or closures:
-#: about 0.5 s): about what it saves against f called four times through its address
-#: (some 30 ns a sample on the DC motor of benchmarks/bench_single_loop.py)
+#: inlined; compiled once per process, about 0.5 s): about what it saves against f called
+#: four times through its address (some 30 ns a sample on the DC motor of
+#: benchmarks/bench_single_loop.py)
 MEMBER_STEP_WORTH = 20_000_000
 
 
@@ -362,8 +362,8 @@ def member_step(member, integ: int, work: int, fast: bool) -> int:
     g through their addresses. Taken for its integrator (the RK4 or the plant's exact
     step) in exact arithmetic (the fast mode fuses the RK4's arithmetic, which the step
     does not) when it costs no compilation worth
-    weighing (a library plant's, or your own ODE's compiled in this process or kept in
-    numba's disk cache: once per machine) or from :data:`MEMBER_STEP_WORTH`
+    weighing (a library plant's, compiled once per machine, or your own ODE's compiled in
+    this process already) or from :data:`MEMBER_STEP_WORTH`
     member-samples on; 0 where numba cannot compile it over f (it is not asked again)."""
     if (member is None or fast or integ not in (RK4, EXACT)
             or INTEGRATORS[member.integrator] != integ

@@ -821,9 +821,14 @@ class ODE(Plant):
         rhs, output = self._compiled
         if self._block is None:
             f, g = ode.python_function(self._f), ode.python_function(self._g)
-            self._block, self._member = (
-                blocks.of_ode(f, g, self._inplace, self.x0.size, self._p.size,
-                              *self._identity, lanes=lanes) for lanes in (blocks.LANES, 1))
+            identity, on_disk = self._identity
+            self._block = blocks.of_ode(f, g, self._inplace, self.x0.size, self._p.size,
+                                        identity, on_disk)
+            # the one-member step, f inlined into it, compiled once per process: kept in
+            # numba's disk cache, a later process could not load it (numba pickles its
+            # environment under a module name, "<dynamic>", it cannot import)
+            self._member = blocks.of_ode(f, g, self._inplace, self.x0.size, self._p.size,
+                                         identity, False, lanes=1)
         return self._engine((rhs, output, sig.no_prepare, sig.no_advance), self._p,
                             {name: i for i, name in enumerate(self._names)}, self._block,
                             self._member)
