@@ -164,6 +164,11 @@ class _Walk:
             parts.append(_hash(inspect.getsource(fn)))
         except (OSError, TypeError):
             self.on_disk = False  # a REPL's or exec's: its code is all there is
+        if sys.modules.get(fn.__module__) is None:
+            # a module gone from sys.modules (runpy.run_path's, once it returns): numba
+            # names it "<dynamic>" in the compiled code's environment, which no later
+            # process can import, so an entry kept on disk would fail to load there
+            self.on_disk = False
         names = sorted(_names(code))
         for name in names:
             if name in fn.__globals__:

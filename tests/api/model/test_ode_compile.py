@@ -297,6 +297,20 @@ def test_functions_without_a_file_or_closing_over_values_are_kept_in_the_process
     assert ode.identity(reads_an_object, _position) is None  # no description: per object
 
 
+def test_functions_of_a_module_gone_from_sys_modules_are_kept_in_the_process(tmp_path):
+    # review: runpy.run_path's module (examples run by the tests) is gone once it returns;
+    # numba then names it "<dynamic>" in the compiled code's environment, and a later
+    # process that loaded the entry kept on disk failed ("No module named '<dynamic>'")
+    import runpy
+
+    path = tmp_path / "gone_plant.py"
+    path.write_text("import numpy as np\n\n\ndef f(t, x, u, p):\n"
+                    "    return np.array([-x[0] + u])\n")
+    ns = runpy.run_path(str(path), run_name="gone_plant_module")
+    assert "gone_plant_module" not in sys.modules
+    assert ode.identity(ns["f"], _position)[1] is False
+
+
 def test_the_identity_is_the_same_in_every_process(tmp_path, monkeypatch):
     # sets iterate in an order that varies with the process (string hashes)
     (tmp_path / "ident_same.py").write_text(textwrap.dedent('''
