@@ -30,6 +30,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -80,8 +81,10 @@ def bench_cli(rounds: int) -> None:
           f"{'met' if ratio <= RUN_TARGET else 'NOT met'}")
 
 
-def _engine_call(plant, ctrl):
-    """The arguments ``simulate_loop`` passes to ``compose.run`` for this loop."""
+def compose_call(run_loop: Callable[[], object]) -> tuple[tuple, dict]:
+    """The arguments (args, kwargs) that ``run_loop()`` (a ``simulate_loop`` call) passes
+    to ``compose.run``: the engine's own call, to time apart from the Python around it
+    (``bench_single_loop.py`` takes it too)."""
     seen = {}
     inner = compose.run
 
@@ -91,23 +94,29 @@ def _engine_call(plant, ctrl):
 
     compose.run = spy
     try:
-        mfcontrol.simulate_loop(plant, ctrl, SPEED, t_end=T_END, changes=CHANGES)
+        run_loop()
     finally:
         compose.run = inner
     return seen["call"]
 
 
+def run_fresh(args: tuple, kwargs: dict, clock: Callable[[], float]) -> float:
+    """The time of one ``compose.run`` on fresh copies of its arrays (it writes its
+    states, memory and metrics in place), by ``clock``."""
+    fresh = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+    t0 = clock()
+    compose.run(*fresh, **kwargs)
+    return clock() - t0
+
+
 def bench_loop(rounds: int, calls: int) -> None:
     plant = motor()
-    args, kwargs = _engine_call(plant, controller())
+    args, kwargs = compose_call(lambda: mfcontrol.simulate_loop(
+        plant, controller(), SPEED, t_end=T_END, changes=CHANGES))
     n = args[3]
 
     def engine_once() -> float:
-        # fresh copies: the engine writes its arrays in place (states, memory, metrics)
-        fresh = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
-        t0 = CLOCK()
-        compose.run(*fresh, **kwargs)
-        return CLOCK() - t0
+        return run_fresh(args, kwargs, CLOCK)
 
     def loop_once() -> float:
         ctrl = controller()  # the caller's object, built before the clock starts

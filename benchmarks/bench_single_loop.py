@@ -34,7 +34,7 @@ from numba import njit
 
 import mfcontrol
 from bench_engine import LOAD, SPEED, T_LOAD, H, controller  # noqa: I001
-from mfcontrol.engine import compose
+from bench_run import compose_call, run_fresh
 from mfcontrol.engine import metrics as em
 from mfcontrol.laws import intelligent
 from mfcontrol.numerics import grid, rk4
@@ -145,7 +145,7 @@ def plain(n: int):
 def check(n: int) -> None:
     """The hand-written loop's signals and metrics against the engine's, bit for bit."""
     res = engine(n)
-    _, traj = plain(n)
+    m, traj = plain(n)
     bad = []
     for i, name in enumerate(ROWS):
         got = res.signals[name] if name in res.signals else None
@@ -155,7 +155,6 @@ def check(n: int) -> None:
         states = list(res.states.values())
         if not np.array_equal(states[i], traj[11 + i]):
             bad.append(f"state {name}: max |diff| {np.max(np.abs(states[i] - traj[11 + i])):.3g}")
-    m, _ = plain(n)
     for name, v in (("iae", m[0]), ("ise", m[1]), ("itae", m[2]), ("tv_u", m[4])):
         if res.metrics[name] != v:
             bad.append(f"metric {name}: {res.metrics[name]!r} vs {v!r}")
@@ -169,26 +168,8 @@ def check(n: int) -> None:
 def engine_call(n: int):
     """The engine's own call for n samples: ``compose.run`` with the arrays
     ``simulate_loop`` passes it, fresh copies each time (it writes them in place)."""
-    seen = {}
-    inner = compose.run
-
-    def spy(*args, **kwargs):
-        seen["call"] = (args, kwargs)
-        return inner(*args, **kwargs)
-
-    compose.run = spy
-    try:
-        engine(n)
-    finally:
-        compose.run = inner
-    args, kwargs = seen["call"]
-
-    def run() -> float:
-        fresh = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
-        t0 = time.perf_counter()
-        compose.run(*fresh, **kwargs)
-        return time.perf_counter() - t0
-    return run
+    args, kwargs = compose_call(lambda: engine(n))
+    return lambda: run_fresh(args, kwargs, time.perf_counter)
 
 
 def timed(fn, n: int) -> float:
