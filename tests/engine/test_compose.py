@@ -791,10 +791,11 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
         _assert_same_bits(CS[:, j], CSj[:, 0], j)
 
 
-# realistic loops in the vectorised loop: sensor noise (a seed per member), quantisation and
-# delays differing between the members of a block, rate limits, disturbances at the input
-# and the output, substeps, the PID, the algebraic estimator (one window for the block, or
-# windows of their own); members going bad at samples of their own
+# realistic loops in the vectorised loop: sensor noise (a seed per member, or one seed for
+# all), quantisation and delays differing between the members of a block, rate limits,
+# disturbances at the input and the output, substeps, the PID, the algebraic estimator
+# (one window for the block, or windows of their own); members going bad at samples of
+# their own
 REALISTIC_SWEEPS = {
     "motor-algebraic-elements": ("motor-noise-ipi-algebraic", lambda j: {
         "sim.t_end": 1.5, "sim.diverge_above": 150.0, "sensor.seed": j,
@@ -819,6 +820,17 @@ REALISTIC_SWEEPS = {
     "motor-some-ideal": ("motor-noise-ipi-algebraic", lambda j: {
         "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": j,
         "sensor.noise": "gaussian" if j % 2 else "none", "controller.kp": -20.0 + 1.5 * j}),
+    # one seed for every member (a sweep's): the block draws the noise once a sample
+    "motor-one-seed": ("motor-noise-ipi-algebraic", lambda j: {
+        "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": 7,
+        "sensor.noise": "none" if j % 4 == 0 else "gaussian",
+        "sensor.noise_std": 0.2 + 0.02 * j, "sensor.quantum": 0.05 if j % 3 else 0.0,
+        "controller.kp": -20.0 + 1.5 * j}),
+    # one seed, two kinds: each member draws its own
+    "motor-one-seed-two-kinds": ("motor-noise-ipi", lambda j: {
+        "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": 7,
+        "sensor.noise": "uniform" if j % 3 == 0 else "gaussian",
+        "controller.kp": -20.0 + 1.5 * j}),
     "lag3-ipi-algebraic": ("bench-lag3", lambda j: {
         "sim.t_end": 30.0, "sim.diverge_above": 5.0, "sensor.seed": j,
         "controller.law": "i-PI", "controller.alpha": 0.5 + 0.1 * j, "controller.kp": 1.0,

@@ -24,9 +24,17 @@ N_PARAMS = 5
 @step_jit
 def read(kind, std, seed, quantum, k, y):
     """s_k: the output y_k with sample k of the noise, quantised (before the delay)."""
+    a, b = noise.unit(kind, noise.seed_key(seed), k)
+    return read_unit(kind, std, a, b, quantum, y)
+
+
+@step_jit
+def read_unit(kind, std, a, b, quantum, y):
+    """:func:`read` with sample k of the noise given as its unit factors
+    (:func:`mfcontrol.elements.noise.unit`), which members sharing a seed share."""
     v = y
     if kind != noise.NONE:
-        v = v + noise.sample(kind, std, seed, k)
+        v = v + noise.scaled(kind, std, a, b)
     if quantum > 0.0:
         n = v / quantum
         # from 2^52 on every float is a whole number: rounding is the identity (and a

@@ -298,7 +298,8 @@ def sums(CS, j, base, M, order):
 @step_jit
 def combine(sy, su, M, h, alpha, order):
     """F_hat from the window's sums (:func:`sums`): apart from them because alpha may
-    change at every sample (the variational gain) and the sums do not depend on it."""
+    change at every sample (the variational gain) and the sums do not depend on it. M
+    and the order are whole numbers, as integers or floats."""
     fm = float(M)
     if order == 1:
         m3 = fm * fm * fm

@@ -154,7 +154,9 @@ def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su):
     alpha = 1.0 / gamma
     f_hat = yn - alpha * u1
     if algebraic:
-        f_alg = estimators.combine(sy, su, int(CP[M_WIN, j]), dt, alpha, int(n))
+        # M and n as the floats they are stored as: an int() of them here stops a loop
+        # over members from vectorising (measured: the algebraic i-PI's law, scalar)
+        f_alg = estimators.combine(sy, su, CP[M_WIN, j], dt, alpha, n)
         if not math.isnan(f_alg):
             f_hat = f_alg
     kp, ki, kd = CP[KP, j], CP[KI, j], CP[KD, j]

@@ -80,12 +80,15 @@ def _terms(CP, CS, j, y, r, h):
     """The proportional and derivative terms of this sample."""
     kp, kd, n = CP[KP, j], CP[KD, j], CP[N, j]
     p = kp * (CP[B, j] * r - y)
+    # the state read whatever kd: a load under the branch keeps a loop over members
+    # from vectorising (the branch's arithmetic becomes a select)
+    d_old, y_old = CS[D, j], CS[Y_OLD, j]
     d = 0.0
     if kd != 0.0:
         td = kd / kp
         ad = td / (td + n * h)
         bd = kp * td * n / (td + n * h)
-        d = ad * CS[D, j] - bd * (y - CS[Y_OLD, j])
+        d = ad * d_old - bd * (y - y_old)
     return p, d
 
 
