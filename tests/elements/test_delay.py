@@ -28,3 +28,20 @@ def test_members_of_a_block_sharing_one_ring_get_what_their_own_rings_give():
             a = delay.delayed_lane(shared, lane, int(d), slot, k, v[k, lane], -7.0)
             b = delay.delayed(own[lane], int(d), k, v[k, lane], -7.0)
             assert a == b, (k, lane)
+
+
+@pytest.mark.parametrize("d", [1, 2, 5])
+def test_a_block_sharing_one_delay_reads_its_rows_as_delayed_gives(d):
+    # the ring's rows apart (delayed_rows): what delayed() gives on a ring of each lane's
+    # own, a ring one row longer than the delay needs included
+    lanes = 4
+    v = np.random.default_rng(d).normal(size=(120, lanes))
+    shared = np.full((d + 2, lanes), np.nan)
+    own = [np.full(d + 1, np.nan) for _ in range(lanes)]
+    for k in range(v.shape[0]):
+        slot = k % shared.shape[0]
+        into, out = shared[slot], shared[delay.back_slot(shared.shape[0], slot, d)]
+        for lane in range(lanes):
+            a = delay.delayed_rows(into, out, lane, d, k, v[k, lane], -7.0)
+            b = delay.delayed(own[lane], d, k, v[k, lane], -7.0)
+            assert a == b, (k, lane)

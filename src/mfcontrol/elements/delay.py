@@ -28,18 +28,20 @@ def delayed_lane(ring, lane, d, slot, k, v, before):
     """:func:`delayed` for member ``lane`` of a block whose delays share one ring of n
     rows, n more than the longest of them (``ring[i, lane]``), ``slot`` = k % n computed
     once for the block: the same values out, with no division per member and no
-    branch on the value (the store is unconditional), so a loop over the block's
-    members vectorises."""
-    return delayed_lane_at(ring, lane, d, slot, back_slot(ring.shape[0], slot, d), k, v,
-                           before)
+    branch on the value (the store is unconditional)."""
+    ring[slot, lane] = v
+    out = ring[back_slot(ring.shape[0], slot, d), lane]
+    out = before if k < d else out
+    return v if d == 0 else out
 
 
 @step_jit
-def delayed_lane_at(ring, lane, d, slot, back, k, v, before):
-    """:func:`delayed_lane` with v_{k-d}'s row given (:func:`back_slot`): computed once
-    for a block whose members have the same delay, the loop over them reads one row,
-    contiguous, instead of a row per member (a gather)."""
-    ring[slot, lane] = v
-    out = ring[back, lane]
-    out = before if k < d else out
-    return v if d == 0 else out
+def delayed_rows(slot_row, back_row, lane, d, k, v, before):
+    """:func:`delayed_lane` for a block whose members all have the delay d >= 1, the
+    ring's row ``slot`` (where v_k goes) and row :func:`back_slot` (v_{k-d}) given as
+    arrays of their own: read, then written, so that a loop over the members vectorises
+    (a row per member is a gather, and the compiler cannot tell one row from the
+    other in a single array)."""
+    out = back_row[lane]
+    slot_row[lane] = v
+    return before if k < d else out

@@ -609,12 +609,12 @@ def _sense_lanes(D, acting, sensor_p, keys, shared, shared_key, k, ring_y, y_fir
             y_first[lane] = D[_YM, lane]
     if delays:  # a member without a delay (one without elements too) gets its reading back
         slot = k % ring_y.shape[0]
-        if d_shared >= 0:
-            back = delay.back_slot(ring_y.shape[0], slot, d_shared)
+        if d_shared > 0:
+            into, out = _ring_rows(ring_y, slot, d_shared)
             for lane in range(LANES):
-                D[_YM, lane] = delay.delayed_lane_at(ring_y, lane, d_shared, slot, back, k,
-                                                     D[_YM, lane], y_first[lane])
-        else:
+                D[_YM, lane] = delay.delayed_rows(into, out, lane, d_shared, k, D[_YM, lane],
+                                                  y_first[lane])
+        elif d_shared < 0:
             for lane in range(LANES):
                 D[_YM, lane] = delay.delayed_lane(
                     ring_y, lane, int(sensor_p[sensor.DELAY, lane]), slot, k, D[_YM, lane],
@@ -633,12 +633,18 @@ def _actuate_lanes(D, acting, actuator_p, d_in, DP, members, ring_u, u_act, d_sh
     disturbance, whether they share it and room for its values
     (:func:`_disturbance_lanes`)."""
     slot = k % ring_u.shape[0]
-    if d_shared >= 0:
-        back = delay.back_slot(ring_u.shape[0], slot, d_shared)
+    if d_shared > 0:
+        into, out = _ring_rows(ring_u, slot, d_shared)
         for lane in range(LANES):
             a = D[_U, lane]
-            w = delay.delayed_lane_at(ring_u, lane, d_shared, slot, back, k, a, 0.0)
+            w = delay.delayed_rows(into, out, lane, d_shared, k, a, 0.0)
             u = actuator.rate_limited(w, u_act[lane], actuator_p[actuator.RATE, lane], h)
+            u_act[lane] = u
+            D[_UP, lane] = u if acting[lane] else a
+    elif d_shared == 0:  # no delay: the ring is not read
+        for lane in range(LANES):
+            a = D[_U, lane]
+            u = actuator.rate_limited(a, u_act[lane], actuator_p[actuator.RATE, lane], h)
             u_act[lane] = u
             D[_UP, lane] = u if acting[lane] else a
     else:
@@ -684,6 +690,17 @@ def _same_columns(A, members):
             if not (a == b and math.copysign(1.0, a) == math.copysign(1.0, b)):
                 return False
     return True
+
+
+@_jit.step_jit
+def _ring_rows(ring, slot, d):
+    """A block's delay ring's row ``slot`` (where sample k goes, ``slot`` = k % its
+    rows) and the row of sample k - d, as arrays of their own
+    (:func:`mfcontrol.elements.delay.delayed_rows`)."""
+    base = sig.pointer(ring)
+    back = delay.back_slot(ring.shape[0], slot, d)
+    return (carray(sig.offset(base, slot * LANES), (LANES,)),
+            carray(sig.offset(base, back * LANES), (LANES,)))
 
 
 @_jit.step_jit
