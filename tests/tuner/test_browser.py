@@ -22,6 +22,9 @@ from mfcontrol.experiments.cases import resolve_case
 
 from .browser import ROOT, Tuner, chromium, new_page, open_browser, wait_idle
 
+pytest.importorskip("bokeh")
+from mfcontrol.tuner.page import CURRENT_SIGNALS, FROZEN_SIGNALS  # noqa: E402
+
 CASE = "voltage-stable-standard"  # 10,000 samples
 SHOWN = ("iae", "ise", "itae", "max_abs_e", "tv_u", "stable")
 
@@ -58,7 +61,7 @@ def engine(**overrides) -> dict:
     return simulate(cfg).metrics
 
 
-def engine_trace(names: tuple[str, ...] = ("y_ref", "y", "u", "gamma"), **overrides):
+def engine_trace(names: tuple[str, ...] = CURRENT_SIGNALS, **overrides):
     """The output as the page should plot it: the engine's run at the samples the page
     keeps (all up to MAX_POINTS, else each stretch's extremes), in float32."""
     import numpy as np
@@ -115,10 +118,19 @@ def test_freeze_keeps_a_grey_trace_and_a_second_column(page):
     assert current["iae"] != frozen["iae"]
     # two traces of the output: the current run and the frozen one
     assert plotted(page, "current-run") == engine_trace(controller__kp=4.0)
-    assert plotted(page, "frozen-run") == engine_trace(("y", "u", "gamma"))
+    assert plotted(page, "frozen-run-1") == engine_trace(FROZEN_SIGNALS)
+    # a second frozen run: a column and a trace of its own, the first kept
+    page.locator(".mf-freeze button").click()
+    page.wait_for_function("() => Object.keys(mf.cells('frozen-2')).length > 0")
+    assert page.evaluate("mf.cells('frozen-1')") == frozen
+    assert_shows(page.evaluate("mf.cells('frozen-2')"), engine(controller__kp=4.0))
+    assert plotted(page, "frozen-run-2") == engine_trace(FROZEN_SIGNALS, controller__kp=4.0)
+    caption = page.evaluate("mf.inside('mf-metrics', 'p.frozen-caption').innerText")
+    assert "#1 (solid grey): controller.kp = 2 (now 4)" in caption
+    assert "#2 (dashed grey): the current settings" in caption
     page.locator(".mf-clear button").click()
     page.wait_for_function("() => Object.keys(mf.cells('frozen')).length === 0")
-    assert page.evaluate("mf.model('frozen-run').data.y.length") == 0
+    assert page.evaluate("mf.model('frozen-run-1').data.y.length") == 0
 
 
 def test_the_saved_case_runs_to_the_displayed_metrics(page, tmp_path):
