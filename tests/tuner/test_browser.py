@@ -26,6 +26,7 @@ pytest.importorskip("bokeh")
 from mfcontrol.tuner.page import CURRENT_SIGNALS, FROZEN_SIGNALS  # noqa: E402
 
 CASE = "voltage-stable-standard"  # 10,000 samples
+MOTOR = "motor-noise-ipi-algebraic"  # 10,000 samples, sensor noise, a load step at 5 s
 SHOWN = ("iae", "ise", "itae", "max_abs_e", "tv_u", "stable")
 
 
@@ -216,3 +217,94 @@ def test_tuning_applies_the_best_values_and_redraws(page):
     shown = page.evaluate("mf.cells('current')")
     assert_shows(shown, engine(controller__kp=kp))
     assert float(shown["iae"]) <= engine()["iae"]  # never worse than the case's own
+
+
+def test_an_emptied_entry_returns_to_the_cases_value(page):
+    """Issue 28: an emptied entry took the library's default, not the case's value."""
+    page.evaluate("mf.change('mf-entry-reference-t-ramp2', '0.007')")
+    assert_shows(page.evaluate("mf.cells('current')"), engine(reference__t_ramp2=0.007))
+    page.evaluate("mf.change('mf-entry-reference-t-ramp2', '')")
+    assert page.locator(".mf-entry-reference-t-ramp2 input").input_value() == "0.005"
+    assert_shows(page.evaluate("mf.cells('current')"), engine())
+    assert "back to the case's 0.005" in page.evaluate("mf.text('mf-status')")
+
+
+def test_undo_goes_back_to_the_run_before(page):
+    assert page.locator(".mf-undo button").is_disabled()
+    page.evaluate("mf.change('mf-entry-controller-kp', '3.5')")
+    runs = page.evaluate("mf.run()")
+    page.locator(".mf-undo button").click()
+    page.wait_for_function(f"() => mf.run() > {runs}")
+    assert page.locator(".mf-entry-controller-kp input").input_value() == "2.0"
+    assert_shows(page.evaluate("mf.cells('current')"), engine())
+    assert plotted(page, "current-run") == engine_trace()
+    page.wait_for_function("() => mf.inside('mf-undo', 'button').disabled")
+
+
+def test_a_map_off_the_setting_says_so(page):
+    """Issue 28: after the setting moved, the map's title still said "around the current
+    setting (marked)" and its mark stayed."""
+    page.locator(".mf-map button").click()
+    page.locator(".mf-map-status [data-done]").wait_for(timeout=60_000)
+    subtitle = "mf.model('map-subtitle').text"
+    assert page.evaluate(subtitle).startswith("81 runs around the current setting (marked)")
+    page.evaluate("mf.change('mf-entry-controller-alpha', '12')")  # on the map
+    page.wait_for_function("() => mf.model('map-here').data.x[0] === 12")
+    assert page.evaluate(subtitle).startswith("81 runs around alpha = 10, dR = 1 (+)")
+    page.evaluate("mf.change('mf-entry-controller-kp', '3')")  # another setting
+    page.wait_for_function(f"() => {subtitle}.startsWith('Stale')")
+    assert page.evaluate("mf.model('map-here').data.x.length") == 0
+    assert "controller.kp = 2 (now 3)" in page.evaluate("mf.text('mf-map-status')")
+    assert page.locator(".mf-map button").inner_text() == "Redraw map (9 x 9)"
+
+
+@pytest.fixture(scope="module")
+def motor_tuner(browser):
+    t = Tuner(MOTOR)
+    yield t
+    t.stop()
+
+
+@pytest.fixture
+def motor(browser, motor_tuner):
+    page = new_page(browser, motor_tuner.url)
+    yield page
+    assert page.outside == [], "the page asked for something beyond 127.0.0.1"
+    page.context.close()
+
+
+def test_the_motor_in_its_own_words_with_its_measured_output_and_its_load_step(motor):
+    """Issue 28: the motor's voltage limits were titled duty_min / duty_max, the measured
+    (noisy) signal was not drawn, the scheduled load step could not be seen or edited."""
+    title = motor.evaluate("mf.text('mf-slider-controller-duty-min')")
+    assert "armature voltage u, lower limit (V)" in title
+    _, cfg = resolve_case(MOTOR)
+    r = simulate(cfg)
+    y_meas = motor.evaluate("Array.from(mf.model('current-run').data.y_meas)")
+    assert y_meas != plotted(motor, "current-run")  # the noise, drawn
+    assert motor.evaluate("mf.model('measured-output').visible")
+    assert float(max(y_meas)) == pytest.approx(float(r.signals["y_meas"].max()), rel=1e-6)
+    assert motor.evaluate("Array.from(mf.model('events').data.text)") == [
+        "load torque set to 0.05 N m"]
+    motor.evaluate("""mf.change('mf-entry-plant-schedule',
+                               '[{t = 2.0, name = "load", set = 0.1}]')""")
+    assert motor.evaluate("Array.from(mf.model('events').data.t)") == [2.0]
+    _, cfg = resolve_case(MOTOR, {"plant.schedule": [{"t": 2.0, "name": "load", "set": 0.1}]})
+    assert_shows(motor.evaluate("mf.cells('current')"), simulate(cfg).metrics)
+
+
+def test_a_law_switch_loads_the_laws_gains(motor):
+    """Issue 28: i-PI -> PID kept the i-PI's gains; the control chattered rail to rail
+    under "stable: yes"."""
+    runs = motor.evaluate("mf.run()")
+    motor.locator(".mf-select-controller-law select").select_option("pid")
+    motor.wait_for_function(f"() => mf.run() > {runs}", timeout=120_000)
+    wait_idle(motor)
+    assert motor.locator(".mf-entry-controller-kp input").input_value() == "2.0"
+    assert motor.locator(".mf-entry-controller-ki input").input_value() == "0.0"
+    assert "the library's defaults" in motor.evaluate("mf.text('mf-status')")
+    _, cfg = resolve_case(MOTOR, {"controller.law": "pid", "controller.kp": 2.0,
+                                  "controller.ki": 0.0})
+    assert_shows(motor.evaluate("mf.cells('current')"), simulate(cfg).metrics)
+    verdict = motor.evaluate("mf.inside('mf-metrics', 'p.verdict').innerText")
+    assert "control u: TV(u) 1.137e+04 V" in verdict and "at a limit" in verdict

@@ -113,7 +113,7 @@ def draw(m: RobustnessMap, units: tuple[str, str], labels: tuple[str, str],
     # Bokeh does not wrap a title: the second line is a title of its own, nearer the plot
     subtitle = Title(text=f"{m.z.size} runs around the current setting (marked), "
                           f"{m.seconds:.2f} s", text_font_size="10pt",
-                     text_font_style="normal", text_color="#444444")
+                     text_font_style="normal", text_color="#444444", name="map-subtitle")
     fig.add_layout(subtitle, "above")
     mapper = _mapper(m)
     cells = fig.quad(left="left", right="right", bottom="bottom", top="top", source=src,

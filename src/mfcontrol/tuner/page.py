@@ -391,7 +391,8 @@ class TunerPage:
         o.line("t", "y_ref", source=self.src, color=REFERENCE, line_dash="dashed",
                line_width=1.5, legend_label="reference")
         self._measured = o.line("t", "y_meas", source=self.src, color=MEASURED,
-                                line_width=1.0, alpha=0.8, legend_label="measured output")
+                                line_width=1.0, alpha=0.8, legend_label="measured output",
+                                name="measured-output")
         o.line("t", "y", source=self.src, color=CURRENT, line_width=1.6,
                legend_label="output")
         u.line("t", "u", source=self.src, color="#2ca02c", line_width=1.4,
