@@ -41,19 +41,29 @@ def browser():
         b.close()
 
 
-@pytest.fixture(scope="module")
-def tuner(browser):
-    t = Tuner(CASE)
+def served(case: str):
+    """A tuner of ``case`` for a module's tests (the fixtures' body)."""
+    t = Tuner(case)
     yield t
     t.stop()
 
 
-@pytest.fixture
-def page(browser, tuner):
-    page = new_page(browser, tuner.url)
+def opened(browser, url: str):
+    """A fresh page of a tuner for one test, which must ask nothing beyond 127.0.0.1."""
+    page = new_page(browser, url)
     yield page
     assert page.outside == [], "the page asked for something beyond 127.0.0.1"
     page.context.close()
+
+
+@pytest.fixture(scope="module")
+def tuner(browser):
+    yield from served(CASE)
+
+
+@pytest.fixture
+def page(browser, tuner):
+    yield from opened(browser, tuner.url)
 
 
 def engine(**overrides) -> dict:
@@ -260,17 +270,12 @@ def test_a_map_off_the_setting_says_so(page):
 
 @pytest.fixture(scope="module")
 def motor_tuner(browser):
-    t = Tuner(MOTOR)
-    yield t
-    t.stop()
+    yield from served(MOTOR)
 
 
 @pytest.fixture
 def motor(browser, motor_tuner):
-    page = new_page(browser, motor_tuner.url)
-    yield page
-    assert page.outside == [], "the page asked for something beyond 127.0.0.1"
-    page.context.close()
+    yield from opened(browser, motor_tuner.url)
 
 
 def test_the_motor_in_its_own_words_with_its_measured_output_and_its_load_step(motor):
