@@ -215,6 +215,11 @@ def test_a_robustness_map_is_drawn_with_its_unstable_members(page):
 
 
 def test_tuning_applies_the_best_values_and_redraws(page):
+    """And (issue 28) the values are shown to 4 digits, and a map drawn before is drawn
+    again around them (it stayed on the old setting, titled "around the current
+    setting")."""
+    page.locator(".mf-map button").click()
+    page.locator(".mf-map-status [data-done]").wait_for(timeout=60_000)
     page.evaluate("mf.model('tune-keys').value = ['controller.kp']")
     page.evaluate("mf.model('budget').value = 40")
     page.wait_for_timeout(200)
@@ -222,11 +227,18 @@ def test_tuning_applies_the_best_values_and_redraws(page):
     page.locator(".mf-tune-status [data-done]").wait_for(timeout=60_000)
     assert "applied" in page.evaluate("mf.text('mf-tune-status')")
     wait_idle(page)
-    kp = float(page.locator(".mf-entry-controller-kp input").input_value())
+    text = page.locator(".mf-entry-controller-kp input").input_value()
+    kp = float(text)
     assert kp != 2.0 and 0.2 <= kp <= 20.0
+    assert text == repr(float(f"{kp:.4g}"))  # 4 significant digits, and run as shown
     shown = page.evaluate("mf.cells('current')")
     assert_shows(shown, engine(controller__kp=kp))
     assert float(shown["iae"]) <= engine()["iae"]  # never worse than the case's own
+    page.wait_for_function("() => mf.model('map-subtitle') && mf.model('map-subtitle')"
+                           ".text.startsWith('81 runs around the current setting')",
+                           timeout=60_000)
+    page.locator(".mf-map-status [data-done]").wait_for(timeout=60_000)
+    assert "is stale" not in page.evaluate("mf.text('mf-map-status')")
 
 
 def test_an_emptied_entry_returns_to_the_cases_value(page):

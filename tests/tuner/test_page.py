@@ -174,6 +174,11 @@ def test_a_map_off_the_setting_is_marked_and_redrawn_after_a_tuning(page, monkey
     page._tuned_from = page.session.cfg
     page._tune_done(Tuned({"controller.alpha": 14.5}))
     assert started == [1]
+    # the map drawn again: the old one's models lose the names the page's script reads
+    page._map_done(page.session.robustness_map("controller.alpha", "plant.dR", n=3))
+    assert view.subtitle.name is None and view.fig.name is None
+    assert page.map_view.subtitle.name == "map-subtitle"
+    assert page.map_view.subtitle.text.startswith("9 runs around the current setting")
 
 
 def test_the_measured_output_is_drawn_where_it_differs(page, motor):

@@ -49,6 +49,12 @@ class MapFigure:
     hatch: GlyphRenderer | None
     shown: str = ""
 
+    def retire(self) -> None:
+        """Drop the names a page's script finds the map by: the browser keeps a replaced
+        map's models, and two models of one name are an error there."""
+        for model in (self.fig, self.subtitle, self.here):
+            model.name = None
+
     def show(self, state: MapState) -> None:
         """Show how the map stands to the settings: the mark on the current setting (or
         none off the map), the map's own centre (+) once they differ, the cells faded and

@@ -602,10 +602,10 @@ class TunerPage:
                        '<span style="color:#b42318">unstable</span> ') + html.escape(rule)
         _, u_unit = units(s_cfg)
         f = control_figures(r)
-        control = (f'<span class="mf-control">control u: TV(u) {fmt(m["tv_u"])} '
-                   f'{html.escape(u_unit)}, a mean step of {fmt(f["step_share"])} % of '
-                   f'its range {fmt(f["low"])} .. {fmt(f["high"])}'
-                   f'{"" if u_unit == "1" else " " + html.escape(u_unit)}, at a limit '
+        unit = "" if u_unit == "1" else " " + html.escape(u_unit)  # a duty has none
+        control = (f'<span class="mf-control">control u: TV(u) {fmt(m["tv_u"])}{unit}, '
+                   f'a mean step of {fmt(f["step_share"])} % of its range '
+                   f'{fmt(f["low"])} .. {fmt(f["high"])}{unit}, at a limit '
                    f'{fmt(f["u_at_limit"])} % of the samples</span>')
         changed = ", ".join(f"{k} = {text_of(v)}" for k, v in s.changed().items())
         return (f'<p class="verdict">{verdict}. {r.time.size:,} samples simulated in '
@@ -735,6 +735,8 @@ class TunerPage:
     def _map_done(self, m) -> None:
         self._idle()
         s = self.session
+        if self.map_view is not None:
+            self.map_view.retire()
         self.map_view = heatmap.draw(m, units(m.cfg), (s.label(m.x), s.label(m.y)),
                                      width=CENTRE)
         self.map_holder.children = [self.map_view.fig]
