@@ -10,6 +10,7 @@ limits titled in volts.
 from __future__ import annotations
 
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 from .browser import ROOT, Tuner, chromium, new_page, open_browser, wait_idle
@@ -19,18 +20,29 @@ MOTOR = "motor-noise-ipi-algebraic"
 SIZE = {"width": 1620, "height": 1060}
 
 
-def paper(browser, folder: Path) -> None:
-    tuner = Tuner(CASE)
+@contextmanager
+def opened(browser, case: str):
+    """A page of the tuner of ``case``, drawn; the tuner stopped after."""
+    tuner = Tuner(case)
     try:
         page = new_page(browser, tuner.url, **SIZE)
         wait_idle(page)
+        yield page
+    finally:
+        tuner.stop()
+
+
+def paper(browser, folder: Path) -> None:
+    with opened(browser, CASE) as page:
         page.screenshot(path=folder / "tuner-initial.png", full_page=True)
         page.locator(".mf-freeze button").click()
         page.wait_for_function("() => Object.keys(mf.cells('frozen')).length > 0")
         page.evaluate("mf.change('mf-entry-controller-kp', '4')")
         wait_idle(page)
         page.screenshot(path=folder / "tuner-frozen.png", full_page=True)
+        runs = page.evaluate("mf.run()")
         page.locator(".mf-undo button").click()  # back to the case's gain
+        page.wait_for_function(f"() => mf.run() > {runs}")
         wait_idle(page)
         page.locator(".mf-map button").click()
         page.locator(".mf-map-status [data-done]").wait_for(timeout=120_000)
@@ -40,18 +52,11 @@ def paper(browser, folder: Path) -> None:
         page.wait_for_function("() => mf.model('map-subtitle').text.startsWith('Stale')")
         page.wait_for_timeout(500)
         page.screenshot(path=folder / "tuner-stale.png", full_page=True)
-    finally:
-        tuner.stop()
 
 
 def motor(browser, folder: Path) -> None:
-    tuner = Tuner(MOTOR)
-    try:
-        page = new_page(browser, tuner.url, **SIZE)
-        wait_idle(page)
+    with opened(browser, MOTOR) as page:
         page.screenshot(path=folder / "tuner-motor.png", full_page=True)
-    finally:
-        tuner.stop()
 
 
 def main(folder: Path) -> None:
