@@ -405,3 +405,11 @@ def test_a_horizon_too_long_for_a_change_is_refused_with_the_figure():
     assert s.cfg["sim.t_end"] == 0.01
     with pytest.raises(ConfigError, match="sim.t_end"):
         Session("voltage-stable-standard", {"sim.t_end": 5.0})
+
+
+def test_the_read_keys_are_the_librarys_and_kept_per_settings():
+    s = Session(CASE, SHORT)
+    first = s.reads(s.cfg)
+    assert first == keys_read_by_run(s.cfg) and s.reads(s.cfg) is first
+    s.set("controller.law", "i-PI")
+    assert "controller.ki" in s.reads(s.cfg) and "controller.ki" not in first

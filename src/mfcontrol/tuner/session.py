@@ -384,6 +384,7 @@ class Session:
         # the steps back: (the settings before a change, the change in words, its key if
         # a slider's move: the next move of the same slider is the same step)
         self._history: list[tuple[tuple, str, str | None]] = []
+        self._reads: dict[int, tuple[Config, frozenset[str]]] = {}
 
     @property
     def description(self) -> str:
@@ -506,10 +507,22 @@ class Session:
         self.note = ""
         return what
 
+    def reads(self, cfg: Config) -> frozenset[str]:
+        """The options a run of ``cfg`` reads
+        (:func:`~mfcontrol.api.run.simulate.keys_read_by_run`), kept for the settings
+        seen last: every redraw asks it of the current settings, each frozen run's and a
+        map's (about 0.6 ms a call)."""
+        hit = self._reads.get(id(cfg))
+        if hit is None or hit[0] is not cfg:
+            if len(self._reads) >= 32:
+                self._reads.clear()
+            hit = self._reads[id(cfg)] = (cfg, frozenset(keys_read_by_run(cfg)))
+        return hit[1]
+
     def changed(self) -> dict[str, Any]:
         """The options the run reads whose value differs from the case's own (one the
         run does not read, such as another law's gain, changes nothing)."""
-        read = keys_read_by_run(self.cfg) | set(ALWAYS)
+        read = self.reads(self.cfg) | set(ALWAYS)
         return {k: self.cfg[k] for k in self.overrides
                 if k in read and self.cfg[k] != self._own[k]}
 
@@ -520,7 +533,7 @@ class Session:
         now = self.cfg
         if then is now:
             return {}
-        read = (keys_read_by_run(then) | keys_read_by_run(now)) - set(ignore)
+        read = (self.reads(then) | self.reads(now)) - set(ignore)
         return {o.key: (then[o.key], now[o.key]) for o in OPTIONS
                 if o.key in read and then[o.key] != now[o.key]}
 
@@ -533,7 +546,7 @@ class Session:
         a variational gain's options under a constant gain), plus the model and law
         choices; in the order of the option table."""
         if self._shown is None:
-            read = (keys_read_by_run(self.cfg) | set(ALWAYS)) - set(_SWEEP_KEYS)
+            read = (self.reads(self.cfg) | set(ALWAYS)) - set(_SWEEP_KEYS)
             self._shown = [self._field(o.key) for o in OPTIONS
                            if o.key in read and o.kind in _EDITABLE
                            and not self._without_effect(o.key)]
