@@ -14,15 +14,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from bokeh.models import (
-    ColumnDataSource,
-    GlyphRenderer,
-    HoverTool,
-    LinearColorMapper,
-    LogColorMapper,
-    Range1d,
-)
+from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, LogColorMapper, Range1d
 from bokeh.models.annotations import ColorBar, Legend, LegendItem, Title
+from bokeh.models.renderers import GlyphRenderer
 from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 

@@ -27,8 +27,8 @@ import numpy as np
 from bokeh.core.properties import value
 from bokeh.document import Document
 from bokeh.layouts import column, row
-from bokeh.models import ColumnDataSource, CustomJS, InlineStyleSheet, LabelSet
-from bokeh.models.annotations import Title
+from bokeh.models import ColumnDataSource, CustomJS, InlineStyleSheet
+from bokeh.models.annotations import LabelSet, Title
 from bokeh.models.layouts import TabPanel, Tabs
 from bokeh.models.widgets import Button, Div, MultiChoice, Select, Slider, Spinner, TextInput
 from bokeh.plotting import figure
