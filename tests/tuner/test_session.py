@@ -120,6 +120,8 @@ def test_a_law_switch_loads_that_laws_gains_and_says_so():
 def test_undo_goes_back_one_change_at_a_time():
     s = Session(CASE, SHORT)
     assert not s.can_undo() and s.undo() is None
+    s.set("controller.kp", "")  # already the case's: nothing to undo
+    assert not s.can_undo()
     s.set("controller.kp", "3")
     s.set("controller.alpha", "-1")  # refused: no step
     s.set("controller.law", "variational")  # the law and its gains: one step

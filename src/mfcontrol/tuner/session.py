@@ -428,7 +428,8 @@ class Session:
             what = f"{key} = {text_of(self.cfg[key])}"
         else:
             what = f"{key} unset"
-        self._record(before, what, key if slide else None)
+        if any(before[0][k] != self.cfg[k] for k in values):  # else no step to undo
+            self._record(before, what, key if slide else None)
         self.note = note
         return None
 
