@@ -22,7 +22,11 @@ from mfcontrol.experiments.cases import resolve_case
 
 from .browser import ROOT, Tuner, chromium, new_page, open_browser, wait_idle
 
+pytest.importorskip("bokeh")
+from mfcontrol.tuner.page import CURRENT_SIGNALS, FROZEN_SIGNALS  # noqa: E402
+
 CASE = "voltage-stable-standard"  # 10,000 samples
+MOTOR = "motor-noise-ipi-algebraic"  # 10,000 samples, sensor noise, a load step at 5 s
 SHOWN = ("iae", "ise", "itae", "max_abs_e", "tv_u", "stable")
 
 
@@ -37,19 +41,29 @@ def browser():
         b.close()
 
 
-@pytest.fixture(scope="module")
-def tuner(browser):
-    t = Tuner(CASE)
+def served(case: str):
+    """A tuner of ``case`` for a module's tests (the fixtures' body)."""
+    t = Tuner(case)
     yield t
     t.stop()
 
 
-@pytest.fixture
-def page(browser, tuner):
-    page = new_page(browser, tuner.url)
+def opened(browser, url: str):
+    """A fresh page of a tuner for one test, which must ask nothing beyond 127.0.0.1."""
+    page = new_page(browser, url)
     yield page
     assert page.outside == [], "the page asked for something beyond 127.0.0.1"
     page.context.close()
+
+
+@pytest.fixture(scope="module")
+def tuner(browser):
+    yield from served(CASE)
+
+
+@pytest.fixture
+def page(browser, tuner):
+    yield from opened(browser, tuner.url)
 
 
 def engine(**overrides) -> dict:
@@ -58,7 +72,7 @@ def engine(**overrides) -> dict:
     return simulate(cfg).metrics
 
 
-def engine_trace(names: tuple[str, ...] = ("y_ref", "y", "u", "gamma"), **overrides):
+def engine_trace(names: tuple[str, ...] = CURRENT_SIGNALS, **overrides):
     """The output as the page should plot it: the engine's run at the samples the page
     keeps (all up to MAX_POINTS, else each stretch's extremes), in float32."""
     import numpy as np
@@ -115,10 +129,19 @@ def test_freeze_keeps_a_grey_trace_and_a_second_column(page):
     assert current["iae"] != frozen["iae"]
     # two traces of the output: the current run and the frozen one
     assert plotted(page, "current-run") == engine_trace(controller__kp=4.0)
-    assert plotted(page, "frozen-run") == engine_trace(("y", "u", "gamma"))
+    assert plotted(page, "frozen-run-1") == engine_trace(FROZEN_SIGNALS)
+    # a second frozen run: a column and a trace of its own, the first kept
+    page.locator(".mf-freeze button").click()
+    page.wait_for_function("() => Object.keys(mf.cells('frozen-2')).length > 0")
+    assert page.evaluate("mf.cells('frozen-1')") == frozen
+    assert_shows(page.evaluate("mf.cells('frozen-2')"), engine(controller__kp=4.0))
+    assert plotted(page, "frozen-run-2") == engine_trace(FROZEN_SIGNALS, controller__kp=4.0)
+    caption = page.evaluate("mf.inside('mf-metrics', 'p.frozen-caption').innerText")
+    assert "#1 (solid grey): controller.kp = 2 (now 4)" in caption
+    assert "#2 (dashed grey): the current settings" in caption
     page.locator(".mf-clear button").click()
     page.wait_for_function("() => Object.keys(mf.cells('frozen')).length === 0")
-    assert page.evaluate("mf.model('frozen-run').data.y.length") == 0
+    assert page.evaluate("mf.model('frozen-run-1').data.y.length") == 0
 
 
 def test_the_saved_case_runs_to_the_displayed_metrics(page, tmp_path):
@@ -192,6 +215,11 @@ def test_a_robustness_map_is_drawn_with_its_unstable_members(page):
 
 
 def test_tuning_applies_the_best_values_and_redraws(page):
+    """And (issue 28) the values are shown to 4 digits, and a map drawn before is drawn
+    again around them (it stayed on the old setting, titled "around the current
+    setting")."""
+    page.locator(".mf-map button").click()
+    page.locator(".mf-map-status [data-done]").wait_for(timeout=60_000)
     page.evaluate("mf.model('tune-keys').value = ['controller.kp']")
     page.evaluate("mf.model('budget').value = 40")
     page.wait_for_timeout(200)
@@ -199,8 +227,101 @@ def test_tuning_applies_the_best_values_and_redraws(page):
     page.locator(".mf-tune-status [data-done]").wait_for(timeout=60_000)
     assert "applied" in page.evaluate("mf.text('mf-tune-status')")
     wait_idle(page)
-    kp = float(page.locator(".mf-entry-controller-kp input").input_value())
+    text = page.locator(".mf-entry-controller-kp input").input_value()
+    kp = float(text)
     assert kp != 2.0 and 0.2 <= kp <= 20.0
+    assert text == repr(float(f"{kp:.4g}"))  # 4 significant digits, and run as shown
     shown = page.evaluate("mf.cells('current')")
     assert_shows(shown, engine(controller__kp=kp))
     assert float(shown["iae"]) <= engine()["iae"]  # never worse than the case's own
+    page.wait_for_function("() => mf.model('map-subtitle') && mf.model('map-subtitle')"
+                           ".text.startsWith('81 runs around the current setting')",
+                           timeout=60_000)
+    page.locator(".mf-map-status [data-done]").wait_for(timeout=60_000)
+    assert "is stale" not in page.evaluate("mf.text('mf-map-status')")
+
+
+def test_an_emptied_entry_returns_to_the_cases_value(page):
+    """Issue 28: an emptied entry took the library's default, not the case's value."""
+    page.evaluate("mf.change('mf-entry-reference-t-ramp2', '0.007')")
+    assert_shows(page.evaluate("mf.cells('current')"), engine(reference__t_ramp2=0.007))
+    page.evaluate("mf.change('mf-entry-reference-t-ramp2', '')")
+    assert page.locator(".mf-entry-reference-t-ramp2 input").input_value() == "0.005"
+    assert_shows(page.evaluate("mf.cells('current')"), engine())
+    assert "back to the case's 0.005" in page.evaluate("mf.text('mf-status')")
+
+
+def test_undo_goes_back_to_the_run_before(page):
+    assert page.locator(".mf-undo button").is_disabled()
+    page.evaluate("mf.change('mf-entry-controller-kp', '3.5')")
+    runs = page.evaluate("mf.run()")
+    page.locator(".mf-undo button").click()
+    page.wait_for_function(f"() => mf.run() > {runs}")
+    assert page.locator(".mf-entry-controller-kp input").input_value() == "2.0"
+    assert_shows(page.evaluate("mf.cells('current')"), engine())
+    assert plotted(page, "current-run") == engine_trace()
+    page.wait_for_function("() => mf.inside('mf-undo', 'button').disabled")
+
+
+def test_a_map_off_the_setting_says_so(page):
+    """Issue 28: after the setting moved, the map's title still said "around the current
+    setting (marked)" and its mark stayed."""
+    page.locator(".mf-map button").click()
+    page.locator(".mf-map-status [data-done]").wait_for(timeout=60_000)
+    subtitle = "mf.model('map-subtitle').text"
+    assert page.evaluate(subtitle).startswith("81 runs around the current setting (marked)")
+    page.evaluate("mf.change('mf-entry-controller-alpha', '12')")  # on the map
+    page.wait_for_function("() => mf.model('map-here').data.x[0] === 12")
+    assert page.evaluate(subtitle).startswith("81 runs around alpha = 10, dR = 1 (+)")
+    page.evaluate("mf.change('mf-entry-controller-kp', '3')")  # another setting
+    page.wait_for_function(f"() => {subtitle}.startsWith('Stale')")
+    assert page.evaluate("mf.model('map-here').data.x.length") == 0
+    assert "controller.kp = 2 (now 3)" in page.evaluate("mf.text('mf-map-status')")
+    assert page.locator(".mf-map button").inner_text() == "Redraw map (9 x 9)"
+
+
+@pytest.fixture(scope="module")
+def motor_tuner(browser):
+    yield from served(MOTOR)
+
+
+@pytest.fixture
+def motor(browser, motor_tuner):
+    yield from opened(browser, motor_tuner.url)
+
+
+def test_the_motor_in_its_own_words_with_its_measured_output_and_its_load_step(motor):
+    """Issue 28: the motor's voltage limits were titled duty_min / duty_max, the measured
+    (noisy) signal was not drawn, the scheduled load step could not be seen or edited."""
+    title = motor.evaluate("mf.text('mf-slider-controller-duty-min')")
+    assert "armature voltage u, lower limit (V)" in title
+    _, cfg = resolve_case(MOTOR)
+    r = simulate(cfg)
+    y_meas = motor.evaluate("Array.from(mf.model('current-run').data.y_meas)")
+    assert y_meas != plotted(motor, "current-run")  # the noise, drawn
+    assert motor.evaluate("mf.model('measured-output').visible")
+    assert float(max(y_meas)) == pytest.approx(float(r.signals["y_meas"].max()), rel=1e-6)
+    assert motor.evaluate("Array.from(mf.model('events').data.text)") == [
+        "load torque set to 0.05 N m"]
+    motor.evaluate("""mf.change('mf-entry-plant-schedule',
+                               '[{t = 2.0, name = "load", set = 0.1}]')""")
+    assert motor.evaluate("Array.from(mf.model('events').data.t)") == [2.0]
+    _, cfg = resolve_case(MOTOR, {"plant.schedule": [{"t": 2.0, "name": "load", "set": 0.1}]})
+    assert_shows(motor.evaluate("mf.cells('current')"), simulate(cfg).metrics)
+
+
+def test_a_law_switch_loads_the_laws_gains(motor):
+    """Issue 28: i-PI -> PID kept the i-PI's gains; the control chattered rail to rail
+    under "stable: yes"."""
+    runs = motor.evaluate("mf.run()")
+    motor.locator(".mf-select-controller-law select").select_option("pid")
+    motor.wait_for_function(f"() => mf.run() > {runs}", timeout=120_000)
+    wait_idle(motor)
+    assert motor.locator(".mf-entry-controller-kp input").input_value() == "2.0"
+    assert motor.locator(".mf-entry-controller-ki input").input_value() == "0.0"
+    assert "the library's defaults" in motor.evaluate("mf.text('mf-status')")
+    _, cfg = resolve_case(MOTOR, {"controller.law": "pid", "controller.kp": 2.0,
+                                  "controller.ki": 0.0})
+    assert_shows(motor.evaluate("mf.cells('current')"), simulate(cfg).metrics)
+    verdict = motor.evaluate("mf.inside('mf-metrics', 'p.verdict').innerText")
+    assert "control u: TV(u) 1.137e+04 V" in verdict and "at a limit" in verdict

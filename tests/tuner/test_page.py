@@ -72,3 +72,153 @@ def test_a_tuning_is_not_applied_to_settings_changed_while_it_ran(page):
     page._tune_done(Best())
     assert page.session.cfg["controller.kp"] == 2.0
     assert "not applied" in page.tune_status.text
+
+
+MOTOR = "motor-noise-ipi-algebraic"
+
+
+@pytest.fixture
+def motor():
+    return TunerPage(Document(), Session(MOTOR))
+
+
+class Tuned:
+    """What mfcontrol.tune returns, as far as the page reads it."""
+
+    value, start_value, evaluations, seconds, stopped = 1e-4, 2e-4, 40, 0.1, "budget"
+
+    def __init__(self, best):
+        from mfcontrol.api.results.objective import Objective
+
+        self.best = best
+        self.objective = Objective.parse("iae")
+
+
+def test_a_law_switch_shows_the_laws_gains_and_says_where_they_come_from(motor):
+    motor.change(motor.views["controller.law"], "pid")
+    assert motor.views["controller.kp"].entry.value == "2.0"
+    assert motor.views["controller.ki"].entry.value == "0.0"
+    assert "the library&#x27;s defaults" in motor.status_div.text
+    motor.change(motor.views["controller.law"], "i-PI")
+    assert motor.views["controller.alpha"].entry.value == "50.0"
+    assert "from the case" in motor.status_div.text
+
+
+def test_an_emptied_entry_shows_the_cases_value(motor):
+    view = motor.views["controller.alpha"]
+    motor.change(view, "70")
+    motor.change(view, "")
+    assert view.entry.value == "50.0" and motor.session.value("controller.alpha") == 50.0
+    assert "back to the case&#x27;s 50.0" in motor.status_div.text
+
+
+def test_undo_restores_the_fields_and_the_run(page):
+    assert page.undo_button.disabled
+    first = page.session.result.metrics
+    page.change(page.views["controller.kp"], "3")
+    assert not page.undo_button.disabled
+    page.undo()
+    assert page.views["controller.kp"].entry.value == "2.0"
+    assert page.session.result.metrics == first and page.undo_button.disabled
+    assert "undone: controller.kp = 3.0" in page.status_div.text
+
+
+def test_several_frozen_runs_each_a_column_a_line_and_its_settings(page):
+    page.freeze()
+    page.change(page.views["controller.kp"], "3")
+    page.freeze()
+    page.change(page.views["controller.kp"], "4")
+    text = page.page_text.data["metrics"][0]
+    assert 'class="frozen frozen-1"' in text and 'class="frozen frozen-2"' in text
+    assert "<th>vs #2</th>" in text
+    assert "controller.kp = 2 (now 4)" in text and "controller.kp = 3 (now 4)" in text
+    assert len(page.frz[0].data["y"]) and len(page.frz[1].data["y"])
+    assert not len(page.frz[2].data["y"])
+    labels = [item.label.value for item in page._frozen_items[1] if item.visible]
+    assert labels == ["frozen #2"] * 3
+    page.clear()
+    assert not len(page.frz[0].data["y"]) and page.clear_button.disabled
+
+
+def test_tuned_values_are_shown_to_four_digits(page):
+    page._tuned_from = page.session.cfg
+    page._tune_done(Tuned({"controller.kp": 2.0417379446695296}))
+    assert page.views["controller.kp"].entry.value == "2.042"
+    assert "controller.kp = 2.042" in page.tune_status.text
+    assert "2.0417379" not in page.page_text.data["metrics"][0]
+    page.undo()
+    assert page.views["controller.kp"].entry.value == "2.0"
+
+
+def test_a_map_off_the_setting_is_marked_and_redrawn_after_a_tuning(page, monkeypatch):
+    """Issue 28: after Tune moved alpha, the map, its title and its marker stayed where
+    they were."""
+    page._map_done(page.session.robustness_map("controller.alpha", "plant.dR", n=3))
+    view = page.map_view
+    assert view.subtitle.text.startswith("9 runs around the current setting (marked)")
+    assert page.map_button.label == "Robustness map (9 x 9)"
+    page.change(page.views["controller.alpha"], "12")  # on the map: the mark moves
+    assert dict(view.here.data) == {"x": [12.0], "y": [1.0]} and view.centre_item.visible
+    page.change(page.views["controller.kp"], "3")  # another setting: stale
+    assert view.subtitle.text.startswith("Stale: 9 runs around alpha = 10, dR = 1 (+)")
+    assert view.cells.glyph.fill_alpha < 1 and not view.here_item.visible
+    assert "controller.kp = 2 (now 3)" in page.map_status.text
+    assert page.map_button.label == "Redraw map (9 x 9)"
+    page.undo()
+    page.undo()
+    assert view.subtitle.text.startswith("9 runs around the current setting")
+    assert view.cells.glyph.fill_alpha == 1
+    # a tuning applied under a map: the map is drawn again around the tuned values
+    started = []
+    monkeypatch.setattr(TunerPage, "start_map", lambda self: started.append(1))
+    page._tuned_from = page.session.cfg
+    page._tune_done(Tuned({"controller.alpha": 14.5}))
+    assert started == [1]
+    # the map drawn again: the old one's models lose the names the page's script reads
+    page._map_done(page.session.robustness_map("controller.alpha", "plant.dR", n=3))
+    assert view.subtitle.name is None and view.fig.name is None
+    assert page.map_view.subtitle.name == "map-subtitle"
+    assert page.map_view.subtitle.text.startswith("9 runs around the current setting")
+
+
+def test_the_measured_output_is_drawn_where_it_differs(page, motor):
+    """Issue 28: the measured (noisy) signal was not drawn."""
+    assert not page._measured.visible  # the paper's case measures y itself
+    assert motor._measured.visible and motor._measured_item.visible
+    y, y_meas = motor.src.data["y"], motor.src.data["y_meas"]
+    assert len(y) == len(y_meas) and (y != y_meas).any()
+
+
+def test_the_schedule_is_a_field_and_its_changes_are_marked_in_words(motor):
+    view = motor.views["plant.schedule"]
+    assert view.entry.value == '[{t = 5.0, name = "load", set = 0.05}]'
+    assert dict(motor.events.data) == {"t": [5.0], "text": ["load torque set to 0.05 N m"]}
+    motor.change(view, '[{t = 2.0, name = "load", set = 0.02}]')
+    assert dict(motor.events.data) == {"t": [2.0], "text": ["load torque set to 0.02 N m"]}
+
+
+def test_titles_in_the_plants_words_and_the_control_beside_the_verdict(motor):
+    """Issue 28: the motor's limits were titled duty_min / duty_max; the page said
+    "stable: yes" under a control chattering rail to rail."""
+    assert motor.views["controller.duty_min"].slider.title == \
+        "armature voltage u, lower limit (V)"
+    assert motor.views["controller.duty_min"].entry.description.startswith(
+        "controller.duty_min: ")
+    assert ("controller.duty_max", "armature voltage u, upper limit (V)") in \
+        motor.map_x.options
+    motor.change(motor.views["controller.law"], "pid")
+    for key, value in (("controller.kp", "20"), ("controller.ki", "50")):
+        motor.change(motor.views[key], value)  # the i-PI's gains on the PID
+    text = motor.page_text.data["metrics"][0]
+    assert "stable</span> (the output: |e| within 10 % of max |y*|" in text
+    assert "control u: TV(u) 1.313e+05 V, a mean step of 27" in text
+    assert 'data-metric="u_at_limit"' in text
+
+
+def test_a_number_changed_keeps_the_widgets(page):
+    """Found while fixing issue 28: the fields were compared with the widgets in another
+    order (the option table's against the tabs'), and every change built them all again
+    (a round trip of 340 ms, and a slider lost under the mouse)."""
+    view = page.views["controller.kp"]
+    page.change(view, "3")
+    assert page.views["controller.kp"] is view

@@ -9,14 +9,15 @@ import tomllib
 import numpy as np
 import pytest
 
-from mfcontrol.api.run.simulate import simulate
+from mfcontrol.api.run.simulate import keys_read_by_run, simulate
 from mfcontrol.cli import main
 from mfcontrol.config.toml import parse_assignment
 from mfcontrol.errors import CaseError, ConfigError
 from mfcontrol.experiments.cases import resolve_case, run_case
-from mfcontrol.tuner.session import Session, axis_values, span, text_of
+from mfcontrol.tuner.session import Session, axis_values, control_figures, span, text_of
 
 CASE = "voltage-stable-standard"
+MOTOR = "motor-noise-ipi-algebraic"  # 10,000 samples, alpha 50, kp 20, ki 50
 SHORT = {"sim.t_end": 2e-3}  # 2,000 samples
 
 
@@ -59,11 +60,204 @@ def test_restore_goes_back_to_a_snapshot():
     assert "controller.Gamma" not in {f.key for f in s.fields()}
 
 
-def test_an_empty_entry_restores_the_default():
-    s = Session(CASE, {"reference.t_ramp2": 0.005})
-    assert s.value("reference.t_ramp2") == 0.005
-    assert s.set("reference.t_ramp2", "") is None
-    assert s.value("reference.t_ramp2") is None
+def test_an_empty_entry_of_an_option_the_case_does_not_set_restores_the_default():
+    s = Session(CASE, {"controller.k_aw": 5.0, "controller.u0": 0.5})
+    assert s.set("controller.k_aw", "") is None
+    assert s.value("controller.k_aw") is None
+    assert s.note == ("controller.k_aw back to the default (the case does not set it): "
+                      "unset")
+    assert s.set("controller.u0", "") is None and s.value("controller.u0") == 1.0
+    # one the case sets: the case's value
+    assert s.set("reference.t_ramp2", "0.007") is None
+    assert s.set("reference.t_ramp2", "") is None and s.value("reference.t_ramp2") == 0.005
+
+
+def test_an_empty_entry_returns_to_the_cases_value():
+    """Issue 28: an emptied alpha became the library's 10, not the case's 50 (IAE 1.03
+    became 2.97)."""
+    s = Session(MOTOR)
+    own = s.run().metrics["iae"]
+    assert s.set("controller.alpha", "70") is None
+    assert s.set("controller.alpha", "") is None
+    assert s.value("controller.alpha") == 50.0 and s.changed() == {}
+    assert s.note == "controller.alpha back to the case's 50.0"
+    assert s.run().metrics["iae"] == own
+    # a case set with --set: the case file's value, the --set one counting as a change
+    t = Session(MOTOR, {"controller.kp": 5.0})
+    assert t.set("controller.kp", " ") is None and t.value("controller.kp") == 20.0
+
+
+def test_a_law_switch_loads_that_laws_gains_and_says_so():
+    """Issue 28: i-PI -> PID kept the i-PI's gains (kp 20, ki 50) and the control
+    chattered rail to rail (TV(u) 1.3e5) under "stable: yes"."""
+    s = Session(MOTOR)
+    assert s.set("controller.kp", "25") is None
+    assert s.set("controller.law", "pid") is None
+    assert (s.value("controller.kp"), s.value("controller.ki"), s.value("controller.kd")) \
+        == (2.0, 0.0, 0.0)  # the library's defaults: the case's gains are the i-PI's
+    assert s.note == ("controller.law = pid: its gains kp = 2.0, ki = 0.0, kd = 0.0, the "
+                      "library's defaults (the case's gains are for i-PI)")
+    _, cfg = resolve_case(MOTOR, {"controller.law": "pid", "controller.kp": 2.0,
+                                  "controller.ki": 0.0})
+    assert s.run().metrics == simulate(cfg).metrics
+    assert s.run().metrics["tv_u"] < 2e4  # not the kept gains' 1.3e5
+    # the i-PI's alpha is unset: the saved case holds the PID's gains only
+    assert "alpha" not in s.toml() and "controller.alpha" not in s.changed()
+    # back to the case's law: the case's gains, not the 25 typed before the switch
+    assert s.set("controller.law", "i-PI") is None
+    assert [s.value(f"controller.{k}") for k in ("alpha", "kp", "ki")] == [50.0, 20.0, 50.0]
+    assert s.note.endswith("alpha = 50.0, kp = 20.0, ki = 50.0, from the case")
+    assert s.changed() == {}
+    # from the PID case to an i-P: the i-P's defaults
+    p = Session("motor-noise-pid")
+    assert p.set("controller.law", "i-P") is None
+    assert (p.value("controller.alpha"), p.value("controller.kp")) == (10.0, 2.0)
+    # a law the settings refuse changes nothing
+    assert p.set("controller.law", "ip").startswith("controller.law = 'ip': the paper's")
+    assert p.value("controller.law") == "i-P" and p.value("controller.kp") == 2.0
+
+
+def test_undo_goes_back_one_change_at_a_time():
+    s = Session(CASE, SHORT)
+    assert not s.can_undo() and s.undo() is None
+    s.set("controller.kp", "")  # already the case's: nothing to undo
+    assert not s.can_undo()
+    s.set("controller.kp", "3")
+    s.set("controller.alpha", "-1")  # refused: no step
+    s.set("controller.law", "variational")  # the law and its gains: one step
+    assert s.value("controller.gamma0") == 1.0
+    assert s.undo() == "controller.law = variational"
+    assert s.value("controller.law") == "ip" and s.value("controller.kp") == 3.0
+    assert "controller.Gamma" not in {f.key for f in s.fields()}
+    # a slider's moves are one step; a typed value after them another
+    for v in ("1.1", "1.2", "1.3"):
+        s.set("controller.alpha", v, slide=True)
+    s.set("controller.alpha", "14")
+    assert s.undo() == "controller.alpha = 14.0" and s.value("controller.alpha") == 1.3
+    assert s.undo() == "controller.alpha = 1.3" and s.value("controller.alpha") == 10.0
+    assert s.undo() == "controller.kp = 3.0" and s.changed() == {"sim.t_end": 0.002}
+    assert not s.can_undo()
+    # a change the run then refused is restored with its step
+    before = s.snapshot()
+    s.set("controller.kp", "5")
+    s.restore(before)
+    assert not s.can_undo()
+
+
+def test_several_frozen_runs_the_oldest_dropped_beyond_three():
+    s = Session(CASE, SHORT)
+    runs = []
+    for kp in ("1", "2", "3", "4"):
+        s.set("controller.kp", kp)
+        runs.append(s.run())
+        s.freeze()
+    assert s.frozen == runs[1:] and s.frozen_numbers == [2, 3, 4]
+    # each frozen run's settings against the current ones
+    s.set("controller.kp", "2.5")
+    assert s.differences(s.frozen[0].config) == {"controller.kp": (2.0, 2.5)}
+    s.clear()
+    assert s.frozen == [] and s.frozen_numbers == []
+
+
+def test_tuned_values_are_applied_to_four_digits_as_one_step():
+    """Issue 28: tuned values were shown with 16 digits."""
+    s = Session(CASE, SHORT)
+    applied = s.apply_tuned({"controller.alpha": 93.12345678901234,
+                             "controller.kp": 2.0417379446695296})
+    assert applied == {"controller.alpha": 93.12, "controller.kp": 2.042}
+    assert text_of(s.value("controller.kp")) == "2.042"
+    assert "controller.kp = 2.042" in s.toml()
+    assert s.undo() == "tuning: controller.alpha = 93.12, controller.kp = 2.042"
+    assert s.value("controller.alpha") == 10.0
+
+
+def test_map_axes_leave_out_seeds_and_initial_states():
+    """Issue 28: the map's axes offered sensor.seed and plant.i0."""
+    keys = Session(MOTOR).numeric_keys()
+    assert {"controller.alpha", "controller.kp", "controller.ki", "plant.J",
+            "sensor.noise_std"} <= set(keys)
+    assert not {"sensor.seed", "plant.i0", "plant.y0"} & set(keys)
+    assert "controller.u0" not in Session(CASE).numeric_keys()
+    # every axis is read by the run: setting it changes the run's configuration's reads
+    s = Session(MOTOR)
+    assert set(keys) <= keys_read_by_run(s.cfg)
+
+
+def test_labels_are_in_the_plants_words():
+    """Issue 28: a motor's voltage limits were labelled duty_min / duty_max."""
+    motor = Session(MOTOR)
+    assert motor.label("controller.duty_min") == "armature voltage u, lower limit (V)"
+    assert motor.label("controller.duty_max") == "armature voltage u, upper limit (V)"
+    assert motor.label("sensor.noise_std") == "sensor noise, standard deviation (rad/s)"
+    assert motor.label("plant.J") == "rotor inertia J (kg m\u00b2)"
+    buck = Session(CASE)
+    assert buck.label("controller.duty_max") == "duty cycle d, upper limit (1)"
+    assert buck.label("sim.h") == "sim.h"  # no words in the option table: the key
+    by_key = {f.key: f for f in motor.fields()}
+    assert by_key["controller.duty_min"].label == "armature voltage u, lower limit (V)"
+    assert not by_key["controller.duty_max"].log  # a level, not a gain
+
+
+def test_the_schedule_is_shown_and_editable():
+    """Issue 28: the scheduled load step could not be seen or edited."""
+    s = Session(MOTOR)
+    by_key = {f.key: f for f in s.fields()}
+    assert by_key["plant.schedule"].kind == "list"
+    assert text_of(s.value("plant.schedule")) == '[{t = 5.0, name = "load", set = 0.05}]'
+    assert s.events() == [(5.0, "load torque set to 0.05 N m")]
+    assert s.set("plant.schedule", '[{t = 3.0, name = "load", set = 0.1}]') is None
+    assert s.events() == [(3.0, "load torque set to 0.1 N m")]
+    _, cfg = resolve_case(MOTOR, {"plant.schedule": [{"t": 3.0, "name": "load",
+                                                      "set": 0.1}]})
+    assert s.run().metrics == simulate(cfg).metrics
+    assert s.set("plant.schedule", '[{t = 3.0, name = "R", set = 1.0}]').startswith(
+        "plant.schedule = ")  # the CLI's check: R is no motor parameter
+    assert s.set("plant.schedule", "") is None and s.events()[0][0] == 5.0
+    # the buck's load changes and a disturbance's start, in words
+    b = Session(CASE, {"disturbance.kind": "step", "disturbance.t0": 0.005,
+                       "disturbance.amplitude": 0.01})
+    assert b.events() == [(0.004, "R +1 ohm, C +1e-09 F"),
+                          (0.005, "step disturbance at the input"),
+                          (0.006, "R +1 ohm, C +1e-09 F")]
+    assert "plant.schedule" not in {f.key for f in Session("bench-lag3").fields()}
+
+
+def test_control_figures_show_a_chattering_control_beside_the_verdict():
+    """Issue 28: the page said "stable: yes" while u chattered rail to rail."""
+    _, cfg = resolve_case(MOTOR, {"controller.law": "pid"})  # the i-PI's gains kept
+    r = simulate(cfg)
+    f = control_figures(r)
+    u = r.signals["u"]
+    assert r.metrics["stable"]  # the library's verdict on the output
+    assert f["u_at_limit"] == 100 * np.mean((u <= -24) | (u >= 24))
+    assert f["u_at_limit"] > 5
+    assert f["step_share"] == pytest.approx(r.metrics["tv_u"] / (u.size - 1) / 48 * 100)
+    assert f["step_share"] > 20  # a mean step of a quarter of the range: chatter
+    quiet = control_figures(Session(MOTOR).run())
+    assert quiet["step_share"] < 1 and quiet["u_at_limit"] < 1
+
+
+def test_a_map_says_how_it_stands_to_the_settings():
+    """Issue 28: after Tune moved alpha 15 -> 93 the map, its title "around the current
+    setting (marked)" and its marker stayed where they were."""
+    s = Session(CASE, SHORT)
+    m = s.robustness_map("controller.alpha", "plant.dR", n=3)
+    assert s.map_state(m).kind == "current" and s.map_state(m).here == (10.0, 1.0)
+    s.set("controller.alpha", "12")  # on the map: the map holds, the mark moves
+    state = s.map_state(m)
+    assert state.kind == "moved" and state.here == (12.0, 1.0)
+    s.set("controller.alpha", "93")  # off the map
+    state = s.map_state(m)
+    assert state.kind == "outside" and state.here is None and "off the map" in state.title
+    s.set("controller.kp", "3")  # another option the run reads: stale
+    state = s.map_state(m)
+    assert state.kind == "stale" and state.differences == {"controller.kp": (2.0, 3.0)}
+    assert state.title.startswith("Stale") and "controller.kp = 2 (now 3)" in state.text
+    s.undo()
+    s.undo()
+    assert s.map_state(m).kind == "moved"
+    s.undo()
+    assert s.map_state(m).kind == "current"
 
 
 def test_the_run_is_the_engines_run_of_the_same_configuration():
@@ -80,9 +274,9 @@ def test_freeze_keeps_the_run_and_clear_drops_it():
     assert s.freeze() is first
     s.set("controller.kp", "4")
     second = s.run()
-    assert s.frozen is first and second.metrics["iae"] != first.metrics["iae"]
+    assert s.frozen == [first] and second.metrics["iae"] != first.metrics["iae"]
     s.clear()
-    assert s.frozen is None
+    assert s.frozen == []
 
 
 def test_the_saved_case_reproduces_the_run_bit_for_bit(tmp_path):
@@ -213,3 +407,11 @@ def test_a_horizon_too_long_for_a_change_is_refused_with_the_figure():
     assert s.cfg["sim.t_end"] == 0.01
     with pytest.raises(ConfigError, match="sim.t_end"):
         Session("voltage-stable-standard", {"sim.t_end": 5.0})
+
+
+def test_the_read_keys_are_the_librarys_and_kept_per_settings():
+    s = Session(CASE, SHORT)
+    first = s.reads(s.cfg)
+    assert first == keys_read_by_run(s.cfg) and s.reads(s.cfg) is first
+    s.set("controller.law", "i-PI")
+    assert "controller.ki" in s.reads(s.cfg) and "controller.ki" not in first

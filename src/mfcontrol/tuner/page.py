@@ -24,22 +24,35 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from bokeh.core.properties import value
 from bokeh.document import Document
 from bokeh.layouts import column, row
 from bokeh.models import ColumnDataSource, CustomJS, InlineStyleSheet
-from bokeh.models.annotations import Title
+from bokeh.models.annotations import LabelSet, Title
 from bokeh.models.layouts import TabPanel, Tabs
 from bokeh.models.widgets import Button, Div, MultiChoice, Select, Slider, Spinner, TextInput
 from bokeh.plotting import figure
 
 from ..api.results import metrics as _metrics
-from ..api.results.plotting import event_times, plain_labels, units
+from ..api.results.plotting import plain_labels, units
 from ..api.results.result import Result
 from ..config.resolve import Config
 from ..errors import ConfigError
 from . import heatmap
 from .scale import scale_for
-from .session import MAP_METRICS, SHORT, TABLE_METRICS, Field, Session, text_of
+from .session import (
+    DIGITS,
+    LABELS,
+    MAP_METRICS,
+    MAX_FROZEN,
+    SHORT,
+    TABLE_METRICS,
+    Field,
+    Session,
+    brief,
+    control_figures,
+    text_of,
+)
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +62,15 @@ log = logging.getLogger(__name__)
 MAX_POINTS = 2_000
 LEFT, CENTRE, RIGHT = 400, 760, 400
 CURRENT, FROZEN, REFERENCE, GAMMA = "#d62728", "#9a9a9a", "#1f4e9c", "#7b3294"
+MEASURED = "#f4a582"  # the measured output, light under the true one
+#: each frozen slot's line (all grey): the oldest solid
+FROZEN_DASHES = ("solid", "dashed", "dotted")
+#: the signals plotted of the current run and of a frozen one
+CURRENT_SIGNALS = ("y_ref", "y", "y_meas", "u", "gamma")
+FROZEN_SIGNALS = ("y", "u", "gamma")
+MAP_LABEL, REDRAW_LABEL = "Robustness map (9 x 9)", "Redraw map (9 x 9)"
+MAP_HELP = "Each axis: 9 values from the current one / 3 to x 3 (log-spaced when positive)."
+_NOT_DRAWN = object()
 
 #: a tab's title where the group's name is too long for five tabs in the panel
 TAB_TITLES = {"sensor, actuator, disturbance": "elements"}
@@ -58,11 +80,12 @@ table { border-collapse: collapse; font: 13px/1.35 system-ui, sans-serif; width:
 th, td { padding: 3px 6px; border-bottom: 1px solid #e3e3e3; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
 th { font-weight: 600; color: #333; }
-td.unit { color: #666; text-align: left; }
+span.unit { color: #666; font-size: 11px; margin-left: 5px; }
 td.frozen, th.frozen { color: #777; }
 td.better { color: #1a7f37; } td.worse { color: #b42318; }
 .verdict-no { color: #b42318; font-weight: 600; }
 p.verdict { font: 13px/1.4 system-ui, sans-serif; margin: 0 0 6px 0; }
+p.frozen-caption { font: 12px/1.35 system-ui, sans-serif; color: #555; margin: 4px 0 0 0; }
 """
 
 
@@ -132,16 +155,20 @@ class FieldView:
         self.message = Div(text="", visible=False, width=LEFT - 30,
                            css_classes=["mf-message", f"mf-message-{slug}"],
                            styles={"color": "#b42318", "font-size": "12px"})
+        # the title in the plant's words, the key (what --set and a case file name) in
+        # the help beside it
+        title = field.label or field.key
+        doc = f"{field.key}: {field.doc}"
         if field.kind == "choice":
             choices: list[str | tuple[Any, str]] = list(field.choices)
-            self.select = Select(title=field.key, value=text_of(value),
+            self.select = Select(title=title, value=text_of(value),
                                  options=choices, width=LEFT - 40,
-                                 description=field.doc, css_classes=[f"mf-select-{slug}"])
+                                 description=doc, css_classes=[f"mf-select-{slug}"])
             self.select.on_change("value", self._on_select)
             widgets: list = [self.select]
         elif field.kind == "list":
-            self.entry = TextInput(title=field.key, value=text_of(value), width=LEFT - 40,
-                                   description=field.doc, css_classes=[f"mf-entry-{slug}"])
+            self.entry = TextInput(title=title, value=text_of(value), width=LEFT - 40,
+                                   description=doc, css_classes=[f"mf-entry-{slug}"])
             self.entry.on_change("value", self._on_entry)
             widgets = [self.entry]
         else:
@@ -150,20 +177,23 @@ class FieldView:
             self.slider = Slider(start=self.scale.start, end=self.scale.end,
                                  step=self.scale.step, show_value=False, width=LEFT - 170,
                                  value=0.0 if unset else self.scale.coordinate(value),
-                                 title=field.key + (" (log scale)" if self.scale.log else ""),
-                                 disabled=unset, css_classes=[f"mf-slider-{slug}"])
+                                 title=self._title(), disabled=unset,
+                                 css_classes=[f"mf-slider-{slug}"])
             self.entry = TextInput(value=text_of(value), width=115, title="value",
                                    placeholder="unset" if unset else "",
-                                   description=field.doc, css_classes=[f"mf-entry-{slug}"])
+                                   description=doc, css_classes=[f"mf-entry-{slug}"])
             self.slider.on_change("value", self._on_slider)
             self.entry.on_change("value", self._on_entry)
             widgets = [row(self.slider, self.entry, spacing=6)]
         self.layout = column(*widgets, self.message, spacing=0)
 
+    def _title(self) -> str:
+        return (self.field.label or self.key) + (" (log scale)" if self.scale.log else "")
+
     # a widget set from here triggers its own callback: ``page.quiet`` tells it apart
     def _on_slider(self, attr: str, old: Any, new: Any) -> None:
         if not self.page.quiet:
-            self.page.change(self, text_of(self.scale.value(new)))
+            self.page.change(self, text_of(self.scale.value(new)), slide=True)
 
     def _on_entry(self, attr: str, old: Any, new: Any) -> None:
         if not self.page.quiet:
@@ -193,8 +223,7 @@ class FieldView:
         if not self.scale.holds(value):  # a typed value off the slider: centre it there
             self.scale = scale_for(self.key, value)
             self.slider.update(start=self.scale.start, end=self.scale.end,
-                               step=self.scale.step,
-                               title=self.key + (" (log scale)" if self.scale.log else ""))
+                               step=self.scale.step, title=self._title())
         self.slider.value = self.scale.coordinate(value)
 
 
@@ -211,8 +240,14 @@ class TunerPage:
         self._status_error = False
         self._tuned_from: Config | None = None
         self._scale = 1.0
-        self._frozen_shown: Result | None = None
+        # the run each frozen slot shows (none yet: the first redraw hides the empty ones)
+        self._frozen_shown: list[Any] = [_NOT_DRAWN] * MAX_FROZEN
         self._tab_titles: list[str] = []
+        self._shown_keys: list[str] = []  # the options the fields show, in the session's order
+        self._status_note = False
+        self.map_view: heatmap.MapFigure | None = None
+        self._map_shown: str | None = None  # the map's state last shown
+        self._map_done_text = ""
         self._build()
         self._rebuild_fields()
         self.redraw()
@@ -226,11 +261,11 @@ class TunerPage:
         self.status_div = Div(text="", width=LEFT, css_classes=["mf-status"],
                               styles={"font-size": "12px"})
         self.tabs = Tabs(tabs=[], width=LEFT, css_classes=["mf-tabs"])
-        self.src = ColumnDataSource({k: [] for k in ("t", "y_ref", "y", "u", "gamma")},
+        self.src = ColumnDataSource({k: [] for k in ("t", *CURRENT_SIGNALS)},
                                     name="current-run")
-        self.frz = ColumnDataSource({k: [] for k in ("t", "y", "u", "gamma")},
-                                    name="frozen-run")
-        self.events = ColumnDataSource({"t": []})
+        self.frz = [ColumnDataSource({k: [] for k in ("t", *FROZEN_SIGNALS)},
+                                     name=f"frozen-run-{i + 1}") for i in range(MAX_FROZEN)]
+        self.events = ColumnDataSource({"t": [], "text": []}, name="events")
         self.out_fig = self._figure("Output and reference", 300)
         self.u_fig = self._figure("Controller output", 210, x_range=self.out_fig.x_range)
         self.g_fig = self._figure("Adaptive gain gamma", 190, x_range=self.out_fig.x_range)
@@ -238,14 +273,17 @@ class TunerPage:
 
         self.metrics = Div(width=RIGHT, css_classes=["mf-metrics"],
                            stylesheets=[InlineStyleSheet(css=_TABLE_CSS)])
-        self.freeze_button = Button(label="Freeze this run", width=130,
+        self.freeze_button = Button(label="Freeze this run", width=112,
                                     css_classes=["mf-freeze"])
-        self.clear_button = Button(label="Clear frozen run", width=130, disabled=True,
+        self.clear_button = Button(label="Clear frozen", width=96, disabled=True,
                                    css_classes=["mf-clear"])
-        self.save_button = Button(label="Save case", width=100, button_type="primary",
+        self.undo_button = Button(label="Undo", width=70, disabled=True,
+                                  css_classes=["mf-undo"])
+        self.save_button = Button(label="Save case", width=90, button_type="primary",
                                   css_classes=["mf-save"])
         self.freeze_button.on_click(self.freeze)
         self.clear_button.on_click(self.clear)
+        self.undo_button.on_click(self.undo)
         # what changes in words at every run: the metrics and the case's text. Bokeh lays
         # the whole page out again whenever a Div's text changes (some 50 ms with this many
         # widgets, half the round trip), so they travel in a data source, one message
@@ -277,17 +315,16 @@ class TunerPage:
         metric_options: list[str | tuple[Any, str]] = [(m, SHORT.get(m, m))
                                                         for m in MAP_METRICS]
         self.map_x = Select(title="map: horizontal axis", width=RIGHT // 2 - 10,
-                            css_classes=["mf-map-x"])
+                            css_classes=["mf-map-x"], name="map-x")
         self.map_y = Select(title="vertical axis", width=RIGHT // 2 - 10,
-                            css_classes=["mf-map-y"])
+                            css_classes=["mf-map-y"], name="map-y")
         self.map_metric = Select(title="metric", value="iae", options=metric_options,
                                  width=RIGHT // 2 - 10, css_classes=["mf-map-metric"])
-        self.map_button = Button(label="Robustness map (9 x 9)", width=RIGHT // 2 - 10,
+        self.map_button = Button(label=MAP_LABEL, width=RIGHT // 2 - 10,
                                  css_classes=["mf-map"], align="end")
         self.map_button.on_click(self.start_map)
-        self.map_status = Div(text="Each axis: 9 values from the current one / 3 to x 3 "
-                              "(log-spaced when positive).", width=RIGHT,
-                              css_classes=["mf-map-status"], styles={"font-size": "12px"})
+        self.map_status = Div(text=MAP_HELP, width=RIGHT, css_classes=["mf-map-status"],
+                              styles={"font-size": "12px"})
         self.map_holder = column(Div(text=""), css_classes=["mf-map-figure"], name="map")
 
         self.tune_keys = MultiChoice(title="tune: options (bounds: current / 10 .. x 10)",
@@ -312,7 +349,8 @@ class TunerPage:
 
         right = column(
             heading("Metrics"), self.metrics,
-            row(self.freeze_button, self.clear_button, self.save_button),
+            row(self.freeze_button, self.clear_button, self.undo_button, self.save_button,
+                spacing=4),
             heading("Robustness"), row(self.map_x, self.map_y),
             row(self.map_metric, self.map_button), self.map_status,
             heading("Tuning by simulation (mfcontrol.tune)"), self.tune_keys,
@@ -320,7 +358,7 @@ class TunerPage:
             self.tune_status, width=RIGHT)
         centre = column(self.out_fig, self.u_fig, self.g_fig, self.map_holder)
         left = column(Div(text="<b>Options the run reads</b> (type a value and press "
-                      "Enter; an empty entry restores the default)", width=LEFT,
+                      "Enter; an empty entry returns to the case's value)", width=LEFT,
                           styles={"font-size": "13px"}),
                       self.status_div, self.tabs, width=LEFT)
         self.doc.add_root(column(self.head, row(left, centre, right, spacing=14)))
@@ -337,21 +375,36 @@ class TunerPage:
 
     def _draw_traces(self) -> None:
         o, u, g = self.out_fig, self.u_fig, self.g_fig
-        for fig, col in ((o, "y"), (u, "u"), (g, "gamma")):
-            fig.line("t", col, source=self.frz, color=FROZEN, line_width=2.2,
-                     legend_label="frozen run")
+        for i, src in enumerate(self.frz):
+            for fig, col in ((o, "y"), (u, "u"), (g, "gamma")):
+                fig.line("t", col, source=src, color=FROZEN, line_width=2.2,
+                         line_dash=FROZEN_DASHES[i], legend_label=f"frozen {i + 1}")
+        for fig in (o, u, g):
             fig.vspan(x="t", source=self.events, line_color="#555555", line_dash="dotted",
-                      line_width=1.5, **({"legend_label": "load change"} if fig is o else {}))
+                      line_width=1.5, **({"legend_label": "scheduled change"}
+                                         if fig is o else {}))
+        # each scheduled change in words at the top of the output's plot
+        o.add_layout(LabelSet(x="t", y=6, y_units="screen", text="text", source=self.events,
+                              x_offset=-4, text_font_size="9pt", text_color="#333333",
+                              text_baseline="bottom", angle=math.pi / 2,
+                              background_fill_color="white", background_fill_alpha=0.75))
         o.line("t", "y_ref", source=self.src, color=REFERENCE, line_dash="dashed",
                line_width=1.5, legend_label="reference")
+        self._measured = o.line("t", "y_meas", source=self.src, color=MEASURED,
+                                line_width=1.0, alpha=0.8, legend_label="measured output",
+                                name="measured-output")
         o.line("t", "y", source=self.src, color=CURRENT, line_width=1.6,
                legend_label="output")
         u.line("t", "u", source=self.src, color="#2ca02c", line_width=1.4,
                legend_label="controller output")
         g.line("t", "gamma", source=self.src, color=GAMMA, line_width=1.6,
                legend_label="gamma")
-        self._frozen_items = [item for fig in (o, u, g) for item in fig.legend.items
-                              if item.label.value == "frozen run"]
+        # the legend items of each frozen slot, in every plot, and the measured output's
+        self._frozen_items = [[item for fig in (o, u, g) for item in fig.legend.items
+                               if item.label.value == f"frozen {i + 1}"]
+                              for i in range(MAX_FROZEN)]
+        self._measured_item = next(item for item in o.legend.items
+                                   if item.label.value == "measured output")
         for fig in (o, u, g):
             # the ramps and the duty rise to the right; gamma falls from its start
             fig.legend.location = "bottom_left" if fig is g else "top_left"
@@ -363,6 +416,7 @@ class TunerPage:
         """The option widgets, grouped, and the lists of numbers the map and the tuning
         offer: again whenever the options the run reads change (a model, a law)."""
         groups = self.session.groups()
+        self._shown_keys = [f.key for f in self.session.fields()]
         self.views = {}
         panels = []
         active_title = (self._tab_titles[self.tabs.active] if self._tab_titles
@@ -381,7 +435,8 @@ class TunerPage:
             self.tabs.update(tabs=panels, active=titles.index(active_title)
                              if active_title in titles else 0)
             keys = self.session.numeric_keys()
-            options: list[str | tuple[Any, str]] = list(keys)
+            # a menu entry in the plant's words, its value the key
+            options: list[str | tuple[Any, str]] = [(k, self.session.label(k)) for k in keys]
             x, y = self.session.map_axes()
             if self.map_x.value in keys and self.map_y.value in keys \
                     and self.map_x.value != self.map_y.value:  # the user's choice stays
@@ -390,19 +445,19 @@ class TunerPage:
             self.map_y.update(options=options, value=y)
             chosen = [k for k in self.tune_keys.value if k in keys] or \
                 self.session.tuned_keys()
-            self.tune_keys.update(options=keys, value=chosen)
+            self.tune_keys.update(options=options, value=chosen)
         finally:
             self.quiet = False
 
     # --- changes ----------------------------------------------------------------------
 
     @_guarded
-    def change(self, view: FieldView, text: str) -> None:
+    def change(self, view: FieldView, text: str, slide: bool = False) -> None:
         """An option typed, slid or chosen: set it, run, redraw; a refused entry shows its
-        message beside the field and changes nothing."""
-        shown = [f.key for f in self.session.fields()]
+        message beside the field and changes nothing. What else the change set (a law's
+        gains, the case's value of an emptied entry) is said in the status line."""
         before = self.session.snapshot()
-        error = self.session.set(view.key, text)
+        error = self.session.set(view.key, text, slide=slide)
         if error is None:
             try:
                 self.redraw()
@@ -420,12 +475,37 @@ class TunerPage:
             self.status(f"{view.key}: not changed", error=True)
             return
         view.show_error(None)
-        if self._status_error:  # an old refusal no longer applies
+        if self.session.note:
+            self.status(self.session.note)
+        elif self._status_error or self._status_note:  # an old line no longer applies
             self.status("")
-        if [f.key for f in self.session.fields()] != shown:
+        self._after_settings(before[0])
+
+    def _after_settings(self, then: Config) -> None:
+        """The fields after the settings changed from ``then``: built again when the
+        options shown changed, else each field whose value changed shown anew."""
+        if [f.key for f in self.session.fields()] != self._shown_keys:
             self._rebuild_fields()
-        else:
-            self._show(view)
+            return
+        for key, view in self.views.items():
+            if then[key] != self.session.value(key) or not _same_text(
+                    view, self.session.value(key)):
+                self._show(view)
+        self.undo_button.disabled = not self.session.can_undo()
+
+    @_guarded
+    def undo(self) -> None:
+        """Back one step (:meth:`Session.undo`) and redraw."""
+        then = self.session.cfg
+        what = self.session.undo()
+        if what is None:
+            self.status("nothing to undo")
+            return
+        self.redraw()
+        for view in self.views.values():
+            view.show_error(None)
+        self._after_settings(then)
+        self.status(f"undone: {what}")
 
     def _show(self, view: FieldView) -> None:
         self.quiet = True
@@ -434,21 +514,20 @@ class TunerPage:
         finally:
             self.quiet = False
 
-    def _show_all(self) -> None:
-        for view in self.views.values():
-            self._show(view)
-            view.show_error(None)
-
     def status(self, text: str, error: bool = False) -> None:
         # only when it changes: a Div's new text lays the whole page out again (~50 ms)
         self._status_error = error
+        self._status_note = bool(text) and not error
         color = "#b42318" if error else "#333333"
-        self.status_div.text = f'<span style="color:{color}">{html.escape(text)}</span>'
+        new = f'<span style="color:{color}">{html.escape(text)}</span>'
+        if self.status_div.text != new:
+            self.status_div.text = new
 
     # --- drawing ----------------------------------------------------------------------
 
     def redraw(self) -> None:
-        """Run the session and show the run: traces, metrics, the case's text."""
+        """Run the session and show the run: traces, metrics, the case's text, the frozen
+        runs, how a map drawn before stands to the settings."""
         r = self.session.run()
         self.runs += 1
         s = self.session
@@ -458,15 +537,26 @@ class TunerPage:
         # Bokeh's server sends each change as a message of its own, which the browser
         # applies in order: the traces first, the metrics (which a user, and the round-trip
         # test, read as "redrawn") after them; and nothing that has not changed
-        self.src.data = self._columns(r, ("y_ref", "y", "u", "gamma"))
-        if s.frozen is not None and self._frozen_shown is not s.frozen:
-            self.frz.data = self._columns(s.frozen, ("y", "u", "gamma"))
-            self._frozen_shown = s.frozen
-        for item in self._frozen_items:
-            item.visible = s.frozen is not None
-        events = [tc * self._scale for tc, what in event_times(r) if what == "load change"]
-        if list(self.events.data["t"]) != events:
-            self.events.data = {"t": events}
+        self.src.data = self._columns(r, CURRENT_SIGNALS)
+        # the measured output where it is not the output itself (noise, resolution, delay)
+        measured = not np.array_equal(r.signals["y_meas"], r.signals["y"], equal_nan=True)
+        if self._measured.visible != measured:
+            self._measured.visible = self._measured_item.visible = measured
+        for i, src in enumerate(self.frz):
+            run = s.frozen[i] if i < len(s.frozen) else None
+            if run is not self._frozen_shown[i]:
+                src.data = (self._columns(run, FROZEN_SIGNALS) if run is not None
+                            else {k: [] for k in ("t", *FROZEN_SIGNALS)})
+                for item in self._frozen_items[i]:
+                    item.visible = run is not None
+                    if run is not None:
+                        item.label = value(f"frozen #{s.frozen_numbers[i]}")
+                self._frozen_shown[i] = run
+        events = s.events()
+        times = [t * self._scale for t, _ in events]
+        if list(self.events.data["t"]) != times or \
+                list(self.events.data["text"]) != [w for _, w in events]:
+            self.events.data = {"t": times, "text": [w for _, w in events]}
         self.out_fig.yaxis.axis_label = y_label
         self.u_fig.yaxis.axis_label = u_label
         self.g_fig.yaxis.axis_label = "gain gamma (1)"
@@ -474,11 +564,14 @@ class TunerPage:
         last = self.g_fig if s.adapts() else self.u_fig
         for fig in (self.out_fig, self.u_fig, self.g_fig):
             fig.xaxis.axis_label = t_label if fig is last else ""
-        text = self._verdict(r) + self._table(r, s.frozen)
+        text = self._verdict(r) + self._table(r) + self._frozen_caption()
         if self.runs == 1:  # the page as first sent; afterwards, through page_text
             self.metrics.text = text
         self.page_text.data = {"metrics": [text], "toml": [s.toml()],
                                "filename": [f"{s.name}-tuned.toml"]}
+        self.undo_button.disabled = not s.can_undo()
+        self.clear_button.disabled = not s.frozen
+        self._show_map_state()
 
     def _columns(self, r: Result, names: tuple[str, ...]) -> dict[str, np.ndarray]:
         cols = [r.signals[k] for k in names]
@@ -494,64 +587,96 @@ class TunerPage:
                 f'{html.escape(s.name)}</span> &nbsp; {html.escape(s.description)}</div>')
 
     def _verdict(self, r: Result) -> str:
+        """The library's verdict on the output, said with what it judges, and beside it
+        what the control did (a loop can track while u chatters from limit to limit)."""
         s, m = self.session, r.metrics
+        s_cfg = s.cfg
         if m["diverged"]:
             verdict = (f'<span class="verdict-no" style="color:#b42318">diverged at '
                        f't = {m["t_diverge"]:.4g} s</span>')
-        elif m["stable"]:
-            verdict = '<span style="color:#1a7f37">stable</span>'
         else:
-            verdict = '<span style="color:#b42318">unstable by the stability rule</span>'
+            rule = (f'(the output: |e| within {100 * s_cfg["metrics.stable_tol"]:.4g} % of '
+                    f'max |y*| over the last {100 * s_cfg["metrics.final_window"]:.4g} % of '
+                    'the run)')
+            verdict = ('<span style="color:#1a7f37">stable</span> ' if m["stable"] else
+                       '<span style="color:#b42318">unstable</span> ') + html.escape(rule)
+        _, u_unit = units(s_cfg)
+        f = control_figures(r)
+        unit = "" if u_unit == "1" else " " + html.escape(u_unit)  # a duty has none
+        control = (f'<span class="mf-control">control u: TV(u) {fmt(m["tv_u"])}{unit}, '
+                   f'a mean step of {fmt(f["step_share"])} % of its range '
+                   f'{fmt(f["low"])} .. {fmt(f["high"])}{unit}, at a limit '
+                   f'{fmt(f["u_at_limit"])} % of the samples</span>')
         changed = ", ".join(f"{k} = {text_of(v)}" for k, v in s.changed().items())
-        return (f'<p class="verdict">{verdict}: {r.time.size:,} samples simulated in '
-                f'{1e3 * s.seconds:.1f} ms.<br>Changed from the case: '
+        return (f'<p class="verdict">{verdict}. {r.time.size:,} samples simulated in '
+                f'{1e3 * s.seconds:.1f} ms.<br>{control}.<br>Changed from the case: '
                 f'{html.escape(changed) or "nothing"}</p>')
 
-    def _table(self, r: Result, frozen: Result | None) -> str:
+    def _table(self, r: Result) -> str:
         """The metrics as an HTML table: each value shown to 4 digits, its exact repr in
-        ``data-value`` (what a test compares with the engine's)."""
-        y_unit, u_unit = units(self.session.cfg)
+        ``data-value`` (what a test compares with the engine's); a column for each frozen
+        run (``frozen-N``, N its number) and the change against the newest."""
+        s = self.session
+        y_unit, u_unit = units(s.cfg)
+        runs = [_shown_metrics(r)] + [_shown_metrics(f) for f in s.frozen]
         rows = []
         for m in TABLE_METRICS:
-            now = r.metrics.get(m)
-            then = frozen.metrics.get(m) if frozen is not None else None
-            if m == "final_gamma" and not self.session.adapts():
+            values = [run.get(m) for run in runs]
+            if m == "final_gamma" and not s.adapts():
                 continue
-            if m != "stable" and not _defined(now) and not _defined(then):
+            if m != "stable" and not any(_defined(v) for v in values):
                 continue
-            words, unit = _metrics.LABELS.get(m, (m, ""))
-            full = _metrics.label(m, y_unit, u_unit)
-            unit = full[len(words) + 2:-1] if full != words and m != "stable" else ""
-            unit = unit.replace("^2", "\u00b2")
-            cells = [f'<td title="{html.escape(words)}">{html.escape(SHORT.get(m, m))}</td>',
-                     f'<td class="unit">{html.escape(unit)}</td>',
-                     _cell("current", now)]
-            if frozen is not None:
-                cells += [_cell("frozen", then), _change(m, now, then)]
+            words, unit = LABELS.get(m, (m, ""))
+            if m in _metrics.LABELS and m != "stable":
+                full = _metrics.label(m, y_unit, u_unit)
+                unit = full[len(words) + 2:-1] if full != words else ""
+            unit = unit.replace("^2", "\u00b2") if m != "stable" else ""
+            cells = [f'<td title="{html.escape(words)}">{html.escape(SHORT.get(m, m))}'
+                     f'<span class="unit">{html.escape(unit)}</span></td>',
+                     _cell("current", values[0])]
+            cells += [_cell(f"frozen frozen-{n}", v)
+                      for n, v in zip(s.frozen_numbers, values[1:], strict=True)]
+            if s.frozen:
+                cells.append(_change(m, values[0], values[-1]))
             rows.append(f'<tr data-metric="{m}">{"".join(cells)}</tr>')
-        head = "<th>metric</th><th>unit</th><th>this run</th>"
-        if frozen is not None:
-            head += '<th class="frozen">frozen</th><th>change</th>'
+        head = "<th>metric</th><th>this run</th>"
+        head += "".join(f'<th class="frozen">#{n}</th>' for n in s.frozen_numbers)
+        if s.frozen:
+            head += f"<th>vs #{s.frozen_numbers[-1]}</th>"
         return (f'<table class="metrics" data-run="{self.runs}"><tr>{head}</tr>'
                 f'{"".join(rows)}</table>')
+
+    def _frozen_caption(self) -> str:
+        """Each frozen run's settings against the current ones, redrawn with the table:
+        what a column compares."""
+        s = self.session
+        lines = []
+        for n, run, dash in zip(s.frozen_numbers, s.frozen, FROZEN_DASHES, strict=False):
+            assert run.config is not None
+            diff = s.differences(run.config)
+            what = ("the current settings" if not diff else ", ".join(
+                f"{k} = {brief(a)} (now {brief(b)})" for k, (a, b) in diff.items()))
+            lines.append(f"<b>#{n}</b> ({dash} grey): {html.escape(what)}")
+        return (f'<p class="frozen-caption">{"<br>".join(lines)}</p>' if lines else "")
 
     # --- freeze -----------------------------------------------------------------------
 
     @_guarded
     def freeze(self) -> None:
-        self.session.freeze()
-        self.clear_button.disabled = False
+        s = self.session
+        dropped = s.frozen_numbers[0] if len(s.frozen) == MAX_FROZEN else None
+        s.freeze()
         self.redraw()
-        self.status("this run is frozen: grey in the plots, a column of the table")
+        self.status(f"this run is frozen as #{s.frozen_numbers[-1]}: a grey trace in the "
+                    "plots, a column of the table" + (f" (#{dropped}, the oldest, dropped: "
+                                                      f"{MAX_FROZEN} at most)" if dropped
+                                                      else ""))
 
     @_guarded
     def clear(self) -> None:
         self.session.clear()
-        self.frz.data = {k: [] for k in ("t", "y", "u", "gamma")}
-        self._frozen_shown = None
-        self.clear_button.disabled = True
         self.redraw()
-        self.status("frozen run cleared")
+        self.status("frozen runs cleared")
 
     # --- the long jobs ----------------------------------------------------------------
 
@@ -609,11 +734,35 @@ class TunerPage:
 
     def _map_done(self, m) -> None:
         self._idle()
-        self.map_holder.children = [heatmap.draw(m, units(self.session.cfg), width=CENTRE)]
+        s = self.session
+        if self.map_view is not None:
+            self.map_view.retire()
+        self.map_view = heatmap.draw(m, units(m.cfg), (s.label(m.x), s.label(m.y)),
+                                     width=CENTRE)
+        self.map_holder.children = [self.map_view.fig]
         stable = int(m.stable.sum())
-        self.map_status.text = _finished(f"{m.z.size} runs in {m.seconds:.2f} s: {stable} "
-                                         f"stable, {m.z.size - stable} not "
-                                         f"({int(m.diverged.sum())} diverged).")
+        self._map_done_text = (f"{m.z.size} runs in {m.seconds:.2f} s: {stable} stable, "
+                               f"{m.z.size - stable} not ({int(m.diverged.sum())} diverged).")
+        self._map_shown = None
+        self._show_map_state()
+
+    def _show_map_state(self) -> None:
+        """The map, if any, against the settings now (:meth:`Session.map_state`): its mark
+        and subtitle, and below the button what it means; the button says "Redraw" when
+        the map is not around the current setting."""
+        if self.map_view is None:
+            return
+        state = self.session.map_state(self.map_view.m)
+        self.map_view.show(state)
+        if state.kind == self._map_shown:
+            return
+        self._map_shown = state.kind
+        error = state.kind in ("stale", "outside")
+        self.map_status.text = _finished(
+            self._map_done_text + (" " + state.text if state.text else ""), error=error)
+        label = REDRAW_LABEL if state.kind != "current" else MAP_LABEL
+        if self.map_button.label != label:
+            self.map_button.label = label
 
     def _map_failed(self, exc: Exception) -> None:
         self._idle()
@@ -662,23 +811,45 @@ class TunerPage:
                 f"{fmt(result.value)}) is not applied", error=True)
             return
         before = self.session.snapshot()
+        then = self.session.cfg
         try:
-            self.session.apply(result.best)
+            applied = self.session.apply_tuned(result.best)
             self.redraw()
         except Exception:
             self.session.restore(before)
             raise
-        if [f.key for f in self.session.fields()] != list(self.views):
-            self._rebuild_fields()
-        self._show_all()
+        self._after_settings(then)
+        for view in self.views.values():
+            view.show_error(None)
+        run = self.session.result
+        assert run is not None
+        shown = ", ".join(f"{k} = {text_of(v)}" for k, v in applied.items())
         self.tune_status.text = _finished(
-            f"{result.objective.text} {fmt(result.value)} (the values before: "
-            f"{fmt(result.start_value)}) at {best}: applied. {result.evaluations} points in "
-            f"{result.seconds:.1f} s ({result.stopped}).")
+            f"applied, to {DIGITS} digits: {shown}; {result.objective.text} "
+            f"{fmt(result.objective.score_run(run.metrics))} (the values before: "
+            f"{fmt(result.start_value)}). {result.evaluations} points in "
+            f"{result.seconds:.1f} s ({result.stopped}). Undo goes back.")
+        # a map drawn before is of the settings before: drawn again around the new ones
+        if self.map_view is not None and self.session.map_state(
+                self.map_view.m).kind != "current":
+            self.start_map()
 
     def _tune_failed(self, exc: Exception) -> None:
         self._idle()
         self.tune_status.text = _finished(str(exc), error=True)
+
+
+def _same_text(view: FieldView, value: Any) -> bool:
+    """Whether a field shows ``value`` already."""
+    shown = view.select.value if view.select is not None else (
+        view.entry.value if view.entry is not None else None)
+    return shown == text_of(value)
+
+
+def _shown_metrics(r: Result) -> dict[str, Any]:
+    """A run's metrics as the table shows them: the library's, and the share of samples
+    with u at a limit (:func:`~mfcontrol.tuner.session.control_figures`)."""
+    return {**r.metrics, "u_at_limit": control_figures(r)["u_at_limit"]}
 
 
 def _finished(text: str, error: bool = False) -> str:

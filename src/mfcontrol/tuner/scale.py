@@ -10,16 +10,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..config.options import BY_KEY
-from .session import log_scale
+from .session import DIGITS, log_scale
 
 #: decades either side of a gain's value on its slider; one for a plant or a time
 DECADES_GAIN = 2.0
 DECADES_OTHER = 1.0
 #: positions of a linear slider
 LINEAR_STEPS = 200
-#: significant digits a slider's value is rounded to: the entry shows 2.042, not
-#: 2.0417379446695296, and the saved case holds what the entry shows
-DIGITS = 4
 
 
 @dataclass(frozen=True)
@@ -48,8 +45,9 @@ class Scale:
         return min(max(c, self.start), self.end)
 
     def value(self, coordinate: float) -> float | int:
-        """The option's value at a slider position, rounded to :data:`DIGITS`
-        significant digits (whole numbers for a whole-number option)."""
+        """The option's value at a slider position, rounded to
+        :data:`~mfcontrol.tuner.session.DIGITS` significant digits (whole numbers for a
+        whole-number option)."""
         if self.whole:
             return int(round(coordinate))
         v = 10.0 ** coordinate if self.log else round(coordinate / self.step) * self.step
