@@ -1,12 +1,11 @@
 """What the loop's elements cost: the DC-motor case under its i-PI (10,000 samples, h =
-1 ms), a single run and a 256-member sweep (sensor seeds x actuator delays), with each
-element switched on alone and all together, as ratios to the same runs without any (the
-ideal loop, in the same process: interleaved rounds, medians, after a warm-up that
-compiles or loads the kernels).
+1 ms), a single run and a 256-member sweep (16 sensor seeds, or 16 values of kp without
+noise, x 16 values of ki), with each element switched on alone and all together, as
+ratios to the same runs without any (the ideal loop, in the same process: interleaved
+rounds, medians, after a warm-up that compiles or loads the kernels).
 
-The ideal loop runs every sweep member in the engine's vectorised loop; any element sends
-the members to the member loop (which alone has them), so the sweep's ratio is mostly
-that of the two loops; the single run's ratio is what the elements themselves cost.
+Every variant's sweep runs the engine's vectorised loop (the elements act lane by lane
+within it); the single run's ratio is what the elements cost in the member loop.
 
 Timings are printed, never asserted. Run::
 
