@@ -383,7 +383,9 @@ ISSUE_28 = [
                  ['controller.ki = 3.0: not read with controller.law = "i-P"'],
                  id="issue28-unread-key-in-a-case-file"),
     pytest.param([S, "motor-noise-ipi", "--set", "fidelity=paper"],
-                 ["fidelity = 'paper': not read with controller.adapt = \"constant\""],
+                 ["fidelity = 'paper': not read with plant.model = \"dc-motor\" and "
+                  "controller.adapt = \"constant\": set plant.model = \"buck\" (and unset "
+                  "plant.schedule) or controller.adapt = \"variational\", or remove it"],
                  id="issue28-show-fidelity-of-a-motor"),
     pytest.param([S, "motor-noise-pid", "--set", "controller.window=30"],
                  ['controller.window = 30: not read with controller.law = "pid": set '
@@ -430,7 +432,8 @@ ISSUE_28 = [
                  id="issue28-tuner-unread"),
     pytest.param(["benchmark", "--plants", "{d}/bench-unread.toml", "--out",
                   "{d}/out-unread-bench"],
-                 ["controller.rate_sign = 'minus': not read with controller.law = \"pid\""],
+                 ["controller.rate_sign = 'minus': not read by this run (sign of the rate "
+                  "term"],
                  id="issue28-benchmark-unread"),
 ]
 ERRORS += ISSUE_28

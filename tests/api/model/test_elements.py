@@ -316,7 +316,7 @@ def test_a_noise_level_given_means_gaussian_noise():
      '3.0: not read with disturbance.kind = "step": set disturbance.kind = "sine", or '
      'remove it'),
     (lambda: Disturbance("step", amplitude=1.0, times=[1.0]), 'disturbance.times = [1.0]: '
-     'not read with disturbance.kind = "step": set disturbance.kind = "table", or remove it'),
+     'not read by this run (table: times (s), nondecreasing): remove it'),
     (lambda: Disturbance(at="output"), "disturbance.at = 'output': not read with "
      'disturbance.kind = "none": set disturbance.kind = "step", "ramp" or "sine", or '
      'remove it'),

@@ -163,7 +163,7 @@ def column(sensor: Sensor | None = None, actuator: Actuator | None = None,
     a = actuator or _DEFAULTS[1]
     d = disturbance_ or _DEFAULTS[2]
     return layout.column(
-        noise=noise.KINDS[s.noise], noise_std=s.noise_std, seed=s.seed, quantum=s.quantum,
+        noise=noise.KINDS[s.noise or "none"], noise_std=s.noise_std, seed=s.seed, quantum=s.quantum,
         sensor_delay=s.delay, actuator_delay=a.delay, rate_limit=a.rate_limit,
         substeps=substeps, kind=disturbance.KINDS[d.kind], at=disturbance.PLACES[d.at],
         amplitude=d.amplitude, t0=d.t0, frequency=d.frequency, times=d.times,
