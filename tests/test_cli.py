@@ -95,6 +95,12 @@ FILES: dict[str, bytes] = {
     "wrong-type.toml": b'[sim]\nh = "fast"\n',
     "zero-h.toml": b"[sim]\nh = 0.0\n",
     "huge-int.toml": b"[controller]\nalpha = " + HUGE_INT.encode() + b"\n",
+    # issue 28: keys the run would not read
+    "ki-on-ip.toml": b'[plant]\nmodel = "first-order"\n[controller]\nlaw = "i-P"\n'
+                     b'alpha = 1.0\nki = 3.0\n[sim]\nh = 1e-3\nt_end = 1.0\n',
+    # a benchmark case with a key none of its controllers reads
+    "bench-unread.toml": (CASES_DIR / "bench-lag3.toml").read_bytes().replace(
+        b"[controller]\n", b"[controller]\nrate_sign = \"minus\"\n"),
 }
 
 S = "show"
@@ -358,6 +364,81 @@ ERRORS = [
 ]
 
 
+# issue 28 item 1: a key set that the command will not read is refused, saying why and
+# what to set (the issue's examples word for word)
+ISSUE_28 = [
+    pytest.param(["run", "first-order-ip-algebraic", "--set", "controller.ki=3.0"],
+                 ['mfcontrol: error: controller.ki = 3.0: not read with controller.law = '
+                  '"i-P": set controller.law = "i-PI", "i-PID" or "pid", or remove it'],
+                 id="issue28-ki-on-an-i-P"),
+    pytest.param(["run", "first-order-ip-algebraic", "--set", "disturbance.amplitude=1"],
+                 ['mfcontrol: error: disturbance.amplitude = 1.0: not read with '
+                  'disturbance.kind = "none": set disturbance.kind = "step", "ramp" or '
+                  '"sine", or remove it'], id="issue28-amplitude-without-a-disturbance"),
+    pytest.param(["run", "motor-noise-ipi", "--set", "controller.window=40"],
+                 ['mfcontrol: error: controller.window = 40: not read with '
+                  'controller.estimator = "backward-difference": set controller.estimator = '
+                  '"algebraic", or remove it'], id="issue28-window-with-backward-differences"),
+    pytest.param(["run", "{d}/ki-on-ip.toml"],
+                 ['controller.ki = 3.0: not read with controller.law = "i-P"'],
+                 id="issue28-unread-key-in-a-case-file"),
+    pytest.param([S, "motor-noise-ipi", "--set", "fidelity=paper"],
+                 ["fidelity = 'paper': not read with plant.model = \"dc-motor\" and "
+                  "controller.adapt = \"constant\": set plant.model = \"buck\" (and unset "
+                  "plant.schedule) or controller.adapt = \"variational\", or remove it"],
+                 id="issue28-show-fidelity-of-a-motor"),
+    pytest.param([S, "motor-noise-pid", "--set", "controller.window=30"],
+                 ['controller.window = 30: not read with controller.law = "pid": set '
+                  'controller.law = "i-P", "i-PI", "i-PD" or "i-PID" with '
+                  'controller.estimator = "algebraic", or remove it'],
+                 id="issue28-two-choices-away"),
+    pytest.param([S, "bench-buck", "--set", "controller.window=30"],
+                 ['controller.window = 30: not read with controller.law = "pid"'],
+                 id="issue28-set-is-for-this-command"),
+    pytest.param([S, "motor-noise-ipi", "--set", "plant.R=3"],
+                 ['plant.R = 3.0: not read with plant.model = "dc-motor": set plant.model = '
+                  '"buck" or "boost" (and unset plant.schedule), or remove it'],
+                 id="issue28-another-plants-key"),
+    pytest.param([S, CASE, "--set", "benchmark.objective=iae"],
+                 ["benchmark.objective = 'iae': read by mfcontrol benchmark only"],
+                 id="issue28-another-commands-key"),
+    pytest.param(["run", CASE, "--set", "sweep.key=controller.Gamma", "--set",
+                  "sweep.values=[1e-8, 1e-7]", "--out", "{d}/out-unread-sweep"],
+                 ["sweep.key = 'controller.Gamma': not read with controller.law = \"ip\"",
+                  "or sweep another key"], id="issue28-sweep-key-unread"),
+    pytest.param(["sweep", "first-order-ip-algebraic", "--grid", "controller.ki=1,2",
+                  "--out", "{d}/out-unread-grid"],
+                 ["controller.ki = [1.0, 2.0]: not read", "or vary another key"],
+                 id="issue28-grid-axis-unread"),
+    pytest.param(["sweep", "map-alpha-dR-standard", "--grid", "plant.dR=1,2", "--set",
+                  "sweep.grid=['plant.dR=3,4']", "--out", "{d}/out-two-grids"],
+                 ["sweep.grid", "--grid replaces it"], id="issue28-grid-twice"),
+    pytest.param([*T, "--param", "controller.ki=0:1"],
+                 ["controller.ki = [0.0, 1.0]: not read with controller.law = \"i-P\""],
+                 id="issue28-tune-unread-key"),
+    pytest.param([*T, "--param", "controller.kp=1:2", "--set", "controller.kd=1"],
+                 ["controller.kd = 1.0: not read with controller.law = \"i-P\""],
+                 id="issue28-tune-set-unread"),
+    pytest.param(["compare", "motor-noise-pid", "motor-noise-ipi", "--set",
+                  "controller.window=20", "--out", "{d}/out-unread-compare"],
+                 ["controller.window = 20: not read by any case compared"],
+                 id="issue28-compare-unread-by-all"),
+    pytest.param(["export-c", "motor-noise-pid", "--set", "controller.alpha=5", "--out",
+                  "{d}/out-unread-c"],
+                 ['controller.alpha = 5.0: not read with controller.law = "pid"'],
+                 id="issue28-export-c-unread"),
+    pytest.param(["tuner", CASE, "--no-browser", "--set", "controller.ki=1"],
+                 ['controller.ki = 1.0: not read with controller.law = "ip"'],
+                 id="issue28-tuner-unread"),
+    pytest.param(["benchmark", "--plants", "{d}/bench-unread.toml", "--out",
+                  "{d}/out-unread-bench"],
+                 ["controller.rate_sign = 'minus': not read by this run (sign of the rate "
+                  "term"],
+                 id="issue28-benchmark-unread"),
+]
+ERRORS += ISSUE_28
+
+
 #: the subset also run as the real command: at least one of every category, and the
 #: regressions
 CORE = {
@@ -368,7 +449,8 @@ CORE = {
     "run-file-nan", "toml-unclosed-table", "run-malformed-toml", "show-without-case",
     "reproduce-bad-fidelity", "huge-integer", "t_end-over-h-overflows", "sweep-over-sim.h",
     "unknown-key-names-its-value", "export-c-float-window", "recorded-run-too-long",
-    "case-name-with-path", "tuner-unknown-case", "tuner-bad-set",
+    "case-name-with-path", "tuner-unknown-case", "tuner-bad-set", "issue28-ki-on-an-i-P",
+    "issue28-amplitude-without-a-disturbance", "issue28-window-with-backward-differences",
 }
 CORE_ERRORS = [p for p in ERRORS if p.id in CORE]
 assert len(CORE_ERRORS) == len(CORE)
@@ -510,7 +592,8 @@ def test_show_explicit_keys_beat_the_preset():
 
 def test_show_set_values_are_parsed_as_toml():
     _, cfg = _show(CASE, "--set", "controller.alpha=5", "--set", "plant.change_times=[1e-3]",
-                   "--set", "description=hello world", "--set", "controller.rate_term=true")
+                   "--set", "description=hello world", "--set", "controller.law=variational",
+                   "--set", "controller.gain=alpha", "--set", "controller.rate_term=true")
     assert cfg["controller"]["alpha"] == 5.0
     assert isinstance(cfg["controller"]["alpha"], float)
     assert cfg["plant"]["change_times"] == [1e-3]
@@ -792,3 +875,21 @@ def test_main_called_in_a_process_leaves_its_garbage_collector_alone(capsys):
     before = gc.isenabled(), gc.get_threshold(), gc.get_freeze_count()
     assert main(["cases"]) == 0
     assert (gc.isenabled(), gc.get_threshold(), gc.get_freeze_count()) == before
+
+
+def test_a_noise_level_given_means_gaussian_noise(tmp_path, capsys):
+    # issue 28 item 1: --set sensor.noise_std=0.5 gave the nominal IAE, exit 0 and no word,
+    # sensor.noise still "none"; a level given means noise
+    short = ["--set", "sim.t_end=1.0"]
+    assert main(["run", "first-order-ip-algebraic", *short, "--out", str(tmp_path / "a")]) == 0
+    assert main(["run", "first-order-ip-algebraic", *short, "--set", "sensor.noise_std=0.5",
+                 "--out", str(tmp_path / "b")]) == 0
+    capsys.readouterr()
+    shown = tomllib.loads((tmp_path / "b" / "config.toml").read_text())
+    assert shown["sensor"]["noise"] == "gaussian" and shown["sensor"]["noise_std"] == 0.5
+    nominal, noisy = (json.loads((tmp_path / d / "metrics.json").read_text()) for d in "ab")
+    assert noisy["tv_u"] > 10 * nominal["tv_u"]
+    # the file it wrote runs the same
+    assert main(["run", str(tmp_path / "b" / "config.toml"), "--out", str(tmp_path / "c")]) == 0
+    again = json.loads((tmp_path / "c" / "metrics.json").read_text())
+    assert again["iae"] == noisy["iae"]

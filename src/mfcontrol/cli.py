@@ -68,7 +68,7 @@ def _cmd_show(args) -> int:
     from .api.run.simulate import shown_keys
     from .experiments import cases
 
-    _, cfg = cases.resolve_case(args.case, _overrides(args.set))
+    _, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
     sys.stdout.write(cfg.to_toml(shown_keys(cfg)))
     return 0
 
@@ -78,7 +78,7 @@ def _cmd_run(args) -> int:
     from .api.run.simulate import shown_keys
     from .experiments import cases
 
-    name, cfg = cases.resolve_case(args.case, _overrides(args.set))
+    name, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
     out = _out_dir(args.out) if args.out else Path("results") / name
     result = cases.run_config(cfg, name, fast=args.fast)
     out.mkdir(parents=True, exist_ok=True)  # after the run: a refused run writes nothing
@@ -106,7 +106,10 @@ def _cmd_sweep(args) -> int:
     from .experiments.sweeps import Progress, run_sweep
 
     overrides = _overrides(args.set)
-    name, cfg = cases.resolve_case(args.case, overrides)
+    if args.grid and overrides.get("sweep.grid") is not None:
+        raise ConfigError("sweep.grid", overrides["sweep.grid"], "--grid replaces it: give "
+                          "one of the two")
+    name, cfg = cases.resolve_case(args.case, overrides, command="sweep")
     axes = parse_grid(args.grid or cfg["sweep.grid"] or [])
     cfg = cfg.with_overrides({"sweep.key": None, "sweep.values": None, "sweep.grid": None})
     out = _out_dir(args.out) if args.out else Path("results") / "sweeps" / name
@@ -163,7 +166,8 @@ def _cmd_tune(args) -> int:
     from .experiments import cases
     from .experiments.tune import DEFAULT_BUDGET, tune
 
-    name, _ = cases.resolve_case(args.case, _overrides(args.set))  # bad input before work
+    # bad input before work
+    name, _ = cases.resolve_case(args.case, _overrides(args.set), command="run")
     out = _out_dir(args.out) if args.out else Path("results") / "tune" / name
     t_start = time.perf_counter()
     shown = []
@@ -242,7 +246,7 @@ def _cmd_export_c(args) -> int:
     from .cexport import CFLAGS, export_c
     from .experiments import cases
 
-    name, cfg = cases.resolve_case(args.case, _overrides(args.set))
+    name, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
     out = _out_dir(args.out) if args.out else Path("results") / name / "c"
     sets = "".join(f" --set {text}" for text in args.set or [])
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
@@ -261,7 +265,10 @@ def _cmd_tuner(args) -> int:
 
     if importlib.util.find_spec("bokeh") is None:
         raise CaseError("needs the ui extra: pip install 'mfcontrol[ui]'")
+    from .experiments import cases
     from .tuner.server import serve
+
+    cases.resolve_case(args.case, _overrides(args.set), command="run")  # before the server
 
     if args.port is not None and not 0 <= args.port <= 65535:
         raise ConfigError("--port", args.port, "must be a whole number from 0 to 65535")
@@ -290,7 +297,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     setting: dict[str, Any] = {
         "action": "append", "metavar": "KEY=VALUE",
-        "help": "set a configuration key (repeatable), e.g. controller.alpha=5"}
+        "help": "set a configuration key (repeatable), e.g. controller.alpha=5; a key the "
+                "command would not read is an error"}
     s = sub.add_parser("show", help="print a case's fully resolved configuration as TOML")
     s.add_argument("case", help="built-in case name or path of a .toml file")
     s.add_argument("--set", **setting)

@@ -141,16 +141,21 @@ def intelligent_controllers(draw):
     lo = draw(st.none() | st.floats(-10.0, 0.0))
     hi = draw(st.none() | st.floats(0.0, 10.0))
     gain = draw(st.sampled_from(["constant", "variational"]))
+    anti_windup = draw(st.sampled_from(["clamp", "back-calculation", "none"]))
+    # the options of a choice, drawn under it (the controller refuses them elsewhere)
+    options = {"k_aw": draw(st.none() | st.floats(0.0, 1e3))} \
+        if anti_windup == "back-calculation" else {}
+    if gain == "variational":
+        options.update(
+            gamma0=draw(st.none() | st.floats(0.01, 10.0)), Gamma=draw(st.floats(-1e-3, 1e-3)),
+            eps_M=draw(st.floats(-1.0, 1.0)),
+            integrator=draw(st.sampled_from(["first-order", "second-order"])))
     return mfcontrol.IPID(
         alpha=draw(st.floats(0.1, 100.0)), kp=draw(gains), ki=draw(gains), kd=draw(gains),
         sample_time=draw(st.sampled_from([1e-6, 1e-3, 0.01, 0.1])), order=order,
         estimator=estimator, window=window, output_limits=(lo, hi),
-        anti_windup=draw(st.sampled_from(["clamp", "back-calculation", "none"])),
-        k_aw=draw(st.none() | st.floats(0.0, 1e3)), gain=gain,
-        gamma0=draw(st.none() | st.floats(0.01, 10.0)), Gamma=draw(st.floats(-1e-3, 1e-3)),
-        eps_M=draw(st.floats(-1.0, 1.0)),
-        integrator=draw(st.sampled_from(["first-order", "second-order"])),
-        starting_output=draw(st.floats(-5.0, 5.0)))
+        anti_windup=anti_windup, gain=gain, starting_output=draw(st.floats(-5.0, 5.0)),
+        **options)
 
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])

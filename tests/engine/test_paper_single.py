@@ -71,10 +71,12 @@ finite = st.floats(allow_nan=False, allow_infinity=False)
        output=st.sampled_from(["voltage", "power"]))
 def test_duty_always_within_limits_and_outputs_finite(alpha, kp, gamma0, Gamma, eps, dR, lo,
                                                       width, law, fidelity, output):
+    # each law's gain: alpha for the standard law, gamma0 adapting for the variational
+    gain = {"controller.alpha": alpha} if law == "ip" else {
+        "controller.gamma0": gamma0, "controller.Gamma": Gamma, "controller.eps_M": eps}
     r = mfcontrol.run_case("voltage-stable-standard", {
         "controller.law": law, "fidelity": fidelity, "plant.output": output,
-        "controller.alpha": alpha, "controller.kp": kp, "controller.gamma0": gamma0,
-        "controller.Gamma": Gamma, "controller.eps_M": eps, "plant.dR": dR,
+        "controller.kp": kp, **gain, "plant.dR": dR,
         "controller.duty_min": lo, "controller.duty_max": lo + width,
         "sim.t_end": 1e-3, "sim.diverge_above": 1e300})
     d = r.signals["u"]

@@ -149,7 +149,7 @@ def test_bad_parameters_are_named(items, log, needle):
     ({"aggregate_by": "median"}, "--aggregate"), ({"objective": "iea"}, "--objective"),
     ({"scenarios": ["controller.kp=1,2"]}, "--scenarios"),
     ({"scenarios": ["plant.a=x"]}, "plant.a"),
-    ({"params": ["controller.ki=0:1"]}, "no effect"),
+    ({"params": ["controller.ki=0:1"]}, 'not read with controller.law = "i-P"'),
     ({"budget": 9}, "--budget"),
     ({"params": ["controller.window=2.2:2.8"]}, "whole number"),
     ({"objective": "iae_load"}, "load step"),

@@ -74,11 +74,22 @@ def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
     variational = cfg["controller.law"] == "variational"
     col[variational_gain.MODE] = (variational_gain.VARIATIONAL if variational
                                   else variational_gain.CONSTANT)
-    col[variational_gain.INV_ALPHA] = 1 / cfg["controller.alpha"]
-    col[variational_gain.GAMMA0] = cfg["controller.gamma0"]
-    col[variational_gain.GAMMA_RATE] = cfg["controller.Gamma"]
-    col[variational_gain.EPS_M] = cfg["controller.eps_M"]
-    col[variational_gain.ORDER] = 2.0 if cfg["controller.integrator"] == "second-order" else 1.0
+    # the adaptation's options, read only by the law that adapts (the standard law's gain
+    # is 1/alpha whatever they are: a key read is a key that can change the run), and
+    # alpha only by a law whose gain it is (the variational law's starts from gamma0;
+    # its 1/alpha is then never used)
+    col[variational_gain.INV_ALPHA] = 1.0
+    if not variational or cfg["controller.gain"] == "alpha":
+        col[variational_gain.INV_ALPHA] = 1 / cfg["controller.alpha"]
+    col[variational_gain.ORDER] = 1.0
+    col[recursive_ip.USE_GAMMA] = 1.0
+    if variational:
+        col[variational_gain.GAMMA0] = cfg["controller.gamma0"]
+        col[variational_gain.GAMMA_RATE] = cfg["controller.Gamma"]
+        col[variational_gain.EPS_M] = cfg["controller.eps_M"]
+        col[variational_gain.ORDER] = (2.0 if cfg["controller.integrator"] == "second-order"
+                                       else 1.0)
+        col[recursive_ip.USE_GAMMA] = 1.0 if cfg["controller.gain"] == "gamma" else 0.0
     col[recursive_ip.KP] = cfg["controller.kp"]
     col[recursive_ip.HD] = cfg["controller.deriv_scale"]
     col[recursive_ip.U0] = cfg["controller.u0"]
@@ -87,7 +98,6 @@ def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
     if variational and cfg["controller.rate_term"]:
         sign = 1.0 if cfg["controller.rate_sign"] == "plus" else -1.0
         col[recursive_ip.RATE_COEF] = sign * cfg["controller.k_gamma"]
-    col[recursive_ip.USE_GAMMA] = 1.0 if cfg["controller.gain"] == "gamma" else 0.0
     col[recursive_ip.OUT_GAIN] = cfg["controller.output_gain"]
     col[recursive_ip.OUT_MIN] = cfg["controller.duty_min"]
     col[recursive_ip.OUT_MAX] = cfg["controller.duty_max"]
@@ -121,7 +131,8 @@ def reference_column(cfg: Config) -> np.ndarray:
     col[reference.LEVEL] = cfg["reference.level"]
     t2 = cfg["reference.t_ramp2"]
     col[reference.T_RAMP2] = math.inf if t2 is None else t2
-    col[reference.SLOPE2] = cfg["reference.slope2"]
+    if t2 is not None:  # (a second slope without its start would change nothing)
+        col[reference.SLOPE2] = cfg["reference.slope2"]
     return col
 
 

@@ -98,8 +98,8 @@ OPTIONS: tuple[Option, ...] = (
        "with the symplectic gamma update (eq. 33); i-P, i-PI, i-PD, i-PID: positional "
        "intelligent controllers; pid: the discrete PID of Astrom and Hagglund",
        ("ip", "variational", "i-P", "i-PI", "i-PD", "i-PID", "pid")),
-    _o("controller.alpha", "float", 10.0, "key gain alpha of the ultra-local model",
-       check="positive"),
+    _o("controller.alpha", "float", 10.0, "key gain alpha of the ultra-local model (a "
+       "variational gain starts from gamma0 instead)", check="positive"),
     _o("controller.kp", "float", 2.0, "proportional gain K_P"),
     _o("controller.ki", "float", 0.0, "i-PI, i-PID, pid: integral gain K_I"),
     _o("controller.kd", "float", 0.0, "i-PD, i-PID, pid: derivative gain K_D"),
@@ -151,10 +151,10 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.Tt", "float", None, "pid: tracking time of back-calculation (s); absent: "
        "sqrt(Ti Td) with an integral and a derivative, else Ti", check="positive"),
     # sensor, actuator, disturbance
-    _o("sensor.noise", "str", "none", "measurement noise added to y", ("none", "gaussian",
-                                                                        "uniform")),
-    _o("sensor.noise_std", "float", 0.0, "noise standard deviation (output unit)",
-       check="nonnegative"),
+    _o("sensor.noise", "str", "none", "measurement noise added to y (gaussian when "
+       "sensor.noise_std is given without it)", ("none", "gaussian", "uniform")),
+    _o("sensor.noise_std", "float", 0.0, "noise standard deviation (output unit); given "
+       "without sensor.noise, the noise is gaussian", check="nonnegative"),
     _o("sensor.seed", "int", 0, "noise seed: the same seed gives the same noise in a single "
        "run, a sweep member and on a Dask worker", check="nonnegative"),
     _o("sensor.quantum", "float", 0.0, "measurement resolution: y rounds to the nearest "

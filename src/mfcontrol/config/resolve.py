@@ -85,6 +85,9 @@ def check_value(key: str, value: Any) -> Any:
                 or (o.check == "nonnegative" and value < 0)
                 or (o.choices and str(value) not in o.choices)):
             raise ConfigError(key, value, allowed(o))
+        if key == "sensor.seed" and value >= noise.MAX_SEED:  # the noise hash's range
+            raise ConfigError(key, value, f"must be a whole number from 0 to "
+                              f"{noise.MAX_SEED - 1:,}")
         return value
     if o.kind == "events":
         if not isinstance(value, list | tuple) or not all(_is_event(e) for e in value):
@@ -184,7 +187,11 @@ class Config(Mapping[str, Any]):
 
 def resolve(settings: Mapping[str, Any]) -> Config:
     """Validate ``settings`` (dotted keys) and fill every other option. A value of None
-    unsets the key (its default or fidelity preset applies).
+    unsets the key (its default or fidelity preset applies). ``sensor.noise_std`` given
+    without ``sensor.noise`` means gaussian noise. Whether the run reads every key given
+    is checked where a case meets a command (:func:`mfcontrol.experiments.cases.check_reads`:
+    ``run_case``, the command line), not here: a configuration may switch a law and
+    keep the other law's gains.
 
     Parameters
     ----------
@@ -225,6 +232,10 @@ def resolve(settings: Mapping[str, Any]) -> Config:
             values[o.key] = o.preset[fidelity]
         else:
             values[o.key] = o.default
+    if "sensor.noise_std" in explicit and "sensor.noise" not in explicit:
+        # a noise level given without a kind of noise means what it says: gaussian noise
+        # (not a level the sensor would never read)
+        values["sensor.noise"] = "gaussian"
     _check_consistency(values)
     values["_explicit"] = explicit
     return Config(values)
@@ -379,12 +390,9 @@ MAX_DELAY = 1_000_000
 
 def check_elements(v: Mapping[str, Any], n: int | None = None) -> None:
     """The checks across the loop elements' options, on whichever of their dotted keys
-    ``v`` holds (a configuration, or what an element object sets): the seed's range, the
-    delays and integration substeps against the run's n samples (when known), a table's
+    ``v`` holds (a configuration, or what an element object sets): the delays and
+    integration substeps against the run's n samples (when known), a table's
     times and values. The one place for a case file and the Python objects alike."""
-    if "sensor.seed" in v and v["sensor.seed"] >= noise.MAX_SEED:
-        raise ConfigError("sensor.seed", v["sensor.seed"],
-                          f"must be a whole number from 0 to {noise.MAX_SEED - 1:,}")
     for key in ("sensor.delay", "actuator.delay"):
         if key not in v:
             continue

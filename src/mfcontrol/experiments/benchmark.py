@@ -114,7 +114,7 @@ class _Plant:
 def _check_plant(plant: str | Path, budget: int) -> _Plant:
     """Everything a plant's tunings and evaluation will check, checked now (a mistake in
     the last plant's table must not end a long run)."""
-    label, cfg = cases.resolve_case(plant)
+    label, cfg = cases.resolve_case(plant, command="benchmark")
     obj = cfg["benchmark.objective"]
     Objective.parse(obj, "benchmark.objective")
     log = list(cfg["benchmark.log"])

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..api.results.result import Result, SweepResult
-from ..api.run.simulate import simulate, simulate_sweep
+from ..api.run.simulate import _member, keys_read_by_run, simulate, simulate_sweep
+from ..config.options import OPTIONS
 from ..config.resolve import Config, resolve
 from ..config.toml import flatten
-from ..errors import CaseError
+from ..errors import CaseError, ConfigError
 
 if TYPE_CHECKING:
     from ..api.model.controllers import PID, IntelligentController, RecursiveIP
@@ -57,11 +58,76 @@ def load(name_or_path: str | Path) -> tuple[str, dict[str, Any]]:
                         "numbers, strings, true/false or lists of numbers") from None
 
 
-def resolve_case(name_or_path: str | Path,
-                 overrides: Mapping[str, Any] | None = None) -> tuple[str, Config]:
-    """Load a case and resolve it with ``overrides`` (dotted keys) on top."""
+def resolve_case(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None, *,
+                 command: str | None = None) -> tuple[str, Config]:
+    """Load a case and resolve it with ``overrides`` (dotted keys) on top; with
+    ``command``, refuse a key set that the command will not read (:func:`check_reads`)."""
     name, settings = load(name_or_path)
-    return name, resolve({**settings, **dict(overrides or {})})
+    cfg = resolve({**settings, **dict(overrides or {})})
+    if command is not None:
+        check_reads(cfg, command, overrides or {},
+                    case=resolve(settings) if overrides else cfg)
+    return name, cfg
+
+
+#: what :func:`check_reads` knows of each command's reads: ``run`` (also show, tune,
+#: compare, export-c and the tuner: a run of the case, or its controller), ``sweep`` (a
+#: grid over its run) and ``benchmark``
+COMMANDS = ("run", "sweep", "benchmark")
+
+
+def keys_read_by(command: str, cfg: Config) -> set[str]:
+    """The options ``mfcontrol COMMAND`` reads of the case ``cfg`` (see :data:`COMMANDS`):
+    found by running the translators, as :func:`mfcontrol.api.run.simulate.keys_read_by_run`
+    finds a run's."""
+    if command == "sweep":  # the grid replaces a sweep case's own sweep
+        base = cfg.with_overrides({"sweep.key": None, "sweep.values": None,
+                                   "sweep.grid": None})
+        return keys_read_by_run(base) | {"description", "sweep.grid"}
+    if command == "benchmark":  # every controller it tunes, on the case as it is
+        from .benchmark import CONTROLLERS
+
+        read = {o.key for o in OPTIONS if o.key.startswith("benchmark.")} | {"description"}
+        for _, law, _ in CONTROLLERS:
+            read |= keys_read_by_run(cfg.with_overrides({"controller.law": law}))
+        return read
+    if command != "run":
+        raise ValueError(f"command = {command!r}: must be one of {', '.join(COMMANDS)}")
+    return keys_read_by_run(cfg) | {"description"}
+
+
+def check_reads(cfg: Config, command: str, given: Mapping[str, Any] | Collection[str] = (),
+                *, case: Config | None = None) -> None:
+    """Refuse an option of ``cfg`` that is set but that ``mfcontrol COMMAND`` will not read,
+    with one line that says why and what to set (:func:`mfcontrol.config.reads.why_unread`).
+
+    A key ``given`` for this command (``--set``, ``overrides``) must be read by it. The keys
+    of the ``case`` file (the configuration it resolves to alone) must be read by its own
+    run or by this command, or be the keys of the other commands that run it: ``[sweep]``,
+    and ``[benchmark]`` with, in a case that has one, the keys the benchmark's controllers
+    read (an i-P's estimator in a PID's case). A key of the file that an override leaves
+    unread (a case's ki once the law is switched to an i-P) is the override's choice, not
+    an error. A sweep case's swept key must be read by its members."""
+    from ..config.reads import refuse_unread, why_unread
+
+    read = keys_read_by(command, cfg)
+    explicit = cfg.explicit
+    set_here = {k: explicit[k] for k in given if k in explicit}
+    refuse_unread(cfg, set_here, keys_read_by_run, read=read)
+    if case is not None:
+        own = {k: v for k, v in case.explicit.items() if k not in set_here}
+        for_others = {"description", "sweep.key", "sweep.values", "sweep.grid"}
+        if any(k.startswith("benchmark.") for k in own):
+            for_others |= keys_read_by("benchmark", case)
+        refuse_unread(case, own, keys_read_by_run,
+                      read=keys_read_by(command, case) | keys_read_by_run(case) | for_others)
+    key = cfg["sweep.key"]
+    if command == "run" and key is not None:
+        members = keys_read_by_run(cfg) - {"sweep.key", "sweep.values"}
+        if key not in members:
+            member = _member(cfg, key, cfg["sweep.values"][0])
+            raise ConfigError("sweep.key", key, why_unread(
+                member, key, keys_read_by_run, instead="sweep another key"))
 
 
 def describe(name: str) -> str:
@@ -78,7 +144,9 @@ def run_case(name_or_path: str | Path,
         A built-in case name (see ``mfcontrol cases``) or the path of a TOML case file.
     overrides : mapping, optional
         Dotted configuration keys to set on top of the case, e.g.
-        ``{"fidelity": "paper", "plant.dR": 5.0}``.
+        ``{"fidelity": "paper", "plant.dR": 5.0}``. A key the run would not read (an
+        integral gain under an i-P) is refused, as any key of the case that no command
+        running it reads (:func:`check_reads`).
 
     Returns
     -------
@@ -92,7 +160,7 @@ def run_case(name_or_path: str | Path,
     >>> r.metrics["stable"], round(float(r.signals["y"][-1]), 3)
     (True, 0.926)
     """
-    name, cfg = resolve_case(name_or_path, overrides)
+    name, cfg = resolve_case(name_or_path, overrides, command="run")
     return run_config(cfg, name)
 
 
@@ -115,7 +183,8 @@ def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | No
     case : str, Path or Config
         A built-in case, a case file or a resolved configuration.
     overrides : mapping, optional
-        Dotted keys set on the case first (as ``--set``).
+        Dotted keys set on the case first (as ``--set``); each must be one the case's
+        run reads (:func:`check_reads`).
 
     Returns
     -------
@@ -137,6 +206,9 @@ def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | No
     """
     from ..api.run.from_config import controller
 
-    cfg = case.with_overrides(dict(overrides or {})) if isinstance(case, Config) else \
-        resolve_case(case, overrides)[1]
+    if isinstance(case, Config):
+        cfg = case.with_overrides(dict(overrides or {}))
+        check_reads(cfg, "run", overrides or {})
+    else:
+        cfg = resolve_case(case, overrides, command="run")[1]
     return controller(cfg)

@@ -161,6 +161,21 @@ def controller_label(cfg: Config) -> str:
     return f"{name} ({gains})"
 
 
+def _refuse_unread_by_all(names: Sequence[str], configs: Sequence[Config],
+                          overrides: Mapping[str, Any]) -> None:
+    """A key set on every case must be read by one of them at least (an integral gain
+    reaches the i-PI and the PID compared with an i-P): else it changes nothing."""
+    from ..api.run.simulate import keys_read_by_run
+    from ..config.reads import why_unread
+
+    given = [k for k, v in overrides.items() if v is not None]
+    read = set().union(*(keys_read_by_run(c) for c in configs)) | {"description"}
+    for key in (k for k in given if k not in read):
+        why = why_unread(configs[0], key, keys_read_by_run, instead="remove it")
+        raise ConfigError(key, overrides[key], f"not read by any case compared; "
+                          f"{names[0]}: {why}")
+
+
 def compare(cases: Sequence[str | Path | Config],
             overrides: Mapping[str, Any] | None = None,
             out: str | Path | None = None) -> Comparison:
@@ -171,7 +186,7 @@ def compare(cases: Sequence[str | Path | Config],
     cases : list of str, Path or Config
         Built-in cases, case files or resolved configurations (at least two).
     overrides : mapping, optional
-        Keys set on every case (as ``--set``).
+        Keys set on every case (as ``--set``); each must be read by one of them at least.
     out : str or Path, optional
         Write comparison.csv, comparison.md and comparison.png there.
 
@@ -193,12 +208,14 @@ def compare(cases: Sequence[str | Path | Config],
     for c in cases:
         if isinstance(c, Config):
             name, cfg = f"config {len(names) + 1}", c.with_overrides(dict(overrides or {}))
-        else:
-            name, cfg = _cases.resolve_case(c, overrides)
+        else:  # the case's own keys checked (the common ones below)
+            name, own = _cases.resolve_case(c, command="run")
+            cfg = own.with_overrides(dict(overrides or {}))
         if cfg["sweep.key"] is not None:
             raise ConfigError("cases", name, "is a sweep case: compare runs single cases")
         names.append(name)
         configs.append(cfg)
+    _refuse_unread_by_all(names, configs, overrides or {})
     if len(set(names)) < len(names):
         names = [f"{n} ({i + 1})" for i, n in enumerate(names)]
     results = [simulate(c, name=n) for n, c in zip(names, configs, strict=True)]

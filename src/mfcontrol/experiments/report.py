@@ -122,12 +122,12 @@ def _words(case: str, fid: str, rows: list[tuple[str, Result]], unit: str) -> st
                  f"reference value); its IAE is {_fmt(m_eq['iae'])} against "
                  f"{_fmt(m_var['iae'])}.")
     g = var.signals["gamma"]
-    assert var.config is not None  # a case run
+    assert var.config is not None and paper_std.config is not None  # case runs
     s.append(f"gamma moves from {g[0]:.6g} to {g[-1]:.6g} (a change of "
              f"{_fmt(abs(g[-1] - g[0]))}), so most of the difference from the paper's "
              "standard i-P comes from the initial gain gamma0 "
              f"= {var.config['controller.gamma0']:g} instead of 1/alpha = "
-             f"{1 / var.config['controller.alpha']:g}, not from the adaptation."
+             f"{1 / paper_std.config['controller.alpha']:g}, not from the adaptation."
              if abs(g[-1] - g[0]) < 0.05 * abs(g[0]) else
              f"gamma moves from {g[0]:.6g} to {g[-1]:.6g}: here the adaptation itself is "
              "large enough to shape the response.")

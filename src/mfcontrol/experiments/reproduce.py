@@ -28,7 +28,7 @@ from ..api.results.plotting import (
 )
 from ..api.results.result import Result, SweepResult
 from . import maps, report
-from .cases import resolve_case, run_case
+from .cases import resolve_case, run_case, run_config
 
 SINGLE = (
     "voltage-stable-standard", "voltage-stable-variational",
@@ -70,8 +70,11 @@ _AS = {"published": "as the published code computes it", "paper": "with the prin
 
 
 def _single(case: str, overrides: Mapping[str, Any]) -> Result:
-    """``run_case`` of a case that is one run (not a sweep)."""
-    r = run_case(case, overrides)
+    """The run of a case that is one run (not a sweep), with ``overrides``: as
+    ``run_case``, but for the baselines a variational case's options may go unread
+    (the standard law, ``controller.law = "ip"``, has no gamma0)."""
+    name, cfg = resolve_case(case, overrides)
+    r = run_config(cfg, name)
     assert isinstance(r, Result), case
     return r
 
@@ -92,11 +95,13 @@ def comparison_rows(case: str, fidelity: str) -> list[tuple[str, Result]]:
     """The runs compared for one variational case under one fidelity."""
     base = _single(case, {"fidelity": fidelity})
     assert base.config is not None  # a case run
-    alpha = base.config["controller.alpha"]
+    # the paper's alpha is its standard case's (the variational law has none)
+    alpha = resolve_case(case.replace("-variational", "-standard"))[1]["controller.alpha"]
     gamma0 = base.config["controller.gamma0"]
     rows = [
         (f"standard i-P, alpha = {alpha:g} (paper)",
-         _single(case, {"fidelity": fidelity, "controller.law": "ip"})),
+         _single(case, {"fidelity": fidelity, "controller.law": "ip",
+                        "controller.alpha": alpha})),
         (f"standard i-P, alpha = 1/gamma0 = {1 / gamma0:g} (equal gain)",
          _single(case, {"fidelity": fidelity, "controller.law": "ip",
                         "controller.alpha": 1 / gamma0})),

@@ -134,7 +134,8 @@ class Progress:
         self.stream.flush()
 
     def close(self) -> None:
-        self.stream.write("\n")
+        if self.done0 is not None:  # a line drawn ends; an error before any is one line
+            self.stream.write("\n")
 
 
 def run_sweep(case: str, cfg: Config, overrides: dict[str, Any], axes: dict[str, np.ndarray],

@@ -310,8 +310,9 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     t0 = time.perf_counter()
     if isinstance(case, Config):
         name, base = "config", case.with_overrides(dict(overrides or {}))
+        cases.check_reads(base, "run", overrides or {})
     else:
-        name, base = cases.resolve_case(case, overrides)
+        name, base = cases.resolve_case(case, overrides, command="run")
     if base["sweep.key"] is not None:
         raise ConfigError("case", name, "is a sweep case (sweep.key): tune a single case")
     base = base.with_overrides({"sweep.grid": None})
@@ -486,12 +487,12 @@ def check_search(base: Config, pars: list[Parameter], obj: Objective, budget: An
     """The checks of a search made before any run, for :func:`tune` and for a caller that
     checks many searches up front (the benchmark): the budget against the population
     (:func:`population`, whose result it returns), the bounds and scenarios as a grid
-    checks its axes, keys without effect, an objective the case leaves undefined."""
+    checks its axes (a key the run does not read among them), an objective the case
+    leaves undefined."""
     sizes = population(budget, len(pars))
     keys = tuple(p.key for p in pars)
     batch.make_grid(base, {**{p.key: np.array([p.low, p.high]) for p in pars},
                            **dict(scenarios or {})}, points=keys)
-    _refuse_keys_without_effect(base, keys)
     _refuse_undefined_objective(obj, base)
     return sizes
 
@@ -527,22 +528,6 @@ def _inside(p: Parameter, c: float) -> float:
 
 class _Abort(Exception):
     """Carries an error out of scipy's optimiser (see ``evaluate``)."""
-
-
-def _refuse_keys_without_effect(base: Config, keys: tuple[str, ...]) -> None:
-    """A tuned key that nothing a run is built from reads (``controller.ki`` under an
-    i-P) would be a flat dimension of the search: refused."""
-    from ..api.run.simulate import member_parts
-    from ..config.resolve import keys_read
-
-    read: set[str] = set()
-    for build in member_parts().values():
-        read |= keys_read(build, base)
-    for key in keys:
-        if key not in read:
-            raise ConfigError("--param", key, f"has no effect on a run of this case (law "
-                              f"{base['controller.law']}, plant {base['plant.model']}): "
-                              "tune a key the run reads")
 
 
 def _refuse_undefined_objective(obj: Objective, base: Config) -> None:

@@ -342,8 +342,8 @@ def test_the_in_line_call_equals_the_general_one(kind, ys, switch):
         if kind == "pid":
             return mfcontrol.PID(2.0, 1.0, 0.05, sample_time=0.01, output_limits=(-5, 5))
         if kind in ("recursive", "variational"):
-            return RecursiveIP(alpha=10.0, kp=2.0, law="variational" if kind == "variational"
-                               else "ip", gamma0=0.1)
+            adapting = {"law": "variational", "gamma0": 0.1} if kind == "variational" else {}
+            return RecursiveIP(alpha=10.0, kp=2.0, **adapting)
         return _controller(kind, -5.0, 10.0, "clamp", 0.01)
 
     fast, general = build(), build()
@@ -442,3 +442,55 @@ def test_recursive_ip_documents_the_keys_its_law_reads():
     assert set(RECURSIVE_KEYS) == read
     doc = mfcontrol.RecursiveIP.__doc__
     assert all(f"\n{key.split('.')[1]} : " in doc for key in RECURSIVE_KEYS)
+
+
+# ---------------------------------------------------------------------------------------
+# issue 28 item 1: an option the law would not read is refused, never dropped
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("make", "error", "line"), [
+    (lambda: IP(1.0, 2.0, ki=3.0, sample_time=1e-3), TypeError,
+     "IP() got an unexpected keyword argument 'ki': an i-P has no integral term (IPI and "
+     "IPID have one)"),
+    (lambda: IPI(1.0, 2.0, 1.0, kd=3.0, sample_time=1e-3), TypeError,
+     "IPI() got an unexpected keyword argument 'kd': an i-PI has no derivative term (IPD "
+     "and IPID have one)"),
+    (lambda: IPD(1.0, 2.0, 1.0, ki=3.0, sample_time=1e-3), TypeError,
+     "IPD() got an unexpected keyword argument 'ki': an i-PD has no integral term (IPI and "
+     "IPID have one)"),
+    (lambda: IPI(1.0, 2.0, 1.0, k_aw=3.0, sample_time=1e-3), ValueError,
+     "k_aw = 3.0: only back-calculation anti-windup reads it: set "
+     "anti_windup='back-calculation', or remove it"),
+    (lambda: IPI(1.0, 2.0, 1.0, Gamma=1e-6, sample_time=1e-3), ValueError,
+     "Gamma = 1e-06: only the variational gain reads it: set gain='variational', or "
+     "remove it"),
+    (lambda: IP(1.0, 2.0, gamma0=0.5, sample_time=1e-3), ValueError,
+     "gamma0 = 0.5: only the variational gain reads it: set gain='variational', or remove "
+     "it"),
+    (lambda: IPI(1.0, 2.0, 1.0, window=40, sample_time=1e-3), ValueError,
+     "window = 40: only the algebraic estimator has one"),
+    (lambda: RecursiveIP(gamma0=2.0), ValueError,
+     'gamma0 = 2.0: not read with law = "ip": set law = "variational", or remove it'),
+    (lambda: RecursiveIP(law="variational", k_gamma=2.0), ValueError,
+     "k_gamma = 2.0: not read with rate_term = false: set rate_term = true, or remove it"),
+    (lambda: RecursiveIP(k_aw=5.0), ValueError,
+     'k_aw = 5.0: not read with anti_windup = "auto": set anti_windup = '
+     '"back-calculation", or remove it'),
+    (lambda: RecursiveIP(order=2), ValueError, "order = 2: not read by this law"),
+])
+def test_an_option_the_law_would_not_read_is_refused(make, error, line):
+    with pytest.raises(error) as info:
+        make()
+    assert str(info.value).startswith(line), str(info.value)
+
+
+def test_the_options_a_law_reads_are_taken():
+    # the same options, under the choice that reads them
+    IPI(1.0, 2.0, 1.0, k_aw=3.0, anti_windup="back-calculation", sample_time=1e-3)
+    IPI(1.0, 2.0, 1.0, Gamma=1e-6, gamma0=0.5, gain="variational", sample_time=1e-3)
+    RecursiveIP(law="variational", gamma0=2.0, rate_term=True, k_gamma=2.0)
+    RecursiveIP(anti_windup="back-calculation", k_aw=5.0, sample_time=1e-6)
+    # a snapshot's parameters build the controller again
+    ctrl = IP(1.0, 2.0, sample_time=1e-3)
+    assert IP.from_snapshot(ctrl.snapshot()).snapshot()["params"] == ctrl.snapshot()["params"]

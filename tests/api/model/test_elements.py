@@ -242,15 +242,19 @@ def test_the_object_sweep_takes_elements_and_equals_its_single_runs():
         mfcontrol.sweep(plant, ctrl, 60.0, t_end=0.1, grid={"sensor.noise": [1.0]})
 
 
-@pytest.mark.parametrize(("grid", "why"), [
-    ({"sensor.seed": [1, 2]}, "sensor.noise is none"),
-    ({"disturbance.amplitude": [1.0, 2.0]}, "disturbance.kind is none"),
+@pytest.mark.parametrize(("grid", "why", "unread"), [
+    ({"sensor.seed": [1, 2]}, "sensor.noise is none",
+     'sensor.seed = \\[1.0, 2.0\\]: not read with sensor.noise = "none": set sensor.noise = '
+     '"gaussian" or "uniform", or vary another key'),
+    ({"disturbance.amplitude": [1.0, 2.0]}, "disturbance.kind is none",
+     'disturbance.amplitude = \\[1.0, 2.0\\]: not read with disturbance.kind = "none": set '
+     'disturbance.kind = "step", "ramp" or "sine", or vary another key'),
 ])
-def test_sweeping_an_element_option_without_effect_is_refused(grid, why):
+def test_sweeping_an_element_option_without_effect_is_refused(grid, why, unread):
     with pytest.raises(ConfigError, match=f"has no effect here \\({why}\\)"):
         mfcontrol.sweep(DCMotor(), _ipi(), 60.0, t_end=0.1, grid=grid)
     _, base = resolve_case("motor-noise-pid", {"sensor.noise": "none"})
-    with pytest.raises(ConfigError, match=f"has no effect here \\({why}\\)"):
+    with pytest.raises(ConfigError, match=unread):
         batch.make_grid(base, {k: np.array(v, dtype=float) for k, v in grid.items()})
 
 
@@ -281,3 +285,43 @@ def test_a_load_change_no_sample_sees_gives_no_load_iae():
     # after the last sample (0.499 s) but before t_end
     res = _run(changes=[mfcontrol.Change(0.4995, "load", 0.05)])
     assert math.isnan(res.metrics["iae_load"])
+
+
+# ---------------------------------------------------------------------------------------
+# issue 28 item 1: an option the element would not read is refused, as a case's key is;
+# a noise level given means gaussian noise
+# ---------------------------------------------------------------------------------------
+
+
+def test_a_noise_level_given_means_gaussian_noise():
+    # Sensor(noise_std=0.5) had noise "none": the run was the nominal one
+    assert Sensor(noise_std=0.5).noise == "gaussian"
+    assert Sensor().noise == "none" and Sensor(noise="uniform", noise_std=0.1).noise == "uniform"
+    quiet, noisy = _run(t_end=0.5), _run(t_end=0.5, sensor=Sensor(noise_std=0.5))
+    assert not np.array_equal(quiet.signals["y_meas"], noisy.signals["y_meas"])
+    assert mfcontrol.resolve({"sensor.noise_std": 0.5})["sensor.noise"] == "gaussian"
+    assert mfcontrol.resolve({"sensor.noise_std": 0.5, "sensor.noise": "uniform"})[
+        "sensor.noise"] == "uniform"
+
+
+@pytest.mark.parametrize(("make", "line"), [
+    (lambda: Sensor(seed=3), 'sensor.seed = 3: not read with sensor.noise = "none": set '
+     'sensor.noise = "gaussian" or "uniform", or remove it'),
+    (lambda: Sensor(noise="none", noise_std=0.5), 'sensor.noise_std = 0.5: not read with '
+     'sensor.noise = "none": set sensor.noise = "gaussian" or "uniform", or remove it'),
+    (lambda: Disturbance(amplitude=1.0), 'disturbance.amplitude = 1.0: not read with '
+     'disturbance.kind = "none": set disturbance.kind = "step", "ramp" or "sine", or '
+     'remove it'),
+    (lambda: Disturbance("step", amplitude=1.0, frequency=3.0), 'disturbance.frequency = '
+     '3.0: not read with disturbance.kind = "step": set disturbance.kind = "sine", or '
+     'remove it'),
+    (lambda: Disturbance("step", amplitude=1.0, times=[1.0]), 'disturbance.times = [1.0]: '
+     'not read by this run (table: times (s), nondecreasing): remove it'),
+    (lambda: Disturbance(at="output"), "disturbance.at = 'output': not read with "
+     'disturbance.kind = "none": set disturbance.kind = "step", "ramp" or "sine", or '
+     'remove it'),
+])
+def test_an_option_the_element_would_not_read_is_refused(make, line):
+    with pytest.raises(ConfigError) as info:
+        make()
+    assert str(info.value) == line

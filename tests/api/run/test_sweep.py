@@ -114,7 +114,7 @@ def test_an_axis_the_law_never_reads_is_refused():
     # every member used to be the same run (found in review)
     plant = FirstOrder(a=-1.0, b=1.0)
     ext = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2, gain="external")
-    ip = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2, Gamma=1e-3)
+    ip = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-2)
     for ctrl, key, why in ((ext, "alpha", "gain='external' takes alpha"),
                            (ip, "Gamma", "only the variational gain"),
                            (ip, "setpoint", "the reference sets it")):

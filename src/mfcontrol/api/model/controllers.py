@@ -365,6 +365,17 @@ class IntelligentController(_Sampled):
                 raise ValueError(f"window = {window!r}: must be even for order 2 (Simpson)")
         elif window is not None:
             raise ValueError(f"window = {window!r}: only the algebraic estimator has one")
+        # the options of a choice not taken would be dropped in silence: refused
+        if k_aw is not None and anti_windup != "back-calculation":
+            raise ValueError(f"k_aw = {k_aw!r}: only back-calculation anti-windup reads it: "
+                             "set anti_windup='back-calculation', or remove it")
+        if gain != "variational":
+            for name, value, default in (("gamma0", gamma0, None), ("Gamma", Gamma, 5e-8),
+                                         ("eps_M", eps_M, 0.1),
+                                         ("integrator", integrator, "first-order")):
+                if value != default:
+                    raise ValueError(f"{name} = {value!r}: only the variational gain reads "
+                                     "it: set gain='variational', or remove it")
         params: dict[str, Any] = {
             "alpha": alpha, "kp": _number("kp", kp), "ki": _number("ki", ki),
             "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
@@ -481,11 +492,24 @@ class IP(IntelligentController):
     _drop: tuple[str, ...] = ("ki", "kd")
 
     def __init__(self, alpha: float, kp: float, **options: Any):
+        self._refuse_terms(options)
         super().__init__(alpha, kp, 0.0, 0.0, **options)
 
     def _check_law(self, params):
         for key in self._drop:
             params.pop(key)
+
+    @classmethod
+    def _refuse_terms(cls, options: Mapping[str, Any]) -> None:
+        """A gain of a term this law does not have (ki for an i-P) is refused by name:
+        Python's own error said 'got multiple values for argument'."""
+        for key in cls._drop:
+            if key in options:
+                term, laws = {"ki": ("integral", "IPI and IPID"),
+                              "kd": ("derivative", "IPD and IPID")}[key]
+                raise TypeError(f"{cls.__name__}() got an unexpected keyword argument "
+                                f"{key!r}: an {_LAW_NAMES[cls.__name__]} has no {term} term "
+                                f"({laws} have one)")
 
 
 class IPI(IP):
@@ -508,6 +532,7 @@ class IPI(IP):
     _drop = ("kd",)
 
     def __init__(self, alpha: float, kp: float, ki: float, **options: Any):
+        self._refuse_terms(options)
         IntelligentController.__init__(self, alpha, kp, ki, 0.0, **options)
 
 
@@ -535,6 +560,7 @@ class IPD(IP):
     _drop = ("ki",)
 
     def __init__(self, alpha: float, kp: float, kd: float, *, order: int = 2, **options: Any):
+        self._refuse_terms(options)
         IntelligentController.__init__(self, alpha, kp, 0.0, kd, order=order, **options)
 
 
@@ -558,6 +584,10 @@ class IPID(IP):
     def __init__(self, alpha: float, kp: float, ki: float, kd: float, *, order: int = 2,
                  **options: Any):
         IntelligentController.__init__(self, alpha, kp, ki, kd, order=order, **options)
+
+
+#: each positional law's name in words
+_LAW_NAMES = {"IP": "i-P", "IPI": "i-PI", "IPD": "i-PD", "IPID": "i-PID"}
 
 
 def _show_options(cls: type[IntelligentController]) -> None:
@@ -625,6 +655,20 @@ class RecursiveIP(_Controller):
             raise ValueError(f"law = {cfg['controller.law']!r}: RecursiveIP is the paper's law, "
                              "'ip' or 'variational' (the positional laws are IP, IPI, IPD, "
                              "IPID)")
+        # a key its law would not read (gamma0 under the standard law, an estimator) is
+        # refused as a case's is, in the keyword arguments' names
+        from ...config.reads import CHOICES, refuse_unread
+        from ...config.resolve import keys_read
+
+        def reads(c) -> set[str]:  # (the period only scales k_aw)
+            return keys_read(recursive_law_column, c, 1.0)
+
+        try:
+            refuse_unread(cfg, {f"controller.{k}" for k in controller_keys}, reads,
+                          among=[k for k in CHOICES if k.startswith("controller.")],
+                          name=lambda k: k.removeprefix("controller."), by="this law")
+        except ConfigError as exc:
+            raise ValueError(str(exc)) from None
         # the values as resolved (plain Python numbers): the snapshot is JSON
         params = {"alpha": cfg["controller.alpha"], "kp": cfg["controller.kp"],
                   "setpoint": _number("setpoint", setpoint),

@@ -7,18 +7,21 @@ and ``[disturbance]`` (the user guide's option table); the engine runs them
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields
 
 import numpy as np
 
 from ...config import options
+from ...config.reads import CHOICES
 from ...config.resolve import check_elements, check_value
 from ...elements import disturbance, layout, noise
 
 
 def _checked(obj, section: str) -> None:
     """Every field through its case key's check, then the checks across them, as a case
-    file's (one-line errors naming the key)."""
+    file's (one-line errors naming the key); then a field given (other than its default)
+    that the element would not read under the others is refused, as a case file's key
+    that the run would not read."""
     keys = {}
     for f in fields(obj):
         value = getattr(obj, f.name)
@@ -27,12 +30,32 @@ def _checked(obj, section: str) -> None:
         keys[f"{section}.{f.name}"] = check_value(f"{section}.{f.name}", value)
         object.__setattr__(obj, f.name, keys[f"{section}.{f.name}"])
     check_elements(keys)
+    given = {f"{section}.{f.name}": getattr(obj, f.name) for f in fields(obj)
+             if getattr(obj, f.name) != _default(f)}
+    unused = {key: v for key, v in given.items() if unread(key, keys)}
+    if unused:  # worded as a case's key (what to set), from the element's choices
+        from ...config.reads import refuse_unread
+        from ...config.resolve import resolve
+
+        def reads(cfg) -> set[str]:
+            return {key for key in keys if not unread(key, cfg)}
+
+        # (as a case's keys but the delays, checked against a case's run length)
+        cfg = resolve({k: v for k, v in given.items() if not k.endswith(".delay")})
+        refuse_unread(cfg, unused, reads,
+                      among=[k for k in CHOICES if k.startswith(section + ".")])
+
+
+def _default(f) -> object:
+    return f.default_factory() if f.default is MISSING else f.default
 
 
 @dataclass(frozen=True)
 class Sensor:
     """What the controller receives of the plant's output y: ``y_meas[k] = s_{k - delay}``
-    with ``s_k = Q(y_k + n_k)`` (:mod:`mfcontrol.elements.sensor`).
+    with ``s_k = Q(y_k + n_k)`` (:mod:`mfcontrol.elements.sensor`). ``noise`` not given is
+    ``"gaussian"`` with a ``noise_std`` other than 0, else ``"none"``; an option the
+    sensor would not read (a seed without noise) is refused.
 
     Examples
     --------
@@ -42,13 +65,15 @@ class Sensor:
     2
     """
 
-    noise: str = "none"
+    noise: str | None = None
     noise_std: float = 0.0
     seed: int = 0
     quantum: float = 0.0
     delay: int = 0
 
     def __post_init__(self):
+        if self.noise is None:  # a noise level given means gaussian noise, as in a case
+            object.__setattr__(self, "noise", "none" if self.noise_std == 0 else "gaussian")
         _checked(self, "sensor")
 
 
@@ -71,7 +96,8 @@ class Disturbance:
     output y (``at="output"``; the metrics judge that y): ``kind`` step (``amplitude``
     from ``t0`` on), ramp (``amplitude (t - t0)``), sine (``amplitude sin(2 pi
     frequency (t - t0))``) or table (linear in ``times``/``values``, held outside;
-    :mod:`mfcontrol.elements.disturbance`).
+    :mod:`mfcontrol.elements.disturbance`). An option its kind does not read (an
+    amplitude without a kind, a frequency but for a sine) is refused.
 
     Examples
     --------
@@ -112,7 +138,7 @@ def unread(key: str, settings) -> str:
     if section == "sensor" and name in ("noise_std", "seed") \
             and settings["sensor.noise"] == "none":
         return "sensor.noise is none"
-    if section == "disturbance":
+    if section == "disturbance" and name != "kind":
         kind = settings["disturbance.kind"]
         if kind == "none":
             return "disturbance.kind is none"
@@ -120,6 +146,8 @@ def unread(key: str, settings) -> str:
             return f"only a sine has a frequency (disturbance.kind is {kind})"
         if name in ("amplitude", "t0") and kind == "table":
             return "a table has times and values"
+        if name in ("times", "values") and kind != "table":
+            return f"only a table has times and values (disturbance.kind is {kind})"
     return ""
 
 
@@ -135,7 +163,7 @@ def column(sensor: Sensor | None = None, actuator: Actuator | None = None,
     a = actuator or _DEFAULTS[1]
     d = disturbance_ or _DEFAULTS[2]
     return layout.column(
-        noise=noise.KINDS[s.noise], noise_std=s.noise_std, seed=s.seed, quantum=s.quantum,
+        noise=noise.KINDS[s.noise or "none"], noise_std=s.noise_std, seed=s.seed, quantum=s.quantum,
         sensor_delay=s.delay, actuator_delay=a.delay, rate_limit=a.rate_limit,
         substeps=substeps, kind=disturbance.KINDS[d.kind], at=disturbance.PLACES[d.at],
         amplitude=d.amplitude, t0=d.t0, frequency=d.frequency, times=d.times,

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ...config.options import BY_KEY
+from ...config.reads import refuse_unread
 from ...config.resolve import Config, _check_consistency, axis_value, check_axis, keys_read
 from ...engine import metrics as engine_metrics
 from ...engine import paper_single, paper_sweep
@@ -28,10 +29,9 @@ from ...errors import ConfigError
 from ...laws import recursive_ip, reference
 from ...numerics.grid import check_members
 from .. import params
-from ..model.elements import unread
 from ..results import metrics as _metrics
 from . import from_config, scenario
-from .simulate import batch_metrics, compiled, general_metrics, member_parts
+from .simulate import batch_metrics, compiled, general_metrics, keys_read_by_run, member_parts
 
 _SPEC = re.compile(r"^\s*(linspace|logspace)\s*\(\s*([^,]+),\s*([^,]+),\s*([^,)]+)\)\s*$")
 METRIC_COLUMNS = _metrics.COLUMNS
@@ -166,11 +166,11 @@ def make_grid(base: Config, axes: Mapping[str, np.ndarray],
                   "--grid", " x ".join(f"{k} ({np.size(v):,})" for k, v in axes.items()))
     for key, values in axes.items():
         check_axis(base, key, np.asarray(values, dtype=float))
-        why = unread(key, base)
-        if why:
-            raise ConfigError(key, values.tolist() if isinstance(values, np.ndarray)
-                              else values, f"has no effect here ({why}): every member "
-                              "would be the same")
+    # an axis the run does not read would give identical members (a noise level without
+    # noise, a disturbance's amplitude without one)
+    refuse_unread(base, {k: np.asarray(v).tolist() for k, v in axes.items()},
+                  keys_read_by_run, instead="vary another key (every member would be "
+                  "the same)")
     return Grid(base=base, axes={k: np.asarray(v, dtype=float) for k, v in axes.items()},
                 points=tuple(points))
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...config.options import POSITIONAL
+from ...config.options import BY_KEY, POSITIONAL
 from ...config.resolve import Config, keys_read
 from ...elements import layout
 from ...errors import ConfigError
@@ -50,10 +50,8 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
         # the controller keys its parameter column reads, given to the live controller
         # (which builds the same column from them)
         read = keys_read(recursive_law_column, cfg, cfg["sim.h"])
-        keys = {k.removeprefix("controller.") for k in read
-                if k.startswith("controller.")} - {"alpha", "kp"}
-        return RecursiveIP(cfg["controller.alpha"], cfg["controller.kp"],
-                           sample_time=cfg["sim.h"],
+        keys = {k.removeprefix("controller.") for k in read if k.startswith("controller.")}
+        return RecursiveIP(sample_time=cfg["sim.h"],
                            **{k: cfg[f"controller.{k}"] for k in sorted(keys)})
     options = {
         "sample_time": cfg["sim.h"], "order": cfg["controller.order"],
@@ -71,8 +69,12 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
     if options["gain"] == "variational":
         options.update(gamma0=cfg["controller.gamma0"], Gamma=cfg["controller.Gamma"],
                        eps_M=cfg["controller.eps_M"], integrator=cfg["controller.integrator"])
-    # each law reads only its own gains (a translator's reads say what a key affects)
-    a, kp = cfg["controller.alpha"], cfg["controller.kp"]
+    # each law reads only its own gains (a translator's reads say what a key affects);
+    # an adapting gain starts from gamma0, alpha then unused (the option's default stands
+    # in, unread)
+    a = BY_KEY["controller.alpha"].default if options["gain"] == "variational" \
+        else cfg["controller.alpha"]
+    kp = cfg["controller.kp"]
     if law == "i-P":
         return IP(a, kp, **options)
     if law == "i-PI":

@@ -98,11 +98,19 @@ def member_parts() -> dict[str, Callable[[Config], Any]]:
 
 
 def keys_read_by_run(cfg: Config) -> set[str]:
-    """The options a single run of ``cfg`` reads: those its translators read (the paper's
+    """The options a run of ``cfg`` reads: those its translators read (the paper's
     kernel's scenario, or each part of :func:`member_parts`), with the time grid, the
     metric settings and the checks across options, found by running the translators
     (:func:`mfcontrol.config.resolve.keys_read`), not the simulation (a test checks that
-    the simulation reads no other). Any other option cannot change the run."""
+    the simulation reads no other); ``fidelity`` when it presets a key read that is not
+    set; a sweep case's keys and what its members read. Any other option cannot change
+    the run."""
+    key = cfg["sweep.key"]
+    if key is not None:  # every member's run (the swept value may change what is read)
+        read = {"sweep.key", "sweep.values"}
+        for v in cfg["sweep.values"]:
+            read |= keys_read_by_run(_member(cfg, key, v))
+        return read
     # the engine's choice, the time grid, the metrics' settings and stability verdict
     read = keys_read(lambda c: (compiled(c), scenario.n_steps(c), params.metric_settings(c),
                                 c["metrics.stable_tol"]), cfg)
@@ -112,18 +120,19 @@ def keys_read_by_run(cfg: Config) -> set[str]:
     else:
         for build in member_parts().values():
             read |= keys_read(build, cfg)
+    read.discard("_explicit")
+    # the fidelity that presets keys the run reads, read with them (as shown with them)
+    if any(BY_KEY[k].preset for k in read):
+        read.add("fidelity")
     return read
 
 
 def shown_keys(cfg: Config) -> set[str]:
     """The options worth showing of ``cfg`` (``mfcontrol show``, a run's config.toml):
-    those it sets and those its single run reads. The others are the defaults of plants,
-    laws and elements it does not use, which cannot change the run: a file of these
-    keys resolves to the same run. ``fidelity`` is shown when a key it presets is."""
-    read = keys_read_by_run(cfg)
-    # the fidelity that set the presets of the keys the run reads, said with them
-    fidelity = {"fidelity"} if any(BY_KEY[k].preset for k in read if k in BY_KEY) else set()
-    return {"description"} | fidelity | set(cfg.explicit) | read
+    those it sets and those its single run reads (``fidelity`` with the keys it
+    presets). The others are the defaults of plants, laws and elements it does not use,
+    which cannot change the run: a file of these keys resolves to the same run."""
+    return {"description"} | set(cfg.explicit) | keys_read_by_run(cfg)
 
 
 def general_metrics(cfgs: Sequence[Config], *, fast: bool = False,
