@@ -37,6 +37,14 @@ def test_markdown_has_the_numbers_and_says_the_scenario_is_shared(written):
     assert (out / "comparison.png").stat().st_size > 20_000
 
 
+def test_the_metrics_carry_the_plants_units(written):
+    # issue 28: the table had no units; the motor's speed is in rad/s, its input in V
+    comp, out = written
+    head = comp.markdown().split("\n")[0]
+    assert "| IAE (rad) | IAE load (rad) | TV(u) (V) | overshoot % | settling (s) | stable |" \
+        in head
+
+
 def test_a_difference_outside_the_controller_is_reported():
     comp = compare(CASES, SHORT)
     comp.configs[1] = comp.configs[1].with_overrides({"plant.J": 1e-3})

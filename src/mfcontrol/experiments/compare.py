@@ -90,8 +90,21 @@ class Comparison(display.Shown):
 
         return pd.DataFrame(self.rows())
 
+    def _headers(self) -> list[str]:
+        """The shown metrics' names with their units in the first case's plant's words."""
+        from ..api.results.plotting import units
+
+        y_unit, u_unit = units(self.configs[0])
+        out = []
+        for key, head in SHOWN:
+            unit = _metrics.unit_of(key, y_unit, u_unit) if key in _metrics.LABELS else ""
+            # those with a unit in their name already (overshoot %, settling (s)) keep it
+            shown = unit not in ("", "1") and " (" not in head and "%" not in head
+            out.append(f"{head} ({unit})" if shown else head)
+        return out
+
     def markdown(self) -> str:
-        head = ["case", "controller", *(h for _, h in SHOWN)]
+        head = ["case", "controller", *self._headers()]
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for row in self.rows():
             lines.append("| " + " | ".join([row["case"], row["controller"],
@@ -120,11 +133,13 @@ class Comparison(display.Shown):
             "(`mfcontrol run` on each case).\n\n" + self.markdown())
         table = [[n, *(format_number(r.metrics[k], 3) for k, _ in SHOWN)]
                  for n, r in zip(self.names, self.results, strict=True)]
+        # the unit on a line of its own: the figure's columns are narrow
+        header = ["case", *(h.replace("overshoot %", "oversh. (%)").replace(" (", "\n(")
+                            for h in self._headers())]
         labels = [controller_label(c) if controller_label(c).startswith(n)
                   else f"{n}: {controller_label(c)}"
                   for n, c in zip(self.names, self.configs, strict=True)]
-        comparison(self.results, labels, table,
-                   ["case", *(h.replace("overshoot", "oversh.") for _, h in SHOWN)],
+        comparison(self.results, labels, table, header,
                    title or f"{len(self.names)} controllers on one scenario",
                    out / "comparison.png")
         return out

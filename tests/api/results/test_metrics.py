@@ -89,3 +89,13 @@ def test_one_members_metrics_are_the_tables_bit_for_bit():
             assert ours[k] == v or (v != v and ours[k] != ours[k]), (j, k, ours[k], v)
             if isinstance(v, float) and v == 0.0:
                 assert math.copysign(1.0, ours[k]) == math.copysign(1.0, v), (j, k)
+
+
+def test_a_metric_has_its_unit_in_the_plants_words():
+    from mfcontrol.api.results.metrics import label, unit_of
+
+    assert unit_of("iae", "rad/s") == "rad"  # a rate integrated over time
+    assert unit_of("tv_u", "rad/s", "V") == "V"
+    assert unit_of("ise", "V") == "V^2 s"
+    assert unit_of("stable") in ("", "1")
+    assert label("iae", "rad/s").endswith("(rad)")

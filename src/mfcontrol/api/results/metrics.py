@@ -96,7 +96,15 @@ SHORT = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "max_abs_e": "max |e|", "tv
 def label(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") -> str:
     """``metric`` in words with its unit, for an axis or a colour bar:
     ``label("max_abs_e", "V")`` is ``"largest |e| after the settling time (V)"``."""
-    words, unit = LABELS.get(metric, (metric, ""))
+    words = LABELS.get(metric, (metric, ""))[0]
+    unit = unit_of(metric, y_unit, u_unit)
+    return f"{words} ({unit})" if unit else words
+
+
+def unit_of(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") -> str:
+    """The unit of ``metric`` for an output in ``y_unit`` and an input in ``u_unit``
+    (``""`` for a dimensionless one): ``unit_of("iae", "rad/s")`` is ``"rad"``."""
+    unit = LABELS.get(metric, (metric, ""))[1]
 
     def power(u: str) -> str:  # a compound unit squared keeps its parentheses
         return f"({u})" if ("/" in u or " " in u) else u
@@ -112,7 +120,7 @@ def label(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") 
         if unit.endswith(per_s) and not unit.endswith(")" + per_s):
             unit = unit[: -len(per_s)] + times
             break
-    return f"{words} ({unit})" if unit else words
+    return unit
 
 
 def is_stable(diverged, max_abs_e_final, max_abs_ref, tol):

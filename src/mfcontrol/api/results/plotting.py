@@ -543,12 +543,18 @@ def comparison(results: Sequence[Run], labels: list[str], table: list[list[str]]
     quantity, sym, unit = _labels(first)
     scale, time_label = _time_scale(first.time)
     colors = [f"C{i}" for i in range(10)]
+    # a dash pattern of its own and decreasing widths per run, the first drawn widest:
+    # runs that coincide (two controllers that settle alike) stay visible under each
+    # other
+    styles = ["-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2))]
     top.plot(first.time * scale, first.signals["y_ref"], color="k", lw=1.0, ls="--",
              label=f"reference ${sym}^*$")
     for i, (r, label) in enumerate(zip(results, labels, strict=True)):
-        c = colors[i % 10]
-        top.plot(r.time * scale, r.signals["y"], color=c, lw=1.2, label=label)
-        bottom.plot(r.time * scale, r.signals["u"], color=c, lw=0.7, alpha=0.85, label=label)
+        c, ls = colors[i % 10], styles[i % len(styles)]
+        lw = max(0.8, 2.0 - 0.4 * i)
+        top.plot(r.time * scale, r.signals["y"], color=c, lw=lw, ls=ls, label=label)
+        bottom.plot(r.time * scale, r.signals["u"], color=c, lw=0.6 * lw, ls=ls, alpha=0.85,
+                    label=label)
     top.set_ylabel(f"{quantity} ${sym}$ ({unit})")
     bottom.set_ylabel(_input_label(first))
     bottom.set_xlabel(time_label)
@@ -565,6 +571,9 @@ def comparison(results: Sequence[Run], labels: list[str], table: list[list[str]]
     cells.auto_set_font_size(False)
     cells.set_fontsize(7)
     cells.scale(1.0, 1.4)
+    if any("\n" in h for h in header):  # a header of two lines (a name, its unit)
+        for j in range(len(header)):
+            cells[0, j].set_height(cells[0, j].get_height() * 1.9)
     for i in range(len(table)):
         cells[i + 1, 0].get_text().set_color(colors[i % 10])
     side.set_title("metrics (true output y)", fontsize=10)
