@@ -421,3 +421,17 @@ def test_a_nan_setpoint_is_held_and_counted_in_c_and_refused_in_python(tmp_path)
     assert u_c[-1] == u_c[-2] and nan_c == 1
     with pytest.raises(ValueError, match="setpoint = nan: must be a finite number"):
         ctrl(1.0, setpoint=math.nan)
+
+
+def test_the_banner_names_the_law_as_the_command_line_does(tmp_path):
+    # issue 28: the header called an IPI an "intelligent law"; a user who ran
+    # controller.law = "i-PI" finds that name in it
+    import mfcontrol
+    from mfcontrol.cexport.source import _law_label
+
+    assert _law_label(mfcontrol.IPI(alpha=10, kp=2, ki=1, sample_time=1e-3)) == "i-PI"
+    assert _law_label(mfcontrol.PID(kp=1, ki=1, sample_time=1e-3)) == "pid"
+    assert _law_label(mfcontrol.RecursiveIP(alpha=10, kp=2)) == "ip"
+    h, _ = mfcontrol.export_c(mfcontrol.IPD(alpha=10, kp=2, kd=0.1, sample_time=1e-3),
+                              out=tmp_path)
+    assert h.read_text().startswith("/* mfc: i-PD controller (mfcontrol.IPD)")

@@ -291,11 +291,28 @@ def _comment(text: str) -> str:
     return text.replace("*/", "* /").replace("/*", "/ *")
 
 
+def _law_label(ctrl) -> str:
+    """The law as the command line and the case files name it (``controller.law``): an
+    ``IPI`` is an ``i-PI``, a ``PID`` a ``pid``, a ``RecursiveIP`` the ``ip`` or the
+    ``variational`` law it was built as."""
+    from ..api.model.controllers import _LAW_NAMES
+
+    name = type(ctrl).__name__
+    if name in _LAW_NAMES:
+        return _LAW_NAMES[name]
+    if name == "PID":
+        return "pid"
+    if name == "RecursiveIP":
+        return ("variational" if ctrl._CP[gain_law.MODE, 0] == gain_law.VARIATIONAL
+                else "ip")
+    return name
+
+
 def _banner(prefix, real, law, ctrl, description) -> str:
     params = "\n".join(f" *   {k} = {_comment(repr(v))}" for k, v in ctrl._params.items())
     what = f" * {_comment(description)}\n" if description else ""
-    return (f"/* {prefix}: {type(ctrl).__name__} controller exported by mfcontrol "
-            f"{__version__} ({law.name} law, {real}).\n{what}"
+    return (f"/* {prefix}: {_law_label(ctrl)} controller (mfcontrol.{type(ctrl).__name__}) "
+            f"exported by mfcontrol {__version__} ({law.name} law family, {real}).\n{what}"
             f" * Parameters (baked in):\n{params}\n"
             " * C99, no dynamic memory, no global state, only <math.h>. Compile without\n"
             " * floating-point contraction (this file turns it off for gcc and clang; other\n"
