@@ -579,10 +579,10 @@ def _sense_lanes(D, acting, sensor_p, keys, shared, shared_key, k, ring_y, y_fir
     block's sensor rows (:mod:`mfcontrol.elements.sensor`), a column per member;
     ``keys`` each member's noise :func:`~mfcontrol.elements.noise.seed_key`; ``shared``
     the noise kind of a block whose noisy members all have that kind and the seed whose
-    key is ``shared_key`` (a sweep's, unless it sweeps the seed), -1 otherwise: its
-    draws are made once for the block, each member scaling them by its standard
-    deviation (the hash and the Box-Muller transform do not vectorise: about 12 ns a
-    member-sample).
+    key is ``shared_key`` (a sweep's, unless it sweeps the seed), -1 otherwise
+    (:func:`_block_noise`): its draws are made once for the block, each member scaling
+    them by its standard deviation (the hash and the Box-Muller transform do not
+    vectorise: about 12 ns a member-sample).
     ``ring_y`` the block's delay ring (:func:`mfcontrol.elements.delay.delayed_lane`),
     run when some member has a delay (``delays``); ``d_shared`` the delay of every
     member of the block, or -1 where they differ (:func:`_block_delay`). Three loops,
@@ -592,18 +592,11 @@ def _sense_lanes(D, acting, sensor_p, keys, shared, shared_key, k, ring_y, y_fir
     if shared >= 0.0:
         a0, b0 = noise.unit(shared, shared_key, k)
         for lane in range(LANES):
-            y = D[_Y, lane]
-            ym = sensor.read_unit(sensor_p[sensor.NOISE, lane], sensor_p[sensor.STD, lane],
-                                  a0, b0, sensor_p[sensor.QUANTUM, lane], y)
-            D[_YM, lane] = ym if acting[lane] else y
+            _sensed(D, acting, sensor_p, lane, a0, b0)
     else:
         for lane in range(LANES):
-            y = D[_Y, lane]
-            kind = sensor_p[sensor.NOISE, lane]
-            a, b = noise.unit(kind, keys[lane], k)
-            ym = sensor.read_unit(kind, sensor_p[sensor.STD, lane], a, b,
-                                  sensor_p[sensor.QUANTUM, lane], y)
-            D[_YM, lane] = ym if acting[lane] else y
+            a, b = noise.unit(sensor_p[sensor.NOISE, lane], keys[lane], k)
+            _sensed(D, acting, sensor_p, lane, a, b)
     if k == 0:
         for lane in range(LANES):
             y_first[lane] = D[_YM, lane]
@@ -619,6 +612,35 @@ def _sense_lanes(D, acting, sensor_p, keys, shared, shared_key, k, ring_y, y_fir
                 D[_YM, lane] = delay.delayed_lane(
                     ring_y, lane, int(sensor_p[sensor.DELAY, lane]), slot, k, D[_YM, lane],
                     y_first[lane])
+
+
+@_jit.step_jit
+def _sensed(D, acting, sensor_p, lane, a, b):
+    """Member ``lane``'s reading of y_k (row ``_Y``) with its noise's unit factors a, b
+    (:func:`mfcontrol.elements.sensor.read_unit`) into row ``_YM`` where an element acts
+    on its loop (y_k elsewhere)."""
+    y = D[_Y, lane]
+    ym = sensor.read_unit(sensor_p[sensor.NOISE, lane], sensor_p[sensor.STD, lane], a, b,
+                          sensor_p[sensor.QUANTUM, lane], y)
+    D[_YM, lane] = ym if acting[lane] else y
+
+
+@_jit.step_jit
+def _block_noise(sensor_p, keys):
+    """(kind, seed key) of the noise every noisy member of a block draws when they share
+    a kind and a seed (their draws are then the same; kind NONE without noisy members),
+    (-1, key) where they differ."""
+    kind0 = noise.NONE
+    key0 = keys[0]
+    for lane in range(LANES):
+        kind = sensor_p[sensor.NOISE, lane]
+        if kind == noise.NONE:
+            continue
+        if kind0 == noise.NONE:
+            kind0, key0 = kind, keys[lane]
+        elif kind != kind0 or keys[lane] != key0:
+            return -1.0, key0
+    return kind0, key0
 
 
 @_jit.step_jit
@@ -886,19 +908,8 @@ def _make_block_loop(fast):
                 u_act[lane] = 0.0
                 y_first[lane] = 0.0
                 keys[lane] = noise.seed_key(sensor_p[sensor.SEED, lane])
-            # the noise of the block drawn once a sample when its noisy members share
-            # their kind and seed (their draws are then the same)
-            shared_noise = noise.NONE
-            shared_key = keys[0]
-            for lane in range(lanes):
-                kind = sensor_p[sensor.NOISE, lane]
-                if kind == noise.NONE:
-                    continue
-                if shared_noise == noise.NONE:
-                    shared_noise = kind
-                    shared_key = keys[lane]
-                elif kind != shared_noise or keys[lane] != shared_key:
-                    shared_noise = -1.0
+            # what the block's members share is computed once a sample
+            shared_noise, shared_key = _block_noise(sensor_p, keys)
             dist_shared = _same_columns(DP, members)
             y_shared = _block_delay(sensor_p, sensor.DELAY)
             u_shared = _block_delay(actuator_p, actuator.DELAY)
