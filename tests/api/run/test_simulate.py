@@ -187,3 +187,18 @@ def test_show_leaves_out_the_options_of_plants_and_choices_not_taken():
         assert key in shown
     noisy = shown_keys(resolve_case("motor-noise-ipi")[1])
     assert {"sensor.noise_std", "sensor.seed", "plant.J"} <= noisy
+
+
+def test_a_load_change_that_breaks_the_plant_is_named_by_its_own_key():
+    # tests/test_fuzz.py found `--set plant.dC=1e308` refused as "plant.schedule = 'C =
+    # inf'": the key given was not the key named
+    import pytest
+
+    from mfcontrol.api.run.from_config import plant_and_changes
+    from mfcontrol.config.resolve import resolve
+    from mfcontrol.errors import ConfigError
+
+    cfg = resolve({"plant.model": "buck", "plant.dC": 1e308,
+                   "plant.change_times": [0.004, 0.006]})
+    with pytest.raises(ConfigError, match=r"^plant\.dC = 1e\+308: must leave C a finite"):
+        plant_and_changes(cfg)

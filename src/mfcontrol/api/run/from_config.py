@@ -103,13 +103,22 @@ def ideal_loop(cfg: Config) -> bool:
     return layout.plain(elements(cfg))
 
 
-def changes(cfg: Config) -> list[Change]:
-    """The converters' load changes (R += dR, C += dC) and the general schedule."""
+#: the converters' load changes: the parameter each adds to and the key it comes from
+_LOAD_KEYS = {"R": "plant.dR", "C": "plant.dC"}
+
+
+def _load_changes(cfg: Config) -> list[Change]:
+    """The converters' load changes (R += dR, C += dC at each of ``change_times``)."""
     out = []
     if cfg["plant.model"] in ("buck", "boost"):
         for t in cfg["plant.change_times"]:
-            out += [Change(t, "R", cfg["plant.dR"], add=True),
-                    Change(t, "C", cfg["plant.dC"], add=True)]
+            out += [Change(t, name, cfg[key], add=True) for name, key in _LOAD_KEYS.items()]
+    return out
+
+
+def changes(cfg: Config) -> list[Change]:
+    """The converters' load changes (R += dR, C += dC) and the general schedule."""
+    out = _load_changes(cfg)
     for e in cfg["plant.schedule"]:
         out.append(Change(e["t"], e["name"], e.get("set", e.get("add")), add="add" in e))
     return out
@@ -119,6 +128,13 @@ def plant_and_changes(cfg: Config):
     """The plant and its schedule, the schedule checked against the plant's own rules
     (a value that would make a parameter invalid is refused here, at the edge)."""
     p, ch = plant(cfg), changes(cfg)
+    try:  # the load changes alone: a failure is their key's (plant.dR, plant.dC)
+        _check_changes(p, _load_changes(cfg))
+    except ConfigError as exc:
+        key = _LOAD_KEYS[exc.key]
+        raise ConfigError(key, cfg[key], f"must leave {exc.key} "
+                          f"{exc.allowed.removeprefix('must be ')} at each change "
+                          f"(it would be {exc.value!r})") from None
     try:
         _check_changes(p, ch)
     except ConfigError as exc:
