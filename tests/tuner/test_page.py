@@ -123,6 +123,39 @@ def test_undo_restores_the_fields_and_the_run(page):
     assert "undone: controller.kp = 3.0" in page.status_div.text
 
 
+def changes_after_the_metrics(page, action) -> list[str]:
+    """The models changed after the metrics were sent, during ``action``: the server
+    sends each change as a message, applied in order, and the page (a user, the browser
+    tests) reads the metrics as "redrawn"."""
+    seen: list[str] = []
+
+    def record(event):
+        model, attr = getattr(event, "model", None), getattr(event, "attr", None)
+        if model is not None:
+            seen.append("metrics" if model is page.page_text else f"{model}.{attr}")
+
+    page.doc.on_change(record)
+    action()
+    page.doc.remove_on_change(record)
+    assert "metrics" in seen
+    return seen[len(seen) - seen[::-1].index("metrics"):]
+
+
+def test_the_metrics_are_sent_after_the_fields_and_the_status_line(page, motor):
+    """A browser run of CI: the undo's metrics came before the entry showed the value
+    undone, and a test reading the entry as soon as the metrics changed read the old one."""
+    view = page.views["controller.kp"]
+    assert changes_after_the_metrics(page, lambda: page.change(view, "3")) == []
+    assert changes_after_the_metrics(page, page.undo) == []
+    assert changes_after_the_metrics(page, page.freeze) == []
+    assert changes_after_the_metrics(page, page.clear) == []
+    alpha = motor.views["controller.alpha"]
+    motor.change(alpha, "70")
+    assert changes_after_the_metrics(motor, lambda: motor.change(alpha, "")) == []
+    assert changes_after_the_metrics(
+        motor, lambda: motor.change(motor.views["controller.law"], "i-PD")) == []
+
+
 def test_several_frozen_runs_each_a_column_a_line_and_its_settings(page):
     page.freeze()
     page.change(page.views["controller.kp"], "3")

@@ -234,6 +234,7 @@ class TunerPage:
         self.doc, self.session = doc, session
         self.quiet = False
         self.runs = 0
+        self._unsent = ""  # the metrics of the last redraw, until _publish sends them
         self.views: dict[str, FieldView] = {}
         self._stop_tune = threading.Event()
         self._busy = False
@@ -460,7 +461,7 @@ class TunerPage:
         error = self.session.set(view.key, text, slide=slide)
         if error is None:
             try:
-                self.redraw()
+                self.redraw(publish=False)
             except ConfigError as exc:  # the run refused it (a trajectory too long, say)
                 self.session.restore(before)
                 error = str(exc)
@@ -480,6 +481,7 @@ class TunerPage:
         elif self._status_error or self._status_note:  # an old line no longer applies
             self.status("")
         self._after_settings(before[0])
+        self._publish()
 
     def _after_settings(self, then: Config) -> None:
         """The fields after the settings changed from ``then``: built again when the
@@ -501,11 +503,12 @@ class TunerPage:
         if what is None:
             self.status("nothing to undo")
             return
-        self.redraw()
+        self.redraw(publish=False)
         for view in self.views.values():
             view.show_error(None)
         self._after_settings(then)
         self.status(f"undone: {what}")
+        self._publish()
 
     def _show(self, view: FieldView) -> None:
         self.quiet = True
@@ -525,9 +528,11 @@ class TunerPage:
 
     # --- drawing ----------------------------------------------------------------------
 
-    def redraw(self) -> None:
+    def redraw(self, publish: bool = True) -> None:
         """Run the session and show the run: traces, metrics, the case's text, the frozen
-        runs, how a map drawn before stands to the settings."""
+        runs, how a map drawn before stands to the settings. ``publish=False``: all but the
+        metrics, which the caller sends with :meth:`_publish` once the fields and the status
+        line are shown too (the metrics are what the page reads as "redrawn")."""
         r = self.session.run()
         self.runs += 1
         s = self.session
@@ -567,11 +572,19 @@ class TunerPage:
         text = self._verdict(r) + self._table(r) + self._frozen_caption()
         if self.runs == 1:  # the page as first sent; afterwards, through page_text
             self.metrics.text = text
-        self.page_text.data = {"metrics": [text], "toml": [s.toml()],
-                               "filename": [f"{s.name}-tuned.toml"]}
         self.undo_button.disabled = not s.can_undo()
         self.clear_button.disabled = not s.frozen
         self._show_map_state()
+        self._unsent = text
+        if publish:
+            self._publish()
+
+    def _publish(self) -> None:
+        """Send the metrics of the last redraw (last of its messages: Bokeh's server sends
+        each change as a message of its own, applied in order)."""
+        s = self.session
+        self.page_text.data = {"metrics": [self._unsent], "toml": [s.toml()],
+                               "filename": [f"{s.name}-tuned.toml"]}
 
     def _columns(self, r: Result, names: tuple[str, ...]) -> dict[str, np.ndarray]:
         cols = [r.signals[k] for k in names]
@@ -666,17 +679,19 @@ class TunerPage:
         s = self.session
         dropped = s.frozen_numbers[0] if len(s.frozen) == MAX_FROZEN else None
         s.freeze()
-        self.redraw()
+        self.redraw(publish=False)
         self.status(f"this run is frozen as #{s.frozen_numbers[-1]}: a grey trace in the "
                     "plots, a column of the table" + (f" (#{dropped}, the oldest, dropped: "
                                                       f"{MAX_FROZEN} at most)" if dropped
                                                       else ""))
+        self._publish()
 
     @_guarded
     def clear(self) -> None:
         self.session.clear()
-        self.redraw()
+        self.redraw(publish=False)
         self.status("frozen runs cleared")
+        self._publish()
 
     # --- the long jobs ----------------------------------------------------------------
 
@@ -814,7 +829,7 @@ class TunerPage:
         then = self.session.cfg
         try:
             applied = self.session.apply_tuned(result.best)
-            self.redraw()
+            self.redraw(publish=False)
         except Exception:
             self.session.restore(before)
             raise
@@ -829,6 +844,7 @@ class TunerPage:
             f"{fmt(result.objective.score_run(run.metrics))} (the values before: "
             f"{fmt(result.start_value)}). {result.evaluations} points in "
             f"{result.seconds:.1f} s ({result.stopped}). Undo goes back.")
+        self._publish()
         # a map drawn before is of the settings before: drawn again around the new ones
         if self.map_view is not None and self.session.map_state(
                 self.map_view.m).kind != "current":
