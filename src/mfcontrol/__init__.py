@@ -28,7 +28,7 @@ _EXPORTS = {
     ".api.run.sweep": ("LoopSweepResult", "sweep"),
     ".cexport": ("export_c",),
     ".config.resolve": ("Config", "resolve"),
-    ".errors": ("CaseError", "ConfigError"),
+    ".errors": ("CaseError", "ConfigError", "PlantFunctionError"),
     ".experiments.cases": ("make_controller", "run_case", "case_names"),
     ".experiments.compare": ("Comparison", "compare"),
     ".experiments.tune": ("TuneResult", "tune"),
@@ -74,7 +74,7 @@ if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eage
     from .api.run.sweep import LoopSweepResult, sweep
     from .cexport import export_c
     from .config.resolve import Config, resolve
-    from .errors import CaseError, ConfigError
+    from .errors import CaseError, ConfigError, PlantFunctionError
     from .experiments.cases import make_controller, run_case
     from .experiments.cases import names as case_names
     from .experiments.compare import Comparison, compare

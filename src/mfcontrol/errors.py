@@ -23,3 +23,15 @@ class ConfigError(ValueError):
 
 class CaseError(ValueError):
     """An unknown case name, a missing case file or a file that is not valid TOML."""
+
+
+class PlantFunctionError(RuntimeError):
+    """Your own plant function (an :class:`~mfcontrol.ODE`'s ``f`` or ``g``) raised during a
+    run: the message names the function, the time and the state; the exception it raised
+    is the ``__cause__``.
+
+    The compiled engine cannot carry an exception out of compiled code: a raising f or g
+    makes the member's state or output NaN, which flags the run as diverged at that
+    sample. A single run then replays that one step in Python to tell what raised; a
+    sweep's member keeps the flag (``diverged``, ``t_diverge``).
+    """

@@ -82,13 +82,71 @@ class Block(NamedTuple):
         return all(f.kept for f in self._used)
 
 
-def _inline(fn: Callable[..., Any], key: tuple | None):
-    """fn compiled to be inlined, with an identity numba's disk cache finds again when
-    ``key`` (what the block functions are built for) is given."""
-    d = njit(inline="always", error_model="numpy")(fn)
+def _inline(fn: Callable[..., Any], key: tuple | None, inline: bool = True):
+    """fn compiled to be inlined (``inline=False``: called), with an identity numba's disk
+    cache finds again when ``key`` (what the block functions are built for) is given."""
+    d = njit(inline="always" if inline else "never", error_model="numpy")(fn)
     if key is not None:
         _jit.stable_identity(d, *key)
     return d
+
+
+def _guarded(f: Callable[..., Any], g: Callable[..., Any], form: str, key: tuple | None):
+    """One member's RK4 step and output that catch what your f and g raise: the state
+    becomes NaN, the output NaN.
+
+    numba catches an exception only across a call, not inside code it inlined into the
+    ``try``: f and g are called here, not inlined (the slow path: a block runs it only
+    after its fast step raised)."""
+    fc, gc = _inline(f, key and key + ("f", "called"), False), \
+        _inline(g, key and key + ("g", "called"), False)
+    if form == "in-place":
+        def derivative(t, x, u, p, out):
+            try:
+                fc(t, x, u, p, out)
+                return True
+            except Exception:  # noqa: BLE001 (whatever f raises: the member's state is NaN)
+                out[:] = np.nan
+                return False
+    else:
+        def derivative(t, x, u, p, out):
+            try:
+                d = fc(t, x, u, p)
+                for i in range(out.shape[0]):
+                    out[i] = d[i]
+                return True
+            except Exception:  # noqa: BLE001
+                out[:] = np.nan
+                return False
+
+    derivative = _inline(derivative, key and key + ("guarded derivative",), False)
+
+    def step(t, x, u, p, h, f1, f2, f3, f4, xt):
+        """One RK4 step of x, u held, the arithmetic of :func:`_build`'s; NaN if f raised."""
+        ok = derivative(t, x, u, p, f1)
+        for i in range(x.shape[0]):
+            f1[i] = h * f1[i]
+            xt[i] = rk4.half(x[i], f1[i])
+        ok = derivative(t + h / 2, xt, u, p, f2) and ok
+        for i in range(x.shape[0]):
+            f2[i] = h * f2[i]
+            xt[i] = rk4.half(x[i], f2[i])
+        ok = derivative(t + h / 2, xt, u, p, f3) and ok
+        for i in range(x.shape[0]):
+            f3[i] = h * f3[i]
+            xt[i] = rk4.whole(x[i], f3[i])
+        ok = derivative(t + h, xt, u, p, f4) and ok
+        for i in range(x.shape[0]):
+            x[i] = rk4.combine(x[i], f1[i], f2[i], f3[i], h * f4[i]) if ok else np.nan
+
+    def output(x, p):
+        try:
+            return float(gc(x, p))
+        except Exception:  # noqa: BLE001 (whatever g raises: the member's output is NaN)
+            return np.nan
+
+    return (_inline(step, key and key + ("guarded step",), False),
+            _inline(output, key and key + ("guarded output",), False))
 
 
 def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_p: int,
@@ -103,6 +161,10 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
     or ``identity`` (:class:`mfcontrol._jit.IdentityCache`: all the compiled code
     depends on but this file, the package's own code)."""
     nx, np_, b = int(n_x), int(n_p), int(lanes)
+    # your own f and g may raise (the library's functions do not): the member that raised
+    # gets NaN, which the loop flags as diverged at that sample, and its block-mates their
+    # own bits (numba would print the exception and go on with made-up numbers)
+    guard = _guarded(f, g, form, key) if form in ("in-place", "returning") else None
     fi, gi = _inline(f, key and key + ("f",)), _inline(g, key and key + ("g",))
     if form in ("library", "exact"):
         # the library's functions take the sizes as well: given them here, they take the
@@ -140,7 +202,7 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
     increments = _inline(increments, key and key + ("increments",))
 
     if b == 1:
-        return _member(fi, gi, form, nx, np_, key, identity or key is not None)
+        return _member(fi, gi, form, nx, np_, key, identity or key is not None, guard)
     if form == "exact":
         def step(t, xp, up, pp, h, wp):
             """The plant's exact step for every member of the block, its input U[l] held."""
@@ -177,14 +239,86 @@ def _build(f: Callable[..., Any], g: Callable[..., Any], form: str, n_x: int, n_
         for lane in range(b):
             Y[lane] = gi(X[:, lane], P[:, lane])
 
+    if guard is not None:
+        step, output = _guard_block(step, output, guard, nx, np_, b, key)
     cache = key is not None
     return Block(sig.Lazy(sig.BLOCK_STEP, step, cache=identity or cache),
                  sig.Lazy(sig.BLOCK_OUTPUT, output, cache=identity or cache), nx, np_,
                  "exact" if form == "exact" else "rk4", b)
 
 
+def _guard_block(step, output, guard, nx: int, np_: int, b: int, key: tuple | None):
+    """The block's step and output, run as they are, and when your f or g raised in them,
+    run again member by member through ``guard`` (:func:`_guarded`): NaN for the members
+    that raised, their own bits for the others. The step writes X only after its last
+    derivative, so it runs again from the same states."""
+    fast_step = _inline(step, key and key + ("fast step",), False)
+    fast_output = _inline(output, key and key + ("fast output",), False)
+    lane_step, lane_output = guard
+
+    def step_by_member(t, xp, up, pp, h, wp):
+        X = carray(xp, (nx, b), np.float64)
+        U = carray(up, (b,), np.float64)
+        P = carray(pp, (np_, b), np.float64)
+        W = carray(wp, (5, nx, b), np.float64)
+        for lane in range(b):
+            lane_step(t, X[:, lane], U[lane], P[:, lane], h, W[0][:, lane], W[1][:, lane],
+                      W[2][:, lane], W[3][:, lane], W[4][:, lane])
+
+    step_by_member = _inline(step_by_member, key and key + ("step by member",), False)
+
+    def guarded_step(t, xp, up, pp, h, wp):
+        """One RK4 step of every member of the block, its input U[l] held; a member whose
+        f raised gets a NaN state."""
+        try:
+            fast_step(t, xp, up, pp, h, wp)
+        except Exception:  # noqa: BLE001 (your f raised: again member by member)
+            step_by_member(t, xp, up, pp, h, wp)
+
+    def guarded_output(xp, pp, yp):
+        """Y[l] = g(x, p) of every member of the block; NaN where g raised."""
+        try:
+            fast_output(xp, pp, yp)
+        except Exception:  # noqa: BLE001 (your g raised: again member by member)
+            X = carray(xp, (nx, b), np.float64)
+            P = carray(pp, (np_, b), np.float64)
+            Y = carray(yp, (b,), np.float64)
+            for lane in range(b):
+                Y[lane] = lane_output(X[:, lane], P[:, lane])
+
+    return guarded_step, guarded_output
+
+
+def _guard_member(step, guard, nx: int, np_: int, key: tuple | None):
+    """One member's step, run as it is, and when your f or g raised in it, run again
+    through ``guard`` (:func:`_guarded`) from the state it started from (kept: the step
+    writes x before it calls g): a NaN state or output where the original raised."""
+    fast_step = _inline(step, key and key + ("fast member step",), False)
+    member_step, member_output = guard
+
+    def guarded_step(t, xp, u, pp, h, wp):
+        """One RK4 step of one member, u held; returns y of the new state (NaN, and a NaN
+        state, if your f raised; NaN if your g raised)."""
+        x = carray(xp, (nx,), np.float64)
+        p = carray(pp, (np_,), np.float64)
+        W = carray(wp, (6, nx), np.float64)
+        x0 = W[5]
+        for i in range(nx):
+            x0[i] = x[i]
+        try:
+            return fast_step(t, xp, u, pp, h, wp)
+        except Exception:  # noqa: BLE001 (your f or g raised: again, guarded)
+            pass
+        for i in range(nx):
+            x[i] = x0[i]
+        member_step(t, x, u, p, h, W[0], W[1], W[2], W[3], W[4])
+        return member_output(x, p)
+
+    return guarded_step
+
+
 def _member(fi, gi, form: str, nx: int, np_: int, key: tuple | None,
-            cache: bool | str) -> Block:
+            cache: bool | str, guard=None) -> Block:
     """One member's step (``form`` and the inlined ``fi``, ``gi`` as :func:`_build` makes
     them), returning the output of the new state: the one RK4's arithmetic
     (:func:`mfcontrol.numerics.rk4.step`, operation for operation) or the plant's exact
@@ -229,6 +363,9 @@ def _member(fi, gi, form: str, nx: int, np_: int, key: tuple | None,
             for i in range(nx):
                 x[i] = rk4.combine(x[i], f1[i], f2[i], f3[i], h * f4[i])
             return gi(x, p)
+
+        if guard is not None:
+            step = _guard_member(step, guard, nx, np_, key)
 
     def output(xp, pp, yp):
         """Not used (the step returns y)."""

@@ -259,20 +259,34 @@ def compile_functions(f: Callable[..., Any], g: Callable[..., Any],
 
 def _compile(f: Callable[..., Any], g: Callable[..., Any], in_place: bool,
              cache: str | bool):
-    inner = njit(error_model="numpy")(python_function(f))
+    # f and g are called, not inlined, inside a try: what they raise makes the derivative
+    # or the output NaN, which the loop flags as diverged at that sample (a C callable
+    # cannot raise: numba would print the exception and go on with made-up numbers)
+    inner = njit(error_model="numpy", inline="never")(python_function(f))
     if in_place:
         def rhs(t, xp, u, pp, dp, nx, np_):
-            inner(t, sig.vector(xp, nx), u, sig.vector(pp, np_), sig.vector(dp, nx))
+            try:
+                inner(t, sig.vector(xp, nx), u, sig.vector(pp, np_), sig.vector(dp, nx))
+            except Exception:  # noqa: BLE001 (whatever f raises)
+                for i in range(nx):
+                    dp[i] = np.nan
     else:
         def rhs(t, xp, u, pp, dp, nx, np_):
-            d = inner(t, sig.vector(xp, nx), u, sig.vector(pp, np_))
-            for i in range(nx):
-                dp[i] = d[i]
+            try:
+                d = inner(t, sig.vector(xp, nx), u, sig.vector(pp, np_))
+                for i in range(nx):
+                    dp[i] = d[i]
+            except Exception:  # noqa: BLE001 (whatever f raises)
+                for i in range(nx):
+                    dp[i] = np.nan
 
-    inner_g = njit(error_model="numpy")(python_function(g))
+    inner_g = njit(error_model="numpy", inline="never")(python_function(g))
 
     def output(xp, pp, nx, np_):
-        return float(inner_g(sig.vector(xp, nx), sig.vector(pp, np_)))
+        try:
+            return float(inner_g(sig.vector(xp, nx), sig.vector(pp, np_)))
+        except Exception:  # noqa: BLE001 (whatever g raises)
+            return np.nan
 
     functions = sig.Lazy(sig.RHS, rhs, cache), sig.Lazy(sig.OUTPUT, output, cache)
     try:

@@ -31,7 +31,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from ...errors import ConfigError
+from ...errors import ConfigError, PlantFunctionError
 from ...numerics import blocks, rk4
 from ...numerics import signatures as sig
 from ...plants import boost, buck, dc_motor, first_order, lti, ode
@@ -841,6 +841,42 @@ class ODE(Plant):
 
     def output(self, x: np.ndarray) -> float:
         return float(self._g(np.asarray(x, dtype=np.float64), self._p))
+
+    def replay_step(self, t: float, x: np.ndarray, u: float, h: float,
+                    substeps: int = 1) -> None:
+        """Replay in Python one sample's step from state ``x`` at ``t``, ``u`` held
+        (``substeps`` steps of h / substeps), then g: :class:`PlantFunctionError` naming
+        the function, the time and the state if f or g raises in it.
+
+        The compiled engine turns what f or g raises into NaN (a diverged run); a single
+        run calls this on the step that gave the NaN to tell the exception."""
+        f = self._f
+        f_py = ode.python_function(f)
+        at: list[Any] = [t, x, u]
+
+        def watched(t_, x_, u_, p_, *out):
+            at[:] = [t_, np.array(x_, copy=True), u_]
+            return f_py(t_, x_, u_, p_, *out)
+
+        hs = h / substeps
+        self._f = watched
+        try:
+            for i in range(substeps):
+                x = self.step(t + i * hs, x, u, hs)
+        except Exception as exc:  # noqa: BLE001 (whatever your f raises is told)
+            raise PlantFunctionError(
+                f"{'f(t, x, u, p, dxdt)' if self._inplace else 'f(t, x, u, p)'} raised "
+                f"{type(exc).__name__}: {exc} at t = {at[0]:.9g} s (x = "
+                f"{np.array2string(np.asarray(at[1]), precision=9)}, u = {at[2]:.9g})"
+                ) from exc
+        finally:
+            self._f = f
+        try:
+            ode.python_function(self._g)(np.asarray(x, dtype=np.float64), self._p)
+        except Exception as exc:  # noqa: BLE001 (whatever your g raises is told)
+            raise PlantFunctionError(
+                f"g(x, p) raised {type(exc).__name__}: {exc} at t = {t + h:.9g} s (x = "
+                f"{np.array2string(np.asarray(x), precision=9)})") from exc
 
     def derivative(self, t: float, x: np.ndarray, u: float) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64)
