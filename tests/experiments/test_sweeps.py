@@ -277,3 +277,63 @@ def test_the_api_sweep_checks_its_kept_members_and_its_size_first():
     with pytest.raises(mfcontrol.ConfigError, match=r"16,000,000 members: at most"):
         mfcontrol.sweep(plant, ctrl, 1.0, grid={"controller.kp": big, "plant.a": -big},
                         t_end=1.0)
+
+
+def _damaged_copy(src, dst):
+    """dst: a copy of the finished sweep folder src without its results."""
+    import shutil
+
+    shutil.copytree(src, dst)
+    (dst / "results.parquet").unlink()
+    return dst / "chunks"
+
+
+def test_a_damaged_sweep_folder_is_recomputed_where_damaged_and_never_mixed(tmp_path):
+    import pyarrow.parquet as pq
+
+    args = ["voltage-stable-standard", *GRID, *FAST, "--chunk", "2"]
+    sweep(*args, "--out", str(tmp_path / "whole"))
+    whole = pd.read_parquet(tmp_path / "whole" / "results.parquet")
+    # another sweep of the same shape (the same grid, another horizon): its chunk 4 fits
+    sweep("voltage-stable-standard", *GRID, "--set", "sim.t_end=0.003", "--chunk", "2",
+          "--out", str(tmp_path / "other"))
+    chunks = _damaged_copy(tmp_path / "whole", tmp_path / "d")
+    name = "chunk-{:06d}.parquet".format
+    data = (chunks / name(0)).read_bytes()
+    (chunks / name(0)).write_bytes(data[: len(data) // 2])  # cut short (a full disk)
+    (chunks / name(1)).write_bytes(b"")  # empty
+    (chunks / name(2)).write_bytes(b"PAR1 not a parquet file at all")  # garbage
+    table = pq.read_table(chunks / name(3))  # this sweep's mark, one row too few
+    pq.write_table(table.slice(0, 1), chunks / name(3))
+    (chunks / name(4)).write_bytes((tmp_path / "other" / "chunks" / name(4)).read_bytes())
+    (chunks / ".chunk-000005.parquet.4242.tmp").write_bytes(b"left by kill -9")
+    (tmp_path / "d" / ".sweep.json.4242.tmp").write_text("{")
+    proc = sweep(*args, "--out", str(tmp_path / "d"))
+    said = "\n".join(messages(proc.stderr))
+    for i, why in [(0, "is unreadable"), (1, "is unreadable"), (2, "is unreadable"),
+                   (3, "holds 1 row, not members 6 to 7"), (4, "is not this sweep's")]:
+        assert f"{name(i)} {why}" in said, said
+    assert name(5) not in said  # intact: skipped
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "d" / "results.parquet"), whole)
+    assert not list((tmp_path / "d").rglob("*.tmp"))
+
+
+def test_a_folder_where_a_chunk_belongs_is_one_line(tmp_path):
+    args = ["voltage-stable-standard", *GRID, *FAST, "--chunk", "2"]
+    sweep(*args, "--out", str(tmp_path / "whole"))
+    chunks = _damaged_copy(tmp_path / "whole", tmp_path / "d")
+    (chunks / "chunk-000001.parquet").unlink()
+    (chunks / "chunk-000001.parquet").mkdir()
+    proc = sweep(*args, "--out", str(tmp_path / "d"), check=False)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert len(messages(proc.stderr)) == 1
+    assert "chunk-000001.parquet): remove it to resume" in proc.stderr
+
+
+def test_a_deeply_nested_sweep_json_is_one_line(tmp_path):
+    out = tmp_path / "s"
+    out.mkdir()
+    (out / "sweep.json").write_text("[" * 100_000 + "]" * 100_000)
+    proc = sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(out), check=False)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "sweep.json that is not a sweep's" in proc.stderr

@@ -9,14 +9,19 @@ Layout of ``OUT``::
 
 A chunk file exists only when its chunk is complete, so an interrupted or crashed sweep
 loses nothing it finished; running the same command again skips the finished chunks. A
-different sweep into the same folder is refused. One process at a time owns a folder: it
-holds an operating-system lock on ``OUT/.lock`` (``filelock``), which the system releases
-when the process ends, however it ends; a second sweep into the folder meanwhile is
-refused.
+different sweep into the same folder is refused. Each chunk carries its sweep's mark and
+its members (in the file's metadata), and is read whole before it is skipped: a chunk
+that is cut short, empty, unreadable, has the wrong rows or comes from another sweep is
+computed again (said on stderr), never counted or mixed in; a folder where a chunk
+belongs is refused. Temporary files a killed process left are removed. One process at a
+time owns a folder: it holds an operating-system lock on ``OUT/.lock`` (``filelock``),
+which the system releases when the process ends, however it ends; a second sweep into
+the folder meanwhile is refused.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import os
@@ -54,6 +59,59 @@ def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int
             "columns": list(batch.METRIC_COLUMNS), "mfcontrol": __version__}
 
 
+def _mark(manifest: dict) -> str:
+    """The sweep's mark, written into each of its chunks: a digest of what identifies it."""
+    text = json.dumps({k: manifest[k] for k in _IDENTITY}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _write_chunk(frame, path: Path, mark: str, a: int, b: int) -> None:
+    """Chunk file of members a..b-1, atomically, with the sweep's mark and its members in
+    the file's metadata."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    table = table.replace_schema_metadata({**(table.schema.metadata or {}),
+                                           b"mfcontrol.sweep": mark.encode(),
+                                           b"mfcontrol.members": f"{a}:{b}".encode()})
+    _replace_with(path, lambda tmp: pq.write_table(table, tmp))
+
+
+def _chunk_damage(path: Path, mark: str, a: int, b: int) -> str | None:
+    """Why the chunk file of members a..b-1 cannot be taken as done (None: it can)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    if path.is_dir():
+        raise ConfigError("--out", str(path.parent.parent), f"holds a folder where a chunk "
+                          f"belongs ({path}): remove it to resume")
+    try:
+        table = pq.read_table(path)
+    except (OSError, pa.ArrowException, ValueError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        return f"is unreadable ({first[:120]})"
+    meta = table.schema.metadata or {}
+    if meta.get(b"mfcontrol.sweep") != mark.encode():
+        return "is not this sweep's (no mark, or another sweep's)"
+    if meta.get(b"mfcontrol.members") != f"{a}:{b}".encode() or table.num_rows != b - a:
+        rows = f"{table.num_rows} row" + ("" if table.num_rows == 1 else "s")
+        return f"holds {rows}, not members {a} to {b - 1}"
+    if "member" in table.column_names and \
+            table.column("member").to_pylist() != list(range(a, b)):
+        return f"does not hold members {a} to {b - 1}"
+    return None
+
+
+def _remove_leftovers(out: Path) -> None:
+    """The temporary files of writes a killed process never finished (this process holds
+    the folder's lock: no other is writing them)."""
+    for folder in (out, out / "chunks", out / "trajectories"):
+        for tmp in folder.glob(".*.tmp"):
+            if tmp.is_file():
+                tmp.unlink(missing_ok=True)
+
+
 def _check_folder(out: Path, manifest: dict) -> None:
     path = out / "sweep.json"
     if path.exists():
@@ -61,7 +119,7 @@ def _check_folder(out: Path, manifest: dict) -> None:
             old = json.loads(path.read_text())
             if not isinstance(old, dict):
                 raise ValueError
-        except (ValueError, UnicodeDecodeError):
+        except (ValueError, UnicodeDecodeError, RecursionError):
             raise ConfigError("--out", str(out), "holds a sweep.json that is not a sweep's "
                               "(unreadable or cut short): remove it to start the sweep over, "
                               "or choose another folder") from None
@@ -164,8 +222,17 @@ def _run_locked(grid, cfg, manifest, out, *, keep, chunk, dask, progress, fast) 
 
     chunk_dir = out / "chunks"
     chunk_dir.mkdir(exist_ok=True)
+    _remove_leftovers(out)
+    mark = _mark(manifest)
     all_chunks = list(batch.chunks(grid.n_members, chunk))
-    todo = [c for c in all_chunks if not (chunk_dir / f"chunk-{c[0]:06d}.parquet").exists()]
+    todo = []
+    for i, a, b in all_chunks:
+        path = chunk_dir / f"chunk-{i:06d}.parquet"
+        if not (path.exists() or path.is_symlink()):
+            todo.append((i, a, b))
+        elif (damage := _chunk_damage(path, mark, a, b)) is not None:
+            sys.stderr.write(f"mfcontrol: {path} {damage}: computing it again\n")
+            todo.append((i, a, b))
     done = grid.n_members - sum(b - a for _, a, b in todo)
     if progress:
         progress(done)
@@ -173,17 +240,19 @@ def _run_locked(grid, cfg, manifest, out, *, keep, chunk, dask, progress, fast) 
     if keep:  # the kept trajectories first: one too long to record stops the sweep at once
         _keep(grid, keep, out, fast)
     if dask:
-        done = _run_dask(dask, spec, todo, chunk_dir, done, progress)
+        done = _run_dask(dask, spec, todo, chunk_dir, done, progress, mark)
     else:
         changes = batch._cell_changes(grid) if batch.paper_grid(grid) else None
         for i, a, b in todo:
             frame = pd.DataFrame(batch.run_range(grid, a, b, changes, fast=fast))
-            _write_atomic(frame, chunk_dir / f"chunk-{i:06d}.parquet")
+            _write_chunk(frame, chunk_dir / f"chunk-{i:06d}.parquet", mark, a, b)
             done += b - a
             if progress:
                 progress(done)
     frames = [pd.read_parquet(chunk_dir / f"chunk-{i:06d}.parquet") for i, _, _ in all_chunks]
     results = pd.concat(frames, ignore_index=True)
+    if len(results) != grid.n_members:  # every chunk was checked: a fault of ours
+        raise RuntimeError(f"{len(results)} rows for {grid.n_members} members in {chunk_dir}")
     path = out / "results.parquet"
     _write_atomic(results, path)
     return path
@@ -250,7 +319,8 @@ def _connect(address: str):
     return client, cluster
 
 
-def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progress) -> int:
+def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progress,
+              mark: str) -> int:
     from dask.distributed import as_completed
 
     client, cluster = _connect(address)
@@ -259,7 +329,7 @@ def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progre
                    for i, a, b in todo}
         for fut in as_completed(futures):
             i, a, b = futures[fut]
-            _write_atomic(fut.result(), chunk_dir / f"chunk-{i:06d}.parquet")
+            _write_chunk(fut.result(), chunk_dir / f"chunk-{i:06d}.parquet", mark, a, b)
             done += b - a
             if progress:
                 progress(done)
