@@ -50,7 +50,7 @@ def _env() -> dict[str, str]:
 
 def cli(*args: str, cwd: Path | str | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "mfcontrol.cli", *args], cwd=cwd,
-                          capture_output=True, text=True, env=_env(), timeout=120)
+                          capture_output=True, text=True, env=_env(), timeout=600)
 
 
 def assert_usage_error(proc: subprocess.CompletedProcess, *needles: str) -> str:
@@ -893,3 +893,20 @@ def test_a_noise_level_given_means_gaussian_noise(tmp_path, capsys):
     assert main(["run", str(tmp_path / "b" / "config.toml"), "--out", str(tmp_path / "c")]) == 0
     again = json.loads((tmp_path / "c" / "metrics.json").read_text())
     assert again["iae"] == noisy["iae"]
+
+
+def test_a_plant_too_stiff_for_rk45_is_one_line_with_the_time_and_the_step(tmp_path):
+    # it used to run for hours, deaf to Ctrl-C (the compiled run never returned)
+    proc = cli("run", "first-order-ip-algebraic", "--set", "plant.a=-1e9", "--set",
+               "sim.integrator=rk45", "--out", str(tmp_path / "o"))
+    line = assert_usage_error(proc, "sim.integrator = 'rk45'", "collapsed to", "at t = ",
+                              "too stiff")
+    assert "e-09 s" in line
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("value", ["1e-320", "1e300"])
+def test_a_time_scale_that_overflows_the_model_names_the_time_scale(value, tmp_path):
+    proc = cli("run", "bench-lag3", "--set", f"plant.time_scale={value}", "--out",
+               str(tmp_path / "o"))
+    assert_usage_error(proc, "plant.time_scale", "not finite")

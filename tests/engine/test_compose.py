@@ -384,14 +384,14 @@ def test_vectorised_members_equal_their_single_runs(law, f, monkeypatch):
     R = np.full((1, round(t_end / h)), 60.0)
     AL = np.full((1, R.shape[1]), 40.0) if law == "IP-external" else None
     vectorised = _count_vectorised(monkeypatch)
-    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
+    M, _, CS, _ = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
                            vectorise=True)
     assert plants[0].block[0].compiled  # the vectorised loop ran (its step is compiled)
     # the law ran over the blocks (the algebraic estimator's window too)
     assert vectorised[0] > 0
     assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
     for j in range(m):
-        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
+        Mj, _, CSj, _ = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S, AL=AL)
         _assert_same_bits(M[:, j], Mj[:, 0], j)
         _assert_same_bits(CS[:, j], CSj[:, 0], j)
@@ -458,13 +458,13 @@ def test_vectorised_members_with_references_of_their_own_equal_their_single_runs
         RP[reference.LEVEL] = np.where(np.arange(m) < 64, 60.0, 40.0 + np.arange(m) % 7)
         RP[reference.T_RAMP2] = np.inf
     vectorised = _count_vectorised(monkeypatch)
-    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, RP=RP,
+    M, _, CS, _ = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, RP=RP,
                            vectorise=True)
     assert vectorised[0] > 0
     assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
     for j in range(m):
         Rj = R[j:j + 1] if own == "series" else R
-        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], Rj, changes[j:j + 1],
+        Mj, _, CSj, _ = run_members(plants[j:j + 1], laws[j:j + 1], Rj, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S,
                                  RP=None if RP is None else RP[:, j:j + 1])
         _assert_same_bits(M[:, j], Mj[:, 0], j)
@@ -599,11 +599,11 @@ def test_a_member_whose_law_output_goes_non_finite_in_the_vectorised_loop_stops_
     S = metrics.settings(0.1, t_end, 0.2, 1e6)
     R = np.full((1, n), 60.0)
     changes = [[] for _ in range(m)]
-    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
+    M, _, CS, _ = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, AL=AL,
                            vectorise=True)
     np.testing.assert_array_equal(np.flatnonzero(M[metrics.M_DIVERGED]), sorted(bad))
     for j in range(m):
-        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
+        Mj, _, CSj, _ = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S, AL=AL[j:j + 1])
         _assert_same_bits(M[:, j], Mj[:, 0], j)
         _assert_same_bits(CS[:, j], CSj[:, 0], j)
@@ -630,10 +630,10 @@ def test_vectorised_members_whose_references_differ_in_the_sign_of_zero_keep_it(
     RP[reference.T_RAMP2] = np.inf
     S = metrics.settings(0.1, t_end, 0.2, 1e6)
     changes = [[] for _ in range(m)]
-    M, _, CS = run_members(plants, laws, np.zeros((0, n)), changes, t_end=t_end, h=h, S=S,
+    M, _, CS, _ = run_members(plants, laws, np.zeros((0, n)), changes, t_end=t_end, h=h, S=S,
                            RP=RP, vectorise=True)
     for j in (0, 1):
-        Mj, _, CSj = run_members(plants[:1], laws[:1], np.zeros((0, n)), changes[:1],
+        Mj, _, CSj, _ = run_members(plants[:1], laws[:1], np.zeros((0, n)), changes[:1],
                                  t_end=t_end, h=h, S=S, RP=RP[:, j:j + 1])
         _assert_same_bits(M[:, j], Mj[:, 0], j)
         _assert_same_bits(CS[:, j], CSj[:, 0], j)
@@ -776,7 +776,7 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
     vectorised = _count_vectorised(monkeypatch)
     loops = _loops_chosen(monkeypatch)
     finals = _final_states(monkeypatch)
-    M, _, CS = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, vectorise=True)
+    M, _, CS, _ = run_members(plants, laws, R, changes, t_end=t_end, h=h, S=S, vectorise=True)
     assert vectorised[0] > 0
     assert loops == ["lanes" if plant == "motor-rk45" else "block"]
     assert 0 < M[metrics.M_DIVERGED].sum() < m  # some go bad
@@ -785,7 +785,7 @@ def test_exact_and_adaptive_steps_in_the_vectorised_loop_equal_their_single_runs
     _assert_same_bits(X, X_member, "all")
     _assert_same_bits(DT, DT_member, "all")
     for j in range(m):
-        Mj, _, CSj = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
+        Mj, _, CSj, _ = run_members(plants[j:j + 1], laws[j:j + 1], R, changes[j:j + 1],
                                  t_end=t_end, h=h, S=S)
         _assert_same_bits(M[:, j], Mj[:, 0], j)
         _assert_same_bits(CS[:, j], CSj[:, 0], j)

@@ -59,3 +59,25 @@ def test_a_blow_up_leaves_nan_not_a_hang():
 @sig.compiled(sig.RHS)
 def _explode(t, x, u, p, dxdt, nx, np_):
     dxdt[0] = x[0] * x[0] * 1e300  # finite-time blow-up
+
+
+@njit
+def _one_sample(rhs_address, x, u, p, h, rtol, atol):
+    w = np.empty((dopri45.N_WORK, x.size))
+    return dopri45.integrate(sig.as_rhs(rhs_address), 0.0, x, u, p, h, rtol, atol, -1.0, w)
+
+
+def test_a_stiff_plant_stops_after_max_steps_with_the_collapsed_step():
+    # y' = -1e9 y + u from y = 1: stable only for steps under about 3.3e-9 s, so a sample
+    # of 1 ms needs some 300,000 steps; the integrator gives up after MAX_STEPS, leaves
+    # the state NaN and returns minus the step it was at (it used to run for hours)
+    x = np.array([1.0])
+    dt = _one_sample(first_order.rhs.address, x, 0.0, np.array([-1e9, 1.0, 0.0]), 1e-3,
+                     1e-9, 1e-12)
+    assert np.isnan(x[0])
+    assert -4e-9 < dt < -1e-10
+    # a sample that needs fewer steps than the bound is not touched by it
+    x = np.array([1.0])
+    dt = _one_sample(first_order.rhs.address, x, 0.0, np.array([-1e9, 1.0, 0.0]),
+                     0.2 * dopri45.MAX_STEPS * 3e-9, 1e-9, 1e-12)
+    assert np.isfinite(x[0]) and dt > 0

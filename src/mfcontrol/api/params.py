@@ -15,11 +15,13 @@ schedule objects a configuration describes are built by
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
 from ..config.resolve import Config
 from ..engine import metrics as engine_metrics
+from ..errors import ConfigError
 from ..laws import recursive_ip, reference, variational_gain
 from ..plants import buck
 
@@ -34,9 +36,20 @@ def transfer_function_state_space(cfg: Config) -> tuple[np.ndarray, np.ndarray,
     tau = cfg["plant.time_scale"]
     num, den = (np.trim_zeros(np.asarray(cfg[k], dtype=float), "f")
                 for k in ("plant.num", "plant.den"))
-    num = cfg["plant.gain"] * num * tau ** np.arange(num.size - 1, -1, -1.0)
-    den = den * tau ** np.arange(den.size - 1, -1, -1.0)
-    A, B, C, _ = signal.tf2ss(num, den)
+    # an overflow is told below, by the key that made it; scipy's BadCoefficients warning
+    # (coefficients near zero after scaling) is not the user's to read
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", signal.BadCoefficients)
+        num = cfg["plant.gain"] * num * tau ** np.arange(num.size - 1, -1, -1.0)
+        den = den * tau ** np.arange(den.size - 1, -1, -1.0)
+        A, B, C, _ = signal.tf2ss(num, den)
+    if not all(np.all(np.isfinite(m)) for m in (A, B, C)):
+        key = "plant.time_scale" if tau != 1.0 else "plant.den"
+        raise ConfigError(key, tau if tau != 1.0 else cfg["plant.den"],
+                          "gives a model whose state-space matrices are not finite (its "
+                          "scaled coefficients leave the float range): choose one nearer 1"
+                          if tau != 1.0 else "gives a model whose state-space matrices are "
+                          "not finite (coefficients out of the float range)")
     return A, B.reshape(-1), C.reshape(-1)
 
 

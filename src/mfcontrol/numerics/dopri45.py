@@ -26,6 +26,10 @@ E1, E3, E4, E5, E6, E7 = (-71 / 57600, 71 / 16695, -71 / 1920, 17253 / 339200, -
 SAFETY = 0.9
 MIN_FACTOR = 0.2
 MAX_FACTOR = 10.0
+#: steps tried over one sample before the integrator gives up: a step this much shorter
+#: than the sample means a plant too stiff for an explicit method (each sample would cost
+#: seconds, and a compiled run cannot be interrupted until it returns)
+MAX_STEPS = 100_000
 #: scratch rows :func:`integrate` needs, times the state size
 N_WORK = 9
 
@@ -34,8 +38,10 @@ N_WORK = 9
 def integrate(rhs, t, x, u, p, h, rtol, atol, dt, w):
     """Advance ``x`` in place from t to t + h with u held; return the step size to start
     the next sample with. ``dt`` is the step to try first (<= 0: h). ``w``: scratch of
-    shape (:data:`N_WORK`, n). A step that cannot be made (the step size underflows, or
-    the state is no longer finite) leaves x NaN, which the engine flags as divergence.
+    shape (:data:`N_WORK`, n). A step that cannot be made (the state is no longer finite)
+    leaves x NaN, which the engine flags as divergence; so does a step size that
+    collapses (underflows, or more than :data:`MAX_STEPS` steps in the sample), and the
+    step size returned is then minus the last one tried.
     """
     n = x.size
     m = p.size
@@ -47,17 +53,20 @@ def integrate(rhs, t, x, u, p, h, rtol, atol, dt, w):
     dt = h if not (dt > 0.0) else min(dt, h)
     rhs(t, xp, u, pp, q1, n, m)
     rejected = False
+    steps = 0
     while t < t_end:
         tried = dt
+        steps += 1
         last = t + dt >= t_end
         if last:
             dt = t_end - t
         # the floor applies to the step the rule asks for; the last one, clipped to the
         # sample's end, may be as short as it needs (scipy checks before clipping too)
-        if not (tried > 1e-14 * max(abs(t), h)) or not math.isfinite(tried):
+        if not (tried > 1e-14 * max(abs(t), h)) or not math.isfinite(tried) \
+                or steps > MAX_STEPS:
             for i in range(n):
                 x[i] = math.nan
-            return dt
+            return -abs(tried)
         for i in range(n):
             xt[i] = x[i] + dt * (A21 * k1[i])
         rhs(t + C2 * dt, tp, u, pp, q2, n, m)

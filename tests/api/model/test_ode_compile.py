@@ -26,7 +26,7 @@ from mfcontrol.api.model.plants import ODE
 from mfcontrol.numerics import signatures as sig
 from mfcontrol.plants import ode
 
-TIMEOUT = 600  # s: a first process compiles the engine's kernels on a shared machine
+TIMEOUT = 1500  # s: a first process compiles the engine's kernels on a shared, loaded machine
 
 #: a plant module of yours; PLACE is replaced to make each test's functions its own
 PLANT = '''

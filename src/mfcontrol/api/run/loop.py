@@ -205,8 +205,10 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     vectorised loop (True, False, or None: when it pays,
     :func:`mfcontrol.engine.compose.loop_for`).
 
-    Returns (M, traj, CS): metrics of every member; with ``record`` (one member) its
-    trajectory ``traj[row, k]``, else an empty array; the law memory of every member.
+    Returns (M, traj, CS, DT): metrics of every member; with ``record`` (one member) its
+    trajectory ``traj[row, k]``, else an empty array; the law memory of every member; the
+    adaptive integrator's last step size of every member (negative: it collapsed there,
+    :func:`mfcontrol.numerics.dopri45.integrate`; 0 for the other integrators).
     """
     n = grid.n_samples(t_end, h)
     p0, l0 = plants[0], laws[0]
@@ -238,14 +240,14 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                              t_end_key)
     traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
     tol = np.array(p0.tol, dtype=np.float64)
-    DT = np.full(m, -1.0)
+    DT = np.zeros(m)  # <= 0: the adaptive integrator starts each member with a step of h
     compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
                 l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
                 RP, np.zeros((0, n)) if AL is None else np.ascontiguousarray(AL, dtype=np.float64),
                 LP, events, S, M, tol,
                 DT, traj, comp_rows, fast=fast, block=p0.block, vectorise=vectorise,
                 member=p0.member)
-    return M, traj, CS
+    return M, traj, CS, DT
 
 
 def step_metrics_of(RP: np.ndarray, step: ReferenceStep | None = None
@@ -452,16 +454,40 @@ def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, sta
                  fast, AL=None, LP=None, step=None, t_end_key="t_end") -> Result:
     """One member through the compiled engine, its trajectory named as a Result; the
     reference, elements and step as for :func:`run_members`."""
-    M, traj, CS = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
+    M, traj, CS, DT = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
                               fast=fast, record=True, RP=RP, AL=AL, LP=LP, step=step,
                               t_end_key=t_end_key)
     met = _metrics.from_kernel(M, 0, stable_tol)
     k_end = met["n_samples"]
     _hand_back(controller, CS, traj, k_end)
     signals, states = trajectory.named_rows(traj[:, :k_end], law.components, plant.state_names)
+    if met["diverged"] and DT[0] < 0.0:
+        key = "sim.integrator" if t_end_key == "sim.t_end" else "integrator"
+        raise ConfigError(
+            key, ep.integrator, f"the adaptive step collapsed to {-DT[0]:.3g} s at "
+            f"t = {met['t_diverge']:.6g} s (step {h:.3g} s): the plant is too stiff for an "
+            "explicit method at these tolerances; use the exact integrator (an LTI or "
+            "first-order plant), or rk4 with a step the plant's fastest mode allows")
+    if met["diverged"] and hasattr(plant, "replay_step"):
+        # your f or g may have raised there (the engine made it NaN): told by name
+        _replay_last_step(plant, t, signals, states, k_end, h, LP)
     return Result(name=name, time=t[:k_end], signals=signals, states=states, metrics=met,
                   changes=tuple(changes), engine="compiled",
                   arithmetic="fast" if fast else "exact")
+
+
+def _replay_last_step(plant, t, signals, states, k_end: int, h: float, LP) -> None:
+    """PlantFunctionError if the plant's own Python f or g raises in the step that ended
+    the run (from the last sample's state and input; g alone at x0 if it ended at once)."""
+    if k_end == 0:
+        plant.replay_step(0.0, np.asarray(plant.x0, dtype=float), 0.0, 0.0, 0)
+        return
+    k = k_end - 1
+    x = np.array([states[name][k] for name in plant.state_names])
+    if not np.all(np.isfinite(x)):
+        return
+    substeps = 1 if LP is None else int(LP[layout.SUBSTEPS, 0])
+    plant.replay_step(float(t[k]), x, float(signals["u_plant"][k]), h, substeps)
 
 
 def _python_reason(plant, ep, controller) -> str:

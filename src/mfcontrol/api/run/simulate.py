@@ -151,7 +151,7 @@ def batch_metrics(first: Config, parts: Mapping[str, Sequence[Any]], *, fast: bo
     configurations that share the time grid and metric settings of ``first``, in one
     batch of the general engine."""
     n = scenario.n_steps(first)
-    M, _, CS = run_members([ep for ep, _ in parts["plant"]], parts["law"], np.zeros((0, n)),
+    M, _, CS, _ = run_members([ep for ep, _ in parts["plant"]], parts["law"], np.zeros((0, n)),
                            [ch for _, ch in parts["plant"]], t_end=first["sim.t_end"],
                            h=first["sim.h"], S=params.metric_settings(first), fast=fast,
                            RP=np.hstack(parts["reference"]),

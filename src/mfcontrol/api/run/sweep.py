@@ -315,7 +315,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
             else tuple(np.array(v) for v in zip(*member_steps, strict=True)))
     if keep:  # the kept members are recorded after the sweep: refuse a size now, not then
         check_recording(t.size, T_COMP + len(member_laws[0].rows) + plants[0].x0.size, t_end)
-    M, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
+    M, _, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
                           t_end=t_end, h=h, S=S, fast=fast,
                           AL=None if al is None else al[None, :], vectorise=vectorise,
                           LP=layout.stack(member_lp), step=step)
