@@ -910,3 +910,25 @@ def test_a_time_scale_that_overflows_the_model_names_the_time_scale(value, tmp_p
     proc = cli("run", "bench-lag3", "--set", f"plant.time_scale={value}", "--out",
                str(tmp_path / "o"))
     assert_usage_error(proc, "plant.time_scale", "not finite")
+
+
+def test_an_integer_too_long_for_python_is_one_line(tmp_path):
+    # past 4,300 digits Python refuses to read an int: it was a traceback
+    digits = "1" * 5000
+    assert_usage_error(cli("run", "first-order-ip-algebraic", "--set",
+                           f"controller.kp={digits}", "--out", str(tmp_path / "o")),
+                       "controller.kp", "(5000 characters)", "too long a number")
+    case = tmp_path / "big.toml"
+    case.write_text(f'base = "first-order-ip-algebraic"\n[controller]\nkp = {digits}\n')
+    assert_usage_error(cli("run", str(case), "--out", str(tmp_path / "o")),
+                       "too long a number")
+    # an integer beyond the float range but short enough to read
+    assert_usage_error(cli("run", "first-order-ip-algebraic", "--set",
+                           f"controller.kp={'1' * 400}", "--out", str(tmp_path / "o")),
+                       "controller.kp = 1111111111", "(400 characters)", "finite number")
+
+
+def test_a_dask_transport_we_cannot_use_is_one_line(tmp_path):
+    assert_usage_error(cli("sweep", "first-order-ip-algebraic", "--grid",
+                           "controller.kp=1,2", "--dask", "ucx://x:1", "--out",
+                           str(tmp_path / "d")), "--dask", "tcp://")

@@ -33,6 +33,9 @@ def parse_assignment(text: str) -> tuple[str, Any]:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw
+    except ValueError:  # an integer past Python's int-to-str limit (4,300 digits)
+        raise ConfigError(key, f"{raw[:20]}... ({len(raw)} characters)", "is too long a "
+                          "number: options are numbers within the float range") from None
     except RecursionError:
         raise ConfigError(key, f"{raw[:20]}...", "is nested too deeply: options are numbers, "
                           "strings, true/false or lists of numbers") from None

@@ -269,6 +269,11 @@ def _dask_workers(address: str) -> int | None:
         if "://" not in address and ":" not in address:
             raise ConfigError("--dask", address, "must be local:N or a scheduler address "
                               "such as tcp://host:8786")
+        scheme = address.split("://", 1)[0] if "://" in address else "tcp"
+        if scheme not in ("tcp", "tls", "ws", "wss"):
+            # Dask's other transports (ucx, inproc) need packages or a process of their own
+            raise ConfigError("--dask", address, "must be local:N or a scheduler address "
+                              "over tcp://, tls://, ws:// or wss://")
         return None
     text = address.split(":", 1)[1]
     if not text.isdigit() or not 1 <= int(text) <= 1024:
@@ -290,7 +295,7 @@ def _connect(address: str):
     if n is None:
         try:
             return Client(address, timeout="10s"), None
-        except (OSError, ValueError, TimeoutError) as exc:
+        except (OSError, ValueError, TypeError, TimeoutError) as exc:
             raise ConfigError("--dask", address, f"no Dask scheduler answered there ({exc})"
                               ) from None
     # TLS with credentials made for this cluster and dropped with it: no other process can

@@ -26,6 +26,7 @@ import numpy as np
 from ..._version import __version__
 from ...config import options
 from ...engine import live
+from ...errors import shown
 from ...laws import estimators, intelligent, pid, recursive_ip
 from ...laws import variational_gain as gain_law
 from ..params import recursive_law_column
@@ -47,18 +48,30 @@ def _number(name: str, value: Any, *, positive: bool = False, nonneg: bool = Fal
         return None
     ok = isinstance(value, _REAL) and not isinstance(value, bool)
     if ok:
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:  # an int beyond the float range
+            ok = False
+    if ok:
         ok = math.isfinite(value) and (not positive or value > 0) and (not nonneg or value >= 0)
     if not ok:
         what = "> 0" if positive else (">= 0" if nonneg else "")
-        raise ValueError(f"{name} = {value!r}: must be a finite number {what}".rstrip())
+        raise ValueError(f"{name} = {shown(value)}: must be a finite number {what}".rstrip())
     return value
+
+
+def _finite(y: Any) -> bool:
+    """Whether the number y is finite (an int beyond the float range is not)."""
+    try:
+        return math.isfinite(y)
+    except OverflowError:
+        return False
 
 
 def _choice(name: str, value: Any, allowed) -> Any:
     # True == 1: a bool is not a choice among numbers
     if isinstance(value, bool) or value not in allowed:
-        raise ValueError(f"{name} = {value!r}: must be one of {', '.join(map(str, allowed))}")
+        raise ValueError(f"{name} = {shown(value)}: must be one of {', '.join(map(str, allowed))}")
     return value
 
 
@@ -66,12 +79,12 @@ def _limits(value: Any) -> tuple[float | None, float | None]:
     try:
         lo, hi = value
     except (TypeError, ValueError):
-        raise ValueError(f"output_limits = {value!r}: must be a pair (low, high), "
+        raise ValueError(f"output_limits = {shown(value)}: must be a pair (low, high), "
                          "None for no limit") from None
     lo = _number("output_limits[0]", lo, allow_none=True)
     hi = _number("output_limits[1]", hi, allow_none=True)
     if lo is not None and hi is not None and lo > hi:
-        raise ValueError(f"output_limits = {value!r}: low must not exceed high")
+        raise ValueError(f"output_limits = {shown(value)}: low must not exceed high")
     return lo, hi
 
 
@@ -171,13 +184,13 @@ class _Controller:
         ``dt`` the next sample's derivatives span): the caller returns the last output."""
         # both checked before either is taken: a refused call changes nothing
         if not isinstance(y, _REAL) or isinstance(y, bool):
-            raise ValueError(f"y = {y!r}: the measurement must be a number (NaN and inf are "
+            raise ValueError(f"y = {shown(y)}: the measurement must be a number (NaN and inf are "
                              "counted in nan_count and hold the output)")
         if setpoint is not None:
             self.setpoint = setpoint  # the property checks it
         if not self.auto_mode:
             return False
-        if not math.isfinite(y):
+        if not _finite(y):
             self.nan_count += 1
             self._skipped += dt
             return False
@@ -204,7 +217,7 @@ class _Controller:
         snapshot that is not one (missing keys, wrong types) is refused with a ValueError
         and leaves the controller exactly as it was."""
         if not isinstance(snap, Mapping):
-            raise ValueError(f"snapshot = {snap!r}: must be the dict snapshot() returns")
+            raise ValueError(f"snapshot = {shown(snap)}: must be the dict snapshot() returns")
         missing = [k for k in self._SNAPSHOT_KEYS if k not in snap]
         if missing:
             raise ValueError(f"snapshot lacks {', '.join(missing)}: must be the dict "
@@ -226,7 +239,7 @@ class _Controller:
         nan_count = snap["nan_count"]
         if not isinstance(nan_count, int | np.integer) or isinstance(nan_count, bool) \
                 or nan_count < 0:
-            raise ValueError(f"snapshot nan_count = {nan_count!r}: must be a whole number "
+            raise ValueError(f"snapshot nan_count = {shown(nan_count)}: must be a whole number "
                              ">= 0")
         if not isinstance(snap["auto_mode"], bool | np.bool_):
             raise ValueError(f"snapshot auto_mode = {snap['auto_mode']!r}: must be True or "
@@ -358,23 +371,23 @@ class IntelligentController(_Sampled):
         if estimator == "algebraic":
             if (not isinstance(window, int) or isinstance(window, bool) or window < 2
                     or window > estimators.MAX_WINDOW):
-                raise ValueError(f"window = {window!r}: must be a whole number of samples "
+                raise ValueError(f"window = {shown(window)}: must be a whole number of samples "
                                  f"from 2 to {estimators.MAX_WINDOW:,} for the algebraic "
                                  "estimator")
             if order == 2 and window % 2:
-                raise ValueError(f"window = {window!r}: must be even for order 2 (Simpson)")
+                raise ValueError(f"window = {shown(window)}: must be even for order 2 (Simpson)")
         elif window is not None:
-            raise ValueError(f"window = {window!r}: only the algebraic estimator has one")
+            raise ValueError(f"window = {shown(window)}: only the algebraic estimator has one")
         # the options of a choice not taken would be dropped in silence: refused
         if k_aw is not None and anti_windup != "back-calculation":
-            raise ValueError(f"k_aw = {k_aw!r}: only back-calculation anti-windup reads it: "
+            raise ValueError(f"k_aw = {shown(k_aw)}: only back-calculation anti-windup reads it: "
                              "set anti_windup='back-calculation', or remove it")
         if gain != "variational":
             for name, value, default in (("gamma0", gamma0, None), ("Gamma", Gamma, 5e-8),
                                          ("eps_M", eps_M, 0.1),
                                          ("integrator", integrator, "first-order")):
                 if value != default:
-                    raise ValueError(f"{name} = {value!r}: only the variational gain reads "
+                    raise ValueError(f"{name} = {shown(value)}: only the variational gain reads "
                                      "it: set gain='variational', or remove it")
         params: dict[str, Any] = {
             "alpha": alpha, "kp": _number("kp", kp), "ki": _number("ki", ki),
@@ -446,7 +459,7 @@ class IntelligentController(_Sampled):
                                            self._dt + self._skipped, 1.0), self._dt)
         dt = self._period(dt)
         if alpha is not None and not self._external:
-            raise ValueError(f"alpha = {alpha!r}: only a controller built with "
+            raise ValueError(f"alpha = {shown(alpha)}: only a controller built with "
                              "gain='external' takes alpha at each call")
         if self._external:
             if alpha is None:
@@ -693,7 +706,7 @@ class RecursiveIP(_Controller):
         # continue from the raw control that produced the manual output
         raw = start / float(self._CP[recursive_ip.OUT_GAIN, 0])
         if not math.isfinite(raw):  # checked before anything changes
-            raise ValueError(f"last_output = {start!r}: the raw control it needs, last_output "
+            raise ValueError(f"last_output = {shown(start)}: the raw control it needs, last_output "
                              f"/ output_gain = {raw!r}, is not a finite number")
         self._reset_state()
         self._CP[recursive_ip.U0, 0] = raw
