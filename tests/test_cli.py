@@ -925,10 +925,65 @@ def test_an_integer_too_long_for_python_is_one_line(tmp_path):
     # an integer beyond the float range but short enough to read
     assert_usage_error(cli("run", "first-order-ip-algebraic", "--set",
                            f"controller.kp={'1' * 400}", "--out", str(tmp_path / "o")),
-                       "controller.kp = 1111111111", "(400 characters)", "finite number")
+                       "controller.kp = 1111111111", "finite number")
 
 
 def test_a_dask_transport_we_cannot_use_is_one_line(tmp_path):
     assert_usage_error(cli("sweep", "first-order-ip-algebraic", "--grid",
                            "controller.kp=1,2", "--dask", "ucx://x:1", "--out",
                            str(tmp_path / "d")), "--dask", "tcp://")
+
+
+def test_a_full_disk_during_run_leaves_no_cut_trajectory(tmp_path, monkeypatch, capsys):
+    # the trajectory was left cut mid-row, which pandas reads as a shorter valid run
+    import errno
+
+    from mfcontrol.api.results import result
+
+    def full(path, columns):
+        Path(path).write_text("y_ref,y\n0.5,0.2")  # half a file, then the disk is full
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(result, "write_csv", full)
+    out = tmp_path / "o"
+    rc = main(["run", "first-order-ip-algebraic", "--set", "sim.t_end=0.5", "--out",
+               str(out)])
+    err = capsys.readouterr().err
+    assert rc == 1 and _last_line(err).endswith(": No space left on device")
+    assert list(out.iterdir()) == []  # nothing half-written, no temporary file
+
+
+@pytest.mark.parametrize("args", [
+    ["run", "first-order-ip-algebraic"],
+    ["sweep", "first-order-ip-algebraic", "--grid", "controller.kp=1,2"],
+    ["tune", "first-order-ip-algebraic", "--param", "controller.kp=1:10"],
+    ["compare", "first-order-ip-algebraic"],
+    ["benchmark"],
+    ["export-c", "first-order-ip-algebraic"],
+    ["reproduce"],
+], ids=lambda a: a[0])
+def test_an_empty_out_is_one_line_not_the_current_folder(args, tmp_path):
+    proc = cli(*args, "--out", "", cwd=tmp_path)
+    assert_usage_error(proc, "--out = ''", "must name a folder (it is empty)")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_map_out_without_a_suffix_says_the_png_it_wrote(tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["sweep", "first-order-ip-algebraic", "--grid", "controller.kp=1,2",
+                 "--grid", "controller.alpha=1,2", "--set", "sim.t_end=0.5", "--out",
+                 str(out)]) == 0
+    capsys.readouterr()
+    assert main(["map", str(out), "--x", "controller.kp", "--y", "controller.alpha",
+                 "--out", str(tmp_path / "m")]) == 0
+    assert capsys.readouterr().out.strip() == f"wrote {tmp_path / 'm.png'}"
+    assert (tmp_path / "m.png").stat().st_size > 10_000
+    assert main(["map", str(out), "--x", "controller.kp", "--y", "controller.alpha",
+                 "--out", ""]) == 2
+    assert "--out = '': must name a file (it is empty)" in capsys.readouterr().err
+
+
+def test_a_budget_beyond_any_search_is_one_line():
+    assert_usage_error(cli("tune", "first-order-ip-algebraic", "--param", "controller.kp=1:10",
+                           "--budget", "100000000000000000000"),
+                       "--budget = 100000000000000000000", "at most 1,000,000")

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from . import files
 from ._version import __version__
 from .config.toml import parse_assignment
 from .errors import CaseError, ConfigError
@@ -43,11 +44,37 @@ def _overrides(pairs: list[str] | None) -> dict:
     return out
 
 
-def _out_dir(path: str) -> Path:
+def _out_dir(path: str | None, default: Path | None = None) -> Path:
+    """``--out`` as a folder (``default`` when not given): refused in one line when empty
+    (it would write into the current folder) or an existing file."""
+    if path is None and default is not None:
+        return default
+    if path is None or not path.strip():
+        raise ConfigError("--out", path, "must name a folder (it is empty)")
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise ConfigError("--out", path, "must be a folder (it is an existing file)")
     return out
+
+
+def _ready(out: Path) -> Path:
+    """``out`` created and writable, before a long job (not after its first results)."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError("--out", str(out), f"cannot be created ({exc.strerror})") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ConfigError("--out", str(out), "cannot be written (permission denied)")
+    return out
+
+
+def _out_file(path: str) -> Path:
+    """``--out`` as a file: refused in one line when empty or an existing folder."""
+    if not path.strip():
+        raise ConfigError("--out", path, "must name a file (it is empty)")
+    if Path(path).is_dir():
+        raise ConfigError("--out", path, "must name a file (it is an existing folder)")
+    return Path(path)
 
 
 def _cmd_cases(args) -> int:
@@ -79,12 +106,12 @@ def _cmd_run(args) -> int:
     from .experiments import cases
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
-    out = _out_dir(args.out) if args.out else Path("results") / name
+    out = _out_dir(args.out, Path("results") / name)
     result = cases.run_config(cfg, name, fast=args.fast)
     out.mkdir(parents=True, exist_ok=True)  # after the run: a refused run writes nothing
     result.to_csv(out / "trajectory.csv")
-    (out / "metrics.json").write_text(result.metrics_json() + "\n")
-    (out / "config.toml").write_text(cfg.to_toml(shown_keys(cfg)))
+    files.write_text(out / "metrics.json", result.metrics_json() + "\n")
+    files.write_text(out / "config.toml", cfg.to_toml(shown_keys(cfg)))
     if isinstance(result, SweepResult):
         result.plot(out / "figure.png", kind="error")
         result.plot(out / "figure-gamma.png", kind="gamma")
@@ -112,7 +139,7 @@ def _cmd_sweep(args) -> int:
     name, cfg = cases.resolve_case(args.case, overrides, command="sweep")
     axes = parse_grid(args.grid or cfg["sweep.grid"] or [])
     cfg = cfg.with_overrides({"sweep.key": None, "sweep.values": None, "sweep.grid": None})
-    out = _out_dir(args.out) if args.out else Path("results") / "sweeps" / name
+    out = _out_dir(args.out, Path("results") / "sweeps" / name)
     if args.keep is not None and args.keep < 0:
         raise ConfigError("--keep", args.keep, "must be a whole number >= 0")
     if args.chunk is not None and args.chunk < 1:
@@ -145,7 +172,8 @@ def _cmd_map(args) -> int:
         where[key] = value
     try:
         path = maps.draw_map(Path(args.folder), args.x, args.y, args.metric,
-                             path=args.out, where=where or None)
+                             path=None if args.out is None else _out_file(args.out),
+                             where=where or None)
     except (ValueError, KeyError) as exc:
         raise CaseError(str(exc)) from None
     print(f"wrote {path}")
@@ -168,7 +196,7 @@ def _cmd_tune(args) -> int:
 
     # bad input before work
     name, _ = cases.resolve_case(args.case, _overrides(args.set), command="run")
-    out = _out_dir(args.out) if args.out else Path("results") / "tune" / name
+    out = _out_dir(args.out, Path("results") / "tune" / name)
     t_start = time.perf_counter()
     shown = []
 
@@ -216,7 +244,7 @@ def _cmd_tune(args) -> int:
 def _cmd_compare(args) -> int:
     from .experiments.compare import compare
 
-    out = _out_dir(args.out) if args.out else Path("results") / "compare"
+    out = _out_dir(args.out, Path("results") / "compare")
     comp = compare(args.cases, _overrides(args.set), out=out)
     sys.stdout.write(comp.markdown())
     print(f"wrote {out}/comparison.csv, comparison.md, comparison.png")
@@ -226,7 +254,7 @@ def _cmd_compare(args) -> int:
 def _cmd_benchmark(args) -> int:
     from .experiments.benchmark import DEFAULT_BUDGET, benchmark, print_progress
 
-    out = _out_dir(args.out) if args.out else Path("results") / "benchmark"
+    out = _ready(_out_dir(args.out, Path("results") / "benchmark"))
     budget = DEFAULT_BUDGET if args.budget is None else args.budget
     bar = print_progress()
     try:
@@ -247,7 +275,7 @@ def _cmd_export_c(args) -> int:
     from .experiments import cases
 
     name, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
-    out = _out_dir(args.out) if args.out else Path("results") / name / "c"
+    out = _out_dir(args.out, Path("results") / name / "c")
     sets = "".join(f" --set {text}" for text in args.set or [])
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
                               description=f"case {args.case}{sets}")

@@ -21,16 +21,18 @@ class ConfigError(ValueError):
         super().__init__(f"{key} = {shown(value)}: {allowed}")
 
 
-def shown(value: object, limit: int = 200) -> str:
+def shown(value: object, limit: int | None = None) -> str:
     """``repr(value)`` for a one-line message: an integer too long to print (Python refuses
-    past 4,300 digits) by its size, anything longer than ``limit`` characters cut."""
+    past 4,300 digits) by its size; with ``limit``, anything longer cut."""
     try:
         text = repr(value)
     except ValueError:  # an integer past the int-to-str limit, or a container holding one
         if isinstance(value, int):
             return f"an integer of {value.bit_length()} bits (beyond the float range)"
         return f"a {type(value).__name__} holding too long an integer"
-    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+    if limit is None or len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text)} characters)"
 
 
 class CaseError(ValueError):

@@ -46,11 +46,11 @@ def load(name_or_path: str | Path) -> tuple[str, dict[str, Any]]:
         table = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise CaseError(f"case file {str(path)!r} is not valid TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CaseError(f"case file {str(path)!r} cannot be read: {exc}") from None
     except ValueError:  # an integer past Python's int-to-str limit (4,300 digits)
         raise CaseError(f"case file {str(path)!r} holds too long a number: options are "
                         "numbers within the float range") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CaseError(f"case file {str(path)!r} cannot be read: {exc}") from None
     except RecursionError:
         raise CaseError(f"case file {str(path)!r} is nested too deeply: options are "
                         "numbers, strings, true/false or lists of numbers") from None

@@ -427,6 +427,8 @@ def draw_map(folder: str | Path, x: str, y: str, metric: str, path: str | Path |
         path = folder / f"{name}.png"
     fig = heatmap(frame, x, y, metric, where=where, title=_case_title(folder, metric))
     path = Path(path)
+    if not path.suffix:  # a PNG, as savefig writes it: named so
+        path = path.with_name(path.name + ".png")
     save_figure(fig, path)
     return path
 
@@ -463,5 +465,7 @@ def draw_maps_side_by_side(frames_and_titles: list[tuple[pd.DataFrame, str]], x:
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in (where or {}).items())
     fig.suptitle(head + (f" ({fixed})" if fixed else ""))
     path = Path(path)
+    if not path.suffix:  # a PNG, as savefig writes it: named so
+        path = path.with_name(path.name + ".png")
     save_figure(fig, path)
     return path

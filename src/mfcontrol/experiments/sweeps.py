@@ -24,7 +24,6 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import os
 import signal
 import sys
 import threading
@@ -36,6 +35,7 @@ from typing import Any
 import numpy as np
 from filelock import FileLock, Timeout
 
+from .. import files
 from .._version import __version__
 from ..api.run import batch
 from ..api.run.simulate import simulate
@@ -75,7 +75,7 @@ def _write_chunk(frame, path: Path, mark: str, a: int, b: int) -> None:
     table = table.replace_schema_metadata({**(table.schema.metadata or {}),
                                            b"mfcontrol.sweep": mark.encode(),
                                            b"mfcontrol.members": f"{a}:{b}".encode()})
-    _replace_with(path, lambda tmp: pq.write_table(table, tmp))
+    files.replace_with(path, lambda tmp: pq.write_table(table, tmp))
 
 
 def _chunk_damage(path: Path, mark: str, a: int, b: int) -> str | None:
@@ -129,22 +129,11 @@ def _check_folder(out: Path, manifest: dict) -> None:
             raise ConfigError("--out", str(out), "holds a different sweep (see its sweep.json):"
                               " choose another folder")
     else:
-        _replace_with(path, lambda tmp: tmp.write_text(json.dumps(manifest, indent=2)))
-
-
-def _replace_with(path: Path, write: Callable[[Path], Any]) -> None:
-    """Write ``path`` atomically: into a temporary file of this process, then renamed over
-    it (a reader sees the old file or the new, never half of one)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+        files.replace_with(path, lambda tmp: tmp.write_text(json.dumps(manifest, indent=2)))
 
 
 def _write_atomic(frame, path: Path) -> None:
-    _replace_with(path, lambda tmp: frame.to_parquet(tmp, index=False))
+    files.replace_with(path, lambda tmp: frame.to_parquet(tmp, index=False))
 
 
 def _lock(out: Path) -> FileLock:

@@ -41,6 +41,8 @@ from ..config.options import BY_KEY
 from ..config.resolve import Config, axis_value
 from ..errors import ConfigError
 
+#: most evaluations (points) one search may be given: a bound on its work, said up front
+MAX_BUDGET = 1_000_000
 #: evaluations (points) when no budget is given
 DEFAULT_BUDGET = 600
 _RANGE = re.compile(r"^\s*([^=\s]+)\s*=\s*([^:]+):([^:]+)\s*$")
@@ -505,6 +507,9 @@ def population(budget: Any, d: int) -> tuple[int, int, int]:
     if not isinstance(budget, int | np.integer) or isinstance(budget, bool):
         raise ConfigError("--budget", budget, "must be a whole number")
     budget = int(budget)
+    if budget > MAX_BUDGET:
+        raise ConfigError("--budget", budget, f"must be at most {MAX_BUDGET:,} points (some "
+                          "hours of runs: a search that large is better split)")
     per_dim = max(1, min(15 * d, budget // 4) // d)
     size = max(5, per_dim * d)
     if budget < max(10, 2 * size):

@@ -500,7 +500,7 @@ def test_integers_beyond_the_float_range_are_refused_or_counted_never_an_overflo
     huge, endless = 10**400, 10**5000  # the second past Python's int-to-str limit
     for value in (huge, endless):
         with pytest.raises(ValueError, match=r"^alpha = (an integer of \d+ bits \(beyond "
-                           r"the float range\)|10{199}\.\.\. \(401 characters\)): must be "
+                           r"the float range\)|10{400}): must be "
                            r"a finite number > 0$"):
             mfcontrol.IP(alpha=value, kp=1.0, sample_time=0.01)
         with pytest.raises(ValueError, match=r"^output_limits\[0\] = (an integer|10)"):
@@ -510,7 +510,7 @@ def test_integers_beyond_the_float_range_are_refused_or_counted_never_an_overflo
     assert ctrl.nan_count == 1
     snap = ctrl.snapshot()
     snap["last_output"] = huge
-    with pytest.raises(ValueError, match=r"snapshot last_output = 10+\.\.\."):
+    with pytest.raises(ValueError, match=r"snapshot last_output = 10{400}: "):
         ctrl.restore(snap)
-    with pytest.raises(mfcontrol.ConfigError, match=r"^t_end = 10+\.\.\. \(401 char"):
+    with pytest.raises(mfcontrol.ConfigError, match=r"^t_end = 10{400}: "):
         mfcontrol.simulate_loop(mfcontrol.FirstOrder(-1.0, 1.0), ctrl, 1.0, t_end=huge)

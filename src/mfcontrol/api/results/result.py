@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ... import files
 from ..._version import __version__
 from ...config.resolve import Config
 from . import display
@@ -46,8 +47,12 @@ class _Files(display.Shown):
         """Write the trajectory; floats keep all 17 significant digits."""
         path = Path(path)
         columns = self._columns()
-        if columns is None or not write_csv(path, columns):
-            self.to_pandas().to_csv(path, index=False, float_format="%.17g")
+
+        def write(tmp: Path) -> None:
+            if columns is None or not write_csv(tmp, columns):
+                self.to_pandas().to_csv(tmp, index=False, float_format="%.17g")
+
+        files.replace_with(path, write)  # whole or not at all (a full disk, a kill)
         return path
 
     def metrics_json(self) -> str:
