@@ -57,14 +57,16 @@ def _out_dir(path: str | None, default: Path | None = None) -> Path:
     return out
 
 
-def _ready(out: Path) -> Path:
-    """``out`` created and writable, before a long job (not after its first results)."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError("--out", str(out), f"cannot be created ({exc.strerror})") from None
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise ConfigError("--out", str(out), "cannot be written (permission denied)")
+def _writable(out: Path) -> Path:
+    """``out``, checked before a long job (not after its first results) and without
+    creating it: its nearest existing folder must be writable."""
+    near = out
+    while not near.exists() and near != near.parent:
+        near = near.parent
+    if not near.is_dir():
+        raise ConfigError("--out", str(out), f"cannot be created ({near} is a file)")
+    if not os.access(near, os.W_OK | os.X_OK):
+        raise ConfigError("--out", str(out), f"cannot be written ({near}: permission denied)")
     return out
 
 
@@ -254,7 +256,7 @@ def _cmd_compare(args) -> int:
 def _cmd_benchmark(args) -> int:
     from .experiments.benchmark import DEFAULT_BUDGET, benchmark, print_progress
 
-    out = _ready(_out_dir(args.out, Path("results") / "benchmark"))
+    out = _writable(_out_dir(args.out, Path("results") / "benchmark"))
     budget = DEFAULT_BUDGET if args.budget is None else args.budget
     bar = print_progress()
     try:

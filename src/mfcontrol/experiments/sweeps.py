@@ -68,8 +68,8 @@ def _mark(manifest: dict) -> str:
 def _write_chunk(frame, path: Path, mark: str, a: int, b: int) -> None:
     """Chunk file of members a..b-1, atomically, with the sweep's mark and its members in
     the file's metadata."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
     table = pa.Table.from_pandas(frame, preserve_index=False)
     table = table.replace_schema_metadata({**(table.schema.metadata or {}),
@@ -80,8 +80,8 @@ def _write_chunk(frame, path: Path, mark: str, a: int, b: int) -> None:
 
 def _chunk_damage(path: Path, mark: str, a: int, b: int) -> str | None:
     """Why the chunk file of members a..b-1 cannot be taken as done (None: it can)."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
     if path.is_dir():
         raise ConfigError("--out", str(path.parent.parent), f"holds a folder where a chunk "

@@ -116,7 +116,8 @@ def _run(folder: Path, name: str, cache_dir: Path, vectorise: str, **env: str):
 def _ode_lines(log: list[str], what: str) -> list[str]:
     """The log's lines of ``what`` ("saved", "loaded") about an ODE's functions."""
     return [line for line in log if f"data {what}" in line
-            and ("ode._compile" in line or "blocks._build" in line)]
+            and ("ode._compile" in line or "blocks._build" in line
+                 or "blocks._guard_block" in line)]
 
 
 def test_an_ode_from_a_file_compiles_once_per_machine(tmp_path, cache_dir):
