@@ -1,5 +1,8 @@
 """Errors raised at the edge of the library, worded for the person who made them."""
 
+import math
+from typing import Any
+
 
 class ConfigError(ValueError):
     """An invalid configuration: the message names the key, the value and what is allowed.
@@ -19,6 +22,15 @@ class ConfigError(ValueError):
         self.value = value
         self.allowed = allowed
         super().__init__(f"{key} = {shown(value)}: {allowed}")
+
+
+def as_float(v: Any) -> float:
+    """float(v) of a number given by the user, an integer beyond the float range read as
+    infinite (then refused by the caller's finiteness test, never an OverflowError)."""
+    try:
+        return float(v)
+    except OverflowError:
+        return math.inf
 
 
 def shown(value: object, limit: int | None = None) -> str:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..elements import noise
-from ..errors import ConfigError
+from ..errors import ConfigError, as_float
 from ..laws import estimators
 from ..numerics import grid
 from .options import BY_KEY, OPTIONS, PLANT_PARAMETERS, POSITIONAL, Option, allowed
@@ -28,14 +28,6 @@ def _is_number(v: Any) -> bool:
     """A real number: Python's, or NumPy's (np.int64, np.float32, ...); not a bool."""
     return isinstance(v, int | float | np.integer | np.floating) and not isinstance(
         v, bool | np.bool_)
-
-
-def _as_float(v: Any) -> float:
-    """float(v), with integers beyond the float range read as infinite (then rejected)."""
-    try:
-        return float(v)
-    except OverflowError:
-        return math.inf
 
 
 #: each range check as a test on a float or, element-wise, an array of them
@@ -63,14 +55,14 @@ def check_value(key: str, value: Any) -> Any:
     if o is None:
         raise unknown_key(key, value)
     if o.kind == "float":
-        if not _is_number(value) or not _check_number(o, _as_float(value)):
+        if not _is_number(value) or not _check_number(o, as_float(value)):
             raise ConfigError(key, value, allowed(o))
         return float(value)
     if o.kind == "floats":
         if isinstance(value, np.ndarray) and value.ndim == 1:  # as numpy users hold lists
             value = value.tolist()
         if (not isinstance(value, list | tuple)
-                or not all(_is_number(x) and _check_number(o, _as_float(x)) for x in value)):
+                or not all(_is_number(x) and _check_number(o, as_float(x)) for x in value)):
             raise ConfigError(key, value, allowed(o))
         return [float(x) for x in value]
     if o.kind == "strs":
@@ -107,8 +99,8 @@ def _is_event(e: Any) -> bool:
         return False
     t = e["t"]
     v = e["set"] if "set" in e else e["add"]
-    return (_is_number(t) and math.isfinite(_as_float(t)) and t >= 0
-            and isinstance(e["name"], str) and _is_number(v) and math.isfinite(_as_float(v)))
+    return (_is_number(t) and math.isfinite(as_float(t)) and t >= 0
+            and isinstance(e["name"], str) and _is_number(v) and math.isfinite(as_float(v)))
 
 
 def unknown_key(key: str, value: Any) -> ConfigError:

@@ -10,25 +10,18 @@ import math
 import numpy as np
 
 from .._jit import step_jit
-from ..errors import ConfigError
+from ..errors import ConfigError, as_float
 
 #: most samples one run may have (its trajectory alone would need 9 x 8 bytes a sample)
 MAX_STEPS = 100_000_000
 
 
-def _finite(v) -> bool:
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an int beyond the float range
-        return False
-
-
 def n_samples(t_end: float, h: float, t_end_key: str = "t_end", h_key: str = "h") -> int:
     """N = t_end / h, checked: both finite and > 0, N a whole number >= 2, at most
     :data:`MAX_STEPS`. Errors name ``t_end_key`` / ``h_key``."""
-    if not (h > 0 and _finite(h)):
+    if not (h > 0 and math.isfinite(as_float(h))):
         raise ConfigError(h_key, h, "must be a finite number > 0")
-    if not (t_end > 0 and _finite(t_end)):
+    if not (t_end > 0 and math.isfinite(as_float(t_end))):
         raise ConfigError(t_end_key, t_end, "must be a finite number > 0")
     n = t_end / h
     if not n <= MAX_STEPS:  # also catches an overflow to inf

@@ -26,7 +26,7 @@ import numpy as np
 from ..._version import __version__
 from ...config import options
 from ...engine import live
-from ...errors import shown
+from ...errors import as_float, shown
 from ...laws import estimators, intelligent, pid, recursive_ip
 from ...laws import variational_gain as gain_law
 from ..params import recursive_law_column
@@ -47,25 +47,17 @@ def _number(name: str, value: Any, *, positive: bool = False, nonneg: bool = Fal
     if value is None and allow_none:
         return None
     ok = isinstance(value, _REAL) and not isinstance(value, bool)
-    if ok:
-        try:
-            value = float(value)
-        except OverflowError:  # an int beyond the float range
-            ok = False
-    if ok:
-        ok = math.isfinite(value) and (not positive or value > 0) and (not nonneg or value >= 0)
+    real = ok
+    number = as_float(value) if real else math.nan  # an int beyond the float range: inf
+    ok = ok and math.isfinite(number) and (not positive or number > 0) \
+        and (not nonneg or number >= 0)
     if not ok:
         what = "> 0" if positive else (">= 0" if nonneg else "")
-        raise ValueError(f"{name} = {shown(value)}: must be a finite number {what}".rstrip())
-    return value
-
-
-def _finite(y: Any) -> bool:
-    """Whether the number y is finite (an int beyond the float range is not)."""
-    try:
-        return math.isfinite(y)
-    except OverflowError:
-        return False
+        # a number as the float it was read as; an int beyond the float range as given
+        overflow = isinstance(value, int) and math.isinf(number)
+        bad = number if real and not overflow else value
+        raise ValueError(f"{name} = {shown(bad)}: must be a finite number {what}".rstrip())
+    return number
 
 
 def _choice(name: str, value: Any, allowed) -> Any:
@@ -190,7 +182,7 @@ class _Controller:
             self.setpoint = setpoint  # the property checks it
         if not self.auto_mode:
             return False
-        if not _finite(y):
+        if not math.isfinite(as_float(y)):
             self.nan_count += 1
             self._skipped += dt
             return False

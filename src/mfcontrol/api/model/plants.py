@@ -31,7 +31,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from ...errors import ConfigError, PlantFunctionError
+from ...errors import ConfigError, PlantFunctionError, as_float
 from ...numerics import blocks, rk4
 from ...numerics import signatures as sig
 from ...plants import boost, buck, dc_motor, first_order, lti, ode
@@ -68,10 +68,7 @@ def _number(name: str, value: Any, positive: bool = False) -> float:
     """``value`` as a float, or ConfigError (a ValueError) naming ``name`` and the range."""
     v = math.nan
     if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        try:
-            v = float(value)
-        except OverflowError:  # an int beyond the float range
-            v = math.inf
+        v = as_float(value)
     if not (math.isfinite(v) and (v > 0 or not positive)):
         raise ConfigError(name, value, "must be a finite number" + (" > 0" if positive else ""))
     return v
