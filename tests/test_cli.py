@@ -161,6 +161,12 @@ ERRORS = [
                  ["controller.window = 5000", "at most 4,095 samples in a float export"],
                  id="export-c-float-window"),
     pytest.param(["export-c", "nope"], ["'nope'", "unknown case"], id="export-c-unknown-case"),
+    pytest.param(["export-c", CASE, "--input-limits", "5", "1", "--out", "{d}/c-lim"],
+                 ["input_limits = (5.0, 1.0)", "low must not exceed high"],
+                 id="export-c-input-limits-reversed"),
+    pytest.param(["export-c", CASE, "--input-limits", "nan", "1", "--out", "{d}/c-lim"],
+                 ["--input-limits = 'nan'", "finite number or none"],
+                 id="export-c-input-limits-nan"),
     # unknown case or file
     pytest.param([S, "nope"], ["'nope'", "unknown case", "built-in cases are",
                                "voltage-stable-standard", ".toml"], id="unknown-case"),
@@ -778,6 +784,15 @@ def test_export_c_writes_a_header_and_a_source_that_compile(tmp_path):
     assert "kp = 7.0" in header
     subprocess.run([compiler(), *CFLAGS, "-c", str(folder / "motor.c"), "-o",
                     str(tmp_path / "motor.o")], check=True)
+
+
+def test_export_c_takes_the_sensor_range(tmp_path):
+    proc = cli("export-c", "motor-noise-pid", "--input-limits", "none", "5000", "--out",
+               str(tmp_path / "c"))
+    assert proc.returncode == 0, proc.stderr
+    source = (tmp_path / "c" / "mfc.c").read_text()
+    assert "if (!isfinite(y) || y > 5000.0) {" in source
+    assert "--input-limits none 5000" in source  # the banner says how it was made
 
 
 def test_export_c_of_a_sweep_case_says_it_exports_the_base_setting(tmp_path):

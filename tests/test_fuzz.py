@@ -140,12 +140,13 @@ numbers = st.one_of(st.floats(), st.integers(-10**30, 10**30), st.sampled_from(
 OPTIONS = {
     "IP": ["sample_time", "order", "output_limits", "estimator", "window", "anti_windup",
            "k_aw", "gain", "gamma0", "Gamma", "eps_M", "integrator", "setpoint",
-           "starting_output"],
+           "starting_output", "input_limits"],
     "IPID": ["sample_time", "order", "output_limits", "estimator", "window", "anti_windup",
-             "gain", "setpoint"],
-    "PID": ["sample_time", "N", "b", "Tt", "output_limits", "setpoint"],
+             "gain", "setpoint", "input_limits"],
+    "PID": ["sample_time", "N", "b", "Tt", "output_limits", "setpoint", "input_limits"],
     "RecursiveIP": ["setpoint", "sample_time", "law", "gamma0", "Gamma", "eps_M",
-                    "integrator", "deriv_scale", "output_gain", "duty_min", "duty_max"],
+                    "integrator", "deriv_scale", "output_gain", "duty_min", "duty_max",
+                    "input_limits"],
 }
 CHOICES = {"order": [1, 2, 3, True], "estimator": ["backward-difference", "algebraic", "x"],
            "window": [None, 2, 3, 4, 40, 10**9, 2.0, -1],
@@ -154,14 +155,17 @@ CHOICES = {"order": [1, 2, 3, True], "estimator": ["backward-difference", "algeb
            "integrator": ["first-order", "second-order", "z"],
            "law": ["ip", "variational", "i-P", 3],
            "output_limits": [(None, None), (-1, 1), (1, -1), (0, 0), (math.nan, 1),
-                             (-math.inf, math.inf), [0, 10], 5, (0, 1, 2)]}
+                             (-math.inf, math.inf), [0, 10], 5, (0, 1, 2)],
+           "input_limits": [(None, None), (-1, 1), (1, -1), (math.nan, 1), (-10, None),
+                            5, (10**400, None)]}
 N_ARGS = {"IP": 2, "IPID": 4, "PID": 3, "RecursiveIP": 2}
 
 
 VALID = {"order": [1, 2], "estimator": ["backward-difference"], "window": [None],
          "anti_windup": ["clamp", "back-calculation", "none"],
          "gain": ["constant", "variational"], "integrator": ["first-order", "second-order"],
-         "law": ["ip", "variational"], "output_limits": [(None, None), (-1, 1), [0, 10]]}
+         "law": ["ip", "variational"], "output_limits": [(None, None), (-1, 1), [0, 10]],
+         "input_limits": [(None, None), (-10, 10), (None, 100.0)]}
 
 
 @st.composite
@@ -235,6 +239,159 @@ def test_live_controllers_take_anything(spec, sequence, switch, tally):
     snap = json.loads(json.dumps(ctrl.snapshot()))
     again = cls.from_snapshot(snap)
     assert json.dumps(again.snapshot()) == json.dumps(ctrl.snapshot())
+
+
+# --- issue 29: extreme finite samples, huge integers, raising functions, damaged folders ---
+
+#: controllers that hold y' = -y + u (Euler, h = 0.01) at 1 from 0: every law family
+STABLE = {
+    "PID": lambda lim: mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01,
+                                     output_limits=(-24, 24), input_limits=lim),
+    "i-PI algebraic": lambda lim: mfcontrol.IPI(
+        alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01, estimator="algebraic", window=10,
+        output_limits=(-24, 24), input_limits=lim),
+    "i-PI variational": lambda lim: mfcontrol.IPI(
+        alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01, gain="variational",
+        integrator="second-order", output_limits=(-24, 24), input_limits=lim),
+    "i-PD": lambda lim: mfcontrol.IPD(alpha=1.0, kp=4.0, kd=0.05, order=1, sample_time=0.01,
+                                      output_limits=(-24, 24), input_limits=lim),
+    "recursive variational": lambda lim: mfcontrol.RecursiveIP(law="variational",
+                                                               input_limits=lim),
+}
+extremes = st.one_of(st.sampled_from([1e308, -1e308, 1.7976931348623157e308, 1e200, -1e39]),
+                     st.floats(1e30, 1.7e308), st.floats(-1.7e308, -1e30))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(law=st.sampled_from(sorted(STABLE)), spikes=st.lists(extremes, min_size=1, max_size=3),
+       at=st.integers(5, 150), limited=st.booleans())
+def test_extreme_finite_samples_never_lock_a_live_controller(law, spikes, at, limited, tally):
+    """A burst of 1 to 3 extreme finite samples: with input_limits every one is rejected
+    (and the run is the run with NaNs there, bit for bit); without them a sample whose step
+    overflows is rejected and no more than RESTART_AFTER samples in a row ever are (the
+    law restarts): after the burst every normal sample is answered."""
+    from mfcontrol.api.model.controllers import RESTART_AFTER
+
+    def loop(ctrl, burst):
+        y, out, taken = 0.0, [], []
+        for k in range(300):
+            sample = burst[k - at] if 0 <= k - at < len(burst) else y
+            before = ctrl.nan_count
+            u = ctrl(sample, setpoint=1.0)
+            assert math.isfinite(u)
+            taken.append(ctrl.nan_count == before)
+            y += 0.01 * (-y + u)
+            out.append(u)
+        return np.array(out), taken
+
+    lim = (-10.0, 10.0) if limited else (None, None)
+    out, taken = loop(STABLE[law](lim), spikes)
+    after = taken[at + len(spikes):]
+    if limited:
+        nans = [math.nan] * len(spikes)
+        assert np.array_equal(out, loop(STABLE[law](lim), nans)[0])
+        tally["extreme samples rejected by input_limits"] += len(spikes)
+    # a sample of the burst the law took may overflow the next ones: at most RESTART_AFTER
+    # are rejected (then the law restarts), and none after them
+    run = longest = 0
+    for ok in after:
+        run = 0 if ok else run + 1
+        longest = max(longest, run)
+    assert longest <= RESTART_AFTER and all(after[RESTART_AFTER:]), (law, spikes)
+    tally["extreme samples survived"] += len(spikes)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(digits=st.integers(4_301, 6_000), where=st.sampled_from(
+    ["controller.kp", "plant.R", "sim.t_end", "controller.window"]), sign=st.sampled_from("-+"))
+def test_integers_too_long_for_python_are_one_line(digits, where, sign, tally):
+    """An integer of more than 4,300 digits (Python's int-to-str limit) in --set."""
+    rc, _, err = _cli(["show", "voltage-stable-standard", f"--set={where}={sign}{'9' * digits}"])
+    assert rc == 2
+    _one_line_naming(err, where)
+    assert len(err) < 400  # the number is shown shortened
+    with pytest.raises(ValueError) as info:
+        mfcontrol.IPI(alpha=1.0, kp=int(sign + "9" * 400), ki=1.0, sample_time=0.01)
+    assert "\n" not in str(info.value) and str(info.value).startswith("kp = ")
+    tally["huge integers refused"] += 1
+
+
+def _raising_f(t, x, u, p, dxdt):
+    if t > p[1]:
+        raise ValueError("out of range")
+    dxdt[0] = -p[0] * x[0] + u
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(when=st.floats(0.0, 0.3), k=st.floats(0.1, 5.0))
+def test_a_user_function_that_raises_at_any_time_is_an_error_naming_it(when, k, tally):
+    plant = mfcontrol.ODE(_raising_f, lambda x, p: x[0], x0=(0.0,),
+                          params={"k": k, "t_raise": when})
+    ctrl = mfcontrol.IPI(alpha=1.0, kp=5.0, ki=2.0, sample_time=0.01)
+    with pytest.raises(mfcontrol.PlantFunctionError) as info:
+        mfcontrol.simulate_loop(plant, ctrl, 1.0, t_end=0.5)
+    msg = str(info.value)
+    assert msg.startswith("f(t, x, u, p, dxdt) raised ValueError: out of range at t = ")
+    assert "\n" not in msg
+    tally["raising user functions named"] += 1
+
+
+DAMAGES = ["cut", "empty", "garbage", "folder", "missing", "intact"]
+
+
+@pytest.fixture(scope="module")
+def finished_sweep(tmp_path_factory):
+    """A finished 12-member sweep in 6 chunks, and its results."""
+    import pandas as pd
+
+    out = tmp_path_factory.mktemp("fuzz-sweep") / "whole"
+    rc, _, err = _cli(["sweep", "voltage-stable-standard", "--grid",
+                       "controller.alpha=logspace(-1,1,4)", "--grid", "plant.dR=0,2.5,5",
+                       "--set", "sim.t_end=0.002", "--chunk", "2", "--out", str(out)])
+    assert rc == 0, err
+    return out, pd.read_parquet(out / "results.parquet")
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[
+    HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(damage=st.lists(st.sampled_from(DAMAGES), min_size=6, max_size=6),
+       cut=st.floats(0.0, 1.0))
+def test_a_sweep_folder_damaged_anyhow_resumes_to_the_same_results(
+        damage, cut, finished_sweep, tmp_path_factory, tally):
+    import shutil
+
+    import pandas as pd
+
+    whole, results = finished_sweep
+    folder = tmp_path_factory.mktemp("damaged") / "d"
+    shutil.copytree(whole, folder)
+    (folder / "results.parquet").unlink()
+    for i, how in enumerate(damage):
+        chunk = folder / "chunks" / f"chunk-{i:06d}.parquet"
+        data = chunk.read_bytes()
+        if how == "cut":
+            chunk.write_bytes(data[:int(cut * (len(data) - 1))])
+        elif how == "empty":
+            chunk.write_bytes(b"")
+        elif how == "garbage":
+            chunk.write_bytes(bytes(range(256)) * 3)
+        elif how == "missing":
+            chunk.unlink()
+        elif how == "folder":
+            chunk.unlink()
+            chunk.mkdir()
+    (folder / "chunks" / ".chunk-000000.parquet.99999.tmp").write_bytes(b"left by kill -9")
+    rc, _, err = _cli(["sweep", "voltage-stable-standard", "--grid",
+                       "controller.alpha=logspace(-1,1,4)", "--grid", "plant.dR=0,2.5,5",
+                       "--set", "sim.t_end=0.002", "--chunk", "2", "--out", str(folder)])
+    if "folder" in damage:  # where a chunk belongs: refused in one line, nothing lost
+        assert rc == 2 and "remove it to resume" in err and "Traceback" not in err
+        tally["damaged sweep folders refused"] += 1
+        return
+    assert rc == 0, err
+    pd.testing.assert_frame_equal(pd.read_parquet(folder / "results.parquet"), results)
+    assert not list(folder.rglob("*.tmp"))
+    tally["damaged sweep folders resumed"] += 1
 
 
 def test_zz_report_the_counts(tally, record_property):

@@ -23,7 +23,7 @@ from typing import Any
 from . import files
 from ._version import __version__
 from .config.toml import parse_assignment
-from .errors import CaseError, ConfigError
+from .errors import CaseError, ConfigError, as_float
 
 EXIT_USAGE = 2
 #: errors of a path the user gave (exit 2, like any bad input); others (a full disk) exit 1
@@ -272,6 +272,19 @@ def _cmd_benchmark(args) -> int:
     return 0
 
 
+def _limit(flag: str, text: str) -> float | None:
+    """A limit given on the command line: a finite number, or none."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        value = as_float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise ConfigError(flag, text, "each limit must be a finite number or none")
+    return value
+
+
 def _cmd_export_c(args) -> int:
     from .cexport import CFLAGS, export_c
     from .experiments import cases
@@ -279,8 +292,12 @@ def _cmd_export_c(args) -> int:
     name, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
     out = _out_dir(args.out, Path("results") / name / "c")
     sets = "".join(f" --set {text}" for text in args.set or [])
+    limits = None
+    if args.input_limits is not None:
+        limits = tuple(_limit("--input-limits", text) for text in args.input_limits)
+        sets += f" --input-limits {' '.join(args.input_limits)}"
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
-                              description=f"case {args.case}{sets}")
+                              description=f"case {args.case}{sets}", input_limits=limits)
     print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}); compile "
           f"with: cc {' '.join(CFLAGS)} -c {source}")
     key = cfg["sweep.key"]
@@ -427,6 +444,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default mfc: mfc.h, mfc_step...)")
     s.add_argument("--float", choices=("double", "float"), default="double",
                    help="floating-point type of the C (default double)")
+    s.add_argument("--input-limits", nargs=2, metavar=("LOW", "HIGH"),
+                   help="the measurement's valid range (the sensor's; 'none' for no limit): "
+                   "a sample outside is rejected as a NaN is, the output held")
     s.set_defaults(func=_cmd_export_c)
 
     s = sub.add_parser("tuner", help="tune a case interactively in the browser: sliders, "

@@ -48,7 +48,14 @@ def operations(case: str) -> np.ndarray:
     tail = y[-1] + 0.01 * scale * rng.standard_normal(50)
     special = [
         (H.STEP, np.nan, r[-1]), (H.STEP, np.inf, r[-1]), (H.STEP, -np.inf, r[-1]),
-        (H.STEP, 1e300, r[-1]), (H.STEP, -1e300, 1e300),  # the law overflows: held
+        (H.STEP, 1e300, r[-1]), (H.STEP, -1e300, 1e300),  # the law overflows: held,
+        # and the second overflow in a row restarts the law from its last output
+        (H.STEP, y[-1], r[-1]), (H.STEP, y[-1], r[-1]), (H.STEP, y[-1], r[-1]),
+        # finite outliers: taken (1e39), or rejected where the step would overflow
+        (H.STEP, 1e39, r[-1]), (H.STEP, y[-1], r[-1]), (H.STEP, y[-1], r[-1]),
+        (H.STEP, -1e200, r[-1]), (H.STEP, y[-1], r[-1]), (H.STEP, y[-1], r[-1]),
+        (H.STEP, 1e308, r[-1]), (H.STEP, y[-1], r[-1]), (H.STEP, y[-1], r[-1]),
+        (H.STEP, y[-1], r[-1]),
         (H.STEP, y[-1], r[-1]), (H.STEP, np.nan, r[-1]), (H.STEP, np.nan, r[-1]),
         (H.STEP, y[-1], r[-1]),  # a dropout: the derivatives span three periods
         (H.MANUAL, 0.5 * r[-1] + 0.1, 0.0), (H.STEP, y[-1], r[-1]), (H.STEP, y[-2], r[-1]),
@@ -128,6 +135,27 @@ def test_a_controller_built_in_python_exports_too(tmp_path):
     u_c, _ = H.run_binary(H.build(c_source(ctrl), tmp_path), ops)
     u_py, _ = H.run_python(ctrl, ops)
     assert np.array_equal(u_c, u_py)
+
+
+@pytest.mark.parametrize("make", [
+    lambda **kw: mfcontrol.IPI(alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01,
+                               gain="variational", output_limits=(-24, 24), **kw),
+    lambda **kw: mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01, **kw),
+    lambda **kw: mfcontrol.RecursiveIP(law="variational", **kw),
+], ids=["i-PI", "PID", "recursive"])
+def test_input_limits_and_outliers_export_bit_for_bit(make, tmp_path):
+    # outliers inside and outside the limits, overflows and a memory restart
+    rng = np.random.default_rng(3)
+    y = list(np.cumsum(0.01 * rng.standard_normal(200)))
+    y[50], y[80], y[81], y[120], y[160] = 11.0, 1e39, -1e300, -1e308, 1e308
+    ops = H.steps(np.array(y), np.ones(200))
+    for limits in [(None, None), (-10.0, 10.0), (None, 10.0), (-10.0, None)]:
+        ctrl = make(input_limits=limits)
+        src = c_source(ctrl)
+        u_c, nan_c = H.run_binary(H.build(src, tmp_path / str(limits)), ops)
+        u_py, nan_py = H.run_python(make(input_limits=limits), ops)
+        assert np.array_equal(u_c, u_py) and nan_c == nan_py
+        assert ("input limits [" in src.header) == (limits != (None, None))
 
 
 @st.composite

@@ -9,12 +9,15 @@ from typing import Any
 from ..api.model.controllers import _Controller
 from ..config.resolve import Config
 from ..errors import ConfigError
+from ..files import write_text
 from .source import CSource, c_source
 
 
 def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | None = None, *,
              out: str | Path = ".", prefix: str = "mfc", real: str = "double",
-             description: str | None = None) -> tuple[Path, Path]:
+             description: str | None = None,
+             input_limits: tuple[float | None, float | None] | None = None
+             ) -> tuple[Path, Path]:
     """Write the controller of a case as C99: ``OUT/PREFIX.h`` and ``OUT/PREFIX.c``.
 
     The C is translated from the same law functions the simulators run, with every
@@ -39,6 +42,10 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
     description : str, optional
         What the files' leading comment says they came from (default: the case and its
         overrides, or the controller's repr).
+    input_limits : (low, high), optional
+        The measurement's valid range (the sensor's; None for no limit) given to a case's
+        controller: a sample outside is rejected as a NaN is. A controller built in Python
+        takes its own ``input_limits=``.
 
     Returns
     -------
@@ -57,17 +64,19 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
 
     ``motor_real`` is ``double`` here and ``float`` with ``real="float"``.
     """
-    src = source_of(case, overrides, prefix=prefix, real=real, description=description)
+    src = source_of(case, overrides, prefix=prefix, real=real, description=description,
+                    input_limits=input_limits)
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     header, source = folder / f"{prefix}.h", folder / f"{prefix}.c"
-    header.write_text(src.header)
-    source.write_text(src.source)
+    write_text(header, src.header)  # whole or not at all
+    write_text(source, src.source)
     return header, source
 
 
 def source_of(case, overrides=None, *, prefix: str = "mfc", real: str = "double",
-              description: str | None = None) -> CSource:
+              description: str | None = None,
+              input_limits: tuple[float | None, float | None] | None = None) -> CSource:
     """The :class:`CSource` :func:`export_c` writes."""
     from ..experiments.cases import make_controller
 
@@ -75,8 +84,17 @@ def source_of(case, overrides=None, *, prefix: str = "mfc", real: str = "double"
         if overrides:
             raise ConfigError("overrides", dict(overrides), "apply to a case, not to a "
                               "controller built in Python")
+        if input_limits is not None:
+            raise ConfigError("input_limits", input_limits, "build the controller with "
+                              "input_limits=, not its export")
         return c_source(case, prefix=prefix, real=real, description=description or repr(case))
     ctrl = make_controller(case, overrides)
+    if input_limits is not None:
+        try:
+            ctrl._take_input_limits(input_limits)
+        except ValueError as exc:
+            raise ConfigError("input_limits", input_limits,
+                              str(exc).partition(": ")[2]) from None
     what = case if isinstance(case, str | Path) else getattr(case, "name", "a configuration")
     sets = "".join(f" --set {k}={v!r}" for k, v in (overrides or {}).items())
     return c_source(ctrl, prefix=prefix, real=real, key_prefix="controller.",

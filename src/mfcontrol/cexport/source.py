@@ -2,21 +2,24 @@
 
 The law is translated from :mod:`mfcontrol.laws` (:mod:`mfcontrol.cexport.translate`); this
 module adds what the live controller of :mod:`mfcontrol.api.model.controllers` adds around it:
-the measurement guard (a NaN or infinite measurement returns the last output and is
-counted; so is a step whose output is not finite, which leaves the state as it was), the
-manual mode with its bumpless return to automatic, and the parameter table baked in.
+the measurement guard (a NaN or infinite measurement, or one outside the input limits,
+returns the last output and is counted; so is a step that overflows, whose output or
+memory is not finite, which leaves the memory as it was; the second such step in a row
+restarts the law from its last output), the manual mode with its bumpless return to
+automatic, and the parameter table baked in.
 """
 
 from __future__ import annotations
 
 import math
 import re
+import textwrap
 from dataclasses import dataclass
 
 import numpy as np
 
 from .._version import __version__
-from ..api.model.controllers import PID, IntelligentController, RecursiveIP
+from ..api.model.controllers import PID, RESTART_AFTER, IntelligentController, RecursiveIP
 from ..errors import ConfigError
 from ..laws import estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
@@ -128,21 +131,29 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     reset = tr.function(law.reset, law.reset_kinds)
     n_cs = ctrl._CS.shape[0] + len(law.state_rows)
     dt = ctrl.sample_time
+    lo, hi = ctrl.input_limits
+    in_range = "".join(f" || y {op} {options.literal(v)}"
+                       for op, v in (("<", lo), (">", hi)) if v is not None)
     subs = {
         "P": prefix, "R": f"{prefix}_real", "NS": str(n_cs), "NB": str(law.n_backup(n_cs)),
+        "PU": prefix.upper(), "RESTART": str(RESTART_AFTER), "RANGE": in_range,
+        "INLIMITS": ("" if (lo, hi) == (None, None) else
+                     f" [{'-inf' if lo is None else repr(lo)}, "
+                     f"{'inf' if hi is None else repr(hi)}]"),
         "STEP": step.name, "RESET": reset.name, "LAW": law.name,
         "DT": options.literal(dt if dt is not None else 0.0),
     }
     # the law's pieces first (they hold @-names the second pass fills)
-    parts = {"SAVE": law.save, "RESTORE": law.restore, "INIT": law.init,
-             "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip}
+    parts = {"SAVE": law.save, "RESTORE": law.restore, "FINITE": law.finite, "INIT": law.init,
+             "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip,
+             "SKIP_INNER": textwrap.indent(law.skip, "    ")}
     driver = _fill(_fill(_DRIVER, parts), subs)
     banner = _banner(prefix, real, law, ctrl, description)
     period = (f"/* sample period (s) the law was built for: call {prefix}_step once per "
               f"period */\n#define {prefix.upper()}_SAMPLE_TIME {dt!r}" if dt is not None else
               "/* no sample period: the law takes its samples as equally spaced */")
     header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"MFCONTROL_{prefix}_H",
-                             "REAL": real, "PU": prefix.upper(), "PERIOD": period})
+                             "REAL": real, "PERIOD": period})
     rows = ",\n".join(f"    {options.literal(float(v))} /* {i} */" for i, v in enumerate(cp))
     source = (f"{banner}\n"
               f"#include <math.h>\n#include \"{prefix}.h\"\n\n"
@@ -203,6 +214,9 @@ class _Law:
     backup_rows: int | None = None  # rows the step may write (None: all)
     save: str = "    for (i = 0; i < @NS@; i++) s->backup[i] = s->cs[i];\n"
     restore: str = "    for (i = 0; i < @NS@; i++) s->cs[i] = s->backup[i];\n"
+    # C statements: return 0 when a row the step wrote is not finite (as
+    # mfcontrol.engine.live checks the whole memory)
+    finite: str = "    for (i = 0; i < @NS@; i++) if (!isfinite(s->cs[i])) return 0;\n"
 
     def n_backup(self, n_cs: int) -> int:
         return n_cs if self.backup_rows is None else self.backup_rows
@@ -250,6 +264,12 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
         law.restore = (f"    for (i = 0; i < {head}; i++) s->cs[i] = s->backup[i];\n"
                        f"    s->cs[{head} + {slot}] = s->backup[{head}];\n"
                        f"    s->cs[{head + M + 1} + {slot}] = s->backup[{head + 1}];\n")
+        # the slots the step wrote, found from the count before it (in the backup); the
+        # rest of the ring holds samples already taken, finite
+        old = f"((long)s->backup[{count}] % {M + 1})"
+        law.finite = (f"    for (i = 0; i < {head}; i++) if (!isfinite(s->cs[i])) return 0;\n"
+                      f"    if (!isfinite(s->cs[{head} + {old}])) return 0;\n"
+                      f"    if (!isfinite(s->cs[{head + M + 1} + {old}])) return 0;\n")
     return law
 
 
@@ -275,6 +295,10 @@ def _pid() -> _Law:
     return _Law(
         "pid", pid.step, (CP, CS, J, REAL, REAL, REAL), pid.reset, (CS, J, REAL),
         init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
+        # the start row is NaN once used (or when there is none)
+        finite=(f"    for (i = 0; i < @NS@; i++)\n"
+                f"        if (!isfinite(s->cs[i]) && !(i == {pid.START} && s->cs[i] != "
+                "s->cs[i])) return 0;\n"),
         bumpless=(f"{_clamp(pid.OUT_MIN, pid.OUT_MAX)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),
         call=_SAMPLED_CALL, state_rows={}, skip=_SAMPLED_SKIP)
@@ -328,6 +352,9 @@ typedef @REAL@ @R@;
 
 @PERIOD@
 #define @PU@_N_STATE @NS@
+/* taken samples in a row whose step overflows after which the law restarts from its last
+ * output (one is the sample's fault and is rejected; a second in a row, the memory's) */
+#define @PU@_RESTART_AFTER @RESTART@
 
 typedef struct {
     /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
@@ -336,8 +363,14 @@ typedef struct {
     @R@ backup[@NB@];
     /* returned in manual mode and after a rejected sample */
     @R@ last_output;
-    /* rejected values: a non-finite measurement, output or manual value */
+    /* rejected values: a non-finite measurement, one outside the input limits, a step
+     * that overflowed, a non-finite manual value */
     unsigned long nan_count;
+    /* restarts of the law because its memory overflowed (@PU@_RESTART_AFTER steps in a row
+     * overflowed) */
+    unsigned long restarts;
+    /* steps in a row that overflowed */
+    unsigned overflows;
     /* time (s) of the samples the law did not take since its last one: the next step's
      * derivatives and integral span it */
     @R@ skipped;
@@ -348,8 +381,9 @@ typedef struct {
 /* Start (or restart) the controller: automatic mode, no history. */
 void @P@_init(@P@_state *s);
 /* One sample: the measurement y and the setpoint in, the limited control out. A
- * non-finite y (or a step whose output would not be finite) returns the last output,
- * leaves the memory as it was and counts in nan_count. */
+ * non-finite y, one outside the input limits@INLIMITS@, or a step that
+ * overflows (its output or memory not finite) returns the last output, leaves the memory
+ * as it was and counts in nan_count. */
 @R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint);
 /* Manual mode: every step returns u until @P@_set_auto (a non-finite u is not taken:
  * the last output stays, and nan_count counts it). */
@@ -371,12 +405,23 @@ static void @P@_restore(@P@_state *s)
     long i;
 @RESTORE@}
 
+/* 1 when the memory the step wrote holds only finite values */
+static int @P@_memory_finite(const @P@_state *s)
+{
+    long i;
+@FINITE@    return 1;
+}
+
+static void @P@_bumpless(@P@_state *s, @R@ start);
+
 void @P@_init(@P@_state *s)
 {
     long i;
     for (i = 0; i < @NS@; i++) s->cs[i] = 0;
     for (i = 0; i < @NB@; i++) s->backup[i] = 0;
 @INIT@    s->nan_count = 0;
+    s->restarts = 0;
+    s->overflows = 0;
     s->skipped = 0;
     s->auto_mode = 1;
 }
@@ -386,18 +431,27 @@ void @P@_init(@P@_state *s)
     @R@ u = 0;
     int ok = 0;
     if (!s->auto_mode) return s->last_output;
-    if (!isfinite(y)) {
+    if (!isfinite(y)@RANGE@) {
         s->nan_count++;
 @SKIP@        return s->last_output;
     }
     @P@_save(s);
-@CALL@    if (!ok) {
+@CALL@    if (ok) ok = @P@_memory_finite(s);
+    if (!ok) {
         @P@_restore(s);
         s->nan_count++;
-@SKIP@        return s->last_output;
+        if (++s->overflows < @PU@_RESTART_AFTER) {
+@SKIP_INNER@            return s->last_output;
+        }
+        @P@_bumpless(s, s->last_output);
+        s->overflows = 0;
+        s->skipped = 0;
+        s->restarts++;
+        return s->last_output;
     }
     s->last_output = u;
     s->skipped = 0;
+    s->overflows = 0;
     return u;
 }
 
@@ -420,6 +474,7 @@ void @P@_set_auto(@P@_state *s)
     if (!s->auto_mode) {
         @P@_bumpless(s, s->last_output);
         s->skipped = 0;
+        s->overflows = 0;
     }
     s->auto_mode = 1;
 }

@@ -39,9 +39,20 @@ def _copy(src, dst):
 
 
 @step_jit
-def _kept_if_finite(u, CS, backup):
-    """u, or NaN with the state restored from ``backup`` when u is not finite."""
-    if np.isfinite(u):
+def _kept_if_finite(u, CS, backup, nan_row):
+    """u when it and the whole memory after the step are finite (row ``nan_row`` may be
+    NaN: the PID's used-up start; -1 for none), else NaN with the state restored from
+    ``backup``. The memory is checked, not only u: a limited u is finite while an overflowed
+    integral or derivative behind it is not, and a sample let into the memory that way made
+    every later step overflow (the controller never recovered)."""
+    ok = np.isfinite(u)
+    if ok:
+        for i in range(CS.shape[0]):
+            v = CS[i, 0]
+            if not np.isfinite(v) and not (i == nan_row and v != v):
+                ok = False
+                break
+    if ok:
         return u
     _copy(backup, CS[:, 0])
     return np.nan
@@ -50,13 +61,14 @@ def _kept_if_finite(u, CS, backup):
 @kernel_jit
 def intelligent_step(CP, CS, backup, y, r, dt, alpha):
     """One sample of an intelligent controller (member 0); ``alpha`` is used in external
-    gain mode only. A non-finite result (finite but huge inputs can overflow) leaves the
-    state as it was and returns NaN, for the caller to hold its last output."""
+    gain mode only. A step that overflows (finite but huge inputs can: a non-finite output or
+    memory) leaves the state as it was and returns NaN, for the caller to hold its last
+    output."""
     _copy(CS[:, 0], backup)
     # read in that mode only: the state stays the engine's
     if CP[variational_gain.MODE, 0] == variational_gain.EXTERNAL:
         CS[variational_gain.ALPHA_EXT, 0] = alpha
-    return _kept_if_finite(intelligent.step(CP, CS, 0, y, r, dt), CS, backup)
+    return _kept_if_finite(intelligent.step(CP, CS, 0, y, r, dt), CS, backup, -1)
 
 
 @kernel_jit
@@ -67,10 +79,10 @@ def intelligent_reset(CP, CS):
 @kernel_jit
 def recursive_step(CP, CS, backup, y, r):
     """One sample of the paper's recursive i-P (member 0): (u_raw, applied, gain, gamma);
-    a non-finite raw control restores the state and returns NaNs, as above."""
+    a step that overflows restores the state and returns NaNs, as above."""
     _copy(CS[:, 0], backup)
     u, applied, g, gamma = recursive_ip.step(CP, CS, 0, y, r)
-    if np.isnan(_kept_if_finite(u * 0.0 + applied, CS, backup)):  # u or applied not finite
+    if np.isnan(_kept_if_finite(u * 0.0 + applied, CS, backup, -1)):  # u or applied not finite
         return np.nan, np.nan, np.nan, np.nan
     return u, applied, g, gamma
 
@@ -82,10 +94,10 @@ def recursive_reset(CP, CS):
 
 @kernel_jit
 def pid_step(CP, CS, backup, y, r, dt):
-    """One sample of a PID (member 0); a non-finite output restores the state and
+    """One sample of a PID (member 0); a step that overflows restores the state and
     returns NaN, as above."""
     _copy(CS[:, 0], backup)
-    return _kept_if_finite(pid.step(CP, CS, 0, y, r, dt), CS, backup)
+    return _kept_if_finite(pid.step(CP, CS, 0, y, r, dt), CS, backup, pid.START)
 
 
 @kernel_jit

@@ -514,3 +514,105 @@ def test_integers_beyond_the_float_range_are_refused_or_counted_never_an_overflo
         ctrl.restore(snap)
     with pytest.raises(mfcontrol.ConfigError, match=r"^t_end = 10{400}: "):
         mfcontrol.simulate_loop(mfcontrol.FirstOrder(-1.0, 1.0), ctrl, 1.0, t_end=huge)
+
+
+# --- one extreme sample never locks a controller (issue 29, item 4) ---------------------
+
+_OUTLIER_LAWS = {
+    "PID": lambda **kw: mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01,
+                                      output_limits=(-24, 24), **kw),
+    "i-PI algebraic": lambda **kw: IPI(alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01,
+                                       estimator="algebraic", window=10,
+                                       output_limits=(-24, 24), **kw),
+    "i-PI variational": lambda **kw: IPI(alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01,
+                                         gain="variational", output_limits=(-24, 24), **kw),
+    "i-PID": lambda **kw: IPID(alpha=1.0, kp=4.0, ki=1.0, kd=0.05, sample_time=0.01,
+                               order=1, output_limits=(-24, 24), **kw),
+    "recursive variational": lambda **kw: RecursiveIP(law="variational", **kw),
+}
+
+
+def _with_outlier(ctrl, outlier, n=600, at=100):
+    """Outputs of a loop on y' = -y + u (Euler, h = 0.01) whose sample ``at`` reads
+    ``outlier`` instead of y."""
+    y, out = 0.0, []
+    for k in range(n):
+        u = ctrl(outlier if k == at else y, setpoint=1.0)
+        y += 0.01 * (-y + u)
+        out.append(u)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("law", list(_OUTLIER_LAWS))
+def test_a_sample_whose_step_overflows_never_enters_the_memory(law):
+    # y = 1e308 overflows every law's step: the sample is rejected as a NaN is, bit for
+    # bit. Before, a limited output let the overflowed integral or derivative in, and
+    # every later step overflowed: the PID held -24 for good.
+    make = _OUTLIER_LAWS[law]
+    ctrl = make()
+    spiked = _with_outlier(ctrl, 1e308)
+    assert np.array_equal(spiked, _with_outlier(make(), math.nan))
+    assert ctrl.nan_count == 1 and ctrl.restarts == 0
+
+
+@pytest.mark.parametrize("law", list(_OUTLIER_LAWS))
+@pytest.mark.parametrize("outlier", [1e39, -1e200, 1e308, 11.0])
+def test_a_measurement_outside_the_input_limits_is_rejected_as_a_nan(law, outlier):
+    make = _OUTLIER_LAWS[law]
+    ctrl = make(input_limits=(-10, 10))
+    assert np.array_equal(_with_outlier(ctrl, outlier), _with_outlier(make(), math.nan))
+    assert ctrl.nan_count == 1 and ctrl.input_limits == (-10, 10)
+
+
+@pytest.mark.parametrize("law", list(_OUTLIER_LAWS))
+def test_a_memory_that_overflows_restarts_the_law_from_its_last_output(law):
+    # a memory every step overflows from (here restored from a snapshot: the same as a
+    # finite outlier the law took and cannot digest): rejected once, then restarted
+    # bumpless; before, every later sample was rejected
+    make = _OUTLIER_LAWS[law]
+    ctrl = make()
+    for y in (0.0, 0.01, 0.02, 0.03):
+        held = ctrl(y, setpoint=1.0)
+    snap = ctrl.snapshot()
+    snap["state"] = [1.7e308 if v == v else v for v in snap["state"]]
+    ctrl.restore(snap)
+    assert ctrl(0.04, setpoint=1.0) == held and ctrl.restarts == 0
+    assert ctrl(0.05, setpoint=1.0) == held and ctrl.restarts == 1 and ctrl.nan_count == 2
+    outputs = _with_outlier(ctrl, 0.0, n=50)
+    assert np.all(np.isfinite(outputs)) and ctrl.nan_count == 2
+    # the restart and the count of overflows in a row travel with a snapshot
+    again = type(ctrl).from_snapshot(ctrl.snapshot())
+    assert (again.restarts, again._overflows) == (1, 0)
+    assert again(0.5, setpoint=1.0) == ctrl(0.5, setpoint=1.0)
+
+
+def test_input_limits_are_checked_and_kept_out_of_snapshots_when_unset():
+    with pytest.raises(ValueError, match=r"^input_limits = \(2, 1\): low must not exceed "
+                                         r"high$"):
+        IP(alpha=1.0, kp=1.0, sample_time=0.01, input_limits=(2, 1))
+    with pytest.raises(ValueError, match=r"^input_limits\[0\] = nan: must be a finite"):
+        mfcontrol.PID(kp=1.0, sample_time=0.01, input_limits=(math.nan, 1))
+    plain = IP(alpha=1.0, kp=1.0, sample_time=0.01)
+    assert "input_limits" not in plain.snapshot()["params"]
+    assert plain.input_limits == (None, None)
+    # a snapshot from before the restart rule (no overflows, no restarts) restores
+    snap = plain.snapshot()
+    del snap["overflows"], snap["restarts"]
+    plain.restore(snap)
+    bounded = IP(alpha=1.0, kp=1.0, sample_time=0.01, input_limits=(None, 5.0))
+    assert IP.from_snapshot(bounded.snapshot()).input_limits == (None, 5.0)
+    assert bounded(6.0) == 0.0 and bounded.nan_count == 1
+    assert bounded(-1e300) == 0.0 and bounded.nan_count == 1  # no lower limit: taken
+
+
+def test_a_controller_with_input_limits_simulates_in_python_and_is_refused_by_sweep():
+    plant = mfcontrol.FirstOrder(a=-1.0, b=1.0)
+    ctrl = IPI(alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01, input_limits=(-10, 10))
+    free = IPI(alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01)
+    # the Python driver (which honours the limits) and the compiled engine agree
+    res = mfcontrol.simulate_loop(plant, ctrl, 1.0, t_end=3.0)
+    ref = mfcontrol.simulate_loop(plant, free, 1.0, t_end=3.0)
+    np.testing.assert_allclose(res.signals["y"], ref.signals["y"], rtol=1e-12, atol=1e-15)
+    assert res.metrics["stable"]
+    with pytest.raises(mfcontrol.ConfigError, match="without input_limits"):
+        mfcontrol.sweep(plant, ctrl, 1.0, t_end=0.5, grid={"controller.kp": [1.0, 2.0]})

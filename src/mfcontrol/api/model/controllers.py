@@ -8,10 +8,15 @@
 ['D', 'F_hat', 'I', 'P', 'feedforward', 'gamma', 'unlimited']
 
 Each call runs the same compiled law as the simulators (:mod:`mfcontrol.laws`). A NaN or
-infinite measurement never reaches the law: the controller returns its last output and
-counts the event in ``nan_count`` (so does a finite measurement that would overflow the
-law). ``snapshot()`` returns plain data (JSON and pickle
-safe); ``restore()`` makes a controller continue bit for bit from it.
+infinite measurement, or one outside ``input_limits`` (the sensor's range, if given), never
+reaches the law: the controller returns its last output and counts the event in
+``nan_count``. So does a finite measurement whose step would overflow (its output or any
+value of the law's memory not finite): the memory stays as it was, so the outlier never
+enters it. Should :data:`RESTART_AFTER` taken samples in a row overflow all the same, the
+memory itself is what overflows: the law restarts from its last output (bumpless, as on a
+return to automatic) and ``restarts`` counts it. A controller thus recovers from any
+single finite outlier. ``snapshot()`` returns plain data (JSON and pickle safe);
+``restore()`` makes a controller continue bit for bit from it.
 """
 
 from __future__ import annotations
@@ -32,6 +37,10 @@ from ...laws import variational_gain as gain_law
 from ..params import recursive_law_column
 
 _INF = math.inf
+#: taken samples in a row whose step overflowed after which the law restarts from its last
+#: output (the exported C does the same): one overflow is the sample's fault and is
+#: rejected; a second in a row, on the next measurement, is the memory's
+RESTART_AFTER = 2
 # a tuple, built once: ``int | float | ...`` in a call builds a union type every time
 _REAL = (int, float, np.integer, np.floating)
 
@@ -67,16 +76,16 @@ def _choice(name: str, value: Any, allowed) -> Any:
     return value
 
 
-def _limits(value: Any) -> tuple[float | None, float | None]:
+def _limits(value: Any, name: str = "output_limits") -> tuple[float | None, float | None]:
     try:
         lo, hi = value
     except (TypeError, ValueError):
-        raise ValueError(f"output_limits = {shown(value)}: must be a pair (low, high), "
+        raise ValueError(f"{name} = {shown(value)}: must be a pair (low, high), "
                          "None for no limit") from None
-    lo = _number("output_limits[0]", lo, allow_none=True)
-    hi = _number("output_limits[1]", hi, allow_none=True)
+    lo = _number(f"{name}[0]", lo, allow_none=True)
+    hi = _number(f"{name}[1]", hi, allow_none=True)
     if lo is not None and hi is not None and lo > hi:
-        raise ValueError(f"output_limits = {shown(value)}: low must not exceed high")
+        raise ValueError(f"{name} = {shown(value)}: low must not exceed high")
     return lo, hi
 
 
@@ -89,9 +98,13 @@ class _Controller:
         self._CS = np.zeros((n_cs, 1))
         self._backup = np.zeros(n_cs)
         self.nan_count = 0
+        #: times the law restarted because its memory overflowed (see RESTART_AFTER)
+        self.restarts = 0
+        self._overflows = 0  # taken samples in a row whose step overflowed
         self.auto_mode = True
         self._setpoint = float(params.get("setpoint", 0.0))
         self._last_output = 0.0
+        self._in_lo, self._in_hi = -_INF, _INF
         # time of the samples the law did not take since the last one it took (a rejected
         # measurement or output): the next call's derivatives span it
         self._skipped = 0.0
@@ -128,11 +141,45 @@ class _Controller:
     def _reset_state(self) -> None:  # pragma: no cover
         raise NotImplementedError
 
+    def _take_input_limits(self, value: Any) -> None:
+        """Check ``input_limits`` and keep them; they join the parameters only when set, so
+        that snapshots of controllers without them stay as they were."""
+        lo, hi = _limits(value, "input_limits")
+        self._in_lo = -_INF if lo is None else lo
+        self._in_hi = _INF if hi is None else hi
+        if (lo, hi) != (None, None):
+            self._params["input_limits"] = [lo, hi]
+
+    @property
+    def input_limits(self) -> tuple[float | None, float | None]:
+        """The measurement range the law takes; a sample outside is rejected as a NaN is."""
+        lo, hi = self._params.get("input_limits", (None, None))
+        return lo, hi
+
     def reset(self) -> None:
         """Forget all history (derivatives, integral, estimator window, adapted gain)."""
         self._reset_state()
         self.nan_count = 0
+        self.restarts = 0
+        self._overflows = 0
         self._skipped = 0.0
+
+    def _overflowed(self, dt: float) -> None:
+        """A taken sample whose step overflowed (the compiled step left the memory as it
+        was): counted, its period spanned by the next sample; the law restarts from its
+        last output at the RESTART_AFTER-th such sample in a row."""
+        self.nan_count += 1
+        self._overflows += 1
+        if self._overflows < RESTART_AFTER:
+            self._skipped += dt
+            return
+        try:
+            self._bumpless_start(self._last_output)
+        except ValueError:  # a start the law cannot continue from: a plain restart
+            self._reset_state()
+        self._overflows = 0
+        self._skipped = 0.0
+        self.restarts += 1
 
     @property
     def setpoint(self) -> float:
@@ -155,6 +202,7 @@ class _Controller:
                 "last_output", last_output)
             self._bumpless_start(start)
             self._skipped = 0.0
+            self._overflows = 0
         elif not enabled and last_output is not None:
             self._last_output = _number("last_output", last_output)
         self.auto_mode = bool(enabled)
@@ -163,7 +211,8 @@ class _Controller:
         """True for the common call, finite Python floats in automatic mode (and takes the
         setpoint): the caller skips the general checks of :meth:`_measurement_ok`, which
         cost as much again as the law; anything else takes the general path."""
-        if (type(y) is float and y - y == 0.0 and self.auto_mode
+        if (type(y) is float and y - y == 0.0 and self._in_lo <= y <= self._in_hi
+                and self.auto_mode
                 and (setpoint is None or type(setpoint) is float and setpoint - setpoint == 0.0)):
             if setpoint is not None:
                 self._setpoint = setpoint
@@ -172,8 +221,9 @@ class _Controller:
 
     def _measurement_ok(self, y: float, setpoint: float | None, dt: float = 0.0) -> bool:
         """Take the setpoint (a finite number, or None to keep it); False when the law must
-        not run (manual mode, or a NaN/inf measurement, which is counted and whose period
-        ``dt`` the next sample's derivatives span): the caller returns the last output."""
+        not run (manual mode, or a NaN/inf measurement or one outside ``input_limits``,
+        which is counted and whose period ``dt`` the next sample's derivatives span): the
+        caller returns the last output."""
         # both checked before either is taken: a refused call changes nothing
         if not isinstance(y, _REAL) or isinstance(y, bool):
             raise ValueError(f"y = {shown(y)}: the measurement must be a number (NaN and inf are "
@@ -182,7 +232,9 @@ class _Controller:
             self.setpoint = setpoint  # the property checks it
         if not self.auto_mode:
             return False
-        if not math.isfinite(as_float(y)):
+        y = as_float(y)
+        # (NaN fails both comparisons; the infinities are outside any range)
+        if not self._in_lo <= y <= self._in_hi or not math.isfinite(y):
             self.nan_count += 1
             self._skipped += dt
             return False
@@ -195,6 +247,7 @@ class _Controller:
             "params": dict(self._params), "state": self._CS[:, 0].tolist(),
             "last_output": self._last_output, "nan_count": self.nan_count,
             "auto_mode": self.auto_mode, "setpoint": self.setpoint, "skipped": self._skipped,
+            "overflows": self._overflows, "restarts": self.restarts,
             **self._snapshot_extra(),
         }
 
@@ -228,11 +281,12 @@ class _Controller:
         if state.shape != (self._CS.shape[0],):
             raise ValueError(f"snapshot state has {state.size} values, expected "
                              f"{self._CS.shape[0]}")
-        nan_count = snap["nan_count"]
-        if not isinstance(nan_count, int | np.integer) or isinstance(nan_count, bool) \
-                or nan_count < 0:
-            raise ValueError(f"snapshot nan_count = {shown(nan_count)}: must be a whole number "
-                             ">= 0")
+        # (snapshots older than the restart rule have no overflows nor restarts: 0)
+        counts = {key: snap.get(key, 0) for key in ("nan_count", "overflows", "restarts")}
+        for key, count in counts.items():
+            if not isinstance(count, int | np.integer) or isinstance(count, bool) or count < 0:
+                raise ValueError(f"snapshot {key} = {shown(count)}: must be a whole number "
+                                 ">= 0")
         if not isinstance(snap["auto_mode"], bool | np.bool_):
             raise ValueError(f"snapshot auto_mode = {snap['auto_mode']!r}: must be True or "
                              "False")
@@ -242,7 +296,8 @@ class _Controller:
         extra = self._checked_extra(snap)
         # everything checked: now write
         self._CS[:, 0] = state
-        self._last_output, self.nan_count = last, int(nan_count)
+        self._last_output, self.nan_count = last, int(counts["nan_count"])
+        self._overflows, self.restarts = int(counts["overflows"]), int(counts["restarts"])
         self.auto_mode, self._setpoint, self._skipped = bool(snap["auto_mode"]), setpoint, skipped
         self._restore_extra(extra)
 
@@ -284,11 +339,11 @@ class _Sampled(_Controller):
         """The law's output, or the last one held when the law overflowed (NaN: the
         compiled step left its state untouched), counted in ``nan_count``."""
         if u != u:
-            self.nan_count += 1
-            self._skipped += dt
+            self._overflowed(dt)
             return self._last_output
         self._last_output = u
         self._skipped = 0.0
+        self._overflows = 0
         return u
 
 
@@ -311,6 +366,10 @@ class IntelligentController(_Sampled):
         Order n of the ultra-local model.
     output_limits : (low, high)
         Output limits, None for none.
+    input_limits : (low, high)
+        The measurement's valid range (the sensor's), None for none: a sample outside is
+        rejected as a NaN is (the output holds, ``nan_count`` counts it, the law never sees
+        it). Set it to keep a finite outlier out of the law's memory.
     estimator : {"backward-difference", "algebraic"}
         How F is estimated; ``window`` (samples, even for order 2) for the algebraic one.
     anti_windup : {"clamp", "back-calculation", "none"}
@@ -347,6 +406,7 @@ class IntelligentController(_Sampled):
     def __init__(self, alpha: float, kp: float = 0.0, ki: float = 0.0, kd: float = 0.0, *,
                  sample_time: float, order: int = 1,
                  output_limits: tuple[float | None, float | None] = (None, None),
+                 input_limits: tuple[float | None, float | None] = (None, None),
                  estimator: str = "backward-difference", window: int | None = None,
                  anti_windup: str = "clamp", k_aw: float | None = None,
                  gain: str = "constant",
@@ -419,6 +479,7 @@ class IntelligentController(_Sampled):
         cp[intelligent.K_AW] = 1 / params["sample_time"] if k_aw is None else params["k_aw"]
         cp[intelligent.U_INIT] = min(max(params["starting_output"], cp[intelligent.OUT_MIN]),
                                      cp[intelligent.OUT_MAX])
+        self._take_input_limits(input_limits)
         self._dt = params["sample_time"]
         self._external = gain == "external"
         self._bind()
@@ -642,7 +703,9 @@ class RecursiveIP(_Controller):
     _KERNEL = ("recursive_step", 2)
 
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
-                 sample_time: float | None = None, **controller_keys: Any):
+                 sample_time: float | None = None,
+                 input_limits: tuple[float | None, float | None] = (None, None),
+                 **controller_keys: Any):
         from ...config.resolve import resolve
         from ...errors import ConfigError
 
@@ -682,6 +745,7 @@ class RecursiveIP(_Controller):
             params["sample_time"] = _number("sample_time", sample_time, positive=True)
         self.sample_time: float | None = params.get("sample_time")
         super().__init__(params, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
+        self._take_input_limits(input_limits)
         self._CP[:, 0] = recursive_law_column(cfg, self.sample_time)[:, 0]
         self._u0 = float(self._CP[recursive_ip.U0, 0])  # the start as built
         self._bind()
@@ -720,10 +784,11 @@ class RecursiveIP(_Controller):
         u, applied, g, gamma = self._step(self._CP, self._CS, self._backup, float(y),
                                           self._setpoint)
         if applied != applied:
-            self.nan_count += 1
+            self._overflowed(0.0)  # (equally spaced samples: no period to span)
             return self._last_output
         self._components = (u, g, gamma)  # the dict is built when asked for
         self._last_output = applied
+        self._overflows = 0
         return applied
 
     @property
@@ -744,7 +809,10 @@ RecursiveIP.__doc__ = options.with_parameters(
 setpoint : float
     Initial setpoint.
 sample_time : float, optional
-    Period of a simulated loop (s), see above.""")
+    Period of a simulated loop (s), see above.
+input_limits : (low, high)
+    The measurement's valid range, None for none: a sample outside is rejected as a NaN
+    is (see :class:`IntelligentController`).""")
 
 class PID(_Sampled):
     """The discrete PID of Astrom and Hagglund, the baseline of every comparison
@@ -768,6 +836,9 @@ class PID(_Sampled):
         Tracking time (s); default sqrt(Ti Td) with an integral and a derivative, else Ti.
     output_limits : (low, high)
         Output limits, None for none.
+    input_limits : (low, high)
+        The measurement's valid range, None for none: a sample outside is rejected as a NaN
+        is (see :class:`IntelligentController`).
     setpoint : float
         Initial setpoint.
 
@@ -787,6 +858,7 @@ class PID(_Sampled):
     def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, *, sample_time: float,
                  N: float = 10.0, b: float = 1.0, Tt: float | None = None,
                  output_limits: tuple[float | None, float | None] = (None, None),
+                 input_limits: tuple[float | None, float | None] = (None, None),
                  setpoint: float = 0.0):
         from ...config.resolve import _check_pid
         from ...errors import ConfigError
@@ -803,6 +875,7 @@ class PID(_Sampled):
         except ConfigError as exc:
             raise ValueError(str(exc)) from None
         super().__init__(params, pid.N_PARAMS, pid.N_STATE)
+        self._take_input_limits(input_limits)
         cp = self._CP[:, 0]
         cp[pid.KP], cp[pid.KI], cp[pid.KD] = params["kp"], params["ki"], params["kd"]
         cp[pid.N], cp[pid.B] = params["N"], params["b"]
