@@ -3,6 +3,9 @@ refused entry leaves on screen, one job at a time, the status line (found in rev
 
 from __future__ import annotations
 
+import html
+import math
+
 import pytest
 
 pytest.importorskip("bokeh")
@@ -255,3 +258,59 @@ def test_a_number_changed_keeps_the_widgets(page):
     view = page.views["controller.kp"]
     page.change(view, "3")
     assert page.views["controller.kp"] is view
+
+
+def tracebacks(caplog) -> list[str]:
+    """The log records that carry a traceback (what the server's log would show)."""
+    return [r.getMessage() for r in caplog.records if r.exc_info]
+
+
+def test_a_slider_at_the_end_of_a_huge_value_runs_and_past_the_floats_is_refused(
+        page, caplog):
+    """Issue 29: alpha typed as 1e308 put its slider's end at 10^310; slid there, the
+    callback raised OverflowError into the server's log and the page said nothing."""
+    view = page.views["controller.alpha"]
+    page.change(view, "1e308")  # a finite number > 0: accepted, and run
+    assert page.session.cfg["controller.alpha"] == 1e308
+    view.slider.value = view.slider.end  # as the browser sets it: the callback runs
+    alpha = page.session.cfg["controller.alpha"]
+    assert 1e308 < alpha < math.inf and view.entry.value == repr(alpha)
+    # a position past the end (what a page's script can send): refused on the page
+    runs, result, shown = page.runs, page.session.result, page.page_text.data["metrics"]
+    view.slider.value = view.slider.end + 2.0
+    assert page.runs == runs and page.session.result is result
+    assert page.page_text.data["metrics"] == shown  # the run before stays on the page
+    assert page.session.cfg["controller.alpha"] == alpha
+    assert view.entry.value == repr(alpha) and view.slider.value == view.slider.end
+    status = html.unescape(page.status_div.text)
+    assert "controller.alpha = inf: must be a finite number > 0" in status
+    assert "not changed" in status and len(status.splitlines()) == 1
+    assert tracebacks(caplog) == []
+
+
+def test_a_value_the_law_cannot_run_with_is_refused_on_the_page(caplog):
+    """Issue 29: the algebraic estimator's window slider goes down to 1 (the option
+    takes any whole number > 0), which the law refuses with a ValueError: a traceback
+    in the server's log, and on the page a ValueError without the option's name."""
+    page = TunerPage(Document(), Session("first-order-ip-algebraic", {"sim.t_end": 0.5}))
+    view = page.views["controller.window"]
+    before = page.session.cfg["controller.window"]
+    runs, result, shown = page.runs, page.session.result, page.page_text.data["metrics"]
+    for move in (lambda: page.change(view, "1"),  # typed
+                 lambda: setattr(view.slider, "value", view.slider.start)):  # slid to 1
+        move()
+        status = html.unescape(page.status_div.text)
+        assert ("controller.window not changed: controller.window = 1: must be a whole "
+                "number of samples from 2 to 10,000,000 for the algebraic estimator"
+                in status), status
+        assert len(status.splitlines()) == 1
+        assert html.unescape(view.message.text) in status  # beside the field too
+        assert page.runs == runs and page.session.result is result
+        assert page.page_text.data["metrics"] == shown
+        assert page.session.cfg["controller.window"] == before
+        assert view.entry.value == str(before)
+        assert view.scale.value(view.slider.value) == before
+        assert not page.session.can_undo()
+    assert tracebacks(caplog) == []
+    page.change(view, str(before + 2))  # the server lives on: a good value runs
+    assert page.runs == runs + 1 and "not changed" not in page.status_div.text

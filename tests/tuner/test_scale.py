@@ -43,3 +43,17 @@ def test_a_huge_value_gets_a_finite_slider():
 
     s = scale_for("plant.dR", 1e308)
     assert math.isfinite(s.start) and math.isfinite(s.end) and s.start < 1e308 < s.end
+
+
+def test_no_slider_reaches_past_the_floats_and_no_position_raises():
+    """Issue 29: a typed 1e308 put alpha's slider end at 10^310 (an OverflowError when
+    slid there) and a linear slider's end at inf."""
+    for key, v in (("controller.alpha", 1e308), ("plant.R", 1.7e308),
+                   ("plant.i0", 1.7e308), ("plant.i0", -1.7e308)):
+        s = scale_for(key, v)
+        for end in (s.start, s.end):
+            assert math.isfinite(end) and math.isfinite(s.value(end)), (key, v, end)
+    s = scale_for("controller.alpha", 1e308)
+    assert s.value(s.end + 2.0) == math.inf  # a position the browser sent: refused later
+    assert math.isnan(s.value(math.nan)) and math.isnan(scale_for("sensor.delay", 3).value(
+        math.inf))

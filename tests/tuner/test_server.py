@@ -1,10 +1,13 @@
 """The tuner's server as ``mfcontrol tuner`` runs it, without a browser: it listens on
 127.0.0.1 only, serves its own JavaScript (nothing from a CDN), refuses a websocket from
-another origin, and Ctrl-C ends it with exit code 130 and one line."""
+another origin and any request naming another host, and Ctrl-C ends it with exit code 130
+and one line."""
 
 from __future__ import annotations
 
+import http.client
 import re
+import urllib.parse
 import urllib.request
 
 import pytest
@@ -49,6 +52,84 @@ def test_a_websocket_from_another_origin_is_refused(tuner):
         IOLoop.current().run_sync(lambda: connect("http://example.com"))
     assert refused.value.code == 403  # and the server says so on stderr
     IOLoop.current().run_sync(lambda: connect(tuner.url.rstrip("/")))  # its own page's
+
+
+def fetch(url: str, path: str, host: str) -> tuple[int, str, str]:
+    """GET ``path`` from the tuner at ``url`` with the Host header ``host`` (as a page of
+    another site sends it after its name was rebound to 127.0.0.1): (status, content
+    type, body)."""
+    where = urllib.parse.urlsplit(url)
+    conn = http.client.HTTPConnection(where.hostname, where.port, timeout=300)
+    try:
+        conn.request("GET", path, headers={"Host": host})  # replaces http.client's own
+        reply = conn.getresponse()
+        return reply.status, reply.getheader("Content-Type", ""), reply.read().decode()
+    finally:
+        conn.close()
+
+
+#: the session token Bokeh writes into the page and autoload.js (``"token":"eyJ...``):
+#: whoever reads it can open the page's websocket and drive the tuner
+TOKEN = re.compile(r"token\W+eyJ")
+
+
+def paths(url: str) -> list[str]:
+    """The page and its autoload.js (how another page would embed the tuner)."""
+    return ["/", "/autoload.js?bokeh-autoload-element=mf&bokeh-absolute-url="
+            + urllib.parse.quote(url.rstrip("/"), safe="")]
+
+
+def test_a_request_naming_another_host_is_refused_without_the_token(tuner):
+    """Issue 29: ``curl -H 'Host: evil.example:PORT'`` got the page and its session token,
+    which a page of evil.example whose name was rebound to 127.0.0.1 (DNS rebinding) can
+    read as its own."""
+    port = urllib.parse.urlsplit(tuner.url).port
+    for host in (f"evil.example:{port}", "evil.example", f"127.0.0.1.evil.example:{port}",
+                 f"localhost.evil.example:{port}", "127.0.0.1", f"127.0.0.1:{port + 1}",
+                 ""):
+        for path in paths(tuner.url):
+            status, kind, body = fetch(tuner.url, path, host)
+            assert status == 403, (host, path, status)
+            assert kind.startswith("text/plain") and len(body.splitlines()) == 1, body
+            assert not TOKEN.search(body), body
+
+
+def test_the_page_answers_at_127_0_0_1_and_at_localhost(tuner):
+    port = urllib.parse.urlsplit(tuner.url).port
+    for host in (f"127.0.0.1:{port}", f"localhost:{port}", f"LocalHost:{port}"):
+        for path in paths(tuner.url):
+            status, _, body = fetch(tuner.url, path, host)
+            assert status == 200 and TOKEN.search(body), (host, path, status)
+
+
+def websocket(url: str, host: str, origin: str) -> None:
+    """Open the tuner's websocket with these Host and Origin headers (raises
+    HTTPClientError when refused)."""
+    from tornado.httpclient import HTTPRequest
+    from tornado.ioloop import IOLoop
+    from tornado.websocket import websocket_connect
+
+    async def connect():
+        req = HTTPRequest(url.replace("http://", "ws://") + "ws", request_timeout=300,
+                          headers={"Host": host, "Origin": origin})
+        conn = await websocket_connect(req)
+        conn.close()
+
+    IOLoop.current().run_sync(connect)
+
+
+def test_a_websocket_naming_another_host_is_refused(tuner):
+    """Even with the tuner's own origin: the Host is checked before anything else."""
+    from tornado.httpclient import HTTPClientError
+
+    port = urllib.parse.urlsplit(tuner.url).port
+    for host in (f"evil.example:{port}", "127.0.0.1"):
+        with pytest.raises(HTTPClientError) as refused:
+            websocket(tuner.url, host, tuner.url.rstrip("/"))
+        assert refused.value.code == 403, host
+    # the page opened at localhost opens its websocket from there
+    websocket(tuner.url, f"localhost:{port}", f"http://localhost:{port}")
+    websocket(tuner.url, f"127.0.0.1:{port}", tuner.url.rstrip("/"))
 
 
 def test_ctrl_c_stops_it_with_exit_130_and_one_line():

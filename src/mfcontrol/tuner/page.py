@@ -48,9 +48,11 @@ from .session import (
     SHORT,
     TABLE_METRICS,
     Field,
+    RunRefused,
     Session,
     brief,
     control_figures,
+    refusal,
     text_of,
 )
 
@@ -137,7 +139,8 @@ def keep_points(n: int, columns: list[np.ndarray], limit: int = MAX_POINTS) -> n
 def _finite(a: np.ndarray) -> np.ndarray:
     """float32 for the browser, with an infinity as a gap (NaN) instead of an axis that
     cannot scale."""
-    out = np.asarray(a, dtype=np.float32)
+    with np.errstate(over="ignore"):  # beyond float32 is inf, then a gap: no warning
+        out = np.asarray(a, dtype=np.float32)
     return np.where(np.isfinite(out), out, np.float32(np.nan))
 
 
@@ -454,9 +457,11 @@ class TunerPage:
 
     @_guarded
     def change(self, view: FieldView, text: str, slide: bool = False) -> None:
-        """An option typed, slid or chosen: set it, run, redraw; a refused entry shows its
-        message beside the field and changes nothing. What else the change set (a law's
-        gains, the case's value of an emptied entry) is said in the status line."""
+        """An option typed, slid or chosen: set it, run, redraw; a refused entry (by the
+        option's check, or by the law or plant its run builds) shows its one-line message
+        beside the field and in the status line, and changes nothing: the run before
+        stays drawn, nothing is logged. What else the change set (a law's gains, the
+        case's value of an emptied entry) is said in the status line."""
         before = self.session.snapshot()
         error = self.session.set(view.key, text, slide=slide)
         if error is None:
@@ -465,15 +470,21 @@ class TunerPage:
             except ConfigError as exc:  # the run refused it (a trajectory too long, say)
                 self.session.restore(before)
                 error = str(exc)
+            except RunRefused as exc:  # the law refused it (a window of 1 sample, say)
+                error = refusal(view.key, self.session.value(view.key), str(exc))
+                self.session.restore(before)
+                # the page says it; the cause for whoever debugs with the log at DEBUG
+                log.debug("tuner: %s", error, exc_info=exc.__cause__)
             except Exception:
                 self.session.restore(before)  # as if never set, and reported
                 raise
         if error is not None:
             # the menu or slider back to the value in force (it showed the refused one,
-            # while the session and a saved case kept the old)
+            # while the session and a saved case kept the old); the run before stays
+            # drawn (the refused one failed before drawing anything)
             self._show(view)
             view.show_error(error)
-            self.status(f"{view.key}: not changed", error=True)
+            self.status(f"{view.key} not changed: {error}", error=True)
             return
         view.show_error(None)
         if self.session.note:

@@ -17,6 +17,11 @@ DECADES_GAIN = 2.0
 DECADES_OTHER = 1.0
 #: positions of a linear slider
 LINEAR_STEPS = 200
+#: the largest magnitude a slider offers: the largest float that is still one when shown
+#: to DIGITS digits (1.798e308 is not: it reads back as inf)
+LARGEST = 1.797e308
+#: the log slider's ends: a coordinate past them is no float (or 0) at all
+MAX_LOG, MIN_LOG = math.log10(LARGEST), -323.0
 
 
 @dataclass(frozen=True)
@@ -47,10 +52,20 @@ class Scale:
     def value(self, coordinate: float) -> float | int:
         """The option's value at a slider position, rounded to
         :data:`~mfcontrol.tuner.session.DIGITS` significant digits (whole numbers for a
-        whole-number option)."""
+        whole-number option). Never raises: a position the browser sent past the float
+        range gives inf, one that is no number NaN, which the option then refuses in
+        words (an exception here would end in the server's log, the page silent)."""
+        if not math.isfinite(coordinate):
+            return math.nan
         if self.whole:
             return int(round(coordinate))
-        v = 10.0 ** coordinate if self.log else round(coordinate / self.step) * self.step
+        if self.log:
+            try:
+                v = 10.0 ** coordinate
+            except OverflowError:
+                return math.inf
+        else:  # on a step, within the range (a step past the largest float is inf)
+            v = min(max(round(coordinate / self.step) * self.step, self.start), self.end)
         return float(f"{v:.{DIGITS}g}")
 
     def holds(self, value: Any) -> bool:
@@ -68,7 +83,8 @@ def scale_for(key: str, value: Any) -> Scale:
     an option that must be positive) over :data:`DECADES_GAIN` decades either side
     (:data:`DECADES_OTHER` outside the controller); whole numbers from the least allowed
     to 4x the value (at least 20 more); otherwise value +- 2 |value| (+-1 at 0), not below
-    0 for an option that must be >= 0, in :data:`LINEAR_STEPS` steps. An unset option
+    0 for an option that must be >= 0, in :data:`LINEAR_STEPS` steps. Neither goes past
+    :data:`LARGEST` (a typed 1e308 put the end of its slider at 1e310). An unset option
     (None) gets 0 .. 1."""
     o = BY_KEY[key]
     if value is None:
@@ -81,11 +97,11 @@ def scale_for(key: str, value: Any) -> Scale:
     if log_scale(key, v):
         d = DECADES_GAIN if key.startswith("controller.") else DECADES_OTHER
         c = math.log10(v)
-        return Scale(c - d, c + d, 0.01, log=True)
+        return Scale(max(c - d, MIN_LOG), min(c + d, MAX_LOG), 0.01, log=True)
     half = 2.0 * abs(v) if v != 0 else 1.0
     if not math.isfinite(v - half) or not math.isfinite(v + half):
         half = 0.5 * abs(v)  # near the largest float: a range the slider can still hold
-    low, high = v - half, v + half
+    low, high = max(v - half, -LARGEST), min(v + half, LARGEST)
     if o.check in ("nonnegative", "positive", "fraction"):
         low = max(low, 0.0)
     if o.check == "fraction":

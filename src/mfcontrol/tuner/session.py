@@ -158,6 +158,29 @@ def text_of(value: Any) -> str:
     return str(value)
 
 
+class RunRefused(ValueError):
+    """The run refused settings the options let through: a law or plant checks what the
+    option table cannot (the algebraic estimator's window of at least 2 samples) and
+    says so with a ValueError in its own words (``window = 1: must be ...``), or the
+    arithmetic failed on them (an OverflowError). The message is its first line; the
+    exception raised is the ``__cause__``."""
+
+
+def refusal(key: str, value: Any, reason: str) -> str:
+    """The one line of ``key = value`` refused by its run for ``reason`` (a
+    :class:`RunRefused`'s message), in the words of :class:`~mfcontrol.errors.ConfigError`:
+    the key, the value, what is allowed.
+
+    A law names its own parameter (``window = 1: must be ...``): that name becomes the
+    option's (``controller.window = 1: must be ...``); any other reason follows the
+    option (``sim.h = 0.1: the run refuses it: window = 1: must be ...``).
+    """
+    name = key.rpartition(".")[2]
+    if reason.startswith(f"{name} = "):
+        return key + reason[len(name):]
+    return str(ConfigError(key, value, f"the run refuses it: {reason}"))
+
+
 def rounded(key: str, value: float) -> float | int:
     """A value the tuner sets itself, to :data:`DIGITS` significant digits (a whole number
     for a whole-number option)."""
@@ -659,9 +682,27 @@ class Session:
     # --- runs -------------------------------------------------------------------------
 
     def run(self) -> Result:
-        """Simulate the current configuration (as ``mfcontrol run`` does) and keep it."""
+        """Simulate the current configuration (as ``mfcontrol run`` does) and keep it.
+
+        Raises
+        ------
+        ConfigError
+            The settings refused by their own check.
+        RunRefused
+            The settings refused by the law or the plant they build (then the run kept
+            is the one before).
+        """
         t0 = time.perf_counter()
-        self.result = simulate(self.cfg, name=self.name)
+        try:
+            self.result = simulate(self.cfg, name=self.name)
+        except ConfigError:
+            raise  # the settings' own check: it names the option already
+        except (ValueError, ArithmeticError) as exc:
+            # how the laws and plants refuse a value their option allows: shown on the
+            # page as a refusal; any other exception is taken for a fault of the code
+            # and keeps its traceback
+            lines = str(exc).strip().splitlines()
+            raise RunRefused(lines[0] if lines else type(exc).__name__) from exc
         self.seconds = time.perf_counter() - t0
         return self.result
 
