@@ -59,7 +59,7 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
     >>> h, c = mfcontrol.export_c("motor-noise-ipi-algebraic", out=folder, prefix="motor")
     >>> h.name, c.name
     ('motor.h', 'motor.c')
-    >>> print(h.read_text().split("/* One sample")[1].splitlines()[3])
+    >>> print(next(line for line in h.read_text().splitlines() if "motor_step(" in line))
     motor_real motor_step(motor_state *s, motor_real y, motor_real setpoint);
 
     ``motor_real`` is ``double`` here and ``float`` with ``real="float"``.

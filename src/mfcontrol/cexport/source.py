@@ -138,8 +138,8 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         "P": prefix, "R": f"{prefix}_real", "NS": str(n_cs), "NB": str(law.n_backup(n_cs)),
         "PU": prefix.upper(), "RESTART": str(RESTART_AFTER), "RANGE": in_range,
         "INLIMITS": ("" if (lo, hi) == (None, None) else
-                     f" [{'-inf' if lo is None else repr(lo)}, "
-                     f"{'inf' if hi is None else repr(hi)}]"),
+                     f",\n * one outside the input limits [{'-inf' if lo is None else repr(lo)}"
+                     f", {'inf' if hi is None else repr(hi)}],"),
         "STEP": step.name, "RESET": reset.name, "LAW": law.name,
         "DT": options.literal(dt if dt is not None else 0.0),
     }
@@ -380,10 +380,10 @@ typedef struct {
 
 /* Start (or restart) the controller: automatic mode, no history. */
 void @P@_init(@P@_state *s);
-/* One sample: the measurement y and the setpoint in, the limited control out. A
- * non-finite y, one outside the input limits@INLIMITS@, or a step that
- * overflows (its output or memory not finite) returns the last output, leaves the memory
- * as it was and counts in nan_count. */
+/* One sample: the measurement y and the setpoint in, the limited control out.
+ * A non-finite y@INLIMITS@
+ * or a step that overflows (its output or memory not finite) returns the last output,
+ * leaves the memory as it was and counts in nan_count. */
 @R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint);
 /* Manual mode: every step returns u until @P@_set_auto (a non-finite u is not taken:
  * the last output stays, and nan_count counts it). */
