@@ -1002,3 +1002,33 @@ def test_a_budget_beyond_any_search_is_one_line():
     assert_usage_error(cli("tune", "first-order-ip-algebraic", "--param", "controller.kp=1:10",
                            "--budget", "100000000000000000000"),
                        "--budget = 100000000000000000000", "at most 1,000,000")
+
+
+# --- issue 29, items 6 and 9: small hostile files are refused up front, in one line -------
+
+
+@pytest.mark.parametrize("table, needles", [
+    ("[plant]\nchange_times = [" + ", ".join(["1e-3"] * 1001) + "]\ndR = 1e-3\n",
+     ["plant.change_times = [0.001, 0.001", "must list at most 1,000 times (1,001 given)"]),
+    ('description = "' + "x" * 10_000_000 + '"\n',
+     ["description = 'xxx", "(10000002 characters)", "at most 2,000 characters"]),
+    ('[plant]\nmodel = "lti"\nden = [' + ", ".join(["1.0"] * 401) + ']\n[controller]\n'
+     'law = "i-P"\n',
+     ["plant.den = [1.0, 1.0", "must have degree at most 20 (at most 21 coefficients; "
+      "401 given)"]),
+], ids=["change-times", "description", "den-degree"])
+def test_a_hostile_size_is_one_short_line(table, needles, tmp_path):
+    """1,000 change times cost half a minute in the figure, a 10 MB description and a
+    degree-400 denominator over two minutes: refused before any work, the value cut."""
+    case = tmp_path / "hostile.toml"
+    case.write_text(table)
+    line = assert_usage_error(cli("run", str(case), "--out", str(tmp_path / "o")), *needles)
+    assert len(line) < 400
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_grid_beyond_the_float_range_is_the_only_output(tmp_path):
+    """numpy's RuntimeWarning (overflow in power, two lines) printed before the refusal."""
+    assert_usage_error(cli("sweep", "first-order-ip-algebraic", "--grid",
+                           "controller.kp=logspace(0,400,3)", "--out", str(tmp_path / "s")),
+                       "controller.kp = 'logspace(0,400,3)'", "beyond the float range")

@@ -1,6 +1,7 @@
 """Errors raised at the edge of the library, worded for the person who made them."""
 
 import math
+import re
 from typing import Any
 
 
@@ -15,13 +16,17 @@ class ConfigError(ValueError):
         The value refused.
     allowed : str
         What is allowed, in words.
+    limit : int, optional
+        Show at most this many characters of the value: for refusals of a value's size
+        (a 10 MB description), whose point is that it is too long to print. Otherwise the
+        value is shown in full.
     """
 
-    def __init__(self, key: str, value: object, allowed: str):
+    def __init__(self, key: str, value: object, allowed: str, *, limit: int | None = None):
         self.key = key
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{key} = {shown(value)}: {allowed}")
+        super().__init__(f"{key} = {shown(value, limit)}: {allowed}")
 
 
 def as_float(v: Any) -> float:
@@ -35,13 +40,16 @@ def as_float(v: Any) -> float:
 
 def shown(value: object, limit: int | None = None) -> str:
     """``repr(value)`` for a one-line message: an integer too long to print (Python refuses
-    past 4,300 digits) by its size; with ``limit``, anything longer cut."""
+    past 4,300 digits) by its size, a repr over several lines (a 2-D array's) on one;
+    with ``limit``, anything longer cut."""
     try:
         text = repr(value)
     except ValueError:  # an integer past the int-to-str limit, or a container holding one
         if isinstance(value, int):
             return f"an integer of {value.bit_length()} bits (beyond the float range)"
         return f"a {type(value).__name__} holding too long an integer"
+    if "\n" in text:  # a refusal is one line: numpy puts each row of a matrix on its own
+        text = re.sub(r"\s*\n\s*", " ", text)
     if limit is None or len(text) <= limit:
         return text
     return f"{text[:limit]}... ({len(text)} characters)"

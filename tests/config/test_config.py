@@ -785,3 +785,72 @@ def test_options_documentation_is_valid_restructuredtext():
     assert "``|F_k - F_{k-1}|``" in text
     docutils.core.publish_doctree(text, settings_overrides={
         "report_level": docutils.utils.Reporter.WARNING_LEVEL, "halt_level": 2})
+
+
+# --- issue 29, item 6: sizes bounded up front ----------------------------------------------
+
+
+def _refusal(settings: Mapping) -> ConfigError:
+    with pytest.raises(ConfigError) as info:
+        resolve(settings)
+    message = str(info.value)
+    assert "\n" not in message and len(message) < 400, message  # one short line
+    return info.value
+
+
+def test_load_change_times_are_bounded():
+    """1,000 change times in an 8 KB case file cost half a minute of CPU in the run's
+    figure, 1.5 million hung sweeps and tuning: at most 1,000, refused before anything."""
+    from mfcontrol.config.options import MAX_CHANGE_TIMES
+
+    times = [1e-3 * (i + 1) / MAX_CHANGE_TIMES for i in range(MAX_CHANGE_TIMES)]
+    small = {"plant.dR": 1e-3}  # R stays > 0 after every change
+    assert len(resolve({**small, "plant.change_times": times})["plant.change_times"]) == 1000
+    for n in (MAX_CHANGE_TIMES + 1, 1_500_000):
+        exc = _refusal({**small, "plant.change_times": [1e-3] * n})
+        assert exc.key == "plant.change_times"
+        assert str(exc).startswith("plant.change_times = [0.001, 0.001")
+        assert f"must list at most 1,000 times ({n:,} given)" in str(exc)
+    assert "at most 1,000" in BY_KEY["plant.change_times"].doc
+
+
+def test_a_description_is_bounded():
+    """A 10 MB description took over two minutes (its figure title): at most 2,000
+    characters, the refusal showing only the start of it."""
+    from mfcontrol.config.options import MAX_DESCRIPTION
+
+    assert resolve({"description": "x" * MAX_DESCRIPTION})["description"] == "x" * 2000
+    for n in (MAX_DESCRIPTION + 1, 10_000_000):
+        exc = _refusal({"description": "y" * n})
+        assert exc.key == "description" and str(exc).startswith("description = 'yyy")
+        assert f"must be at most 2,000 characters ({n:,} given)" in str(exc)
+    assert "at most 2,000 characters" in BY_KEY["description"].doc
+
+
+def test_a_transfer_function_degree_is_bounded():
+    """A degree-400 plant.den ran over two minutes: a degree above 20 is refused, naming
+    the key and the bound, whichever plant model is set (it is checked up front); so is
+    a plant.num of more coefficients than such a denominator has."""
+    from mfcontrol.config.options import MAX_TF_DEGREE
+
+    lti = {"plant.model": "lti", "controller.law": "i-P"}
+    top = [1.0] * (MAX_TF_DEGREE + 1)  # degree 20
+    assert resolve({**lti, "plant.den": top})["plant.den"] == top
+    assert resolve({**lti, "plant.den": top, "plant.num": [0.0] + top[1:]})
+    for settings in ({**lti, "plant.den": top + [1.0]}, {"plant.den": [1.0] * 401}):
+        exc = _refusal(settings)
+        assert exc.key == "plant.den"
+        assert "must have degree at most 20 (at most 21 coefficients;" in str(exc)
+    exc = _refusal({**lti, "plant.den": top, "plant.num": top + [1.0]})
+    assert exc.key == "plant.num" and "must have at most 21 coefficients (22 given" in str(exc)
+    assert "degree at most 20" in BY_KEY["plant.den"].doc
+
+
+def test_a_window_of_one_sample_is_refused_naming_the_key():
+    """controller.window = 1 passed the option's check (positive) and the live law then
+    raised a ValueError traceback from `mfcontrol run` (exit 1)."""
+    exc = _refusal({"controller.law": "i-PI", "controller.estimator": "algebraic",
+                    "controller.window": 1})
+    assert exc.key == "controller.window"
+    assert str(exc) == ("controller.window = 1: must be at least 2 samples for the algebraic "
+                        "estimator")

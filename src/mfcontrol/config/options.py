@@ -16,6 +16,30 @@ from .toml import toml_value
 
 FIDELITIES = ("published", "paper")
 
+#: a description's length at most (characters): some 7 times the longest built-in case's
+#: (263), and a figure's title shows the first TITLE_MOST of it; a 10 MB one took minutes
+#: to lay out as a title
+MAX_DESCRIPTION = 2_000
+
+#: characters of a description a figure's title shows at most: three lines of 95 (the
+#: longest built-in case's fits)
+TITLE_MOST = 3 * 95
+
+#: load change times at most: a study has a handful (the paper's cases two), and each is
+#: a plant event of every member and a mark on the figures; 1,000 draw in under a second
+#: (as one collection of ticks), 1.5 million hung sweeps and tuning
+MAX_CHANGE_TIMES = 1_000
+
+#: the lti model's transfer-function degree at most (plant.den; plant.num has at most as
+#: many coefficients). The model's poles are fixed by plant.den's coefficients in double
+#: precision, whose conditioning grows exponentially with the degree: an n-fold pole
+#: moves by about eps^(1/n) (numpy's roots of (s + 1)^20's exact coefficients are up to
+#: 0.4 from -1; at 8, the benchmark's lag, 0.02), and the poles -1 .. -n of Wilkinson's
+#: polynomial keep 3 digits at n = 20 and turn complex at 24: beyond 20, coefficients
+#: are noise, not a model (a state space is not limited so). Each new degree is also
+#: compiled afresh, once per machine: seconds up to 25, 2 minutes at 50, more at 400
+MAX_TF_DEGREE = 20
+
 
 @dataclass(frozen=True)
 class Option:
@@ -33,7 +57,8 @@ def _o(key, kind, default, doc, choices=(), check="", preset=None) -> Option:
 
 
 OPTIONS: tuple[Option, ...] = (
-    _o("description", "str", "", "one line describing the case"),
+    _o("description", "str", "", "one line describing the case (at most "
+       f"{MAX_DESCRIPTION:,} characters; a figure's title shows the first {TITLE_MOST})"),
     _o("fidelity", "str", "published", "preset for the options below that differ between the "
        "published code and the printed equations", FIDELITIES),
     # plant
@@ -53,7 +78,8 @@ OPTIONS: tuple[Option, ...] = (
     _o("plant.dR", "float", 1.0, "resistance added at each load change (ohm)"),
     _o("plant.dC", "float", 1e-9, "capacitance added at each load change (F)"),
     _o("plant.change_times", "floats", [4e-3, 6e-3], "load change times (s): applied at the "
-       "first sample t_k >= each time, before that sample's plant step", check="nonnegative"),
+       "first sample t_k >= each time, before that sample's plant step; at most "
+       f"{MAX_CHANGE_TIMES:,} (a study has a handful)", check="nonnegative"),
     _o("plant.i0", "float", 0.0, "initial inductor (armature) current (A)"),
     _o("plant.v0", "float", 0.0, "initial capacitor voltage (V)"),
     _o("plant.a", "float", -1.0, "first-order: pole a (1/s)"),
@@ -70,9 +96,11 @@ OPTIONS: tuple[Option, ...] = (
     _o("plant.La", "float", 2e-3, "dc-motor: armature inductance (H)", check="positive"),
     _o("plant.load", "float", 0.0, "dc-motor: load torque (N m); a schedule steps it"),
     _o("plant.num", "floats", [1.0], "lti: numerator of G(s), coefficients in descending "
-       "powers of s (strictly proper: fewer than plant.den's)"),
+       "powers of s (strictly proper: fewer than plant.den's), at most "
+       f"{MAX_TF_DEGREE + 1}"),
     _o("plant.den", "floats", [1.0, 1.0], "lti: denominator of G(s), descending powers of s, "
-       "the first nonzero"),
+       f"the first nonzero; degree at most {MAX_TF_DEGREE} (beyond, double-precision "
+       "coefficients no longer fix the poles: use mfcontrol.LTI's state space)"),
     _o("plant.gain", "float", 1.0, "lti: static gain K multiplying G(s) (a robustness axis)"),
     _o("plant.time_scale", "float", 1.0, "lti: every time constant multiplied by this, "
        "G(time_scale s) (a robustness axis)", check="positive"),

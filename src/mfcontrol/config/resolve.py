@@ -20,7 +20,17 @@ from ..elements import noise
 from ..errors import ConfigError, as_float
 from ..laws import estimators
 from ..numerics import grid
-from .options import BY_KEY, OPTIONS, PLANT_PARAMETERS, POSITIONAL, Option, allowed
+from .options import (
+    BY_KEY,
+    MAX_CHANGE_TIMES,
+    MAX_DESCRIPTION,
+    MAX_TF_DEGREE,
+    OPTIONS,
+    PLANT_PARAMETERS,
+    POSITIONAL,
+    Option,
+    allowed,
+)
 from .toml import to_toml
 
 
@@ -61,6 +71,7 @@ def check_value(key: str, value: Any) -> Any:
     if o.kind == "floats":
         if isinstance(value, np.ndarray) and value.ndim == 1:  # as numpy users hold lists
             value = value.tolist()
+        _check_size(key, value)  # before each element's check (seconds per million)
         if (not isinstance(value, list | tuple)
                 or not all(_is_number(x) and _check_number(o, as_float(x)) for x in value)):
             raise ConfigError(key, value, allowed(o))
@@ -91,7 +102,37 @@ def check_value(key: str, value: Any) -> Any:
         return value
     if not isinstance(value, str) or (o.choices and value not in o.choices):
         raise ConfigError(key, value, allowed(o))
+    _check_size(key, value)
     return value
+
+
+#: characters of a value a refusal of its size shows: the point is that it is too long
+_SIZE_SHOWN = 60
+
+
+def _check_size(key: str, value: Any) -> None:
+    """Refuse, up front and in one line, a list or text whose size would cost minutes
+    (each load change is an event and a mark on the figures, a transfer function's
+    degree a compilation, a description a title to lay out); see the bounds' reasons in
+    :mod:`.options`."""
+    if not isinstance(value, list | tuple | str):
+        return  # the option's own check refuses it
+    n = len(value)
+    if key == "description" and n > MAX_DESCRIPTION:
+        raise ConfigError(key, value, f"must be at most {MAX_DESCRIPTION:,} characters "
+                          f"({n:,} given)", limit=_SIZE_SHOWN)
+    if key == "plant.change_times" and n > MAX_CHANGE_TIMES:
+        raise ConfigError(key, value, f"must list at most {MAX_CHANGE_TIMES:,} times ({n:,} "
+                          "given)", limit=_SIZE_SHOWN)
+    if key == "plant.den" and n > MAX_TF_DEGREE + 1:
+        raise ConfigError(key, value, f"must have degree at most {MAX_TF_DEGREE} (at most "
+                          f"{MAX_TF_DEGREE + 1} coefficients; {n:,} given): beyond, "
+                          "double-precision coefficients no longer fix the poles",
+                          limit=_SIZE_SHOWN)
+    if key == "plant.num" and n > MAX_TF_DEGREE + 1:
+        raise ConfigError(key, value, f"must have at most {MAX_TF_DEGREE + 1} coefficients "
+                          f"({n:,} given; plant.den's degree is at most {MAX_TF_DEGREE})",
+                          limit=_SIZE_SHOWN)
 
 
 def _is_event(e: Any) -> bool:
@@ -320,6 +361,10 @@ def _check_consistency(v: dict[str, Any]) -> None:
                           f"plant (lti, first-order), not of {v['plant.model']}: use rk4 or "
                           "rk45")
     algebraic = v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
+    if algebraic and v["controller.window"] < 2:
+        # one interval fits no line through the window: the estimator needs two
+        raise ConfigError("controller.window", v["controller.window"],
+                          "must be at least 2 samples for the algebraic estimator")
     if algebraic and v["controller.order"] == 2 and v["controller.window"] % 2:
         raise ConfigError("controller.window", v["controller.window"],
                           "must be even for order 2 (Simpson's rule)")

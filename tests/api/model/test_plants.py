@@ -11,6 +11,7 @@ from scipy.linalg import expm
 
 from mfcontrol.api.model import plants as models
 from mfcontrol.api.model.plants import LTI, ODE, Boost, Buck, FirstOrder, Plant
+from mfcontrol.errors import ConfigError
 
 
 def _run(plant, u, h, n, t0=0.0):
@@ -169,6 +170,44 @@ def test_from_control_rejects_what_a_siso_continuous_plant_cannot_be():
         LTI.from_control(control.tf([1.0, 2.0], [1.0, 1.0]))  # biproper: feedthrough 1
     with pytest.raises(TypeError, match="StateSpace"):
         LTI.from_control(([1.0], [1.0, 1.0]))
+
+
+@pytest.mark.parametrize("make, needles", [
+    (lambda: control.tf([1.0], [1.0, 0.5], 0.1),
+     ["sys.dt = 0.1: must be 0", "a TransferFunction with 1 input, 1 output, denominator "
+      "of degree 1"]),
+    (lambda: control.ss(-np.eye(2), np.eye(2), np.eye(2), np.zeros((2, 2))),
+     ["sys = 'a StateSpace with 2 inputs, 2 outputs, 2 states': must have one input and "
+      "one output (SISO)"]),
+    (lambda: control.tf([1.0, 0.0, 0.0], [1.0, 1.0]),
+     ["sys = 'a TransferFunction with 1 input, 1 output, denominator of degree 1': must be "
+      "a proper system", "non-proper"]),
+    (lambda: control.ss([[np.nan, 0.0], [0.0, -2.0]], [[1.0], [1.0]], [[1.0, 1.0]], 0.0),
+     ["sys = 'a StateSpace with 1 input, 1 output, 2 states': must have finite "
+      "coefficients (its state space's A holds NaN or inf)"]),
+    (lambda: control.tf([1.0], [1.0, np.inf]), ["A and C hold NaN or inf"]),
+    (lambda: control.tf([2.0], [1.0]),
+     ["sys = 'a TransferFunction with 1 input, 1 output, denominator of degree 0': must "
+      "have at least one state (a static gain"]),
+], ids=["discrete", "mimo", "improper", "nan", "inf-tf", "static-gain"])
+def test_from_control_refusals_are_one_line_that_describes_the_system(make, needles):
+    """Issue 29: a NaN in A was refused with the matrix printed over two lines, an
+    improper system by python-control's own ValueError and a static gain by the shape of
+    an empty A; each is one line naming sys, described by its type, inputs, outputs and
+    order."""
+    with pytest.raises(ConfigError) as info:
+        LTI.from_control(make())
+    message = str(info.value)
+    assert "\n" not in message
+    for needle in needles:
+        assert needle in message, message
+
+
+def test_from_control_keyword_refusals_are_one_line():
+    sys = control.ss(-np.eye(2), [[1.0], [1.0]], [[1.0, 1.0]], 0.0)
+    with pytest.raises(ConfigError, match=r"^x0 = array\(\[\[0\., 0\.\], \[0\., 0\.\]\]\): "
+                                          r"must be 2 finite numbers \(x\[0\], x\[1\]\)$"):
+        LTI.from_control(sys, x0=np.zeros((2, 2)))
 
 
 def test_lti_shapes_and_values_are_checked():

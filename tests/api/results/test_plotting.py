@@ -131,3 +131,56 @@ def test_a_saved_figure_is_savefig_own_drawn_once(tmp_path, monkeypatch):
     # another suffix: savefig's format
     r.plot(tmp_path / "run.svg")
     assert (tmp_path / "run.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_many_load_changes_are_one_collection_named_once():
+    """Issue 29: 1,000 load changes drew 2,000 lines and labels per figure (half a minute
+    of CPU); past NAMED_EVENTS they are one collection of ticks per panel, named once by
+    their count, and a few are still named one by one."""
+    from matplotlib.collections import LineCollection
+
+    from mfcontrol.api.results.plotting import NAMED_EVENTS, plot_run
+
+    times = [1e-5 * (i + 1) for i in range(1000)]  # the last at t_end: not in the run
+    r = mfcontrol.run_case("voltage-stable-standard",
+                           overrides={"plant.change_times": times, "plant.dR": 1e-3})
+    fig = plot_run(r)
+    assert _texts(fig).count("999 load changes") == 2  # once per panel
+    assert not any(t == "load change" for t in _texts(fig))
+    for ax in fig.axes[:2]:
+        assert len(ax.get_lines()) <= 3  # the curves only
+        (ticks,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+        assert len(ticks.get_segments()) == 999
+    few = times[4::100][:NAMED_EVENTS]  # NAMED_EVENTS changes: each named
+    fig = plot_run(mfcontrol.run_case("voltage-stable-standard",
+                                      overrides={"plant.change_times": few}))
+    assert _texts(fig).count("load change") == 2 * NAMED_EVENTS
+
+
+def test_a_loop_run_with_many_changes_names_them_once():
+    plant = mfcontrol.FirstOrder(a=-1.0, b=1.0)
+    ctrl = mfcontrol.IP(alpha=1.0, kp=5.0, sample_time=1e-3)
+    changes = [mfcontrol.Change(0.01 * (i + 1), "w", 0.001, add=True) for i in range(50)]
+    res = mfcontrol.simulate_loop(plant, ctrl, 1.0, t_end=1.0, changes=changes)
+    texts = _texts(res.plot())
+    assert texts.count("50 parameter changes") == 2 and "w += 0.001" not in texts
+
+
+def test_a_long_description_is_shortened_in_the_title():
+    """A 10 MB description was laid out as a title for minutes (and left no room for the
+    panels): a title shows at most TITLE_MOST characters of it, cut at a word."""
+    from mfcontrol.api.results.plotting import title_in_words
+    from mfcontrol.config.options import MAX_DESCRIPTION, TITLE_MOST
+
+    words = "control " * (MAX_DESCRIPTION // 8)
+    r = mfcontrol.run_case("voltage-stable-standard",
+                           overrides={"description": words[:MAX_DESCRIPTION]})
+    title = title_in_words(r, extra="x")
+    lines = title.split("\n")
+    assert len(lines) == 4 and lines[-1] == "x"  # three lines of description
+    text = " ".join(lines[:-1])
+    assert len(text) <= TITLE_MOST and text.endswith("control ...")
+    assert r.plot()._suptitle.get_text().endswith("control ...")
+    # a description that fits is left whole
+    assert not title_in_words(mfcontrol.run_case("voltage-unstable-variational")).endswith(
+        "...")

@@ -26,6 +26,26 @@ def test_bad_specs_name_the_key(spec):
         batch.parse_spec("controller.alpha", spec)
 
 
+@pytest.mark.parametrize("spec, what", [
+    ("logspace(0, 400, 3)", "logspace's exponents must be at most 308.25"),
+    ("logspace(0,308.3,2)", "logspace's exponents must be at most 308.25"),
+    ("linspace(-1e308, 1e308, 3)", "linspace's ends and their difference must be within"),
+])
+def test_a_range_beyond_the_floats_is_refused_without_numpy_warnings(spec, what):
+    """Issue 29: numpy's RuntimeWarning (overflow) printed before the refusal, which named
+    the value it made (inf, nan) rather than the spec given."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a warning would raise here, not pass silently
+        with pytest.raises(mfcontrol.ConfigError) as info:
+            batch.parse_spec("controller.kp", spec)
+    assert str(info.value).startswith(f"controller.kp = {spec!r}: gives values beyond the "
+                                      "float range")
+    assert what in str(info.value)
+    np.testing.assert_array_equal(batch.parse_spec("k", "logspace(0, 308, 2)"), [1.0, 1e308])
+
+
 @pytest.mark.parametrize("items,needle", [
     (["controller.alpah=1,2"], "controller.alpah"), (["sim.h=1e-6,2e-6"], "sim.h"),
     (["controller.law=1,2"], "controller.law"), (["plant.R"], "KEY=SPEC"),

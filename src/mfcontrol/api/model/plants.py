@@ -492,6 +492,26 @@ class DCMotor(_CompiledPlant):
                           "load": load}, {}, x0, integrator=integrator, rtol=rtol, atol=atol)
 
 
+def _described(sys: Any) -> str:
+    """A python-control system in a few words, for a one-line message (its own text is a
+    matrix or a fraction over several lines): its type, inputs, outputs and order."""
+    def count(n: int, what: str) -> str:
+        return f"{n} {what}{'s' * (n != 1)}"
+
+    n = getattr(sys, "nstates", None)  # a StateSpace's (a TransferFunction's is None)
+    if isinstance(n, int | np.integer):
+        order = count(int(n), "state")
+    else:
+        try:
+            degree = max(np.size(np.trim_zeros(np.ravel(d), "f")) - 1
+                         for row in sys.den for d in row)
+            order = f"denominator of degree {degree}"
+        except (TypeError, ValueError, AttributeError):
+            order = "order unknown"
+    return (f"a {type(sys).__name__} with {count(sys.ninputs, 'input')}, "
+            f"{count(sys.noutputs, 'output')}, {order}")
+
+
 class LTI(Plant):
     """Continuous-time SISO state-space plant x' = A x + B u, y = C x.
 
@@ -589,22 +609,47 @@ class LTI(Plant):
         TypeError
             ``sys`` is neither a StateSpace nor a TransferFunction.
         ValueError
-            ``sys`` is discrete-time, not SISO, or has a feedthrough (D != 0, e.g. a
-            biproper transfer function).
+            ``sys`` is discrete-time, not SISO, improper, has a feedthrough (D != 0, e.g.
+            a biproper transfer function), no state (a static gain) or coefficients that
+            are not finite. Each refusal is one line that describes ``sys`` briefly
+            (python-control's own text of a system spans several).
         """
         import control  # here: python-control takes about 2 s to import
 
         if not isinstance(sys, control.StateSpace | control.TransferFunction):
             raise TypeError(f"sys must be a control.StateSpace or control.TransferFunction, "
                             f"not {type(sys).__name__}")
+        what = _described(sys)
         if not sys.isctime():
-            raise ConfigError("sys.dt", sys.dt, "must be 0 (a continuous-time system); "
-                              "this plant integrates an ODE between samples")
+            raise ConfigError("sys.dt", sys.dt, f"must be 0 (a continuous-time system; sys is "
+                              f"{what}): this plant integrates an ODE between samples")
         if (sys.ninputs, sys.noutputs) != (1, 1):
-            raise ConfigError("sys", f"{sys.ninputs} inputs, {sys.noutputs} outputs",
-                              "must have one input and one output (SISO)")
-        ss = control.ss(sys)
-        return cls(ss.A, ss.B, ss.C, float(np.asarray(ss.D).reshape(-1)[0]), **kw)
+            raise ConfigError("sys", what, "must have one input and one output (SISO)")
+        # the conversion's warnings (scipy's BadCoefficients) are held until it is known
+        # that no refusal follows: a refusal is the only output
+        with warnings.catch_warnings(record=True) as held, np.errstate(all="ignore"):
+            warnings.simplefilter("always")
+            try:
+                ss = control.ss(sys)
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+                # python-control's reason (an improper transfer function's), on one line
+                reason = " ".join(str(exc).split()) or type(exc).__name__
+                raise ConfigError("sys", what, f"must be a proper system with a state-space "
+                                  f"realisation ({reason})") from None
+        matrices = {m: np.asarray(getattr(ss, m), dtype=float) for m in "ABCD"}
+        bad = [m for m, arr in matrices.items() if not np.all(np.isfinite(arr))]
+        if bad:
+            raise ConfigError("sys", what, f"must have finite coefficients (its state "
+                              f"space's {' and '.join(bad)} hold{'s' * (len(bad) == 1)} "
+                              "NaN or inf)")
+        if matrices["A"].shape[0] == 0:
+            raise ConfigError("sys", what, "must have at least one state (a static gain has "
+                              "none: give it a fast pole, k / (tau s + 1))")
+        plant = cls(matrices["A"], matrices["B"], matrices["C"],
+                    float(matrices["D"].reshape(-1)[0]), **kw)
+        for w in held:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return plant
 
     @property
     def A(self) -> np.ndarray:

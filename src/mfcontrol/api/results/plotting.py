@@ -121,8 +121,10 @@ def event_times(result: Run) -> list[tuple[float, str]]:
 
 
 def _mark_changes(ax, result: Run, scale: float = 1e3) -> None:
-    for tc, what in event_times(result):
-        _event(ax, tc * scale, what, "0.45" if what == "load change" else "tab:orange")
+    events = event_times(result)
+    for what, color in (("load change", "0.45"), ("disturbance", "tab:orange")):
+        _events(ax, [(tc * scale, what) for tc, w in events if w == what], color,
+                f"{what}s")
 
 
 #: a transient smaller than this fraction of the output panel's span gets a zoom
@@ -188,9 +190,38 @@ def _transient_zoom(ax, t, y, y_ref, events, scale: float):
 def _event(ax, x: float, text: str, color: str) -> None:
     """A dotted line at an event, named at the top of the panel."""
     ax.axvline(x, color=color, lw=0.8, ls=":")
+    _event_name(ax, x, text, color)
+
+
+def _event_name(ax, x: float, text: str, color: str) -> None:
     ax.annotate(text, xy=(x, 1.0), xycoords=("data", "axes fraction"), xytext=(-2, -3),
                 textcoords="offset points", rotation=90, ha="right", va="top", fontsize=7,
                 color=color)
+
+
+#: events of one kind named one by one on a panel at most; more are drawn as one
+#: collection of ticks, named once
+NAMED_EVENTS = 10
+
+
+def _events(ax, events: Sequence[tuple[float, str]], color: str, plural: str) -> None:
+    """Dotted lines at ``events`` (x, name), each named while they are few. Many (a case
+    file may hold a thousand load changes) are one collection of ticks along the panel's
+    top, named once, by their count, at the first: a line and a label each took half a
+    minute of CPU for 1,000 (every label laid out and drawn, and unreadable at that),
+    and dotted lines that close together read as horizontal stripes over the curves."""
+    if len(events) <= NAMED_EVENTS:
+        for x, text in events:
+            _event(ax, x, text, color)
+        return
+    from matplotlib.collections import LineCollection
+
+    xs = sorted(x for x, _ in events)
+    # x in data, y in the panel's fraction (as axvline's), kept out of the data limits
+    ticks = LineCollection([[(x, 0.96), (x, 1.0)] for x in xs], colors=color,
+                           linewidths=0.8, transform=ax.get_xaxis_transform())
+    ax.add_collection(ticks, autolim=False)
+    _event_name(ax, xs[0], f"{len(xs):,} {plural}", color)
 
 
 #: resolution of every saved figure (dots per inch)
@@ -274,9 +305,9 @@ def plot_loop(result, path: str | Path | None = None, title: str | None = None,
     axes[1].set_ylabel(input_label)
     for a in axes:
         a.grid(True, alpha=0.3)
-        for c in result.changes:  # named as a case run's events are
-            what = f"{c.name} {'+' if c.add else ''}= {c.value:g}"
-            _event(a, c.time * scale, what, "0.45")
+        # named as a case run's events are
+        _events(a, [(c.time * scale, f"{c.name} {'+' if c.add else ''}= {c.value:g}")
+                    for c in result.changes], "0.45", "parameter changes")
     axes[-1].set_xlabel(time_label)
     if result.metrics.get("diverged"):
         axes[0].set_title(f"diverged at t = {result.metrics['t_diverge']:.6g} s",
@@ -441,7 +472,8 @@ def title_in_words(result, fallback: str = "", extra: str = "") -> str:
     import textwrap
 
     cfg = getattr(result, "config", None)
-    text = (cfg["description"] if cfg is not None and cfg["description"] else "") or fallback
+    text = _shortened((cfg["description"] if cfg is not None and cfg["description"] else "")
+                      or fallback, options.TITLE_MOST)
     # lines of even length (no one-word last line), "Fig. 6" and "Gamma = 5e-8" never split
     # (no-break spaces: textwrap breaks at ASCII whitespace only)
     for phrase in ("Fig. ", "Figs. ", " = "):
@@ -449,6 +481,18 @@ def title_in_words(result, fallback: str = "", extra: str = "") -> str:
     lines = math.ceil(len(text) / 95) if text else 1
     return "\n".join([*textwrap.wrap(text, math.ceil(len(text) / lines) + 8),
                       *([extra] if extra else [])])
+
+
+def _shortened(text: str, most: int) -> str:
+    """``text`` cut to at most ``most`` characters, at a word where there is one in its
+    second half, and " ..." put in place of the rest: a title longer than a few lines
+    leaves no room for the panels (matplotlib then draws none), and a long one took
+    minutes to lay out."""
+    if len(text) <= most:
+        return text
+    cut = text[:most - 4]
+    space = cut.rfind(" ")
+    return (cut[:space] if space >= most // 2 else cut).rstrip() + " ..."
 
 
 def _clip_outliers(ax, kept: list[np.ndarray], outliers: list[np.ndarray]) -> None:

@@ -54,7 +54,9 @@ def parse_spec(key: str, spec: str) -> np.ndarray:
             if n > MAX_AXIS:
                 too_many = n
                 raise ValueError
-            values = (np.linspace if m[1] == "linspace" else np.logspace)(a, b, n)
+            # numpy's overflow warning would print before the refusal below: the one line
+            with np.errstate(all="ignore"):
+                values = (np.linspace if m[1] == "linspace" else np.logspace)(a, b, n)
         else:
             values = np.array([float(x) for x in spec.split(",")])
     except ValueError:
@@ -64,7 +66,19 @@ def parse_spec(key: str, spec: str) -> np.ndarray:
         raise ConfigError(key, spec, allowed) from None
     if values.size == 0:
         raise ConfigError(key, spec, allowed)
+    if m and not np.all(np.isfinite(values)):  # named by the spec, not the inf or NaN made
+        raise ConfigError(key, spec, _beyond(m[1]))
     return values
+
+
+def _beyond(form: str) -> str:
+    """What a linspace or logspace whose values leave the float range must be instead."""
+    top = np.finfo(float).max
+    if form == "logspace":
+        return (f"gives values beyond the float range (about {top:.1e}): logspace's "
+                f"exponents must be at most {math.log10(top):.2f}")
+    return (f"gives values beyond the float range: linspace's ends and their difference "
+            f"must be within about {top:.1e}")
 
 
 def check_member_key(key: str, flag: str = "--grid") -> None:
