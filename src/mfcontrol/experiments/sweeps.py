@@ -49,6 +49,11 @@ CHUNK = 4096
 _IDENTITY = ("case", "overrides", "grid", "chunk", "arithmetic", "columns")
 
 
+def _chunk_path(chunk_dir: Path, i: int) -> Path:
+    """Where chunk i of a sweep folder lives (the one place its name is made)."""
+    return chunk_dir / f"chunk-{i:06d}.parquet"
+
+
 def _manifest(case: str, overrides: dict[str, Any], grid: batch.Grid, chunk: int,
               fast: bool) -> dict:
     return {"case": case, "overrides": overrides,
@@ -216,7 +221,7 @@ def _run_locked(grid, cfg, manifest, out, *, keep, chunk, dask, progress, fast) 
     all_chunks = list(batch.chunks(grid.n_members, chunk))
     todo = []
     for i, a, b in all_chunks:
-        path = chunk_dir / f"chunk-{i:06d}.parquet"
+        path = _chunk_path(chunk_dir, i)
         if not (path.exists() or path.is_symlink()):
             todo.append((i, a, b))
         elif (damage := _chunk_damage(path, mark, a, b)) is not None:
@@ -234,11 +239,11 @@ def _run_locked(grid, cfg, manifest, out, *, keep, chunk, dask, progress, fast) 
         changes = batch._cell_changes(grid) if batch.paper_grid(grid) else None
         for i, a, b in todo:
             frame = pd.DataFrame(batch.run_range(grid, a, b, changes, fast=fast))
-            _write_chunk(frame, chunk_dir / f"chunk-{i:06d}.parquet", mark, a, b)
+            _write_chunk(frame, _chunk_path(chunk_dir, i), mark, a, b)
             done += b - a
             if progress:
                 progress(done)
-    frames = [pd.read_parquet(chunk_dir / f"chunk-{i:06d}.parquet") for i, _, _ in all_chunks]
+    frames = [pd.read_parquet(_chunk_path(chunk_dir, i)) for i, _, _ in all_chunks]
     results = pd.concat(frames, ignore_index=True)
     if len(results) != grid.n_members:  # every chunk was checked: a fault of ours
         raise RuntimeError(f"{len(results)} rows for {grid.n_members} members in {chunk_dir}")
@@ -323,7 +328,7 @@ def _run_dask(address: str, spec: dict, todo, chunk_dir: Path, done: int, progre
                    for i, a, b in todo}
         for fut in as_completed(futures):
             i, a, b = futures[fut]
-            _write_chunk(fut.result(), chunk_dir / f"chunk-{i:06d}.parquet", mark, a, b)
+            _write_chunk(fut.result(), _chunk_path(chunk_dir, i), mark, a, b)
             done += b - a
             if progress:
                 progress(done)
