@@ -193,10 +193,10 @@ def _event(ax, x: float, text: str, color: str) -> None:
     _event_name(ax, x, text, color)
 
 
-def _event_name(ax, x: float, text: str, color: str) -> None:
+def _event_name(ax, x: float, text: str, color: str, **style: Any) -> None:
     ax.annotate(text, xy=(x, 1.0), xycoords=("data", "axes fraction"), xytext=(-2, -3),
                 textcoords="offset points", rotation=90, ha="right", va="top", fontsize=7,
-                color=color)
+                color=color, **style)
 
 
 #: events of one kind named one by one on a panel at most; more are drawn as one
@@ -218,10 +218,14 @@ def _events(ax, events: Sequence[tuple[float, str]], color: str, plural: str) ->
 
     xs = sorted(x for x, _ in events)
     # x in data, y in the panel's fraction (as axvline's), kept out of the data limits
+    # above an inset (a child of the panel at zorder 5, as the paper's zoom is): the
+    # count must stay readable wherever the changes fall
     ticks = LineCollection([[(x, 0.96), (x, 1.0)] for x in xs], colors=color,
-                           linewidths=0.8, transform=ax.get_xaxis_transform())
+                           linewidths=0.8, transform=ax.get_xaxis_transform(), zorder=6)
     ax.add_collection(ticks, autolim=False)
-    _event_name(ax, xs[0], f"{len(xs):,} {plural}", color)
+    _event_name(ax, xs[0], f"{len(xs):,} {plural}", color, zorder=6,
+                bbox={"boxstyle": "square,pad=0.1", "fc": "white", "ec": "none",
+                      "alpha": 0.85})
 
 
 #: resolution of every saved figure (dots per inch)
