@@ -294,7 +294,8 @@ def _cmd_export_c(args) -> int:
     sets = "".join(f" --set {text}" for text in args.set or [])
     limits = None
     if args.input_limits is not None:
-        limits = tuple(_limit("--input-limits", text) for text in args.input_limits)
+        low, high = (_limit("--input-limits", text) for text in args.input_limits)
+        limits = (low, high)
         sets += f" --input-limits {' '.join(args.input_limits)}"
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
                               description=f"case {args.case}{sets}", input_limits=limits)
