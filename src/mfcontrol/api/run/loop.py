@@ -118,8 +118,8 @@ def law_arrays(controller) -> LawArrays | None:
     """The engine's view of ``controller``; None when only the Python driver can run it
     (not a library controller, in manual mode, or with ``input_limits``: the engine's laws
     take every sample, so the live controller's rejections run in Python)."""
-    if not getattr(controller, "auto_mode", False) or "input_limits" in getattr(
-            controller, "_params", {}):
+    if (not getattr(controller, "auto_mode", False)
+            or getattr(controller, "input_limits", (None, None)) != (None, None)):
         return None
     if isinstance(controller, PID):
         return LawArrays(compose.PID, controller._CP.copy(), controller._CS.copy(),
