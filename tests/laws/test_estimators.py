@@ -44,7 +44,7 @@ def run(order, M, h, alpha, y, u, base=0):
     CS = make_state(M, base)
     f = np.empty(y.size)
     for k in range(y.size):
-        est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE)
+        est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE, order)
         f[k] = est.estimate(CS, 0, base, M, h, alpha, order)
     return f
 
@@ -239,19 +239,20 @@ def test_constant_F_without_input_bias_closed_form(order, bias):
 # ring happening only when the counter reaches a multiple of M.
 
 
+@pytest.mark.parametrize("order", est.ORDERS)
 @pytest.mark.parametrize("M", [4, 64, 512])
-def test_push_writes_a_fixed_set_of_rows(M):
+def test_push_writes_a_fixed_set_of_rows(M, order):
     base, j = 5, 1
     CS = make_state(M, base, members=3)
     CS[:base] = -1.0
     rng = np.random.default_rng(M)
     for _ in range(M + 2):
-        est.push(CS, j, base, M, rng.standard_normal(), rng.standard_normal())
+        est.push(CS, j, base, M, rng.standard_normal(), rng.standard_normal(), order)
     n_writes = []
     for _ in range(2 * M):
         count = int(CS[base + est.COUNT, j])
         before = CS.copy()
-        est.push(CS, j, base, M, rng.standard_normal(), rng.standard_normal())
+        est.push(CS, j, base, M, rng.standard_normal(), rng.standard_normal(), order)
         changed = np.flatnonzero((CS != before).any(axis=1))
         assert not (CS[:, [0, 2]] != before[:, [0, 2]]).any()  # other members untouched
         assert (changed >= base).all()  # rows before base untouched
@@ -263,19 +264,41 @@ def test_push_writes_a_fixed_set_of_rows(M):
     assert max(n_writes) <= 3 + len(MOMENT_ROWS)  # independent of M
 
 
+@pytest.mark.parametrize("M", [2, 7, 40])
+def test_order_one_carries_its_moments_with_the_bits_they_have_beside_all(M):
+    # n = 1 reads Y_1, U_0 and U_2 only, and a slide of S_p reads the moments below p:
+    # so it carries Y_0, Y_1 and U_0 .. U_2 (estimators.moments_of) and leaves the rest
+    # at zero. What it carries must be bit for bit what n = 2's full set holds, through
+    # pushes and resyncs, so that its estimates are those it gave with every moment.
+    rng = np.random.default_rng(M)
+    one, full = make_state(M), make_state(M)
+    n_y, n_u = est.moments_of(1)
+    kept = [est.Y_MOM + est.N_YMOM * par + p for par in (0, 1) for p in range(n_y)]
+    kept += [est.U_MOM + est.N_UMOM * par + p for par in (0, 1) for p in range(n_u)]
+    left = sorted(set(MOMENT_ROWS) - set(kept))
+    assert (n_y, n_u) == (2, 3) and len(left) == 6
+    for _ in range(5 * M + 3):
+        y, u = rng.standard_normal(2) * 10.0
+        est.push(one, 0, 0, M, y, u, 1)
+        est.push(full, 0, 0, M, y, u, 2)
+        np.testing.assert_array_equal(one[kept], full[kept])
+        assert not one[left].any()
+        np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1), est.sums(full, 0, 0, M, 1))
+
+
 def test_moments_are_carried_and_recomputed_only_every_M_samples():
     M = 6
     CS = make_state(M)
     rng = np.random.default_rng(3)
     for _ in range(2 * M + 1):
-        est.push(CS, 0, 0, M, rng.standard_normal(), rng.standard_normal())
+        est.push(CS, 0, 0, M, rng.standard_normal(), rng.standard_normal(), 2)
     CS[est.Y_MOM + 1, 0] += 1e3  # corrupt a running sum at count 2M + 1
     rows = list(MOMENT_ROWS)
     for count in range(2 * M + 2, 4 * M + 1):
-        est.push(CS, 0, 0, M, rng.standard_normal(), rng.standard_normal())
+        est.push(CS, 0, 0, M, rng.standard_normal(), rng.standard_normal(), 2)
         assert CS[est.COUNT, 0] == count
         fresh = CS.copy()
-        est.resync(fresh, 0, 0, M)  # the moments recomputed from the ring
+        est.resync(fresh, 0, 0, M, 2)  # the moments recomputed from the ring
         if count < 3 * M:  # the corruption is carried: push did not look at the ring
             assert not np.allclose(CS[rows], fresh[rows])
         else:  # recomputed at count 3M, clean since
@@ -296,7 +319,7 @@ def test_the_sample_count_wraps_and_the_estimates_do_not_notice(M):
     CS = make_state(M)
     counts = []
     for k in range(n):
-        est.push(CS, 0, 0, M, y[k], u[k - 1] if k else U_BEFORE)
+        est.push(CS, 0, 0, M, y[k], u[k - 1] if k else U_BEFORE, 1)
         counts.append(CS[est.COUNT, 0])
     counts = np.array(counts)
     assert counts.max() < M + 1 + period

@@ -462,15 +462,30 @@ def _law_views(D, n_cp, n_cs):
 
 
 @_jit.step_jit
-def _moments_lanes(D, half, par_in, par_out):
+def _moments_lanes(D, half, par_in, par_out, n_y, n_u):
     """:func:`mfcontrol.laws.estimators.moments_push` for every member of a block, the
     leaving and entering samples in rows ``_YO``, ``_UO``, ``_YM`` and the law's U1, the
-    parities literals: every row at a constant distance, so the loop vectorises
-    (measured 26 against 3 ns per member-sample, with the ring's moves apart)."""
+    parities and the moment counts literals: every row at a constant distance, so the
+    loop vectorises (measured 26 against 3 ns per member-sample, with the ring's moves
+    apart)."""
     _, cs = _law_views(D, intelligent.N_PARAMS, intelligent.EST_BASE + estimators.RING)
     for i in range(LANES):
         estimators.moments_push(cs, i, intelligent.EST_BASE, half, par_in, par_out,
-                                D[_YO, i], D[_UO, i], D[_YM, i], cs[intelligent.U1, i])
+                                D[_YO, i], D[_UO, i], D[_YM, i], cs[intelligent.U1, i], n_y,
+                                n_u)
+
+
+@_jit.step_jit
+def _moments_parities(D, half, par_in, par_out, n_y, n_u):
+    """:func:`_moments_lanes` with the parities made literals (n_y, n_u: literals)."""
+    if par_in == 0 and par_out == 0:
+        _moments_lanes(D, half, 0, 0, n_y, n_u)
+    elif par_in == 0:
+        _moments_lanes(D, half, 0, 1, n_y, n_u)
+    elif par_out == 0:
+        _moments_lanes(D, half, 1, 0, n_y, n_u)
+    else:
+        _moments_lanes(D, half, 1, 1, n_y, n_u)
 
 
 #: the rows of the law state's view in :func:`_estimator_lanes`: those of the longest
@@ -505,19 +520,18 @@ def _estimator_lanes(D, M, order, live):
         cs[u_row + slot, i] = cs[intelligent.U1, i]
     half = 0.5 * M
     par_in, par_out = n % 2, (n + M + 1) % 2
-    if par_in == 0 and par_out == 0:
-        _moments_lanes(D, half, 0, 0)
-    elif par_in == 0:
-        _moments_lanes(D, half, 0, 1)
-    elif par_out == 0:
-        _moments_lanes(D, half, 1, 0)
+    # the moments the order carries, constants in each branch
+    if order == 1:
+        n_y, n_u = estimators.moments_of(1)
+        _moments_parities(D, half, par_in, par_out, n_y, n_u)
     else:
-        _moments_lanes(D, half, 1, 1)
+        n_y, n_u = estimators.moments_of(2)
+        _moments_parities(D, half, par_in, par_out, n_y, n_u)
     count = estimators.counted(n, M)
     for i in range(LANES):
         cs[base + estimators.COUNT, i] = count
     if estimators.resync_due(n, M):
-        estimators.resync_members(cs, 0, LANES, base, M)
+        estimators.resync_members(cs, 0, LANES, base, M, order)
     full, oldest, newest, parity = estimators.window(cs, live, base, M)
     if full:
         for i in range(LANES):
