@@ -936,3 +936,43 @@ def test_the_one_member_step_is_taken_when_it_costs_no_compilation_worth_weighin
     assert step(ode, compose.RK4, compose.MEMBER_STEP_WORTH, False)
     monkeypatch.setattr(blocks.Block, "cheap", cheap)
     assert step(ode, compose.RK4, 10, False)  # compiled now, in this process
+
+
+def _block_laws_asm():
+    """The machine code of the vectorised loop's law and metrics loops over a block (the
+    i-PI of every estimator and form, the PID, the recursive law and the metrics fold),
+    compiled for this machine."""
+    from numba import carray, njit
+
+    from mfcontrol.engine import compose
+    from mfcontrol.numerics import signatures as sig
+
+    lanes = compose.LANES
+
+    @njit(error_model="numpy")
+    def laws(buf, n_rows, k):
+        D = carray(sig.pointer(buf), (n_rows, lanes))
+        n = compose._intelligent_lanes(D, 0.01, True, True)
+        n += compose._intelligent_lanes(D, 0.01, True, False)
+        n += compose._intelligent_lanes(D, 0.01, False, True)
+        n += compose._intelligent_lanes(D, 0.01, False, False)
+        n += compose._pid_lanes(D, 0.01) + compose._recursive_lanes(D)
+        compose._fold_lanes(D, k, 0.01 * k, 0.01, 0.5, 0.8)
+        return n
+
+    n_rows = compose._CS0 + 200
+    laws(np.zeros(n_rows * lanes), n_rows, 5)
+    return next(iter(laws.inspect_asm().values()))
+
+
+def test_the_vectorised_laws_store_through_no_mask():
+    # A loop over members whose source stores back a value it just loaded, on one of its
+    # branches (the clamp's frozen integral, say), may be compiled to a masked store
+    # (vmaskmovpd), microcoded and several times slower on AMD cores: the i-PI's loop
+    # stored its integral that way. Checked in the machine code, not timed.
+    asm = _block_laws_asm()
+    if "ymm" not in asm:
+        pytest.skip("no 256-bit vector code on this machine")
+    stores = [line.strip() for line in asm.splitlines()
+              if "vmaskmov" in line and line.rstrip().endswith(")")]
+    assert not stores, stores
