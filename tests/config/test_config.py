@@ -389,6 +389,27 @@ def test_none_unsets_with_overrides():
     assert cfg["controller.alpha"] == 3.0  # the original is unchanged
 
 
+@pytest.mark.parametrize("case", ["voltage-stable-standard", "bench-lag3", "motor-noise-pid"])
+def test_with_overrides_is_resolve_of_the_merged_settings(case):
+    # with_overrides checks only the keys it is given (the configuration's own were
+    # checked when it was resolved): what it returns must be what resolve gives the
+    # merged settings, and no list may be shared with the configuration it came from
+    _, cfg = resolve_case(case)
+    overrides = {"controller.kp": 2.5, "plant.schedule": [], "sim.t_end": 3,
+                 "sensor.noise": None}
+    got = cfg.with_overrides(overrides)
+    want = resolve({**cfg.explicit, **overrides})
+    assert got.values == want.values
+    assert list(got.explicit) == list(want.explicit)  # the same keys in the same order
+    for key, v in got.values.items():
+        if isinstance(v, list) and key in cfg.values:
+            assert v is not cfg.values[key] or key not in cfg.explicit
+    with pytest.raises(ConfigError, match="controller.kp"):
+        cfg.with_overrides({"controller.kp": "x"})
+    with pytest.raises(ConfigError, match="controller.nope"):
+        cfg.with_overrides({"controller.nope": 1.0})
+
+
 def test_none_on_a_preset_key_gives_the_preset_back():
     cfg = resolve({"fidelity": "paper", "plant.coupling": None})
     assert cfg["plant.coupling"] == "textbook"

@@ -189,7 +189,18 @@ class Config(Mapping[str, Any]):
     def with_overrides(self, overrides: Mapping[str, Any]) -> Config:
         """A new resolved configuration with these keys set (fidelity presets re-applied
         to keys that were never set explicitly)."""
-        return resolve({**self.explicit, **dict(overrides)})
+        overrides = dict(overrides)
+        for key, value in overrides.items():
+            if key not in BY_KEY:
+                raise unknown_key(key, value)
+        # this configuration's own values were checked when it was resolved: only the
+        # new ones are (a sweep resolves one configuration per distinct setting of its
+        # keys, each of which checked every key again); the lists are copied, so that no
+        # two configurations share one
+        merged = {**self.explicit, **overrides}
+        return _filled({key: check_value(key, v) if key in overrides
+                        else (_copied(v) if isinstance(v, list) else v)
+                        for key, v in merged.items() if v is not None})
 
     @property
     def explicit(self) -> dict[str, Any]:
@@ -255,7 +266,18 @@ def resolve(settings: Mapping[str, Any]) -> Config:
     for key, value in settings.items():
         if key not in BY_KEY:
             raise unknown_key(key, value)
-    explicit = {key: check_value(key, v) for key, v in settings.items() if v is not None}
+    return _filled({key: check_value(key, v) for key, v in settings.items() if v is not None})
+
+
+def _copied(checked: list) -> list:
+    """A checked list option's value copied: its elements are numbers, texts or events
+    (flat dicts of them)."""
+    return [dict(e) if isinstance(e, dict) else e for e in checked]
+
+
+def _filled(explicit: dict[str, Any]) -> Config:
+    """The configuration of these checked values (:func:`check_value`), every other
+    option filled, and the checks across options run."""
     fidelity = explicit.get("fidelity", BY_KEY["fidelity"].default)
     values: dict[str, Any] = {}
     for o in OPTIONS:

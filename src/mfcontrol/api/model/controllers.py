@@ -117,15 +117,25 @@ class _Controller:
     _bumpless_start: Callable[[float], None]
 
     def _bind(self) -> None:
-        """Bind the compiled step to this controller's arrays as ``self._step``. It is called
-        without numba's type checks: the arrays must never be replaced, only written."""
+        """Bind the compiled step to this controller's arrays as ``self._step``, on its
+        first use (:meth:`__getattr__`): a controller that a sweep or a single run only
+        reads the parameters of never looks its step up (about a third of building
+        one). It is called without numba's type checks: the arrays must never be
+        replaced, only written."""
+        self.__dict__.pop("_step", None)
+
+    def __getattr__(self, name: str) -> Any:
+        # only for an attribute not set: _step before its first use
+        if name != "_step" or "_CP" not in self.__dict__:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         kernel, n_scalars = self._KERNEL
         self._step = live.entry_point(getattr(live, kernel), self._CP, self._CS,
                                       self._backup, *(0.0,) * n_scalars)
+        return self._step
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        del state["_step"]  # compiled code: bound again on unpickling
+        state.pop("_step", None)  # compiled code: bound again on its first use
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:

@@ -371,15 +371,14 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
     members: dict[str, list] = {}
     for part, build in parts.items():
         mine = [c for c, k in enumerate(keys) if owner[k] == part]
-        built: dict[tuple[int, ...], object] = {}
-        members[part] = []
-        for j in range(stop - start):
-            at = tuple(int(idx[c][j]) for c in mine)
-            if at not in built:  # the configuration with these values set, checked
-                built[at] = build(grid.base.with_overrides(
-                    {keys[c]: axis_value(keys[c], grid.axes[keys[c]][i])
-                     for c, i in zip(mine, at, strict=True)}))
-            members[part].append(built[at])
+        # the distinct settings of this part's keys, and which one each member has
+        at = np.stack([np.asarray(idx[c], dtype=np.int64) for c in mine], axis=1) if mine \
+            else np.zeros((stop - start, 0), dtype=np.int64)
+        settings, which = np.unique(at, axis=0, return_inverse=True)
+        built = [build(grid.base.with_overrides(  # the configuration with them set, checked
+            {keys[c]: axis_value(keys[c], grid.axes[keys[c]][i])
+             for c, i in zip(mine, row.tolist(), strict=True)})) for row in settings]
+        members[part] = [built[w] for w in which.reshape(-1).tolist()]
     return batch_metrics(grid.base, members, fast=fast)[0]
 
 
