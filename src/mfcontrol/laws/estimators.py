@@ -39,7 +39,9 @@ The recurrence does not forget its rounding errors: an error in Y_q acts like a 
 sample that keeps sliding out of the window, and its weight in F_hat grows like a power of
 its age (the 4th for U_4). So every M samples the moments are recomputed exactly from the
 raw samples, kept in a ring buffer: O(M) once every M samples, O(1) amortised, and the
-drift stays a few M ulps of the summed terms.
+drift stays a few M ulps of the summed terms. The resync also recovers from a non-finite
+sample, which poisons the running sums (inf - inf) until the first resync after it has
+left the window (at most 2M samples, against M + 1 for a direct sum).
 
 n = 1 reads only ``Y_1`` and ``U_0``, ``U_2``; a slide of ``S_p`` reads the moments below
 p only, so n = 1 carries ``Y_0, Y_1`` and ``U_0 .. U_2`` alone (:func:`moments_of`) and
