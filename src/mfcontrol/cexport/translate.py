@@ -246,6 +246,13 @@ class _FunctionTranslator:
             return
         self.locals[name] = _merge(self.locals.get(name, kind), kind)
 
+    def as_kind(self, code: str, kind: str, want: str | None) -> str:
+        """``code`` of ``kind`` converted where C would convert it implicitly to ``want``:
+        the same value, said explicitly (``-Wconversion``)."""
+        if want == REAL and kind in (INT, BOOL):
+            return f"(({self.tr.ctype(REAL)}){code})"
+        return code
+
     def temp(self, kind: str) -> str:
         self.tmp += 1
         name = f"tmp{self.tmp}_"
@@ -338,12 +345,13 @@ class _FunctionTranslator:
     def store(self, target, code: str, kind: str, depth: int, s):
         if isinstance(target, ast.Name):
             self.local(target.id, kind)
-            self.emit(depth, f"{self.cname(target.id)} = {code};")
+            held = self.args.get(target.id, self.locals.get(target.id))
+            self.emit(depth, f"{self.cname(target.id)} = {self.as_kind(code, kind, held)};")
         elif isinstance(target, ast.Subscript):
             ref, col = self.subscript(target)
             if col != CS:
                 self.fail(s, "writes a parameter")
-            self.emit(depth, f"{ref} = {code};")
+            self.emit(depth, f"{ref} = {self.as_kind(code, kind, REAL)};")
         else:
             self.fail(s, f"assignment to {type(target).__name__}")
 
@@ -382,11 +390,13 @@ class _FunctionTranslator:
             codes = [self.expr(v) for v in value.elts]
             self.set_returns(tuple(k for _, k in codes), s)
             if len(codes) == 1:
-                self.emit(depth, f"return {codes[0][0]};")
+                want = self.returns[0] if self.returns else None
+                self.emit(depth, f"return {self.as_kind(*codes[0], want)};")
                 return
             # the out-pointers point at the caller's variables, never at these locals
-            for i, (code, _) in enumerate(codes):
-                self.emit(depth, f"*out{i} = {code};")
+            for i, (code, kind) in enumerate(codes):
+                want = self.returns[i] if self.returns else None
+                self.emit(depth, f"*out{i} = {self.as_kind(code, kind, want)};")
             self.emit(depth, "return;")
             return
         if (isinstance(value, ast.Call) and isinstance(value.func, ast.Name)
@@ -406,7 +416,8 @@ class _FunctionTranslator:
                 return
         code, kind = self.expr(value)
         self.set_returns((kind,), s)
-        self.emit(depth, f"return {code};")
+        want = self.returns[0] if self.returns else None
+        self.emit(depth, f"return {self.as_kind(code, kind, want)};")
 
     def set_returns(self, kinds, s):
         if not self.returns_seen:
@@ -506,7 +517,8 @@ class _FunctionTranslator:
             c = self.expr(node.test)[0]
             a, ka = self.expr(node.body)
             b, kb = self.expr(node.orelse)
-            return f"({c} ? {a} : {b})", _merge(ka, kb)
+            k = _merge(ka, kb)
+            return f"({c} ? {self.as_kind(a, ka, k)} : {self.as_kind(b, kb, k)})", k
         if isinstance(node, ast.Call):
             return self.call(node)
         self.fail(node, f"expression {type(node).__name__}")
@@ -518,6 +530,8 @@ class _FunctionTranslator:
         a, ka = self.expr(node.left)
         b, kb = self.expr(node.right)
         ints = ka != REAL and kb != REAL
+        if not ints:  # C converts the integer side: said explicitly
+            a, b = self.as_kind(a, ka, REAL), self.as_kind(b, kb, REAL)
         if isinstance(node.op, ast.Div):
             # true division: at least one side in floating point
             if ints:
@@ -618,7 +632,9 @@ class _FunctionTranslator:
             # Python keeps the first unless the second compares greater (smaller): the
             # same result for NaN and signed zeros
             c = ">" if fn is max else "<"
-            return f"(({b} {c} {a}) ? {b} : {a})", _merge(ka, kb)
+            k = _merge(ka, kb)
+            a, b = self.as_kind(a, ka, k), self.as_kind(b, kb, k)
+            return f"(({b} {c} {a}) ? {b} : {a})", k
         if fn in (math.isnan, np.isnan):
             return f"isnan({self.expr(args[0])[0]})", BOOL
         if fn in (math.isfinite, np.isfinite):
