@@ -791,7 +791,7 @@ def test_export_c_takes_the_sensor_range(tmp_path):
                str(tmp_path / "c"))
     assert proc.returncode == 0, proc.stderr
     source = (tmp_path / "c" / "mfc.c").read_text()
-    assert "if (!isfinite(y) || y > 5000.0) {" in source
+    assert "if (!isfinite(y) || !isfinite(setpoint) || y > 5000.0) {" in source
     assert "--input-limits none 5000" in source  # the banner says how it was made
 
 

@@ -2,7 +2,8 @@
 
 An operation is a row ``(op, a, b)``: op 0 steps with y = a and setpoint = b, op 1 switches
 to manual with output a, op 2 back to automatic. The binary reads the rows from stdin as
-doubles and writes, as doubles, the output of every step and finally the nan_count.
+doubles and writes, as doubles, the output of every step and finally the nan_count; given
+a file name, it writes its final state's memory there (as doubles).
 """
 
 from __future__ import annotations
@@ -17,18 +18,20 @@ import pytest
 
 from mfcontrol.cexport import CFLAGS as EXPORT_FLAGS
 
-#: the flags the export recommends, with every warning an error
-CFLAGS = [*EXPORT_FLAGS, "-Wall", "-Wextra", "-Werror", "-pedantic"]
+#: the flags the export recommends, with every warning a firmware build turns on an error
+CFLAGS = [*EXPORT_FLAGS, "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",
+          "-Wdouble-promotion", "-Wshadow"]
 STEP, MANUAL, AUTO = 0.0, 1.0, 2.0
 
 _MAIN = r"""
 #include <stdio.h>
 #include "@P@.h"
 
-int main(void)
+int main(int argc, char **argv)
 {
     static @P@_state s;
     double row[3];
+    long i;
     @P@_init(&s);
     while (fread(row, sizeof row, 1, stdin) == 1) {
         if (row[0] == 0.0) {
@@ -43,6 +46,15 @@ int main(void)
     {
         double count = (double)s.nan_count;
         fwrite(&count, sizeof count, 1, stdout);
+    }
+    if (argc > 1) {
+        FILE *f = fopen(argv[1], "wb");
+        if (f == NULL) return 1;
+        for (i = 0; i < @PU@_N_STATE; i++) {
+            double v = (double)s.cs[i];
+            fwrite(&v, sizeof v, 1, f);
+        }
+        fclose(f);
     }
     return 0;
 }
@@ -59,8 +71,9 @@ def compiler() -> str:
     return cc
 
 
-def build(src, folder: Path, *, shared: bool = False) -> Path:
-    """Write the files, compile them (with the harness's main, or as a shared library)."""
+def build(src, folder: Path, *, shared: bool = False, flags: tuple[str, ...] = ()) -> Path:
+    """Write the files, compile them (with the harness's main, or as a shared library),
+    with ``flags`` after the harness's."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{src.prefix}.h").write_text(src.header)
     (folder / f"{src.prefix}.c").write_text(src.source)
@@ -69,34 +82,53 @@ def build(src, folder: Path, *, shared: bool = False) -> Path:
         out = folder / f"lib{src.prefix}.so"
         extra = ["-shared", "-fPIC"]
     else:
-        (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix))
+        (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix)
+                                       .replace("@PU@", src.prefix.upper()))
         files.append(str(folder / "main.c"))
         out = folder / src.prefix
         extra = []
-    subprocess.run([compiler(), *CFLAGS, *extra, "-I", str(folder), *files, "-o", str(out),
-                    "-lm"], check=True, capture_output=True, text=True)
+    done = subprocess.run([compiler(), *CFLAGS, *flags, *extra, "-I", str(folder), *files,
+                           "-o", str(out), "-lm"], capture_output=True, text=True, timeout=600)
+    if done.returncode:
+        raise AssertionError(f"the export does not compile:\n{done.stderr[:4000]}")
     return out
 
 
-def run_binary(exe: Path, ops: np.ndarray) -> tuple[np.ndarray, int]:
-    """The outputs of every step and the final nan_count."""
-    done = subprocess.run([str(exe)], input=np.ascontiguousarray(ops, float).tobytes(),
-                          capture_output=True, check=True)
+def run_binary(exe: Path, ops: np.ndarray, state: Path | None = None
+               ) -> tuple[np.ndarray, int]:
+    """The outputs of every step and the final nan_count (the final memory in ``state``
+    when given). A sanitizer's report fails the run."""
+    done = subprocess.run([str(exe), *([str(state)] if state else [])],
+                          input=np.ascontiguousarray(ops, float).tobytes(),
+                          capture_output=True, timeout=600)
+    if done.returncode or done.stderr:
+        raise AssertionError(f"{exe.name} exited with {done.returncode}: "
+                             f"{done.stderr.decode(errors='replace')[:2000]}")
     out = np.frombuffer(done.stdout, dtype=float)
     return out[:-1], int(out[-1])
 
 
 def run_python(ctrl, ops: np.ndarray) -> tuple[np.ndarray, int]:
-    """The same operations on the live Python controller."""
-    out = []
+    """The same operations on the live Python controller. Where the live controller
+    refuses a value with an exception (a non-finite setpoint or manual output), the C,
+    which cannot raise, rejects and counts it: the Python side does what the C does (a
+    rejected sample, a manual mode that keeps the last output) and counts it too."""
+    out, refused = [], 0
     for op, a, b in ops:
         if op == STEP:
-            out.append(ctrl(float(a), setpoint=float(b)))
+            if np.isfinite(b):
+                out.append(ctrl(float(a), setpoint=float(b)))
+            else:  # a rejected sample, as a NaN measurement is
+                out.append(ctrl(np.nan))
         elif op == MANUAL:
-            ctrl.set_auto_mode(False, last_output=float(a))
+            if np.isfinite(a):
+                ctrl.set_auto_mode(False, last_output=float(a))
+            else:
+                ctrl.set_auto_mode(False)
+                refused += 1
         else:
             ctrl.set_auto_mode(True)
-    return np.array(out, dtype=float), ctrl.nan_count
+    return np.array(out, dtype=float), ctrl.nan_count + refused
 
 
 def steps(y, r) -> np.ndarray:

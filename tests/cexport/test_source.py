@@ -463,3 +463,234 @@ def test_the_banner_names_the_law_as_the_command_line_does(tmp_path):
     h, _ = mfcontrol.export_c(mfcontrol.IPD(alpha=10, kp=2, kd=0.1, sample_time=1e-3),
                               out=tmp_path)
     assert h.read_text().startswith("/* mfc: i-PD controller (mfcontrol.IPD)")
+
+
+# -- hostile input (issue 33) ------------------------------------------------------------
+_HOSTILE = [math.nan, math.inf, -math.inf, 1e308, -1e308, 1.7976931348623157e308, 5e-324,
+            -5e-324, 2.2e-310, 1e39, -1e39]
+
+
+def hostile_operations(case: str) -> np.ndarray:
+    """A closed-loop run, then every hostile value as the measurement, the setpoint, both,
+    and the manual output, each followed by ordinary samples and a return to automatic."""
+    y, r = closed_loop(case)
+    y0, r0 = y[199], r[199]
+    rows = []
+    for v in _HOSTILE:
+        rows += [(H.STEP, v, r0), (H.STEP, y0, r0), (H.STEP, y0, v), (H.STEP, y0, r0),
+                 (H.STEP, v, v), (H.STEP, y0, r0), (H.STEP, y0, v), (H.STEP, y0, v),
+                 (H.STEP, y0, r0), (H.MANUAL, v, 0.0), (H.STEP, y0, r0), (H.AUTO, 0.0, 0.0),
+                 (H.STEP, y0, r0), (H.STEP, y0, r0)]
+    return np.vstack([H.steps(y[:200], r[:200]), np.array(rows, float),
+                      H.steps(y[200:260], r[200:260])])
+
+
+@functools.cache
+def sanitizer_flags() -> tuple[str, ...]:
+    """AddressSanitizer and UBSan flags where this compiler has them, else ()."""
+    import subprocess
+    import tempfile
+
+    flags = ("-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+             "-fno-omit-frame-pointer")
+    with tempfile.TemporaryDirectory() as d:
+        (src := f"{d}/t.c") and open(src, "w").write("int main(void) { return 0; }\n")
+        done = subprocess.run([H.compiler(), *flags, src, "-o", f"{d}/t"],
+                              capture_output=True, timeout=600)
+        if done.returncode:
+            return ()
+        return flags if subprocess.run([f"{d}/t"], timeout=600).returncode == 0 else ()
+
+
+def _limits_of(ctrl) -> tuple[float, float]:
+    lo, hi = ctrl._OUT_ROWS
+    return float(ctrl._CP[lo, 0]), float(ctrl._CP[hi, 0])
+
+
+@pytest.mark.parametrize("variant", VARIANTS, ids=[_id(v) for v in VARIANTS])
+def test_hostile_inputs_leave_every_export_sound(variant, tmp_path):
+    """NaN, +-inf, the largest doubles, denormals and values past the float range as the
+    measurement, the setpoint and the manual output: the double export stays the Python
+    controller bit for bit (outputs, nan_count and the final memory), every output is
+    finite and within the output limits, in double and in float, and neither build trips
+    AddressSanitizer or UBSan. Before issue 33 a +-inf setpoint that the output clamp
+    turned into a rail was taken into the state (the PID then held +24 V for good)."""
+    case, overrides = variant
+    ops = hostile_operations(case)
+    ctrl = mfcontrol.make_controller(case, overrides)
+    lo, hi = _limits_of(ctrl)
+    flags = sanitizer_flags()
+    exe = H.build(c_source(ctrl), tmp_path / "d", flags=flags)
+    u_c, nan_c = H.run_binary(exe, ops, state=tmp_path / "state")
+    py = mfcontrol.make_controller(case, overrides)
+    u_py, nan_py = H.run_python(py, ops)
+    differ = np.flatnonzero(u_c.view(np.int64) != u_py.view(np.int64))
+    assert differ.size == 0, f"first difference at step {differ[0]}: " \
+                             f"C {u_c[differ[0]]!r}, Python {u_py[differ[0]]!r}"
+    assert nan_c == nan_py
+    memory = np.fromfile(tmp_path / "state", dtype=float)[:py._CS.shape[0]]
+    assert np.array_equal(memory.view(np.int64), py._CS[:, 0].view(np.int64))
+    assert np.isfinite(u_c).all() and (lo <= u_c).all() and (u_c <= hi).all()
+    exe = H.build(c_source(ctrl, real="float", prefix="f"), tmp_path / "f", flags=flags)
+    u_f, _ = H.run_binary(exe, ops, state=tmp_path / "fstate")
+    lo_f, hi_f = np.float32(lo), np.float32(hi)  # the limits as the float build holds them
+    assert np.isfinite(u_f).all() and (lo_f <= u_f).all() and (u_f <= hi_f).all()
+
+
+def test_an_infinite_setpoint_is_refused_and_counted_not_taken(tmp_path):
+    """Issue 33's finding: the exported PID took an infinite setpoint when the output clamp
+    made the output finite, then sat at its rail with a NaN integrator. Now the sample is
+    rejected as a NaN measurement is, and the next ordinary sample gives what it would
+    have given had the rejected sample been a NaN measurement."""
+    case = "motor-noise-pid"
+    y, r = closed_loop(case)
+    ops = np.vstack([H.steps(y[:300], r[:300]), [(H.STEP, y[300], np.inf)],
+                     H.steps(y[301:400], r[301:400])])
+    u_c, nan_c = H.run_binary(H.build(c_source(mfcontrol.make_controller(case)), tmp_path),
+                              ops)
+    nan_ops = ops.copy()
+    nan_ops[300] = (H.STEP, np.nan, r[300])
+    u_nan, _ = H.run_python(mfcontrol.make_controller(case), nan_ops)
+    assert nan_c == 1 and u_c[300] == u_c[299]
+    assert np.array_equal(u_c, u_nan)
+
+
+def test_a_manual_output_is_clamped_to_the_output_limits(tmp_path):
+    """Issue 33: after set_manual(1e308) and set_auto the exported recursive law returned
+    1e308 at every later step, outside its limits. A manual output is clamped, in the live
+    controller and in the C, and the law restarts from the clamped value."""
+    ctrl = mfcontrol.make_controller(RECURSIVE, {"controller.duty_max": 0.6})
+    ctrl.set_auto_mode(False, last_output=1e308)
+    assert ctrl(0.0) == 0.6 == ctrl.last_output
+    y, r = closed_loop(RECURSIVE)
+    ops = np.vstack([H.steps(y[:100], r[:100]), [(H.MANUAL, 1e308, 0.0)],
+                     H.steps(y[100:102], r[100:102]), [(H.AUTO, 0.0, 0.0)],
+                     H.steps(y[102:300], r[102:300])])
+    src = c_source(mfcontrol.make_controller(RECURSIVE, {"controller.duty_max": 0.6}))
+    u_c, _ = H.run_binary(H.build(src, tmp_path), ops)
+    u_py, _ = H.run_python(mfcontrol.make_controller(RECURSIVE, {"controller.duty_max": 0.6}),
+                           ops)
+    assert np.array_equal(u_c, u_py)
+    assert u_c[100] == u_c[101] == 0.6 and u_c.max() <= 0.6
+
+
+def test_a_state_never_initialised_is_refused(tmp_path):
+    """A zeroed static state never passed to init used to read as manual mode and return
+    0.0 in silence: now step returns NaN and no function changes the state."""
+    import subprocess
+
+    src = c_source(mfcontrol.make_controller("motor-noise-pid"), prefix="m")
+    (tmp_path / "m.h").write_text(src.header)
+    (tmp_path / "m.c").write_text(src.source)
+    (tmp_path / "main.c").write_text(r"""
+#include <math.h>
+#include <string.h>
+#include "m.h"
+int main(void)
+{
+    static m_state s, zero;
+    double u;
+    m_set_manual(&s, 1.0);
+    m_set_auto(&s);
+    u = m_step(&s, 0.5, 1.0);
+    if (!isnan(u) || memcmp(&s, &zero, sizeof s) != 0) return 1;
+    m_init(&s);
+    u = m_step(&s, 0.5, 1.0);
+    return isfinite(u) && s.ready != 0 ? 0 : 2;
+}
+""")
+    subprocess.run([H.compiler(), *H.CFLAGS, str(tmp_path / "m.c"), str(tmp_path / "main.c"),
+                    "-o", str(tmp_path / "t"), "-lm"], check=True, timeout=600)
+    assert subprocess.run([str(tmp_path / "t")], timeout=600).returncode == 0
+
+
+def test_a_cpp_firmware_links_the_export_and_float_code_stays_float(tmp_path):
+    """The header opens extern "C" for C++; the sample time is a literal of the export's
+    type, so ``f * PREFIX_SAMPLE_TIME`` in a float build promotes nothing to double."""
+    import shutil
+    import subprocess
+
+    cxx = shutil.which("c++") or shutil.which("g++") or shutil.which("clang++")
+    for real in ("float", "double"):
+        src = c_source(mfcontrol.make_controller(INTELLIGENT), prefix="m", real=real)
+        (tmp_path / "m.h").write_text(src.header)
+        (tmp_path / "m.c").write_text(src.source)
+        (tmp_path / "use.c").write_text('#include "m.h"\n'
+                                        "m_real ticks(m_real f) { return f * M_SAMPLE_TIME; }\n")
+        for file in ("m.c", "use.c"):
+            subprocess.run([H.compiler(), *H.CFLAGS, "-c", str(tmp_path / file), "-o",
+                            str(tmp_path / (file + ".o"))], check=True, timeout=600)
+        if cxx is None:
+            continue
+        (tmp_path / "main.cpp").write_text(
+            '#include "m.h"\nint main() { static m_state s; m_init(&s);\n'
+            "  return m_step(&s, (m_real)0.1, (m_real)0.2) == m_step(&s, (m_real)0.1, "
+            "(m_real)0.2) ? 0 : 0; }\n")
+        subprocess.run([cxx, "-std=c++11", "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path),
+                        str(tmp_path / "main.cpp"), str(tmp_path / "m.c.o"), "-o",
+                        str(tmp_path / "cpp"), "-lm"], check=True, timeout=600)
+        assert subprocess.run([str(tmp_path / "cpp")], timeout=600).returncode == 0
+    assert "#define M_SAMPLE_TIME 0.001f" in c_source(
+        mfcontrol.make_controller(INTELLIGENT), prefix="m", real="float").header
+
+
+_HOSTILE_TEXT = [
+    "x *\\\n/ extern int injected; /\\\n* y",  # a backslash-newline closes the comment
+    "x *\\  \n/ extern int injected; /\\\n* y",  # (gcc splices across trailing blanks)
+    "ends in a trigraph ??/\nextern int injected;",
+    "*/ extern int injected; /*",
+    "a\r\nextern int injected;\u2028b\x0c\x00c",
+    "**//*/*",
+]
+
+
+@pytest.mark.parametrize("text", _HOSTILE_TEXT, ids=range(len(_HOSTILE_TEXT)))
+def test_hostile_text_stays_inert_comment(text, tmp_path):
+    """Issue 33: a backslash-newline in a description or a --set text ended the banner's
+    comment and what followed compiled; a trailing ??/ broke -Werror. Text now enters the
+    C only as comment text: the preprocessed files hold no token of it, and they compile
+    with -Werror (trigraphs on, as -std=c99 has them)."""
+    import subprocess
+
+    for real in ("double", "float"):
+        src = c_source(mfcontrol.make_controller(INTELLIGENT), description=text, real=real)
+        (tmp_path / "mfc.h").write_text(src.header)
+        (tmp_path / "mfc.c").write_text(src.source)
+        done = subprocess.run([H.compiler(), "-std=c99", "-E", "-I", str(tmp_path),
+                               str(tmp_path / "mfc.c")], capture_output=True, text=True,
+                              check=True, timeout=600)
+        assert "injected" not in done.stdout
+        subprocess.run([H.compiler(), *H.CFLAGS, "-Wtrigraphs", "-c", str(tmp_path / "mfc.c"),
+                        "-o", str(tmp_path / "mfc.o")], check=True, timeout=600)
+
+
+def test_the_cli_text_of_a_set_cannot_inject_code(tmp_path):
+    """The command line puts its --set texts in the banner: the issue's injection, through
+    the CLI, stays comment text."""
+    import subprocess
+
+    from mfcontrol.cli import main
+
+    assert main(["export-c", "motor-noise-pid", "--out", str(tmp_path), "--set",
+                 "description=x *\\\n/ extern int injected; /\\\n* y"]) == 0
+    pre = subprocess.run([H.compiler(), "-std=c99", "-E", "-I", str(tmp_path),
+                          str(tmp_path / "mfc.c")], capture_output=True, text=True,
+                         check=True, timeout=600)
+    assert "injected" not in pre.stdout
+
+
+@pytest.mark.parametrize("flag", ["-ffast-math", "-ffinite-math-only"])
+def test_a_build_that_removes_the_guards_is_refused(flag, tmp_path):
+    """Issue 33 saw the exported PID take an infinite setpoint and sit at +24 V for good:
+    that happens when the file is compiled with -ffast-math, under which gcc drops every
+    isfinite() test (measured on the export before this change: the output stayed 24.0
+    and nan_count 0). Such a build now stops with a message that says why."""
+    import subprocess
+
+    src = c_source(mfcontrol.make_controller("motor-noise-pid"))
+    (tmp_path / "mfc.h").write_text(src.header)
+    (tmp_path / "mfc.c").write_text(src.source)
+    done = subprocess.run([H.compiler(), "-std=c99", "-O2", flag, "-c", str(tmp_path / "mfc.c"),
+                           "-o", str(tmp_path / "mfc.o")], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode != 0 and "remove the NaN and infinity guards" in done.stderr

@@ -138,7 +138,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         "P": prefix, "R": f"{prefix}_real", "NS": str(n_cs), "NB": str(law.n_backup(n_cs)),
         "PU": prefix.upper(), "RESTART": str(RESTART_AFTER), "RANGE": in_range,
         "INLIMITS": ("" if (lo, hi) == (None, None) else
-                     f",\n * one outside the input limits [{'-inf' if lo is None else repr(lo)}"
+                     f",\n * a y outside the input limits [{'-inf' if lo is None else repr(lo)}"
                      f", {'inf' if hi is None else repr(hi)}],"),
         "STEP": step.name, "RESET": reset.name, "LAW": law.name,
         "DT": options.literal(dt if dt is not None else 0.0),
@@ -146,11 +146,13 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     # the law's pieces first (they hold @-names the second pass fills)
     parts = {"SAVE": law.save, "RESTORE": law.restore, "FINITE": law.finite, "INIT": law.init,
              "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip,
-             "SKIP_INNER": textwrap.indent(law.skip, "    ")}
+             "SKIP_INNER": textwrap.indent(law.skip, "    "),
+             "CLAMP_U": _clamp(law.limits, "u", "        ")}
     driver = _fill(_fill(_DRIVER, parts), subs)
     banner = _banner(prefix, real, law, ctrl, description)
     period = (f"/* sample period (s) the law was built for: call {prefix}_step once per "
-              f"period */\n#define {prefix.upper()}_SAMPLE_TIME {dt!r}" if dt is not None else
+              f"period */\n#define {prefix.upper()}_SAMPLE_TIME {options.literal(dt)}"
+              if dt is not None else
               "/* no sample period: the law takes its samples as equally spaced */")
     header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"MFCONTROL_{prefix}_H",
                              "REAL": real, "PERIOD": period})
@@ -172,6 +174,12 @@ _NO_CONTRACTION = """/* no multiply-add contracted into one rounding, whatever t
 #elif defined(__GNUC__)
 #pragma GCC optimize ("fp-contract=off")
 #endif
+/* the guards test for NaN and infinity: -ffast-math (or -ffinite-math-only) lets the
+ * compiler assume there are none and remove them, and an infinite setpoint then drives
+ * the output to a rail for good */
+#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__)
+#error "-ffast-math or -ffinite-math-only remove the NaN and infinity guards: compile without"
+#endif
 """
 _CHECKS = {
     "double": (_NO_CONTRACTION
@@ -182,7 +190,11 @@ _CHECKS = {
                "typedef char @P@_double_without_excess_precision"
                "[sizeof(double_t) == sizeof(double) ? 1 : -1];"),
     "float": (_NO_CONTRACTION
-              + "typedef char @P@_float_must_be_32_bit[sizeof(float) == 4 ? 1 : -1];"),
+              + "/* the float law's rounding bound holds for IEEE binary32 evaluated without\n"
+              " * excess precision (not x87 arithmetic: compile with SSE, or export double) */\n"
+              "typedef char @P@_float_must_be_32_bit[sizeof(float) == 4 ? 1 : -1];\n"
+              "typedef char @P@_float_without_excess_precision"
+              "[sizeof(float_t) == sizeof(float) ? 1 : -1];"),
 }
 
 
@@ -210,6 +222,7 @@ class _Law:
     bumpless: str  # C statements: restart the law from `start`
     call: str  # C statements: run the law; set `u` and `ok`
     state_rows: dict
+    limits: tuple[int, int]  # parameter rows of the output limits
     skip: str = ""  # C statements: a sample the law did not take (laws with a period)
     backup_rows: int | None = None  # rows the step may write (None: all)
     save: str = "    for (i = 0; i < @NS@; i++) s->backup[i] = s->cs[i];\n"
@@ -228,9 +241,10 @@ _SAMPLED_CALL = "    u = @STEP@(s->cs, y, setpoint, @DT@ + s->skipped);\n    ok 
 _SAMPLED_SKIP = "        s->skipped += @DT@;\n"
 
 
-def _clamp(lo: int, hi: int) -> str:
-    return (f"    if (start < @P@_params[{lo}]) start = @P@_params[{lo}];\n"
-            f"    if (start > @P@_params[{hi}]) start = @P@_params[{hi}];\n")
+def _clamp(limits: tuple[int, int], var: str = "start", indent: str = "    ") -> str:
+    lo, hi = limits
+    return (f"{indent}if ({var} < @P@_params[{lo}]) {var} = @P@_params[{lo}];\n"
+            f"{indent}if ({var} > @P@_params[{hi}]) {var} = @P@_params[{hi}];\n")
 
 
 def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
@@ -238,13 +252,14 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
     if cp[gain_law.MODE] == gain_law.EXTERNAL:
         raise ConfigError("gain", "external", "the exported step has no alpha argument: "
                           "export a constant or variational gain")
+    limits = (intelligent.OUT_MIN, intelligent.OUT_MAX)
     law = _Law(
         "intelligent", intelligent.step, (CP, CS, J, REAL, REAL, REAL),
         intelligent.reset, (CP, CS, J),
         init=f"    @RESET@(s->cs);\n    s->last_output = @P@_params[{intelligent.U_INIT}];\n",
-        bumpless=(f"    @RESET@(s->cs);\n{_clamp(intelligent.OUT_MIN, intelligent.OUT_MAX)}"
+        bumpless=(f"    @RESET@(s->cs);\n{_clamp(limits)}"
                   f"    s->cs[{intelligent.U1}] = start;\n    s->last_output = start;\n"),
-        call=_SAMPLED_CALL, state_rows={}, skip=_SAMPLED_SKIP)
+        call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
     if cp[intelligent.EST] == intelligent.ALGEBRAIC:
         M = int(cp[intelligent.M_WIN])
         if M > MAX_WINDOW[real]:
@@ -288,10 +303,11 @@ def _recursive() -> _Law:
         call=("    {\n        @R@ raw = 0, gain = 0, gamma = 0;\n"
               "        @STEP@(s->cs, y, setpoint, &raw, &u, &gain, &gamma);\n"
               "        ok = isfinite(raw * 0 + u);\n    }\n"),
-        state_rows={recursive_ip.U0: u0})
+        state_rows={recursive_ip.U0: u0}, limits=(recursive_ip.OUT_MIN, recursive_ip.OUT_MAX))
 
 
 def _pid() -> _Law:
+    limits = (pid.OUT_MIN, pid.OUT_MAX)
     return _Law(
         "pid", pid.step, (CP, CS, J, REAL, REAL, REAL), pid.reset, (CS, J, REAL),
         init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
@@ -299,9 +315,9 @@ def _pid() -> _Law:
         finite=(f"    for (i = 0; i < @NS@; i++)\n"
                 f"        if (!isfinite(s->cs[i]) && !(i == {pid.START} && s->cs[i] != "
                 "s->cs[i])) return 0;\n"),
-        bumpless=(f"{_clamp(pid.OUT_MIN, pid.OUT_MAX)}    @RESET@(s->cs, start);\n"
+        bumpless=(f"{_clamp(limits)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),
-        call=_SAMPLED_CALL, state_rows={}, skip=_SAMPLED_SKIP)
+        call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
 
 
 def _fill(text: str, subs: dict) -> str:
@@ -311,8 +327,20 @@ def _fill(text: str, subs: dict) -> str:
 
 
 def _comment(text: str) -> str:
-    """``text`` safe inside a C comment."""
-    return text.replace("*/", "* /").replace("/*", "/ *")
+    """``text`` as inert C comment text, its lines joined by newlines: nothing in it ends
+    the comment (``*/``) or splices the next line into it (a backslash, or the trigraph
+    ``??/``, at a line's end: the splice happens before comments are seen), and a control
+    character shows as ``<U+XXXX>``."""
+    lines = []
+    for line in str(text).split("\n"):
+        line = "".join(c if c.isprintable() else f"<U+{ord(c):04X}>" for c in line).rstrip()
+        line = re.sub(r"\?(?=\?)", "? ", line)  # no trigraph (??/ is a backslash)
+        while "*/" in line or "/*" in line:
+            line = line.replace("*/", "* /").replace("/*", "/ *")
+        if line.endswith("\\"):
+            line = line[:-1] + "<U+005C>"
+        lines.append(line)
+    return "\n".join(lines)
 
 
 def _law_label(ctrl) -> str:
@@ -334,7 +362,8 @@ def _law_label(ctrl) -> str:
 
 def _banner(prefix, real, law, ctrl, description) -> str:
     params = "\n".join(f" *   {k} = {_comment(repr(v))}" for k, v in ctrl._params.items())
-    what = f" * {_comment(description)}\n" if description else ""
+    what = "".join(f" * {line}".rstrip() + "\n"
+                   for line in _comment(description).split("\n")) if description else ""
     return (f"/* {prefix}: {_law_label(ctrl)} controller (mfcontrol.{type(ctrl).__name__}) "
             f"exported by mfcontrol {__version__} ({law.name} law family, {real}).\n{what}"
             f" * Parameters (baked in):\n{params}\n"
@@ -347,6 +376,10 @@ def _banner(prefix, real, law, ctrl, description) -> str:
 _HEADER = """@BANNER@
 #ifndef @GUARD@
 #define @GUARD@
+
+#ifdef __cplusplus
+extern "C" {
+#endif
 
 typedef @REAL@ @R@;
 
@@ -363,8 +396,8 @@ typedef struct {
     @R@ backup[@NB@];
     /* returned in manual mode and after a rejected sample */
     @R@ last_output;
-    /* rejected values: a non-finite measurement, one outside the input limits, a step
-     * that overflowed, a non-finite manual value */
+    /* rejected values: a non-finite measurement or setpoint, a measurement outside the
+     * input limits, a step that overflowed, a non-finite manual value */
     unsigned long nan_count;
     /* restarts of the law because its memory overflowed (@PU@_RESTART_AFTER steps in a row
      * overflowed) */
@@ -376,25 +409,39 @@ typedef struct {
     @R@ skipped;
     /* 1 automatic, 0 manual */
     int auto_mode;
+    /* set by @P@_init: a state never initialised is refused, not run on whatever its
+     * memory holds */
+    unsigned long ready;
 } @P@_state;
 
-/* Start (or restart) the controller: automatic mode, no history. */
+/* Start (or restart) the controller: automatic mode, no history. Call it once before any
+ * other function on the state. */
 void @P@_init(@P@_state *s);
 /* One sample: the measurement y and the setpoint in, the limited control out.
- * A non-finite y@INLIMITS@
+ * A non-finite y or setpoint@INLIMITS@
  * or a step that overflows (its output or memory not finite) returns the last output,
- * leaves the memory as it was and counts in nan_count. */
+ * leaves the memory as it was and counts in nan_count.
+ * On a state never passed to @P@_init: returns NaN and changes nothing. */
 @R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint);
-/* Manual mode: every step returns u until @P@_set_auto (a non-finite u is not taken:
- * the last output stays, and nan_count counts it). */
+/* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto
+ * (a non-finite u is not taken: the last output stays, and nan_count counts it). */
 void @P@_set_manual(@P@_state *s, @R@ u);
 /* Back to automatic, restarting the law from the last output (bumpless). */
 void @P@_set_auto(@P@_state *s);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif
 """
 
 _DRIVER = """/* the live controller around the law (as mfcontrol.api.model.controllers) */
+
+/* what @P@_init leaves in a state's `ready` ("mfc1"): any other value is a state never
+ * initialised (a zeroed static one included) */
+#define @PU@_READY 0x6D666331UL
+
 static void @P@_save(@P@_state *s)
 {
     long i;
@@ -424,14 +471,16 @@ void @P@_init(@P@_state *s)
     s->overflows = 0;
     s->skipped = 0;
     s->auto_mode = 1;
+    s->ready = @PU@_READY;
 }
 
 @R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint)
 {
     @R@ u = 0;
     int ok = 0;
+    if (s->ready != @PU@_READY) return (@R@)NAN;
     if (!s->auto_mode) return s->last_output;
-    if (!isfinite(y)@RANGE@) {
+    if (!isfinite(y) || !isfinite(setpoint)@RANGE@) {
         s->nan_count++;
 @SKIP@        return s->last_output;
     }
@@ -457,9 +506,10 @@ void @P@_init(@P@_state *s)
 
 void @P@_set_manual(@P@_state *s, @R@ u)
 {
+    if (s->ready != @PU@_READY) return;
     s->auto_mode = 0;
     if (isfinite(u)) {
-        s->last_output = u;
+@CLAMP_U@        s->last_output = u;
     } else {
         s->nan_count++;
     }
@@ -471,6 +521,7 @@ static void @P@_bumpless(@P@_state *s, @R@ start)
 
 void @P@_set_auto(@P@_state *s)
 {
+    if (s->ready != @PU@_READY) return;
     if (!s->auto_mode) {
         @P@_bumpless(s, s->last_output);
         s->skipped = 0;

@@ -136,9 +136,9 @@ def test_a_bumpless_start_that_overflows_is_refused_and_changes_nothing():
     """Found by the fuzzer: RecursiveIP's raw start last_output / output_gain overflowed to
     inf, which the law then used and the snapshot could not hold."""
     ctrl = RecursiveIP(alpha=10.0, kp=2.0, output_gain=5e-324)
-    ctrl.set_auto_mode(False, last_output=1.0)
+    ctrl.set_auto_mode(False, last_output=1.0)  # clamped to the default duty limit 0.9
     before = ctrl.snapshot()
-    with pytest.raises(ValueError, match="last_output = 1.0: the raw control"):
+    with pytest.raises(ValueError, match="last_output = 0.9: the raw control"):
         ctrl.set_auto_mode(True)
     assert ctrl.snapshot() == before and not ctrl.auto_mode
 

@@ -206,16 +206,26 @@ class _Controller:
 
     def set_auto_mode(self, enabled: bool, last_output: float | None = None) -> None:
         """Switch between automatic and manual. Turning automatic on restarts the law from
-        ``last_output`` (the output applied in manual), so the output does not jump."""
+        ``last_output`` (the output applied in manual), so the output does not jump.
+        ``last_output`` is clamped to the output limits, as every output is."""
         if enabled and not self.auto_mode:
-            start = self._last_output if last_output is None else _number(
-                "last_output", last_output)
+            start = self._last_output if last_output is None else self._limited(_number(
+                "last_output", last_output))
             self._bumpless_start(start)
             self._skipped = 0.0
             self._overflows = 0
         elif not enabled and last_output is not None:
-            self._last_output = _number("last_output", last_output)
+            self._last_output = self._limited(_number("last_output", last_output))
         self.auto_mode = bool(enabled)
+
+    #: the parameter rows of the output limits (every law has them; +-inf when not set)
+    _OUT_ROWS: tuple[int, int]
+
+    def _limited(self, u: float) -> float:
+        """``u`` clamped to the output limits (a manual output, as the law clamps its own;
+        the C export clamps it the same way)."""
+        lo, hi = self._OUT_ROWS
+        return float(min(max(u, self._CP[lo, 0]), self._CP[hi, 0]))
 
     def _plain(self, y: Any, setpoint: Any) -> bool:
         """True for the common call, finite Python floats in automatic mode (and takes the
@@ -411,6 +421,7 @@ class IntelligentController(_Sampled):
     {'F_hat': 100.0, 'P': -3.96, 'I': -0.0099, 'D': 2.0}
     """
 
+    _OUT_ROWS = (intelligent.OUT_MIN, intelligent.OUT_MAX)
     _KERNEL = ("intelligent_step", 4)
 
     def __init__(self, alpha: float, kp: float = 0.0, ki: float = 0.0, kd: float = 0.0, *,
@@ -710,6 +721,7 @@ class RecursiveIP(_Controller):
     1.1
     """
 
+    _OUT_ROWS = (recursive_ip.OUT_MIN, recursive_ip.OUT_MAX)
     _KERNEL = ("recursive_step", 2)
 
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
@@ -863,6 +875,7 @@ class PID(_Sampled):
     second output is 2 (1 - 0.5) + 0.1.
     """
 
+    _OUT_ROWS = (pid.OUT_MIN, pid.OUT_MAX)
     _KERNEL = ("pid_step", 3)
 
     def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, *, sample_time: float,
