@@ -5,9 +5,10 @@ Each controller is exported (``mfcontrol.export_c``), compiled as the tests comp
 and its step driven with the case's own closed-loop measurements (10,000 samples) under
 ``valgrind --tool=callgrind --toggle-collect=PREFIX_step``: instructions counted inside
 the step only, which repeat exactly from run to run (times on this shared machine do not).
-With the algebraic estimator a step every M samples also recomputes the moments from the
-window: that step's count (the worst case, what a control interrupt's deadline must
-allow) and an ordinary one's come from runs of 2M - 2, 2M - 1 and 2M samples.
+With the algebraic estimator a step every M samples resyncs the moments (the export
+spreads that work over the samples, so it copies them in); that step's count (what a
+control interrupt's deadline must allow) and an ordinary one's come from runs of 2M - 2,
+2M - 1 and 2M samples.
 The Python live controller's time per call on the same samples is printed beside it for
 scale. Needs cc, size and valgrind. Run::
 

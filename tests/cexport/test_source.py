@@ -321,7 +321,7 @@ def test_the_files_say_what_they_hold():
     assert "motor_real motor_step(motor_state *s, motor_real y, motor_real setpoint);" \
         in src.header
     # the law comes from its Python source: each translated function names it
-    assert "/* mfcontrol.laws.estimators.push */" in src.source
+    assert "/* mfcontrol.laws.estimators.push_spread */" in src.source
     assert "#include <math.h>" in src.source
     assert "malloc" not in src.source and "static mfc" not in src.source
     # no file-scope state: the only static data is the const parameter table

@@ -326,3 +326,47 @@ def test_the_sample_count_wraps_and_the_estimates_do_not_notice(M):
     assert (counts[M:] >= M + 1).all()  # a full window stays full
     assert (counts[: M + 1] == np.arange(1, M + 2)).all()
     check_equals_direct(2 if M % 2 == 0 else 1, M, 1e-3, 3.0, y, u)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(order=st.sampled_from(est.ORDERS), half_m=st.integers(1, 12), odd=st.booleans(),
+       seed=st.integers(0, 2**32 - 1), resets=st.lists(st.integers(0, 200), max_size=2),
+       scale=st.sampled_from([1.0, 1e150, 1e300]))
+def test_the_spread_resync_gives_the_resync_bits_without_an_O_M_step(order, half_m, odd, seed,
+                                                                     resets, scale):
+    # issue 33: the C export's worst step was the resync (O(M), 6-7x the mean). The spread
+    # form adds each sample, as it arrives, to the moments of the next resync's window, and
+    # copies them in at the resync: every row push writes must hold push's bits, through
+    # resets, the count's wrap, and values large enough to overflow the moments to inf
+    # (the resync then gives inf or NaN, and so must the spread form).
+    M = 2 * half_m + (1 if odd and order == 1 else 0)
+    n = 3 * M * (M + 1) + 7  # past the count's wrap
+    rng = np.random.default_rng(seed)
+    y, u = scale * rng.standard_normal(n), scale * rng.standard_normal(n)
+    plain = make_state(M)
+    spread = np.full((est.n_state_spread(M), 1), np.nan)  # the spread rows start as garbage
+    est.reset(spread, 0, 0, M)
+    rows = est.n_state(M)
+    for k in range(n):
+        if k in resets:
+            est.reset(plain, 0, 0, M)
+            est.reset(spread, 0, 0, M)
+        est.push(plain, 0, 0, M, y[k], u[k], order)
+        est.push_spread(spread, 0, 0, M, y[k], u[k], order)
+        same = plain[:rows, 0].view(np.int64) == spread[:rows, 0].view(np.int64)
+        assert same.all(), f"sample {k}: rows {np.flatnonzero(~same)} differ"
+
+
+def test_a_spread_push_does_work_independent_of_M():
+    # the point of the spread form: no step loops over the window (structural, not timed):
+    # every push writes the same number of rows, the resync's included
+    for M in (4, 64, 512):
+        CS = np.zeros((est.n_state_spread(M), 1))
+        rng = np.random.default_rng(M)
+        writes = []
+        for k in range(3 * M):
+            before = CS.copy()
+            est.push_spread(CS, 0, 0, M, rng.standard_normal(), rng.standard_normal(), 2)
+            if k > M:
+                writes.append(int((CS != before).any(axis=1).sum()))
+        assert max(writes) <= 3 + 2 * est.SPREAD_ROWS

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import re
 import textwrap
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -125,11 +125,11 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     if real == "float":
         _check_float_range(ctrl, cp, key_prefix)
     table = f"{prefix}_params"
-    options = Options(prefix, real, table, law.state_rows)
+    options = Options(prefix, real, table, law.state_rows, law.replace)
     tr = Translator(options)
     step = tr.function(law.step, law.step_kinds)
     reset = tr.function(law.reset, law.reset_kinds)
-    n_cs = ctrl._CS.shape[0] + len(law.state_rows)
+    n_cs = ctrl._CS.shape[0] + len(law.state_rows) + law.extra_rows
     dt = ctrl.sample_time
     lo, hi = ctrl.input_limits
     in_range = "".join(f" || y {op} {options.literal(v)}"
@@ -224,6 +224,8 @@ class _Law:
     state_rows: dict
     limits: tuple[int, int]  # parameter rows of the output limits
     skip: str = ""  # C statements: a sample the law did not take (laws with a period)
+    replace: dict = field(default_factory=dict)  # law function -> the one the C calls
+    extra_rows: int = 0  # state rows the replacements keep after the law's own
     backup_rows: int | None = None  # rows the step may write (None: all)
     save: str = "    for (i = 0; i < @NS@; i++) s->backup[i] = s->cs[i];\n"
     restore: str = "    for (i = 0; i < @NS@; i++) s->cs[i] = s->backup[i];\n"
@@ -266,21 +268,32 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
             raise ConfigError(f"{key_prefix}window", M, f"at most {MAX_WINDOW[real]:,} samples "
                               f"in a {real} export (the estimator's sample count must stay "
                               "exact)")
-        # a step writes every row before the ring, and one y and one u slot of the ring:
-        # back up those (O(1)), not the whole window
+        # the resync spread over the samples: no step is O(M) (the same bits)
+        law.replace = {estimators.push: estimators.push_spread}
+        law.extra_rows = estimators.SPREAD_ROWS
+        # a step writes every row before the ring, one y and one u slot of the ring and
+        # the next resync's moments after it: back up those (O(1)), not the whole window
         head = intelligent.EST_BASE + estimators.RING
         count = intelligent.EST_BASE + estimators.COUNT
+        spread = intelligent.EST_BASE + estimators.n_state(M)
+        n_spread = estimators.SPREAD_ROWS
         slot = f"((long)s->cs[{count}] % {M + 1})"
-        law.backup_rows = head + 2
+        law.backup_rows = head + 2 + n_spread
         law.save = (f"    for (i = 0; i < {head}; i++) s->backup[i] = s->cs[i];\n"
                     f"    s->backup[{head}] = s->cs[{head} + {slot}];\n"
-                    f"    s->backup[{head + 1}] = s->cs[{head + M + 1} + {slot}];\n")
+                    f"    s->backup[{head + 1}] = s->cs[{head + M + 1} + {slot}];\n"
+                    f"    for (i = 0; i < {n_spread}; i++) "
+                    f"s->backup[{head + 2} + i] = s->cs[{spread} + i];\n")
         # the rows before the ring first: the slots are found from the count they hold
         law.restore = (f"    for (i = 0; i < {head}; i++) s->cs[i] = s->backup[i];\n"
                        f"    s->cs[{head} + {slot}] = s->backup[{head}];\n"
-                       f"    s->cs[{head + M + 1} + {slot}] = s->backup[{head + 1}];\n")
+                       f"    s->cs[{head + M + 1} + {slot}] = s->backup[{head + 1}];\n"
+                       f"    for (i = 0; i < {n_spread}; i++) "
+                       f"s->cs[{spread} + i] = s->backup[{head + 2} + i];\n")
         # the slots the step wrote, found from the count before it (in the backup); the
-        # rest of the ring holds samples already taken, finite
+        # rest of the ring holds samples already taken, finite. The next resync's moments
+        # are not checked: the live controller's memory has no such rows, and what they
+        # hold reaches the checked moments at the resync, as the live resync's sums do
         old = f"((long)s->backup[{count}] % {M + 1})"
         law.finite = (f"    for (i = 0; i < {head}; i++) if (!isfinite(s->cs[i])) return 0;\n"
                       f"    if (!isfinite(s->cs[{head} + {old}])) return 0;\n"

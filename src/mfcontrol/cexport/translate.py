@@ -73,6 +73,8 @@ class Options:
     real: str  # "double" or "float"
     param_table: str  # the C name of the static const parameter table
     state_rows: dict[int, int]  # parameter row -> state row holding it
+    # a law function -> the function the C calls in its place (same bits, other cost)
+    replace: dict = field(default_factory=dict)
 
     def literal(self, value: float | int | bool) -> str:
         if isinstance(value, bool | np.bool_):
@@ -574,6 +576,7 @@ class _FunctionTranslator:
 
     def callee(self, node) -> tuple[Function, list[str]]:
         fn = self.resolve(node.func)
+        fn = self.opt.replace.get(fn, fn)
         if fn is None or not (hasattr(fn, "py_func") or inspect.isfunction(fn)):
             self.fail(node, f"call of {ast.unparse(node.func)}")
         if node.keywords:

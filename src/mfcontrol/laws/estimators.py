@@ -41,7 +41,9 @@ its age (the 4th for U_4). So every M samples the moments are recomputed exactly
 raw samples, kept in a ring buffer: O(M) once every M samples, O(1) amortised, and the
 drift stays a few M ulps of the summed terms. The resync also recovers from a non-finite
 sample, which poisons the running sums (inf - inf) until the first resync after it has
-left the window (at most 2M samples, against M + 1 for a direct sum).
+left the window (at most 2M samples, against M + 1 for a direct sum). Where a bound on
+every step matters more than the mean (the C export, in a control interrupt),
+:func:`push_spread` does the resync's work a sample at a time, with the same bits.
 
 n = 1 reads only ``Y_1`` and ``U_0``, ``U_2``; a slide of ``S_p`` reads the moments below
 p only, so n = 1 carries ``Y_0, Y_1`` and ``U_0 .. U_2`` alone (:func:`moments_of`) and
@@ -293,6 +295,53 @@ def push(CS, j, base, M, y, u_prev, order):
     slot, after = slots(n, M)
     push_at(CS, j, base, M, n, slot, after, y, u_prev, order)
     count_pushed(CS, j, base, M, n, order)
+
+
+#: rows after the ring that :func:`push_spread` keeps: the next resync's moments
+SPREAD_ROWS = RING - Y_MOM
+
+
+def n_state_spread(M: int) -> int:
+    """CS rows the estimator needs for a window of M samples under :func:`push_spread`."""
+    return n_state(M) + SPREAD_ROWS
+
+
+@step_jit
+def push_spread(CS, j, base, M, y, u_prev, order):
+    """:func:`push` with the resync spread over the samples: the same bits in every row
+    :func:`push` writes, and no O(M) step.
+
+    The resync at sample k sums the window's samples k - M .. k, oldest first, each at its
+    centred position c = m - k + M/2, which is known as soon as sample m arrives (the
+    resyncs fall on the samples k with (k + 1) % M == 0). So each sample is added, as it
+    is pushed, to a second set of moments kept after the ring (:data:`SPREAD_ROWS` rows
+    from ``base + n_state(M)``), with the resync's arithmetic and in its order; at the
+    resync those rows are what the resync would compute, and are copied in. The sample of
+    a resync is also the oldest of the next resync's window (its y only: its u is older
+    than that window). Every push then costs about the same: the C export uses this form,
+    where a control interrupt needs a bound on its step, not a mean
+    (``tests/laws/test_estimators.py`` checks the bits against :func:`push`).
+    """
+    n = int(CS[base + COUNT, j])  # index of the entering sample
+    slot, after = slots(n, M)
+    push_at(CS, j, base, M, n, slot, after, y, u_prev, order)
+    n_y, n_u = moments_of(order)
+    # after the ring (n_state(M) rows), its moment rows at the moments' offsets
+    spread = base + RING + 2 * (M + 1) - Y_MOM
+    if n == 0:  # a reset window: the next resync's sums start empty
+        _clear(CS, j, spread)
+    # the next resync is at sample n + M - 1 - n % M
+    _, c, y_rows, u_rows, with_u = _sample_rows(spread, M, n + (M - 1 - n % M), n)
+    _add(CS, j, y_rows, n_y, c, y)
+    if with_u:
+        _add(CS, j, u_rows, n_u, c - 1.0, u_prev)
+    CS[base + COUNT, j] = counted(n, M)
+    if resync_due(n, M):
+        for row in range(Y_MOM, RING):
+            CS[base + row, j] = CS[spread + row, j]
+        _clear(CS, j, spread)
+        _, c, y_rows, u_rows, with_u = _sample_rows(spread, M, n + M, n)
+        _add(CS, j, y_rows, n_y, c, y)
 
 
 @step_jit
