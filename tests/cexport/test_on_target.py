@@ -1,0 +1,167 @@
+"""The exported C on Cortex-M: cross-compiled with Debian's arm-none-eabi-gcc and newlib,
+run under qemu-system-arm, and compared bit for bit with the same export built for this
+machine (and, in double, with the Python controller).
+
+Targets: a Cortex-M4F (``mps2-an386``) with its single-precision FPU, for the float
+export; code built for the Cortex-M0 (ARMv6-M, no FPU: float and double in software), for
+both exports. qemu has no Cortex-M0 board with enough RAM for the test's data, so the M0
+code runs on the Cortex-M3 of ``mps2-an385``, whose instruction set contains ARMv6-M's:
+the instructions and the software arithmetic are the M0 build's; the timing is not.
+
+The operations are compiled into the program (hexadecimal floating literals, exact); the
+program prints the bits of every output through semihosting. Skipped without the tools
+unless MFCONTROL_REQUIRE_ARM=1 (CI installs them and sets it).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol.cexport import c_source
+
+from . import harness as H
+from .test_source import INTELLIGENT, RECURSIVE, operations
+
+#: (name, compiler flags, qemu machine) of each target
+TARGETS = {
+    "m4f": (["-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"],
+            "mps2-an386"),
+    "m0": (["-mcpu=cortex-m0", "-mthumb", "-mfloat-abi=soft"], "mps2-an385"),
+}
+#: every law family, the options that change its arithmetic most, on each target and real
+CASES = [
+    (RECURSIVE, {}),
+    (RECURSIVE, {"controller.law": "variational", "controller.integrator": "second-order"}),
+    (INTELLIGENT, {}),
+    (INTELLIGENT, {"controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5,
+                   "controller.window": 20, "controller.adapt": "variational",
+                   "controller.gamma0": 0.02, "controller.Gamma": 1e-9}),
+    (INTELLIGENT, {"controller.law": "i-PD", "controller.order": 2, "controller.kd": 1.0,
+                   "controller.estimator": "backward-difference"}),
+    ("motor-noise-pid", {"controller.kd": 0.05, "controller.N": 5.0, "controller.b": 0.5}),
+]
+BUILDS = [("m4f", "float"), ("m0", "float"), ("m0", "double")]
+
+# the reset handler: the FPU enabled where there is one, then newlib's start-up
+_VECTORS = r"""
+extern void _start(void);
+static void reset(void)
+{
+#if defined(__ARM_FP)
+    *(volatile unsigned long *)0xE000ED88UL |= 0xFUL << 20; /* CPACR: CP10, CP11 on */
+    __asm volatile ("dsb\n\tisb");
+#endif
+    _start();
+}
+__attribute__((section(".isr_vector"), used))
+const void *const vectors[2] = { (const void *)0x20080000, (const void *)reset };
+"""
+
+_MAIN = r"""
+#include <stdio.h>
+#include <string.h>
+#include "@P@.h"
+#include "ops.h"
+
+int main(void)
+{
+    static @P@_state s;
+    long i;
+    @P@_init(&s);
+    for (i = 0; i < N_OPS; i++) {
+        if (OPS[i][0] == 0.0) {
+            double u = (double)@P@_step(&s, (@P@_real)OPS[i][1], (@P@_real)OPS[i][2]);
+            unsigned long w[2];
+            memcpy(w, &u, sizeof w);
+            printf("u %08lx%08lx\n", w[1], w[0]);
+        } else if (OPS[i][0] == 1.0) {
+            @P@_set_manual(&s, (@P@_real)OPS[i][1]);
+        } else {
+            @P@_set_auto(&s);
+        }
+    }
+    printf("nan_count %lu\n", s.nan_count);
+    return 0;
+}
+"""
+
+
+def _tools() -> tuple[str, str]:
+    cc, qemu = shutil.which("arm-none-eabi-gcc"), shutil.which("qemu-system-arm")
+    if cc is None or qemu is None:
+        if os.environ.get("MFCONTROL_REQUIRE_ARM"):
+            pytest.fail("arm-none-eabi-gcc or qemu-system-arm missing (Debian: "
+                        "gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)")
+        pytest.skip("no arm-none-eabi-gcc or qemu-system-arm on this machine")
+    return cc, qemu
+
+
+def _ops_header(ops: np.ndarray) -> str:
+    rows = ",\n".join("{" + ", ".join(_literal(v) for v in row) + "}" for row in ops)
+    return (f"#define N_OPS {len(ops)}L\n"
+            f"static const double OPS[{len(ops)}][3] = {{\n{rows}\n}};\n")
+
+
+def _literal(v: float) -> str:
+    if np.isnan(v):
+        return "(0.0 / 0.0)"  # folded by the compiler: a NaN without <math.h>'s NAN
+    if np.isinf(v):
+        return "(1.0 / 0.0)" if v > 0 else "(-1.0 / 0.0)"
+    return float(v).hex()
+
+
+def run_on_target(src, target: str, folder: Path, ops: np.ndarray) -> tuple[np.ndarray, int]:
+    """The outputs and nan_count of the export on ``target`` under qemu."""
+    cc, qemu = _tools()
+    flags, machine = TARGETS[target]
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{src.prefix}.h").write_text(src.header)
+    (folder / f"{src.prefix}.c").write_text(src.source)
+    (folder / "ops.h").write_text(_ops_header(ops))
+    (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix))
+    (folder / "vectors.c").write_text(_VECTORS)
+    elf = folder / "controller.elf"
+    # the export under the tests' warnings; the harness files without -Wconversion
+    subprocess.run([cc, *flags, *H.CFLAGS, "-c", str(folder / f"{src.prefix}.c"), "-o",
+                    str(folder / "controller.o")], check=True, timeout=600)
+    subprocess.run([cc, *flags, "-std=c99", "-O2", "--specs=rdimon.specs",
+                    "-Wl,--section-start=.isr_vector=0x0", "-I", str(folder),
+                    str(folder / "vectors.c"), str(folder / "main.c"),
+                    str(folder / "controller.o"), "-o", str(elf), "-lc", "-lrdimon", "-lm"],
+                   check=True, timeout=600)
+    done = subprocess.run([qemu, "-M", machine, "-nographic", "-monitor", "none",
+                           "-semihosting-config", "enable=on,target=native", "-kernel",
+                           str(elf)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    lines = done.stdout.splitlines()
+    u = np.array([int(line[2:], 16) for line in lines if line.startswith("u ")],
+                 dtype=np.uint64).view(np.float64)
+    count = next(int(line.split()[1]) for line in lines if line.startswith("nan_count"))
+    return u, count
+
+
+@pytest.mark.parametrize("target,real", BUILDS, ids=[f"{t}-{r}" for t, r in BUILDS])
+@pytest.mark.parametrize("case,overrides", CASES,
+                         ids=[c + "".join(f"-{k.split('.')[-1]}={v}" for k, v in o.items())
+                              for c, o in CASES])
+def test_the_export_computes_the_same_bits_on_cortex_m(case, overrides, target, real,
+                                                       tmp_path):
+    ops = operations(case)
+    src = c_source(mfcontrol.make_controller(case, overrides), real=real)
+    u_arm, nan_arm = run_on_target(src, target, tmp_path / "arm", ops)
+    u_x86, nan_x86 = H.run_binary(H.build(src, tmp_path / "x86"), ops)
+    assert u_arm.shape == u_x86.shape
+    differ = np.flatnonzero(u_arm.view(np.int64) != u_x86.view(np.int64))
+    assert differ.size == 0, f"first difference at step {differ[0]}: " \
+                             f"{target} {u_arm[differ[0]]!r}, x86 {u_x86[differ[0]]!r}"
+    assert nan_arm == nan_x86
+    if real == "double":  # and so the Python controller's
+        u_py, _ = H.run_python(mfcontrol.make_controller(case, overrides), ops)
+        assert np.array_equal(u_arm.view(np.int64), u_py.view(np.int64))
