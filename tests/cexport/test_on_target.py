@@ -16,7 +16,6 @@ unless MFCONTROL_REQUIRE_ARM=1 (CI installs them and sets it).
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -24,17 +23,11 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.cexport import c_source
+from mfcontrol.cexport import c_source, cortex_m
 
 from . import harness as H
 from .test_source import INTELLIGENT, RECURSIVE, operations
 
-#: (name, compiler flags, qemu machine) of each target
-TARGETS = {
-    "m4f": (["-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"],
-            "mps2-an386"),
-    "m0": (["-mcpu=cortex-m0", "-mthumb", "-mfloat-abi=soft"], "mps2-an385"),
-}
 #: every law family, the options that change its arithmetic most, on each target and real
 CASES = [
     (RECURSIVE, {}),
@@ -48,21 +41,6 @@ CASES = [
     ("motor-noise-pid", {"controller.kd": 0.05, "controller.N": 5.0, "controller.b": 0.5}),
 ]
 BUILDS = [("m4f", "float"), ("m0", "float"), ("m0", "double")]
-
-# the reset handler: the FPU enabled where there is one, then newlib's start-up
-_VECTORS = r"""
-extern void _start(void);
-static void reset(void)
-{
-#if defined(__ARM_FP)
-    *(volatile unsigned long *)0xE000ED88UL |= 0xFUL << 20; /* CPACR: CP10, CP11 on */
-    __asm volatile ("dsb\n\tisb");
-#endif
-    _start();
-}
-__attribute__((section(".isr_vector"), used))
-const void *const vectors[2] = { (const void *)0x20080000, (const void *)reset };
-"""
 
 _MAIN = r"""
 #include <stdio.h>
@@ -93,14 +71,12 @@ int main(void)
 """
 
 
-def _tools() -> tuple[str, str]:
-    cc, qemu = shutil.which("arm-none-eabi-gcc"), shutil.which("qemu-system-arm")
-    if cc is None or qemu is None:
+def _require_tools() -> None:
+    missing = cortex_m.missing_tools()
+    if missing:
         if os.environ.get("MFCONTROL_REQUIRE_ARM"):
-            pytest.fail("arm-none-eabi-gcc or qemu-system-arm missing (Debian: "
-                        "gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)")
-        pytest.skip("no arm-none-eabi-gcc or qemu-system-arm on this machine")
-    return cc, qemu
+            pytest.fail(f"{', '.join(missing)} missing (Debian: {cortex_m.PACKAGES})")
+        pytest.skip(f"no {', '.join(missing)} on this machine")
 
 
 def _ops_header(ops: np.ndarray) -> str:
@@ -119,26 +95,19 @@ def _literal(v: float) -> str:
 
 def run_on_target(src, target: str, folder: Path, ops: np.ndarray) -> tuple[np.ndarray, int]:
     """The outputs and nan_count of the export on ``target`` under qemu."""
-    cc, qemu = _tools()
-    flags, machine = TARGETS[target]
+    _require_tools()
+    flags, _ = cortex_m.TARGETS[target]
     folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{src.prefix}.h").write_text(src.header)
     (folder / f"{src.prefix}.c").write_text(src.source)
     (folder / "ops.h").write_text(_ops_header(ops))
-    (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix))
-    (folder / "vectors.c").write_text(_VECTORS)
-    elf = folder / "controller.elf"
-    # the export under the tests' warnings; the harness files without -Wconversion
-    subprocess.run([cc, *flags, *H.CFLAGS, "-c", str(folder / f"{src.prefix}.c"), "-o",
-                    str(folder / "controller.o")], check=True, timeout=600)
-    subprocess.run([cc, *flags, "-std=c99", "-O2", "--specs=rdimon.specs",
-                    "-Wl,--section-start=.isr_vector=0x0", "-I", str(folder),
-                    str(folder / "vectors.c"), str(folder / "main.c"),
-                    str(folder / "controller.o"), "-o", str(elf), "-lc", "-lrdimon", "-lm"],
+    # the export under the tests' warnings; the driver without -Wconversion
+    subprocess.run(["arm-none-eabi-gcc", *flags, *H.CFLAGS, "-c",
+                    str(folder / f"{src.prefix}.c"), "-o", str(folder / "controller.o")],
                    check=True, timeout=600)
-    done = subprocess.run([qemu, "-M", machine, "-nographic", "-monitor", "none",
-                           "-semihosting-config", "enable=on,target=native", "-kernel",
-                           str(elf)], capture_output=True, text=True, timeout=600)
+    elf = cortex_m.build(folder, target, ["controller.o"], _MAIN.replace("@P@", src.prefix))
+    done = subprocess.run(cortex_m.qemu_command(elf, target), capture_output=True, text=True,
+                          timeout=600)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     lines = done.stdout.splitlines()
     u = np.array([int(line[2:], 16) for line in lines if line.startswith("u ")],
