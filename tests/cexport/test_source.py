@@ -694,3 +694,18 @@ def test_a_build_that_removes_the_guards_is_refused(flag, tmp_path):
                            "-o", str(tmp_path / "mfc.o")], capture_output=True, text=True,
                           timeout=600)
     assert done.returncode != 0 and "remove the NaN and infinity guards" in done.stderr
+
+
+def test_a_reviewer_reads_the_rows_by_their_names():
+    """Issue 33: parameters and state were unnamed rows (params[12], cs[17]). Every row
+    the C reads by a constant has the name the law's Python gives it, as an enum constant
+    PREFIX_MODULE_NAME, and the parameter table says which row is which."""
+    src = c_source(mfcontrol.make_controller("motor-noise-pid"))
+    assert "    0.2 /* 0: MFC_PID_KP */," in src.source
+    assert "MFC_PID_KP" in src.source and "mfc_params[MFC_PID_OUT_MIN]" in src.source
+    assert "cs[MFC_PID_Y_OLD]" in src.source
+    # a number in brackets only where the table is declared
+    assert re.findall(r"mfc_params\[\d", src.source) == ["mfc_params[8"]
+    algebraic = c_source(mfcontrol.make_controller(INTELLIGENT)).source
+    assert "MFC_ESTIMATORS_COUNT" in algebraic and "MFC_INTELLIGENT_U1" in algebraic
+    assert len(re.findall(r"mfc_params\[\d", algebraic)) == 1

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 
 import numpy as np
@@ -163,8 +164,10 @@ def test_refuses_and_or_of_values():
 
 def test_parameters_come_from_the_table_and_state_from_cs():
     text = _translate(intelligent.step, (CP, CS, J, REAL, REAL, REAL))
-    assert f"t_params[{intelligent.EST}]" in text
-    assert f"cs[{intelligent.U1}]" in text
+    # by the names the Python gives the rows (an enum of the file)
+    assert "t_params[T_INTELLIGENT_EST]" in text
+    assert re.search(rf"\bT_INTELLIGENT_EST *= {intelligent.EST}\b", text)
+    assert "cs[T_INTELLIGENT_U1]" in text
     assert "/* mfcontrol.laws.intelligent.step */" in text
 
 

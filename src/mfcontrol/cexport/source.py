@@ -149,6 +149,9 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
              "SKIP_INNER": textwrap.indent(law.skip, "    "),
              "CLAMP_U": _clamp(law.limits, "u", "        ")}
     driver = _fill(_fill(_DRIVER, parts), subs)
+    # the parameter rows the driver reads (the output limits) by the names the law uses
+    driver = re.sub(rf"\b{table}\[(\d+)\]",
+                    lambda m: f"{table}[{tr.param_names.get(int(m[1]), m[1])}]", driver)
     banner = _banner(prefix, real, law, ctrl, description)
     period = (f"/* sample period (s) the law was built for: call {prefix}_step once per "
               f"period */\n#define {prefix.upper()}_SAMPLE_TIME {options.literal(dt)}"
@@ -156,7 +159,9 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
               "/* no sample period: the law takes its samples as equally spaced */")
     header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"MFCONTROL_{prefix}_H",
                              "REAL": real, "PERIOD": period})
-    rows = ",\n".join(f"    {options.literal(float(v))} /* {i} */" for i, v in enumerate(cp))
+    rows = ",\n".join(f"    {options.literal(float(v))} /* {i}"
+                       f"{': ' + tr.param_names[i] if i in tr.param_names else ''} */"
+                       for i, v in enumerate(cp))
     source = (f"{banner}\n"
               f"#include <math.h>\n#include \"{prefix}.h\"\n\n"
               f"{_fill(_CHECKS[real], {'P': prefix})}\n\n"

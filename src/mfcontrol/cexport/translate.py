@@ -108,6 +108,10 @@ class Translator:
 
     def __init__(self, options: Options):
         self.options = options
+        #: the module constants the C reads, by their C name (``PREFIX_MODULE_NAME``)
+        self.constants: dict[str, int] = {}
+        #: the C names of the parameter rows the C reads, by row
+        self.param_names: dict[int, str] = {}
         self.done: dict[tuple, Function] = {}
         self.order: list[Function] = []  # callees before callers
         self._names: set[str] = set()
@@ -158,7 +162,17 @@ class Translator:
                            "    long q = a / b;\n"
                            "    return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;\n}")
         protos = [self.prototype(f) + ";" for f in funcs]
-        return "\n\n".join(helpers + ["\n".join(protos)] + [f.text for f in funcs])
+        names = [self.constant_names()] if self.constants else []
+        return "\n\n".join(names + helpers + ["\n".join(protos)] + [f.text for f in funcs])
+
+    def constant_names(self) -> str:
+        """The module constants the C reads, named as in the laws' Python (rows, counts,
+        codes): ``PREFIX_MODULE_NAME`` is ``mfcontrol.laws.module.NAME``."""
+        width = max(map(len, self.constants))
+        rows = ",\n".join(f"    {name:<{width}} = {value}"
+                          for name, value in sorted(self.constants.items()))
+        return ("/* constants of mfcontrol.laws, named as there: PREFIX_MODULE_NAME is\n"
+                f" * mfcontrol.laws.module.NAME */\nenum {{\n{rows}\n}};")
 
     def ctype(self, kind: str) -> str:
         return {INT: "long", BOOL: "int", REAL: f"{self.options.prefix}_real"}[kind]
@@ -469,12 +483,30 @@ class _FunctionTranslator:
             return {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b}[type(node.op)]
         return None
 
+    def named(self, node, value) -> str | None:
+        """The C name of a module constant of the laws that ``node`` reads (an integer
+        row, count or code, by its Python name), registered for the file's enum; None for
+        anything else (a literal, an expression, a float)."""
+        if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+            return None
+        if isinstance(node, ast.Name):
+            module, attr = self.py.__module__, node.id
+        elif isinstance(node, ast.Attribute) and isinstance(
+                base := self.resolve(node.value), types.ModuleType):
+            module, attr = base.__name__, node.attr
+        else:
+            return None
+        name = f"{self.opt.prefix}_{module.rsplit('.', 1)[-1]}_{attr}".upper()
+        if self.tr.constants.setdefault(name, int(value)) != int(value):  # pragma: no cover
+            self.fail(node, f"{name} names two values")
+        return name
+
     def expr(self, node) -> tuple[str, str]:
         value = self.constant(node)
         if value is not None:
             kind = BOOL if isinstance(value, bool) else (
                 INT if isinstance(value, int | np.integer) else REAL)
-            return self.opt.literal(value), kind
+            return self.named(node, value) or self.opt.literal(value), kind
         if isinstance(node, ast.Name):
             if node.id in self.args:
                 return self.cname(node.id), self.args[node.id]
@@ -572,7 +604,11 @@ class _FunctionTranslator:
         row_n = int(value)
         if row_n in self.opt.state_rows:
             return f"cs[{self.opt.state_rows[row_n]}]", CS
-        return f"{self.opt.param_table}[{row_n}]", CP
+        name = self.named(row, value)
+        if name is None:
+            return f"{self.opt.param_table}[{row_n}]", CP
+        self.tr.param_names[row_n] = name
+        return f"{self.opt.param_table}[{name}]", CP
 
     def callee(self, node) -> tuple[Function, list[str]]:
         fn = self.resolve(node.func)
