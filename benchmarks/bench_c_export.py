@@ -70,12 +70,18 @@ def instructions(folder: Path, inputs: np.ndarray) -> int:
     return int(re.search(r"^summary:\s+(\d+)", out.read_text(), flags=re.M).group(1))
 
 
+def closed_loop(case: str, overrides: dict, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The measurements and setpoints of the first ``n`` samples of the case's run: what
+    the exported controller is driven with."""
+    _, cfg = mfcontrol.experiments.cases.resolve_case(case, overrides)
+    run = mfcontrol.run_case(case, {**overrides, "sim.t_end": n * cfg["sim.h"]})
+    return run.signals["y_meas"][:n], run.signals["y_ref"][:n]
+
+
 def measure(case: str, overrides: dict, real: str, folder: Path):
     """(text bytes of the object, instructions per call, (ordinary step, resync step) or
     None, Python seconds per call)."""
-    _, cfg = mfcontrol.experiments.cases.resolve_case(case, overrides)
-    run = mfcontrol.run_case(case, {**overrides, "sim.t_end": N * cfg["sim.h"]})
-    y, r = run.signals["y_meas"][:N], run.signals["y_ref"][:N]
+    y, r = closed_loop(case, overrides, N)
     src = c_source(mfcontrol.make_controller(case, overrides), real=real)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)

@@ -30,8 +30,9 @@ from pathlib import Path
 import numpy as np
 
 import mfcontrol
-from bench_c_export import CONTROLLERS
+from bench_c_export import CONTROLLERS, closed_loop
 from mfcontrol.cexport import CFLAGS, c_source, cortex_m
+from mfcontrol.cexport.translate import Options
 
 TARGETS = [("Cortex-M4F", "m4f", "float"), ("Cortex-M0", "m0", "float"),
            ("Cortex-M0", "m0", "double")]  # (label, mfcontrol.cexport.cortex_m target, real)
@@ -72,11 +73,11 @@ int main(void)
 
 
 def _samples_header(y: np.ndarray, r: np.ndarray, real: str) -> str:
-    suffix = "f" if real == "float" else ""
+    # each sample as the export writes its constants: the value in its real type, exact
+    literal = Options("mfc", real, "", {}).literal
 
     def row(values):
-        return ",\n".join(f"    {np.float32(v).item().hex() if real == 'float' else v.hex()}"
-                          f"{suffix}" for v in map(float, values))
+        return ",\n".join(f"    {literal(float(v))}" for v in values)
     return (f"#define N_SAMPLES {len(y)}L\n"
             f"static const mfc_real Y[{len(y)}] = {{\n{row(y)}\n}};\n"
             f"static const mfc_real R[{len(r)}] = {{\n{row(r)}\n}};\n")
@@ -108,9 +109,7 @@ def measure(case: str, overrides: dict, real: str, target: str,
     ctrl = mfcontrol.make_controller(case, overrides)
     M = ctrl._params.get("window") if ctrl._params.get("estimator") == "algebraic" else None
     n = 2 * M + 2 if M else 100
-    _, cfg = mfcontrol.experiments.cases.resolve_case(case, overrides)
-    run = mfcontrol.run_case(case, {**overrides, "sim.t_end": n * cfg["sim.h"]})
-    y, r = run.signals["y_meas"][:n], run.signals["y_ref"][:n]
+    y, r = closed_loop(case, overrides, n)
     src = c_source(ctrl, real=real, prefix="mfc")
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)

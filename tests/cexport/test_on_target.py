@@ -24,6 +24,7 @@ import pytest
 
 import mfcontrol
 from mfcontrol.cexport import c_source, cortex_m
+from mfcontrol.cexport.translate import Options
 
 from . import harness as H
 from .test_source import INTELLIGENT, RECURSIVE, operations
@@ -43,6 +44,7 @@ CASES = [
 BUILDS = [("m4f", "float"), ("m0", "float"), ("m0", "double")]
 
 _MAIN = r"""
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include "@P@.h"
@@ -80,17 +82,10 @@ def _require_tools() -> None:
 
 
 def _ops_header(ops: np.ndarray) -> str:
-    rows = ",\n".join("{" + ", ".join(_literal(v) for v in row) + "}" for row in ops)
+    literal = Options("t", "double", "", {}).literal  # as the export writes its constants
+    rows = ",\n".join("{" + ", ".join(literal(float(v)) for v in row) + "}" for row in ops)
     return (f"#define N_OPS {len(ops)}L\n"
             f"static const double OPS[{len(ops)}][3] = {{\n{rows}\n}};\n")
-
-
-def _literal(v: float) -> str:
-    if np.isnan(v):
-        return "(0.0 / 0.0)"  # folded by the compiler: a NaN without <math.h>'s NAN
-    if np.isinf(v):
-        return "(1.0 / 0.0)" if v > 0 else "(-1.0 / 0.0)"
-    return float(v).hex()
 
 
 def run_on_target(src, target: str, folder: Path, ops: np.ndarray) -> tuple[np.ndarray, int]:

@@ -490,12 +490,13 @@ def sanitizer_flags() -> tuple[str, ...]:
     """AddressSanitizer and UBSan flags where this compiler has them, else ()."""
     import subprocess
     import tempfile
+    from pathlib import Path
 
     flags = ("-fsanitize=address,undefined", "-fno-sanitize-recover=all",
              "-fno-omit-frame-pointer")
     with tempfile.TemporaryDirectory() as d:
-        (src := f"{d}/t.c") and open(src, "w").write("int main(void) { return 0; }\n")
-        done = subprocess.run([H.compiler(), *flags, src, "-o", f"{d}/t"],
+        (Path(d) / "t.c").write_text("int main(void) { return 0; }\n")
+        done = subprocess.run([H.compiler(), *flags, f"{d}/t.c", "-o", f"{d}/t"],
                               capture_output=True, timeout=600)
         if done.returncode:
             return ()
