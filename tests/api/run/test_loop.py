@@ -26,6 +26,21 @@ def test_scheduled_change_acts_and_the_plant_is_left_as_given():
     assert res.metrics["stable"]
 
 
+def test_a_schedule_that_passed_is_checked_again_once_the_plant_has_changed():
+    # a schedule that passed on a plant is not applied and undone again while the plant
+    # keeps its parameters; once they change, it is: here the same addition overflows
+    plant = FirstOrder(a=-1.0, b=1.0, w=0.0)
+    changes = [Change(0.5, "w", 1e308, add=True)]
+    for _ in range(2):
+        simulate_loop(plant, mfcontrol.IP(alpha=1.0, kp=10.0, sample_time=1e-3), 1.0,
+                      t_end=0.01, changes=changes)
+    plant.set_param("w", 1e308)
+    with pytest.raises(mfcontrol.ConfigError, match="^w = inf: must be a finite number"):
+        simulate_loop(plant, mfcontrol.IP(alpha=1.0, kp=10.0, sample_time=1e-3), 1.0,
+                      t_end=0.01, changes=changes)
+    assert plant.params["w"] == 1e308
+
+
 def test_python_control_transfer_function_as_plant():
     plant = LTI.from_control(control.tf([2.0], [1.0, 3.0]))     # 2 / (s + 3)
     res = simulate_loop(plant, mfcontrol.IP(alpha=2.0, kp=8.0, sample_time=1e-3), 0.5,

@@ -63,10 +63,12 @@ def _series(name: str, value: Reference, t: np.ndarray, positive: bool = False) 
     except (TypeError, ValueError):
         shown = value if isinstance(value, bool | str | bytes) else type(value).__name__
         raise ConfigError(name, shown, allowed) from None
-    if arr.ndim == 0:  # one value for every sample: checked once (the same test on floats)
+    if arr.ndim == 0:  # one value for every sample: checked once, on a float
         v = float(arr)
         arr = np.full(t.size, v)
-        ok = np.array([math.isfinite(v) and (not positive or v > 0 and math.isfinite(1.0 / v))])
+        if math.isfinite(v) and (not positive or v > 0 and math.isfinite(1.0 / v)):
+            return arr
+        ok = np.zeros(t.size, dtype=bool)  # bad at every sample: told at the first
     elif arr.shape != t.shape:
         raise ConfigError(name, f"an array of shape {arr.shape}",
                           f"{allowed} ({t.size} samples)")
@@ -138,10 +140,12 @@ def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None
     if k_end == 0:
         return
     controller._CS[:, 0] = CS[:, 0]
-    controller._last_output = float(traj[trajectory.T_APPLIED, k_end - 1])
-    controller.setpoint = float(traj[trajectory.T_REF, k_end - 1])
+    last = traj[:, k_end - 1].tolist()
+    controller._last_output = last[trajectory.T_APPLIED]
+    # the reference was checked finite before the run: no setter's check again
+    controller._setpoint = last[trajectory.T_REF]
     if isinstance(controller, RecursiveIP):
-        controller._components = tuple(float(traj[row, k_end - 1]) for row in (
+        controller._components = tuple(last[row] for row in (
             trajectory.T_U, trajectory.T_GAIN, trajectory.T_GAMMA))
 
 
@@ -174,18 +178,18 @@ def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mappi
                   t_end: float, n: int):
     """(ev_k, ev_col, ev_add, ev_val) for members that share the list of changed names."""
     first = list(changes_per_member[0])
+    names = [(c.name, c.add) for c in first]
     m = len(changes_per_member)
-    n_ev = len(first)
-    ev_k = np.zeros((n_ev, m), dtype=np.int64)
-    ev_val = np.zeros((n_ev, m))
+    ev_k = np.zeros((len(first), m), dtype=np.int64)
+    ev_val = np.zeros((len(first), m))
     for j, changes in enumerate(changes_per_member):
-        if [(c.name, c.add) for c in changes] != [(c.name, c.add) for c in first]:
+        if j and [(c.name, c.add) for c in changes] != names:
             raise ValueError("members of one run must change the same parameters in order")
         for e, c in enumerate(changes):
             ev_k[e, j] = grid.first_sample_at(c.time, t_end, n)
             ev_val[e, j] = c.value
-    ev_col = np.array([columns[c.name] for c in first], dtype=np.int64)
-    ev_add = np.array([c.add for c in first], dtype=np.bool_)
+    ev_col = np.array([columns[name] for name, _ in names], dtype=np.int64)
+    ev_add = np.array([add for _, add in names], dtype=np.bool_)
     return ev_k, ev_col, ev_add, ev_val
 
 
@@ -222,13 +226,16 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
             raise ValueError("members of one run must share the law and its sample time")
     m = len(plants)
     # fresh arrays (the engine writes X, P and CS in place), C-ordered
-    X = np.array([ep.x0 for ep in plants])
-    P = np.array([ep.p for ep in plants])
-    CP = np.concatenate([law.CP for law in laws], axis=1)
-    rows = max(law.CS.shape[0] for law in laws)
-    CS = np.zeros((rows, m))
-    for j, law in enumerate(laws):
-        CS[:law.CS.shape[0], j] = law.CS[:, 0]
+    if m == 1:  # a single run: copies, without the stacking's per-call costs
+        X, P = p0.x0.reshape(1, -1).copy(), p0.p.reshape(1, -1).copy()
+        CP, CS = l0.CP.copy(), l0.CS.copy()
+    else:
+        X = np.array([ep.x0 for ep in plants])
+        P = np.array([ep.p for ep in plants])
+        CP = np.concatenate([law.CP for law in laws], axis=1)
+        CS = np.zeros((max(law.CS.shape[0] for law in laws), m))
+        for j, law in enumerate(laws):
+            CS[:law.CS.shape[0], j] = law.CS[:, 0]
     events = _event_arrays(changes_per_member, p0.columns, t_end, n)
     RP = np.zeros((reference.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP)
     LP = layout.column() if LP is None else LP
@@ -253,11 +260,17 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
 
 
 def step_metrics_of(RP: np.ndarray, step: ReferenceStep | None = None
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    ) -> tuple[np.ndarray | float, ...]:
     """(t0, from, to) of every member's reference step, as the step metrics take them:
-    a smooth-step reference's, else ``step`` (the same for all), else none (to = NaN)."""
-    smooth = RP[reference.KIND] == reference.SMOOTH_STEP
+    a smooth-step reference's, else ``step`` (the same for all), else none (to = NaN).
+    One member (a single run): three floats, without numpy's per-call cost."""
     t0, y0, y1 = step if step is not None else (0.0, math.nan, math.nan)
+    if RP.shape[1] == 1:
+        col = RP[:, 0].tolist()
+        if col[reference.KIND] == reference.SMOOTH_STEP:
+            return col[reference.T0], col[reference.INITIAL], col[reference.FINAL]
+        return t0, y0, y1
+    smooth = RP[reference.KIND] == reference.SMOOTH_STEP
     return (np.where(smooth, RP[reference.T0], t0), np.where(smooth, RP[reference.INITIAL], y0),
             np.where(smooth, RP[reference.FINAL], y1))
 
@@ -267,13 +280,21 @@ def load_step_of(LP: np.ndarray, changes_per_member, t_end: float, n: int) -> np
     disturbance's t0 or its first scheduled plant change, whichever comes first, if a
     sample of the n over t_end sees it (inf for neither)."""
     d = LP[layout.DISTURBANCE:]
-    step = np.where(d[disturbance_law.KIND] == disturbance_law.STEP, d[disturbance_law.T0],
-                    np.inf)
-    first = np.array([min((c.time for c in ch), default=np.inf) for ch in changes_per_member])
-    load = np.minimum(step, first)
-    seen = np.array([math.isfinite(x) and grid.first_sample_at(x, t_end, n) < n
-                     for x in load.tolist()])
-    return np.where(seen, load, np.inf)
+    kinds = d[disturbance_law.KIND].tolist()
+    starts = d[disturbance_law.T0].tolist()
+    m = max(len(kinds), len(changes_per_member))  # one column or one list: for every member
+    if len(kinds) == 1:
+        kinds, starts = kinds * m, starts * m
+    if len(changes_per_member) == 1:
+        changes_per_member = list(changes_per_member) * m
+    load = []
+    # on Python floats: a loop over the members either way (their changes are objects)
+    for kind, t0, changes in zip(kinds, starts, changes_per_member, strict=True):
+        first = min(t0 if kind == disturbance_law.STEP else math.inf,
+                    min((c.time for c in changes), default=math.inf))
+        seen = math.isfinite(first) and grid.first_sample_at(first, t_end, n) < n
+        load.append(first if seen else math.inf)
+    return np.array(load)
 
 
 def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_window,
