@@ -260,7 +260,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
 
 
 def step_metrics_of(RP: np.ndarray, step: ReferenceStep | None = None
-                    ) -> tuple[np.ndarray | float, ...]:
+                    ) -> tuple[np.ndarray | float, np.ndarray | float, np.ndarray | float]:
     """(t0, from, to) of every member's reference step, as the step metrics take them:
     a smooth-step reference's, else ``step`` (the same for all), else none (to = NaN).
     One member (a single run): three floats, without numpy's per-call cost."""
