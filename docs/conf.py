@@ -65,6 +65,8 @@ SECTIONS = {  # the order and the words of the reference's sections
     ".api.run.loop": "Simulating a loop",
     ".api.run.sweep": "Sweeping a loop",
     ".api.run.simulate": "Simulating a configuration",
+    ".analysis.filters": "Linear analysis: a law as its linear filter",
+    ".analysis.loop": "Linear analysis: poles and margins of the loop",
     ".api.results.result": "Results",
     ".experiments.cases": "Built-in cases",
     ".config.resolve": "Configuration",

@@ -17,6 +17,8 @@ from ._version import __version__
 # (and the command line's start, --help, --version) no longer waits 1.6 s for numpy,
 # scipy and numba, and a Ctrl-C in that time reaches the command's own handling.
 _EXPORTS = {
+    ".analysis.filters": ("LinearFilter",),
+    ".analysis.loop": ("LinearLoop",),
     ".api.model.controllers": ("IP", "IPD", "IPI", "IPID", "PID", "IntelligentController",
                                "RecursiveIP"),
     ".api.model.elements": ("Actuator", "Disturbance", "Sensor"),
@@ -41,8 +43,8 @@ __all__ = ["__version__", *_MODULE_OF]
 
 #: the subpackages, reachable as attributes (mfcontrol.experiments.cases...) as when the
 #: package imported everything at once
-_SUBPACKAGES = ("api", "cexport", "config", "elements", "engine", "errors", "experiments",
-                "laws", "numerics", "plants")
+_SUBPACKAGES = ("analysis", "api", "cexport", "config", "elements", "engine", "errors",
+                "experiments", "laws", "numerics", "plants")
 
 
 def __getattr__(name: str):
@@ -64,6 +66,8 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eagerly
+    from .analysis.filters import LinearFilter
+    from .analysis.loop import LinearLoop
     from .api.model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
     from .api.model.elements import Actuator, Disturbance, Sensor
     from .api.model.plants import LTI, ODE, Boost, Buck, DCMotor, FirstOrder, Plant

@@ -29,6 +29,7 @@ from typing import Any, Literal, Self, cast, overload
 import numpy as np
 
 from ..._version import __version__
+from ...analysis import filters
 from ...config import options
 from ...engine import live
 from ...errors import as_float, shown
@@ -559,6 +560,25 @@ class IntelligentController(_Sampled):
         """The gain 1/alpha used at the last sample."""
         return float(self._CS[gain_law.G1, 0])
 
+    def linear_filter(self, gamma: float | None = None) -> filters.LinearFilter:
+        """The law as the linear filter it is within its output limits:
+        ``A(q) u = B_y(q) y + B_r(q) r`` (:mod:`mfcontrol.analysis.filters`), at its
+        sample time; ``.transfer_functions()`` gives u's transfer functions from y and r.
+
+        ``gamma``: the gain to hold, required for a variational or external gain
+        (default 1/alpha for a constant gain).
+
+        Examples
+        --------
+        With backward differences the i-P is a PI in velocity form:
+
+        >>> import mfcontrol
+        >>> f = mfcontrol.IP(alpha=2.0, kp=5.0, sample_time=0.1).linear_filter()
+        >>> f.a.tolist(), f.b_y.tolist(), f.b_r.tolist()
+        ([1.0, -1.0], [-7.5, 5.0], [7.5, -5.0])
+        """
+        return filters.intelligent_filter(self._CP[:, 0], self.sample_time, gamma)
+
 
 class IP(IntelligentController):
     """Intelligent proportional controller (i-P), ``u = -(F_hat - y*' + kp e)/alpha``.
@@ -940,3 +960,17 @@ class PID(_Sampled):
         s = self._CS[:, 0]
         return {**{name: float(s[row]) for name, row in pid.COMPONENTS},
                 "unlimited": float(s[pid.C_UNLIM])}
+
+    def linear_filter(self) -> filters.LinearFilter:
+        """The PID as the linear filter it is within its output limits:
+        ``A(q) u = B_y(q) y + B_r(q) r`` (:mod:`mfcontrol.analysis.filters`), at its
+        sample time; ``.transfer_functions()`` gives u's transfer functions from y and r.
+
+        Examples
+        --------
+        >>> import mfcontrol
+        >>> f = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1).linear_filter()
+        >>> f.a.tolist(), f.b_y.tolist(), f.b_r.tolist()
+        ([1.0, -1.0], [-2.0, 1.9], [2.0, -1.9])
+        """
+        return filters.pid_filter(self._CP[:, 0], self.sample_time)

@@ -1,0 +1,183 @@
+"""Every law as the linear filter it is between its limits: ``A(q) u = B_y(q) y + B_r(q) r``.
+
+Without saturation, with a given gain, every law of :mod:`mfcontrol.laws` is a linear
+time-invariant difference equation in the measurement y, the setpoint r and its own
+output u. Written in the delay operator q = z^-1 (``q y_k = y_{k-1}``), with
+``D = 1 - q`` the backward difference and h the sample period:
+
+Intelligent law (:mod:`mfcontrol.laws.intelligent`), ``e = y - r``, gain gamma::
+
+    u = -gamma (F_hat - r^(n) + kp e + ki h e / D + kd D e / h),   y^(n) = (D / h)^n y
+    F_hat = (D / h)^n y - (q / gamma) u         backward difference
+    F_hat = W_y(q) y + W_u(q) u                 algebraic estimator, window M
+
+with the algebraic estimator's FIR weights (:func:`mfcontrol.laws.estimators.weights`,
+exact arithmetic: the law slides moments that sum to the same thing, up to rounding).
+Multiplied by D when there is an integral term (ki != 0), to clear its denominator.
+
+PID (:mod:`mfcontrol.laws.pid`), ``a_d = Td / (Td + N h)``, ``b_d = kp Td N / (Td + N h)``::
+
+    u = kp (b r - y) + ki h q (r - y) / D - b_d D y / (1 - a_d q)
+
+(the integral is updated after the output, with the sample's error: it reaches u one
+sample later).
+
+What the filter leaves out, by construction: the output limits and the anti-windup they
+trigger, the start-up (the output held for the first n samples; the backward difference
+standing in until the algebraic estimator's window is full), the variational gain's
+motion (the filter holds gamma at a value you give), and rounding. Past the start-up and
+within the limits the law's outputs satisfy the filter's equation to rounding
+(``tests/analysis/test_filters.py`` holds every law family to it on simulated runs).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial import polynomial as poly
+
+from ..laws import estimators, intelligent, pid
+from ..laws import variational_gain as gain_law
+
+
+@dataclass(frozen=True)
+class LinearFilter:
+    """``A(q) u = B_y(q) y + B_r(q) r``: a law's linear equivalent, its three polynomials
+    in the delay q = z^-1. Built by a live controller's ``linear_filter()``.
+
+    Parameters
+    ----------
+    a, b_y, b_r : numpy.ndarray
+        The polynomials' coefficients, that of q^i at index i; ``a[0] = 1``.
+    dt : float
+        The sample period (s).
+
+    Examples
+    --------
+    A PI (kp 2, ki 1, h 0.1): ``u_k - u_{k-1} = -2 y_k + 1.9 y_{k-1} + 2 r_k - 1.9 r_{k-1}``.
+
+    >>> import mfcontrol
+    >>> f = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1).linear_filter()
+    >>> f.a.tolist(), f.b_y.tolist(), f.order
+    ([1.0, -1.0], [-2.0, 1.9], 1)
+    >>> c_y, c_r = f.transfer_functions()   # python-control, dt = 0.1
+    """
+
+    a: np.ndarray
+    b_y: np.ndarray
+    b_r: np.ndarray
+    dt: float
+
+    @property
+    def order(self) -> int:
+        """The highest delay the equation reaches: how many past samples it reads."""
+        return max(self.a.size, self.b_y.size, self.b_r.size) - 1
+
+    def transfer_functions(self):
+        """(C_y, C_r): ``u = C_y(z) y + C_r(z) r`` as python-control discrete
+        ``TransferFunction`` objects with sample time ``dt``. The feedback path is C_y:
+        the loop gain with a plant P is ``L = -C_y P``."""
+        import control
+
+        n = self.order + 1
+        den = _padded(self.a, n)
+        return (control.tf(_padded(self.b_y, n), den, self.dt),
+                control.tf(_padded(self.b_r, n), den, self.dt))
+
+    def residual(self, u: np.ndarray, y: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """``A u - B_y y - B_r r`` at every sample from :attr:`order` on (earlier samples
+        would reach before the record): zero, to rounding, where the law ran linearly."""
+        k0 = self.order
+        out = np.zeros(u.size - k0)
+        for coef, x, sign in ((self.a, u, 1.0), (self.b_y, y, -1.0), (self.b_r, r, -1.0)):
+            for i, c in enumerate(coef):
+                out += sign * c * x[k0 - i:x.size - i]
+        return out
+
+
+def _padded(c: np.ndarray, n: int) -> np.ndarray:
+    return np.concatenate([c, np.zeros(n - c.size)])
+
+
+def _trimmed(c: np.ndarray) -> np.ndarray:
+    """``c`` without trailing zero coefficients (one zero left of a zero polynomial)."""
+    c = np.trim_zeros(np.asarray(c, dtype=float), "b")
+    return c if c.size else np.zeros(1)
+
+
+def _normalised(a: np.ndarray, b_y: np.ndarray, b_r: np.ndarray, dt: float) -> LinearFilter:
+    a0 = a[0]
+    return LinearFilter(_trimmed(a / a0), _trimmed(b_y / a0), _trimmed(b_r / a0), dt)
+
+
+def _difference(n: int, dt: float) -> np.ndarray:
+    """(D / h)^n as a polynomial in q."""
+    return poly.polypow(np.array([1.0, -1.0]) / dt, n)
+
+
+def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) -> LinearFilter:
+    """The intelligent law of parameter column ``CP`` (:mod:`mfcontrol.laws.intelligent`'s
+    rows) at sample period ``dt``, as a :class:`LinearFilter`.
+
+    ``gamma``: the gain the filter holds. Default 1/alpha for a constant gain; required
+    for the variational and the external gain, whose gamma moves (the filter is then the
+    law frozen at that gamma)."""
+    mode = CP[gain_law.MODE]
+    if gamma is None:
+        if mode != gain_law.CONSTANT:
+            kind = "variational" if mode == gain_law.VARIATIONAL else "external"
+            raise ValueError(f"gamma = None: a {kind} gain moves; give the gamma (1/alpha) "
+                             "at which to analyse the law")
+        gamma = CP[gain_law.INV_ALPHA]
+    if not (math.isfinite(gamma) and gamma > 0):
+        raise ValueError(f"gamma = {gamma!r}: must be a finite number > 0")
+    n = int(CP[intelligent.N_ORDER])
+    kp, ki, kd = CP[intelligent.KP], CP[intelligent.KI], CP[intelligent.KD]
+    dn = _difference(n, dt)
+    delta = np.array([1.0, -1.0])
+    if CP[intelligent.EST] == intelligent.ALGEBRAIC:
+        m = int(CP[intelligent.M_WIN])
+        wy, wu = estimators.weights(n, m, dt, 1.0 / gamma)
+        # oldest first: y_{k-M} .. y_k and u_{k-M} .. u_{k-1}; q^i is i samples back
+        f_y = wy[::-1]
+        f_u = np.concatenate([[0.0], wu[::-1]])
+    else:
+        f_y = dn
+        f_u = np.array([0.0, -1.0 / gamma])
+    # the error terms kp + kd D / h (+ ki h / D), cleared of the integral's D
+    k_e = poly.polyadd([kp], kd * delta / dt)
+    if ki != 0.0:
+        k_e = poly.polyadd(poly.polymul(k_e, delta), [ki * dt])
+        clear = delta
+    else:
+        clear = np.array([1.0])
+    a = poly.polymul(clear, poly.polyadd([1.0], gamma * f_u))
+    b_y = -gamma * poly.polyadd(poly.polymul(clear, f_y), k_e)
+    b_r = gamma * poly.polyadd(poly.polymul(clear, dn), k_e)
+    return _normalised(a, b_y, b_r, dt)
+
+
+def pid_filter(CP: np.ndarray, dt: float) -> LinearFilter:
+    """The PID of parameter column ``CP`` (:mod:`mfcontrol.laws.pid`'s rows) at sample
+    period ``dt``, as a :class:`LinearFilter`."""
+    kp, ki, kd, n, b = (CP[pid.KP], CP[pid.KI], CP[pid.KD], CP[pid.N], CP[pid.B])
+    delta = np.array([1.0, -1.0])
+    # each term over the common denominator D (1 - a_d q): D when there is an integral,
+    # (1 - a_d q) when there is a derivative
+    den_i = delta if ki != 0.0 else np.array([1.0])
+    if kd != 0.0:
+        td = kd / kp
+        ad = td / (td + n * dt)
+        bd = kp * td * n / (td + n * dt)
+        den_d = np.array([1.0, -ad])
+    else:
+        bd = 0.0
+        den_d = np.array([1.0])
+    a = poly.polymul(den_i, den_d)
+    integral = poly.polymul([0.0, ki * dt], den_d)  # ki h q / D, over the common denominator
+    b_y = poly.polysub(poly.polymul(-kp, a), integral)
+    b_y = poly.polysub(b_y, poly.polymul(bd * delta, den_i))
+    b_r = poly.polyadd(poly.polymul(kp * b, a), integral)
+    return _normalised(a, b_y, b_r, dt)
