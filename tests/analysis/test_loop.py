@@ -98,9 +98,27 @@ def test_gain_and_phase_margins_are_python_controls(name):
     assert m["gain_margin"] == pytest.approx(gm, rel=1e-5)
 
 
+def test_a_continuous_plant_is_stepped_by_its_zero_order_hold():
+    # python-control's continuous model and the library's own LTI plant object give the
+    # loop of the plant's zero-order hold at the controller's sample time
+    filt = CONTROLLERS["i-PI"]().linear_filter()
+    expected = LinearLoop(filt, PLANT).margins()
+    for plant in (control.tf([1.0], [1.0, 3.0, 2.0]),
+                  mfcontrol.LTI([[0.0, 1.0], [-2.0, -3.0]], [0.0, 1.0], [1.0, 0.0])):
+        loop = LinearLoop(filt, plant)
+        assert loop.plant.dt == H
+        m = loop.margins()
+        for key, value in expected.items():
+            assert m[key] == pytest.approx(value, rel=1e-9), key
+
+
 def test_a_plant_of_another_sample_time_is_refused():
     filt = CONTROLLERS["PID"]().linear_filter()
-    with pytest.raises(ValueError, match="^plant.dt = 0.02: must be the controller's"):
+    with pytest.raises(ValueError, match="^plant.dt = 0.02: must be the controller's sample "
+                                         "time 0.01, or 0"):
         LinearLoop(filt, control.c2d(control.tf([1.0], [1.0, 1.0]), 0.02))
-    with pytest.raises(ValueError, match="^plant.dt = 0"):
-        LinearLoop(filt, control.tf([1.0], [1.0, 1.0]))
+    with pytest.raises(TypeError, match="^plant: a python-control StateSpace or "
+                                        "TransferFunction, or a mfcontrol.LTI, not FirstOrder"):
+        LinearLoop(filt, mfcontrol.FirstOrder(a=-1.0, b=1.0))
+    with pytest.raises(ValueError, match="^plant: must have one input and one output"):
+        LinearLoop(filt, control.ss(np.eye(2) * -1.0, np.eye(2), np.eye(2), 0.0))

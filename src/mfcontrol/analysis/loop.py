@@ -27,6 +27,30 @@ from .filters import LinearFilter
 POINTS_PER_DECADE = 2000
 
 
+def _discrete(plant: Any, dt: float) -> Any:
+    """``plant`` as a discrete SISO python-control system of sample time dt: a continuous
+    one (or an object with the matrices ``A``, ``B``, ``C`` of x' = A x + B u, y = C x,
+    as :class:`mfcontrol.LTI`) by its zero-order hold."""
+    import control
+
+    if not isinstance(plant, control.StateSpace | control.TransferFunction):
+        matrices = [getattr(plant, m, None) for m in "ABC"]
+        if any(m is None for m in matrices):
+            raise TypeError(f"plant: a python-control StateSpace or TransferFunction, or "
+                            f"a mfcontrol.LTI, not {type(plant).__name__}")
+        a, b, c = (np.asarray(m, dtype=float) for m in matrices)
+        plant = control.ss(a, b.reshape(-1, 1), c.reshape(1, -1), 0.0)
+    if not plant.issiso():
+        raise ValueError("plant: must have one input and one output")
+    if plant.isctime():
+        return control.c2d(plant, dt, "zoh")
+    if plant.dt is True or not math.isclose(plant.dt, dt, rel_tol=1e-12):
+        raise ValueError(f"plant.dt = {plant.dt!r}: must be the controller's sample time "
+                         f"{dt!r}, or 0 (a continuous system, discretised by its "
+                         "zero-order hold)")
+    return plant
+
+
 @dataclass(frozen=True)
 class LinearLoop:
     """A law's linear filter closed around a discrete plant: its poles and margins.
@@ -35,10 +59,12 @@ class LinearLoop:
     ----------
     controller : LinearFilter
         The law, from a live controller's ``linear_filter()``.
-    plant : control.TransferFunction or control.StateSpace
-        A discrete SISO python-control system with the controller's sample time (for
-        a continuous model, ``control.c2d(model, dt)``: its zero-order hold, as the
-        engine steps an LTI plant).
+    plant : control.TransferFunction, control.StateSpace or mfcontrol.LTI
+        A SISO linear plant. A continuous one (a python-control system with dt = 0, or
+        a :class:`mfcontrol.LTI`) is discretised by its zero-order hold at the
+        controller's sample time, as the engine steps an LTI plant exactly; a discrete
+        one must have the controller's sample time. ``loop.plant`` is the discrete
+        system the loop uses.
 
     Examples
     --------
@@ -47,8 +73,7 @@ class LinearLoop:
     >>> import control, mfcontrol
     >>> from mfcontrol.analysis.loop import LinearLoop
     >>> pi = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1).linear_filter()
-    >>> plant = control.c2d(control.tf([1.0], [1.0, 1.0]), 0.1)
-    >>> m = LinearLoop(pi, plant).margins()
+    >>> m = LinearLoop(pi, control.tf([1.0], [1.0, 1.0])).margins()
     >>> m["stable"], round(m["Ms"], 3), round(m["phase_margin_deg"], 1)
     (True, 1.108, 98.2)
     """
@@ -57,13 +82,8 @@ class LinearLoop:
     plant: Any
 
     def __post_init__(self) -> None:
-        dt = getattr(self.plant, "dt", None)
-        if dt is None or dt is True or not math.isclose(dt, self.controller.dt,
-                                                          rel_tol=1e-12):
-            raise ValueError(f"plant.dt = {dt!r}: must be the controller's sample time "
-                             f"{self.controller.dt!r} (a discrete system, e.g. control.c2d)")
-        if not self.plant.issiso():
-            raise ValueError("plant: must have one input and one output")
+        # frozen: the plant as the loop uses it, discrete at the controller's sample time
+        object.__setattr__(self, "plant", _discrete(self.plant, self.controller.dt))
 
     def _plant_polynomials(self) -> tuple[np.ndarray, np.ndarray]:
         """The plant's numerator and denominator as polynomials in q = z^-1."""
