@@ -13,6 +13,7 @@ point it was linearised at are outside it.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -20,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import polynomial as poly
 
+from ..numerics import zoh
 from .filters import LinearFilter
 
 #: frequencies per decade of the grid on which the peaks (Ms, Mt, the noise gain) are
@@ -43,7 +45,13 @@ def _discrete(plant: Any, dt: float) -> Any:
     if not plant.issiso():
         raise ValueError("plant: must have one input and one output")
     if plant.isctime():
-        return control.c2d(plant, dt, "zoh")
+        # the zero-order hold the engine steps an LTI plant by (numerics/zoh.py)
+        ss = control.ss(plant)
+        a = np.ascontiguousarray(ss.A, dtype=float)
+        b = np.ascontiguousarray(np.asarray(ss.B, dtype=float)[:, 0])
+        ad, bd = np.empty_like(a), np.empty_like(b)
+        zoh.discretise(a, b, float(dt), ad, bd)
+        return control.ss(ad, bd[:, None], ss.C, ss.D, dt)
     if plant.dt is True or not math.isclose(plant.dt, dt, rel_tol=1e-12):
         raise ValueError(f"plant.dt = {plant.dt!r}: must be the controller's sample time "
                          f"{dt!r}, or 0 (a continuous system, discretised by its "
@@ -85,8 +93,10 @@ class LinearLoop:
         # frozen: the plant as the loop uses it, discrete at the controller's sample time
         object.__setattr__(self, "plant", _discrete(self.plant, self.controller.dt))
 
+    @functools.cached_property
     def _plant_polynomials(self) -> tuple[np.ndarray, np.ndarray]:
-        """The plant's numerator and denominator as polynomials in q = z^-1."""
+        """The plant's numerator and denominator as polynomials in q = z^-1 (once: the
+        margins evaluate the loop at every step of their root finding)."""
         import control
 
         tf = control.ss2tf(self.plant) if isinstance(self.plant, control.StateSpace) \
@@ -101,7 +111,7 @@ class LinearLoop:
     def characteristic(self) -> np.ndarray:
         """The closed loop's characteristic polynomial in q = z^-1 (ascending):
         ``A D_p - B_y N_p``, the plant ``P = N_p / D_p``."""
-        num, den = self._plant_polynomials()
+        num, den = self._plant_polynomials
         c = self.controller
         return poly.polysub(poly.polymul(c.a, den), poly.polymul(c.b_y, num))
 
@@ -116,7 +126,7 @@ class LinearLoop:
         (rad/s, below the Nyquist frequency pi / dt)."""
         c = self.controller
         q = np.exp(-1j * np.asarray(omega) * c.dt)
-        num, den = self._plant_polynomials()
+        num, den = self._plant_polynomials
         plant = poly.polyval(q, num) / poly.polyval(q, den)
         c_y = poly.polyval(q, c.b_y) / poly.polyval(q, c.a)
         loop = -c_y * plant
@@ -173,7 +183,7 @@ class LinearLoop:
         # phase crossovers: L crossing the negative real axis (and at the Nyquist
         # frequency, where L is real)
         w_pc = crossings(loop.imag, lambda w: at(w).imag, where=loop.real < 0)
-        gains = [-1.0 / at(w).real for w in w_pc if at(w).real < 0]
+        gains = [-1.0 / crossing.real for crossing in map(at, w_pc) if crossing.real < 0]
         if loop[-1].real < 0:
             gains.append(-1.0 / loop[-1].real)
         delays = [math.radians(pm % 360.0) / w for pm, w in zip(phase_margins, w_gc,
