@@ -1,5 +1,5 @@
-"""Lean single runs: ``mfcontrol run`` against a bare ``mfcontrol cases``, and
-``simulate_loop``'s overhead above the engine.
+"""Lean runs: ``mfcontrol run`` and a warm ``mfcontrol sweep`` against a bare ``mfcontrol
+cases``, and ``simulate_loop``'s overhead above the engine.
 
 Measured in one process, as medians of interleaved rounds (a slow spell of a shared
 machine hits every path alike), after a warm-up of each (the first use of the compiled
@@ -8,16 +8,16 @@ kernels compiles them or loads them from numba's disk cache):
 (a) CPU time (user + system, ``resource.getrusage`` of the waited-for children) of
     ``mfcontrol run voltage-stable-standard --out <tmp>`` against a bare
     ``mfcontrol cases``, each in a new subprocess. Target: at most 3x.
-(c) CPU time of a warm second process of
-    ``mfcontrol sweep voltage-stable-standard --grid 'controller.alpha=logspace(0,2,1024)'``
-    (the paper's sweep kernels loaded from numba's disk cache) against the same bare
-    ``mfcontrol cases``. Target: at most 4x.
 (b) A 1,000-sample ``simulate_loop`` of the DC motor of ``bench_engine.py`` (a numba ODE
     in the in-place form, an i-PI, h = 1 ms, 1 s, a load change at 0.5 s), the
     controller built before the clock starts, against the engine's own time for the same
     run: :func:`mfcontrol.engine.compose.run`, the lowest-level call ``simulate_loop``
     makes, timed on copies of the very arrays that call received. Target: at most
     150 us of overhead.
+(c) CPU time of a warm second process of
+    ``mfcontrol sweep voltage-stable-standard --grid 'controller.alpha=logspace(0,2,1024)'``
+    (the paper's sweep kernels loaded from numba's disk cache) against the same bare
+    ``mfcontrol cases``. Target: at most 4x.
 
 Timings are printed, never asserted. Run::
 
