@@ -65,6 +65,7 @@ SECTIONS = {  # the order and the words of the reference's sections
     ".api.run.loop": "Simulating a loop",
     ".api.run.sweep": "Sweeping a loop",
     ".api.run.simulate": "Simulating a configuration",
+    ".experiments.analyze": "Linear analysis of a case's loop, or a controller's on a plant",
     ".analysis.filters": "Linear analysis: a law as its linear filter",
     ".analysis.loop": "Linear analysis: poles and margins of the loop",
     ".api.results.result": "Results",

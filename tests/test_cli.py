@@ -444,6 +444,20 @@ ISSUE_28 = [
 ]
 ERRORS += ISSUE_28
 
+#: issue 30: the analysis's flags
+ERRORS += [
+    pytest.param(["analyze", "power-variational", "--gamma", "-1", "--out", "{d}/out-an"],
+                 ["--gamma = '-1': must be a finite number > 0"], id="analyze-negative-gamma"),
+    pytest.param(["analyze", "bench-lag3", "--gamma", "2", "--out", "{d}/out-an"],
+                 ["--gamma = '2': a PID has no gain gamma"], id="analyze-gamma-of-a-pid"),
+    pytest.param(["analyze", "boost-ipd", "--at", "nan", "--out", "{d}/out-an"],
+                 ["--at = 'nan': must be a finite number"], id="analyze-at-nan"),
+    pytest.param(["analyze", "bench-lag3", "--set", "controller.alpha=3", "--out",
+                  "{d}/out-an"],
+                 ['controller.alpha = 3.0: not read with controller.law = "pid"'],
+                 id="analyze-unread-key"),
+]
+
 
 #: the subset also run as the real command: at least one of every category, and the
 #: regressions
@@ -654,6 +668,17 @@ def test_run_writes_the_four_files(tmp_path):
     assert config["sim"]["t_end"] == 0.001
     assert (out / "figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert not (tmp_path / "results").exists()
+
+
+def test_analyze_writes_the_json_and_the_figure_and_prints_the_margins(tmp_path, capsys):
+    out = tmp_path / "an"
+    assert main(["analyze", "voltage-stable-standard", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "Ms (peak |S|): 8.39" in text and "phase margin (deg): 7.259" in text
+    assert "note: the output limits [0.001, 0.9]" in text
+    data = json.loads((out / "analysis.json").read_text())
+    assert data["case"] == "voltage-stable-standard" and data["margins"]["stable"] is True
+    assert (out / "analysis.png").stat().st_size > 10_000
 
 
 def test_run_fast_records_its_arithmetic_and_agrees_with_the_exact_run(tmp_path):

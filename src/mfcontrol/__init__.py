@@ -32,6 +32,7 @@ _EXPORTS = {
     ".config.resolve": ("Config", "resolve"),
     ".errors": ("CaseError", "ConfigError", "PlantFunctionError"),
     ".experiments.cases": ("make_controller", "run_case", "case_names"),
+    ".experiments.analyze": ("Analysis", "analyze"),
     ".experiments.compare": ("Comparison", "compare"),
     ".experiments.tune": ("TuneResult", "tune"),
 }
@@ -79,6 +80,7 @@ if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eage
     from .cexport import export_c
     from .config.resolve import Config, resolve
     from .errors import CaseError, ConfigError, PlantFunctionError
+    from .experiments.analyze import Analysis, analyze
     from .experiments.cases import make_controller, run_case
     from .experiments.cases import names as case_names
     from .experiments.compare import Comparison, compare

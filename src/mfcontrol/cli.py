@@ -1,5 +1,5 @@
-"""Command line: ``mfcontrol cases | show | run | sweep | map | reproduce | tune | compare |
-benchmark | export-c | tuner``.
+"""Command line: ``mfcontrol cases | show | run | analyze | sweep | map | reproduce | tune |
+compare | benchmark | export-c | tuner``.
 
 Thin by design: parse, call the library, print. Bad input ends with one line on stderr and
 exit code 2; an interrupted command ends with exit code 130.
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import atexit
+import dataclasses
 import errno
 import gc
 import math
@@ -126,6 +127,39 @@ def _cmd_run(args) -> int:
         print(f"{name}: stable = {m['stable']}, IAE = {m['iae']:.4g}, "
               f"max |e| after settle = {m['max_abs_e']:.4g}, TV(u) = {m['tv_u']:.4g}")
     print(f"wrote {out}/trajectory.csv, metrics.json, config.toml, figure.png")
+    return 0
+
+
+def _number_flag(flag: str, text: str, *, positive: bool = False,
+                 allowed: str | None = None) -> float:
+    """A flag's number: finite (and > 0 with ``positive``), else one line naming it."""
+    try:
+        value = as_float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and (value > 0 or not positive)):
+        raise ConfigError(flag, text, allowed or "must be a finite number"
+                          + (" > 0" if positive else ""))
+    return value
+
+
+def _cmd_analyze(args) -> int:
+    from .experiments import cases
+    from .experiments.analyze import analyze
+
+    gamma = None if args.gamma is None else _number_flag("--gamma", args.gamma, positive=True)
+    level = None if args.at is None else _number_flag("--at", args.at)
+    name, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
+    out = _writable(_out_dir(args.out, Path("results") / name))
+    try:
+        result = analyze(cfg, gamma=gamma, operating_point=level)
+    except ValueError as exc:  # a law that needs --gamma, a PID given one
+        raise ConfigError("--gamma", args.gamma, str(exc).split(": ", 1)[-1]) from None
+    result = dataclasses.replace(result, name=name)
+    print(f"{name}: linear loop sampled every {result.sample_time:g} s")
+    print(textwrap.indent(result.summary(), "  "))
+    written = result.write(out)
+    print(f"wrote {out}/{', '.join(p.name for p in written)}")
     return 0
 
 
@@ -276,13 +310,7 @@ def _limit(flag: str, text: str) -> float | None:
     """A limit given on the command line: a finite number, or none."""
     if text.strip().lower() == "none":
         return None
-    try:
-        value = as_float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
-        raise ConfigError(flag, text, "each limit must be a finite number or none")
-    return value
+    return _number_flag(flag, text, allowed="each limit must be a finite number or none")
 
 
 def _cmd_export_c(args) -> int:
@@ -360,6 +388,18 @@ def build_parser() -> argparse.ArgumentParser:
                    "about 2.5x faster: within about 1e-13 relative of the default, which is "
                    "bit for bit the published arithmetic (metrics.json says which)")
     s.set_defaults(func=_cmd_run)
+
+    s = sub.add_parser("analyze", help="a case's loop as the linear system it is within its "
+                       "limits: poles, Ms, margins, noise gain (analysis.json, analysis.png)")
+    s.add_argument("case", help="built-in case name or path of a .toml file")
+    s.add_argument("--set", **setting)
+    s.add_argument("--gamma", help="the gain gamma (1/alpha) at which to hold a law whose "
+                   "gain moves (default: the variational law's gamma0)")
+    s.add_argument("--at", metavar="Y", help="the output level at which to linearise a "
+                   "nonlinear plant (its steady state there; default: the reference at the "
+                   "end of the run)")
+    s.add_argument("--out", help="output folder (default results/CASE)")
+    s.set_defaults(func=_cmd_analyze)
 
     s = sub.add_parser("sweep", help="run a case over a grid of parameters (results.parquet)")
     s.add_argument("case", help="built-in case name or path of a .toml file")
@@ -466,7 +506,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: commands that end soon after they start, their garbage (a figure, a result) freed
 #: with the process
-_SHORT = frozenset({"cases", "show", "run", "map", "export-c"})
+_SHORT = frozenset({"cases", "show", "run", "analyze", "map", "export-c"})
 
 
 def _own_process(command: str) -> None:

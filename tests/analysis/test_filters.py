@@ -46,6 +46,14 @@ CONTROLLERS = {
     "PID weighted": (lambda: mfcontrol.PID(kp=3.0, ki=2.0, kd=0.4, N=8.0, b=0.5,
                                            sample_time=H), 2),
     "P": (lambda: mfcontrol.PID(kp=2.0, sample_time=H), 2),
+    # the paper's recursive i-P: a PI in velocity form (kp 2, ki 2 / s with hd = 1 s),
+    # its P term on y_{k-1} as published, and as printed on y_k
+    "recursive i-P": (lambda: mfcontrol.RecursiveIP(
+        alpha=0.5, kp=0.02, sample_time=H, deriv_scale=1.0, output_gain=1.0,
+        duty_min=-100.0, duty_max=100.0), 1),
+    "recursive i-P as printed": (lambda: mfcontrol.RecursiveIP(
+        alpha=0.5, kp=0.02, sample_time=H, deriv_scale=1.0, output_gain=2.0,
+        duty_min=-100.0, duty_max=100.0, p_sample="current", u0=0.0), 1),
 }
 
 
@@ -168,3 +176,14 @@ def test_the_filter_tells_an_unstable_loop_before_it_runs():
         _, res = _run(ctrl, 3000)
         grew = np.abs(res.signals["y"][-500:]).max() > 100.0
         assert (radius > 1.0) == unstable == grew
+
+
+def test_the_variational_recursive_law_needs_its_gamma():
+    ctrl = mfcontrol.RecursiveIP(alpha=10.0, kp=2.0, law="variational", sample_time=1e-6)
+    with pytest.raises(ValueError, match="^gamma = None: the variational law"):
+        ctrl.linear_filter()
+    held = ctrl.linear_filter(gamma=0.1)
+    standard = mfcontrol.RecursiveIP(alpha=10.0, kp=2.0, sample_time=1e-6).linear_filter()
+    np.testing.assert_array_equal(held.b_y, standard.b_y)
+    with pytest.raises(ValueError, match="^sample_time = None"):
+        mfcontrol.RecursiveIP(alpha=10.0, kp=2.0).linear_filter()

@@ -22,6 +22,12 @@ PID (:mod:`mfcontrol.laws.pid`), ``a_d = Td / (Td + N h)``, ``b_d = kp Td N / (T
 (the integral is updated after the output, with the sample's error: it reaches u one
 sample later).
 
+The paper's recursive i-P (:mod:`mfcontrol.laws.recursive_ip`), derivative scale hd,
+output gain G, ``s`` the sign of its proportional term and ``y_p`` = q y (published) or
+y (as printed)::
+
+    D u_raw = -(g / hd) D (y - r) + s kp (r - y_p),     u = G u_raw (the applied output)
+
 What the filter leaves out, by construction: the output limits and the anti-windup they
 trigger, the start-up (the output held for the first n samples; the backward difference
 standing in until the algebraic estimator's window is full), the variational gain's
@@ -38,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import polynomial as poly
 
-from ..laws import estimators, intelligent, pid
+from ..laws import estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
 
 
@@ -181,3 +187,29 @@ def pid_filter(CP: np.ndarray, dt: float) -> LinearFilter:
     b_y = poly.polysub(b_y, poly.polymul(bd * delta, den_i))
     b_r = poly.polyadd(poly.polymul(kp * b, a), integral)
     return _normalised(a, b_y, b_r, dt)
+
+
+def recursive_filter(CP: np.ndarray, dt: float, gamma: float | None = None) -> LinearFilter:
+    """The paper's recursive i-P of parameter column ``CP`` (:mod:`mfcontrol.laws.
+    recursive_ip`'s rows), its applied output ``G u`` at sample period ``dt``, as a
+    :class:`LinearFilter`.
+
+    ``gamma``: the gain to hold, required when the variational law's gamma is the gain
+    (``gain = "gamma"``); the standard law's gain is 1/alpha. With gamma held, the
+    variational form's rate term (K_gamma dgamma/dt) is zero."""
+    g = CP[gain_law.INV_ALPHA]
+    if CP[gain_law.MODE] != gain_law.CONSTANT and CP[recursive_ip.USE_GAMMA] != 0.0:
+        if gamma is None:
+            raise ValueError("gamma = None: the variational law's gain moves; give the "
+                             "gamma at which to analyse the law")
+        g = gamma
+    if not (math.isfinite(g) and g > 0):
+        raise ValueError(f"gamma = {g!r}: must be a finite number > 0")
+    hd, kp, sign, out = (CP[recursive_ip.HD], CP[recursive_ip.KP], CP[recursive_ip.P_SIGN],
+                         CP[recursive_ip.OUT_GAIN])
+    delta = np.array([1.0, -1.0])
+    # the proportional term reads y_{k-1} (published) or y_k (as printed)
+    y_p = np.array([1.0]) if CP[recursive_ip.P_CURRENT] != 0.0 else np.array([0.0, 1.0])
+    b_y = out * poly.polysub(-g / hd * delta, sign * kp * y_p)
+    b_r = out * poly.polyadd(g / hd * delta, [sign * kp])
+    return _normalised(delta, b_y, b_r, dt)

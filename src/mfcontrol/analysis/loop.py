@@ -22,11 +22,14 @@ import numpy as np
 from numpy.polynomial import polynomial as poly
 
 from ..numerics import zoh
-from .filters import LinearFilter
+from .filters import LinearFilter, _padded
 
 #: frequencies per decade of the grid on which the peaks (Ms, Mt, the noise gain) are
 #: taken, over the six decades below the Nyquist frequency
 POINTS_PER_DECADE = 2000
+#: the longest impulse response :meth:`LinearLoop.noise_gain_h2` sums (a slower loop's
+#: norm comes from its Lyapunov equation)
+H2_MOST_SAMPLES = 4_000_000
 
 
 def _discrete(plant: Any, dt: float) -> Any:
@@ -73,6 +76,9 @@ class LinearLoop:
         controller's sample time, as the engine steps an LTI plant exactly; a discrete
         one must have the controller's sample time. ``loop.plant`` is the discrete
         system the loop uses.
+    delay : int
+        Samples of delay in the loop besides the plant's own (the sensor's and the
+        actuator's delays together): the law sees ``q^delay P``.
 
     Examples
     --------
@@ -88,10 +94,15 @@ class LinearLoop:
 
     controller: LinearFilter
     plant: Any
+    delay: int = 0
 
     def __post_init__(self) -> None:
         # frozen: the plant as the loop uses it, discrete at the controller's sample time
         object.__setattr__(self, "plant", _discrete(self.plant, self.controller.dt))
+        if isinstance(self.delay, bool) or int(self.delay) != self.delay or self.delay < 0:
+            raise ValueError(f"delay = {self.delay!r}: must be a whole number of samples "
+                             ">= 0")
+        object.__setattr__(self, "delay", int(self.delay))
 
     @functools.cached_property
     def _plant_polynomials(self) -> tuple[np.ndarray, np.ndarray]:
@@ -103,9 +114,10 @@ class LinearLoop:
             else self.plant
         num = np.atleast_1d(np.squeeze(tf.num[0][0])).astype(float)
         den = np.atleast_1d(np.squeeze(tf.den[0][0])).astype(float)
-        # descending powers of z, over the denominator's degree: ascending powers of q
+        # descending powers of z, over the denominator's degree: ascending powers of q;
+        # the loop's delay is q^delay more on the numerator
         n = den.size
-        num = np.concatenate([np.zeros(n - num.size), num])
+        num = np.concatenate([np.zeros(n - num.size + self.delay), num])
         return num, den
 
     def characteristic(self) -> np.ndarray:
@@ -122,16 +134,62 @@ class LinearLoop:
         return np.roots(np.trim_zeros(self.characteristic(), "b"))
 
     def frequency_response(self, omega: np.ndarray) -> dict[str, np.ndarray]:
-        """L, S, T and the noise-to-control gain C_y S at the frequencies ``omega``
-        (rad/s, below the Nyquist frequency pi / dt)."""
+        """L, S, T, the noise-to-control gain C_y S and the setpoint-to-output response
+        ``T_ry = P C_r S`` at the frequencies ``omega`` (rad/s, below the Nyquist
+        frequency pi / dt)."""
         c = self.controller
         q = np.exp(-1j * np.asarray(omega) * c.dt)
         num, den = self._plant_polynomials
         plant = poly.polyval(q, num) / poly.polyval(q, den)
         c_y = poly.polyval(q, c.b_y) / poly.polyval(q, c.a)
+        c_r = poly.polyval(q, c.b_r) / poly.polyval(q, c.a)
         loop = -c_y * plant
         s = 1.0 / (1.0 + loop)
-        return {"L": loop, "S": s, "T": loop * s, "CS": c_y * s}
+        return {"L": loop, "S": s, "T": loop * s, "CS": c_y * s, "Try": plant * c_r * s}
+
+    def setpoint_dc_gain(self) -> float:
+        """``T_ry(1)``: the output's steady state per unit of a constant setpoint,
+        ``N_p B_r / (A D_p - B_y N_p)`` at z = 1, each factor summed alone (where the law
+        integrates, A(1) is an exact 0 and the gain an exact ratio, not a difference of
+        near-equal sums); nan when the denominator vanishes."""
+        num, den = self._plant_polynomials
+        c = self.controller
+        n1, d1, a1, by1, br1 = (float(np.sum(p)) for p in (num, den, c.a, c.b_y, c.b_r))
+        char = a1 * d1 - by1 * n1
+        if char == 0.0:
+            return math.nan
+        return n1 * br1 / char
+
+    def noise_gain_h2(self) -> float:
+        """The H2 norm of ``C_y S``: a white measurement noise of standard deviation
+        sigma moves the output u by ``noise_gain_h2 * sigma`` (standard deviation, in the
+        steady state of a stable loop); inf for an unstable one. The root sum of squares
+        of its impulse response, run until the slowest pole has decayed by 1e-9
+        (:data:`H2_MOST_SAMPLES` at most; beyond, from the discrete Lyapunov equation)."""
+        from scipy import linalg, signal
+
+        radius = self.spectral_radius()
+        if radius >= 1.0:
+            return math.inf
+        num, den = self._plant_polynomials
+        # C_y S = B_y D_p / (A D_p - B_y N_p), polynomials in q: lfilter's own form
+        n = poly.polymul(self.controller.b_y, den)
+        d = self.characteristic()
+        samples = math.ceil(math.log(1e-9) / math.log(radius)) + n.size + d.size \
+            if radius > 0.0 else n.size + d.size
+        if samples <= H2_MOST_SAMPLES:
+            impulse = np.zeros(samples)
+            impulse[0] = 1.0
+            return float(math.sqrt(np.sum(signal.lfilter(n, d, impulse) ** 2)))
+        size = max(n.size, d.size)
+        A, B, C, D = signal.tf2ss(_padded(n, size), _padded(d, size))
+        W = linalg.solve_discrete_lyapunov(A, B @ B.T, method="bilinear")
+        return float(math.sqrt(max((C @ W @ C.T)[0, 0] + D[0, 0] ** 2, 0.0)))
+
+    def spectral_radius(self) -> float:
+        """The largest modulus of a closed-loop pole: below 1, the linear loop is
+        asymptotically stable."""
+        return float(np.abs(self.poles()).max(initial=0.0))
 
     def margins(self) -> dict[str, float | bool]:
         """The loop's robustness, as a dict:
@@ -148,7 +206,14 @@ class LinearLoop:
         - ``delay_margin_s`` and ``delay_margin_samples``: the smallest extra loop delay
           that destabilises the loop, over every gain crossover (inf without one);
         - ``noise_gain_peak``: the peak of ``|C_y S|``, how much measurement noise the
-          output sees at the worst frequency.
+          output sees at the worst frequency; ``noise_gain_h2``: its H2 norm
+          (:meth:`noise_gain_h2`), what a white noise's standard deviation is multiplied
+          by on its way to u;
+        - ``steady_state_error``: ``1 - T_ry(1)``, the error left per unit of a constant
+          setpoint (0 where the loop integrates; nan for an unstable loop);
+        - ``bandwidth_rad_s``: the first frequency where the setpoint response
+          ``|T_ry|`` falls 3 dB below its DC value (inf if it never does below the
+          Nyquist frequency).
 
         Crossings are found on a grid of :data:`POINTS_PER_DECADE` frequencies a decade
         over the six decades below the Nyquist frequency, then solved for exactly
@@ -188,10 +253,16 @@ class LinearLoop:
             gains.append(-1.0 / loop[-1].real)
         delays = [math.radians(pm % 360.0) / w for pm, w in zip(phase_margins, w_gc,
                                                                  strict=True)]
-        radius = float(np.abs(self.poles()).max(initial=0.0))
+        radius = self.spectral_radius()
         delay = float(min(delays, default=math.inf))
+        stable = radius < 1.0
+        dc = self.setpoint_dc_gain() if stable else math.nan
+        # bandwidth: |T_ry| crossing |T_ry(1)| / sqrt(2) (python-control's definition)
+        drop = np.abs(resp["Try"]) - abs(dc) / math.sqrt(2.0)
+        w_bw = crossings(drop, lambda w: abs(self.frequency_response(np.array([w]))["Try"][0])
+                         - abs(dc) / math.sqrt(2.0)) if stable and dc != 0.0 else []
         return {
-            "stable": radius < 1.0,
+            "stable": stable,
             "spectral_radius": radius,
             "Ms": float(np.abs(resp["S"]).max()),
             "Mt": float(np.abs(resp["T"]).max()),
@@ -200,4 +271,7 @@ class LinearLoop:
             "delay_margin_s": delay,
             "delay_margin_samples": delay / c.dt,
             "noise_gain_peak": float(np.abs(resp["CS"]).max()),
+            "noise_gain_h2": self.noise_gain_h2(),
+            "steady_state_error": 1.0 - dc,
+            "bandwidth_rad_s": w_bw[0] if w_bw else (math.inf if stable else math.nan),
         }

@@ -837,6 +837,28 @@ class RecursiveIP(_Controller):
     def components(self) -> dict[str, float]:
         return dict(zip(("u_raw", "gain", "gamma"), self._components, strict=True))
 
+    def linear_filter(self, gamma: float | None = None) -> filters.LinearFilter:
+        """The law's applied output as the linear filter it is within its limits
+        (:mod:`mfcontrol.analysis.filters`), at :attr:`sample_time` (required).
+
+        ``gamma``: the gain to hold, required when the variational law's gamma is the
+        gain; the rate term is then zero.
+
+        Examples
+        --------
+        The standard law (alpha 10, kp 2; the published derivative scale 1e-3, output
+        gain 1/2000 and y_{k-1} in the proportional term):
+
+        >>> import mfcontrol
+        >>> f = mfcontrol.RecursiveIP(alpha=10.0, kp=2.0, sample_time=1e-6).linear_filter()
+        >>> f.a.tolist(), [round(float(c), 6) for c in f.b_y]
+        ([1.0, -1.0], [-0.05, 0.049])
+        """
+        if self.sample_time is None:
+            raise ValueError("sample_time = None: the filter needs the period of the loop "
+                             "it runs in; build the controller with sample_time")
+        return filters.recursive_filter(self._CP[:, 0], self.sample_time, gamma)
+
 #: the case keys the recursive law reads (tests/api/model/test_controllers.py holds this equal
 #: to what api.params.recursive_law_column reads), documented from config/options.py
 RECURSIVE_KEYS = ("controller.law", "controller.alpha", "controller.kp",

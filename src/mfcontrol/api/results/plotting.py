@@ -260,29 +260,6 @@ def save_figure(fig: Figure, path: str | Path | None) -> Figure:
     finally:
         fig.set_canvas(canvas)
     return fig
-    # a figure asked for in a folder that does not exist yet is the user's intent
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    engine = fig.get_layout_engine()
-    if engine is None:
-        fig.savefig(path, dpi=DPI)
-        return fig
-    # savefig draws a figure with a layout engine twice: once with rendering turned off
-    # for the layout (every artist walked, about a third of a figure's drawing), then for
-    # real. Laid out here at the saved resolution, as that first draw lays it out, it is
-    # drawn once, to the same pixels; the figure is left as savefig leaves it (laid out,
-    # its engine and resolution restored)
-    dpi = fig.dpi
-    fig.set_dpi(DPI)
-    try:
-        engine.execute(fig)
-        fig.set_layout_engine("none")
-        try:
-            fig.savefig(path, dpi=DPI)
-        finally:
-            fig.set_layout_engine(engine)
-    finally:
-        fig.set_dpi(dpi)
-    return fig
 
 
 def _tracking_panel(ax, t_ms, y, y_ref, ylabel: str, sym: str,
@@ -668,4 +645,125 @@ def robustness_maps(maps: list[list[np.ndarray]], rows: list[str], columns: list
             fig.colorbar(image, ax=list(grid[i]), label=f"objective {objective}\n(log scale)",
                          shrink=0.9)
     fig.suptitle(f"{title} (red x: diverged or unstable)")
+    return save_figure(fig, path)
+
+
+class LinearAnalysis(Protocol):
+    """What an analysis's figure reads: a :class:`~mfcontrol.Analysis` is one."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def margins(self) -> dict[str, Any]: ...
+
+    @property
+    def loop(self) -> Any: ...
+
+    def poles(self) -> np.ndarray: ...
+
+
+def _margin_words(m: dict[str, Any]) -> str:
+    def num(v: float, fmt: str) -> str:
+        return "none" if math.isinf(v) else format(v, fmt)
+
+    return (f"Ms {m['Ms']:.3g}, gain margin {num(m['gain_margin'], '.3g')}, phase margin "
+            f"{num(m['phase_margin_deg'], '.3g')} deg, delay margin "
+            f"{num(m['delay_margin_samples'], '.3g')} samples")
+
+
+def plot_analysis(analysis: LinearAnalysis, path: str | Path | None = None,
+                  title: str | None = None) -> Figure:
+    """A linear analysis (:func:`mfcontrol.analyze`) in four panels: the gains of the loop
+    L, the sensitivities S and T and the noise-to-control gain C_y S over frequency; L's
+    phase; the Nyquist curve of L with -1 and the Ms circle; the closed-loop poles with
+    the unit circle."""
+    m = analysis.margins
+    loop = analysis.loop
+    dt = loop.controller.dt
+    nyquist = math.pi / dt
+    omega = np.logspace(math.log10(nyquist) - 5, math.log10(nyquist), 2000)
+    resp = loop.frequency_response(omega)
+    fig = Figure(figsize=(11, 8), layout="constrained")
+    (ax_mag, ax_nyq), (ax_ph, ax_pole) = fig.subplots(2, 2)
+
+    def db(x: np.ndarray) -> np.ndarray:
+        with np.errstate(divide="ignore"):
+            return 20 * np.log10(np.abs(x))
+
+    for key, label, style in (("L", "loop gain $|L|$", dict(color="k", lw=1.5)),
+                              ("S", "sensitivity $|S|$", dict(color="tab:red")),
+                              ("T", "complementary sensitivity $|T|$",
+                               dict(color="tab:blue")),
+                              ("CS", r"noise to control $|C_y S|$",
+                               dict(color="tab:green", ls="--"))):
+        ax_mag.semilogx(omega, db(resp[key]), label=label, **style)
+    ax_mag.axhline(0.0, color="0.6", lw=0.8)
+    ax_mag.axhline(20 * math.log10(m["Ms"]), color="tab:red", lw=0.6, ls=":",
+                   label=f"Ms = {m['Ms']:.3g}")
+    ax_mag.set_ylabel("gain (dB)")
+    ax_mag.set_title("Gains over frequency")
+    ax_mag.legend(loc="best", fontsize=8)
+    ax_mag.set_ylim(max(db(resp["L"]).min(), -80.0) - 5,
+                    min(max(db(resp["L"]).max(), db(resp["CS"]).max()), 160.0) + 5)
+    phase = np.degrees(np.unwrap(np.angle(resp["L"])))
+    ax_ph.semilogx(omega, phase, color="k")
+    for level in (-180.0 + 360.0 * k for k in range(-4, 4)):
+        if phase.min() - 30 < level < phase.max() + 30:
+            ax_ph.axhline(level, color="0.6", lw=0.8)
+    ax_ph.set_xlabel("frequency (rad/s); the right edge is the Nyquist frequency pi/h")
+    ax_ph.set_ylabel("phase of L (deg)")
+    ax_ph.set_title("Phase of the loop gain")
+    for ax in (ax_mag, ax_ph):
+        ax.grid(True, which="both", alpha=0.3)
+        ax.set_xlim(omega[0], omega[-1])
+
+    # Nyquist: the curve and its mirror (negative frequencies), -1, the Ms circle
+    L = resp["L"]
+    ax_nyq.plot(L.real, L.imag, color="k", lw=1.3, label="$L(e^{j\\omega h})$, $\\omega > 0$")
+    ax_nyq.plot(L.real, -L.imag, color="k", lw=0.8, ls=":", label="$\\omega < 0$")
+    ax_nyq.plot([-1.0], [0.0], "r+", ms=12, mew=2, label="$-1$")
+    circle = np.exp(1j * np.linspace(0, 2 * math.pi, 400))
+    ax_nyq.plot((-1 + circle / m["Ms"]).real, (-1 + circle / m["Ms"]).imag, color="tab:red",
+                lw=0.8, ls="--", label=f"distance 1/Ms = {1 / m['Ms']:.3g} from $-1$")
+    ax_nyq.plot(circle.real, circle.imag, color="0.6", lw=0.6, label="unit circle")
+    ax_nyq.set_xlim(-3.0, 2.0)
+    ax_nyq.set_ylim(-2.5, 2.5)
+    ax_nyq.set_aspect("equal", adjustable="box")
+    ax_nyq.set_xlabel("real part of L")
+    ax_nyq.set_ylabel("imaginary part of L")
+    ax_nyq.set_title("Nyquist curve near $-1$")
+    ax_nyq.grid(True, alpha=0.3)
+    ax_nyq.legend(loc="lower right", fontsize=8)
+
+    poles = analysis.poles()
+    ax_pole.plot(circle.real, circle.imag, color="0.6", lw=0.8, label="unit circle")
+    outside = np.abs(poles) >= 1.0
+    ax_pole.plot(poles[~outside].real, poles[~outside].imag, "x", color="tab:blue",
+                 label="poles inside (decay)")
+    if outside.any():
+        ax_pole.plot(poles[outside].real, poles[outside].imag, "x", color="tab:red", mew=2,
+                     label="poles outside (grow)")
+    # poles of a fast-sampled loop crowd near z = 1: zoom on them when they do
+    near = "unit circle"
+    if poles.size:
+        lo = np.array([poles.real.min(), poles.imag.min()])
+        hi = np.array([poles.real.max(), poles.imag.max()])
+        span = max((hi - lo).max(), 1e-3)
+        if span < 0.3:
+            centre = (lo + hi) / 2
+            half = 0.6 * span + 0.05 * span
+            ax_pole.set_xlim(centre[0] - half, centre[0] + half)
+            ax_pole.set_ylim(centre[1] - half, centre[1] + half)
+            near = "zoomed on the poles"
+    ax_pole.set_aspect("equal", adjustable="box")
+    ax_pole.set_xlabel("real part of z")
+    ax_pole.set_ylabel("imaginary part of z")
+    ax_pole.set_title(f"Closed-loop poles ({near})\nspectral radius "
+                      f"{m['spectral_radius']:.6g}: {'stable' if m['stable'] else 'unstable'}")
+    ax_pole.grid(True, alpha=0.3)
+    ax_pole.legend(loc="best", fontsize=8)
+    head = title if title is not None else \
+        f"Linear analysis of {analysis.name or 'the loop'}, sampled every {dt:g} s"
+    fig.suptitle(f"{head}\n{_margin_words(m)}")
     return save_figure(fig, path)

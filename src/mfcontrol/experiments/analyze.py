@@ -1,0 +1,368 @@
+"""Know a controller before you run it: :func:`analyze` builds a case's loop (or a live
+controller's, on a plant you give) as the linear loop it is between its limits, and gives
+its poles, margins, sensitivity peaks, noise gain and figures.
+
+The pieces are :mod:`mfcontrol.analysis`: each law's equivalent filter
+(:mod:`~mfcontrol.analysis.filters`), the plant linearised and sampled as the engine
+integrates it (:mod:`~mfcontrol.analysis.linearise`), and the closed loop
+(:mod:`~mfcontrol.analysis.loop`). This module composes them and says, in
+:attr:`Analysis.notes`, what the linear loop leaves out of the run.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import files
+from .._version import __version__
+from ..analysis import linearise
+from ..analysis.filters import LinearFilter
+from ..analysis.loop import LinearLoop
+from ..api.model.controllers import PID, RecursiveIP
+from ..config.resolve import Config
+
+#: the margins' keys in the order they are printed, with their words
+SUMMARY = (("stable", "stable (linear loop)"), ("spectral_radius", "spectral radius"),
+           ("Ms", "Ms (peak |S|)"), ("Mt", "Mt (peak |T|)"), ("gain_margin", "gain margin"),
+           ("phase_margin_deg", "phase margin (deg)"), ("delay_margin_s", "delay margin (s)"),
+           ("delay_margin_samples", "delay margin (samples)"),
+           ("bandwidth_rad_s", "bandwidth r -> y (rad/s)"),
+           ("steady_state_error", "steady-state error per unit step of r"),
+           ("noise_gain_peak", "noise gain, peak |C_y S|"),
+           ("noise_gain_h2", "noise gain, H2 (std u / std n)"))
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """A controller's loop as a linear system: what :func:`analyze` returns.
+
+    Attributes
+    ----------
+    name : str
+        The case's name (or ``""``).
+    loop : LinearLoop
+        The law's filter closed around the sampled plant and the loop's delay.
+    margins : dict
+        :meth:`LinearLoop.margins`: ``stable``, ``spectral_radius``, ``Ms``, ``Mt``,
+        ``gain_margin``, ``phase_margin_deg``, ``delay_margin_s``,
+        ``delay_margin_samples``, ``bandwidth_rad_s``, ``steady_state_error``,
+        ``noise_gain_peak``, ``noise_gain_h2``.
+    operating_point : dict or None
+        Where a nonlinear plant was linearised: its state ``x``, input ``u`` and output
+        ``y``; None for a plant that is linear.
+    notes : tuple of str
+        What the linear loop leaves out of the run (limits, noise, a moving gain, a
+        schedule), and how the plant was made linear and discrete.
+    """
+
+    name: str
+    loop: LinearLoop
+    margins: dict[str, Any]
+    operating_point: dict[str, Any] | None
+    notes: tuple[str, ...]
+
+    @property
+    def controller(self) -> LinearFilter:
+        """The law's linear filter ``A(q) u = B_y(q) y + B_r(q) r``."""
+        return self.loop.controller
+
+    @property
+    def sample_time(self) -> float:
+        return self.loop.controller.dt
+
+    def transfer_functions(self):
+        """(C_y, C_r): u's python-control transfer functions from y and from r."""
+        return self.controller.transfer_functions()
+
+    def poles(self) -> np.ndarray:
+        """The closed loop's poles (z)."""
+        return self.loop.poles()
+
+    def to_dict(self) -> dict[str, Any]:
+        """Everything as plain JSON values: an infinite margin (no crossing) is the
+        string ``"inf"``, an undefined one (an unstable loop's steady state) null."""
+        def plain(v: Any) -> Any:
+            if isinstance(v, bool | str) or v is None:
+                return v
+            if isinstance(v, dict):
+                return {k: plain(w) for k, w in v.items()}
+            if isinstance(v, list | tuple | np.ndarray):
+                return [plain(w) for w in v]
+            v = float(v)
+            return ("inf" if v > 0 else "-inf") if math.isinf(v) else (None if v != v else v)
+
+        poles = self.poles()
+        return {
+            "case": self.name, "mfcontrol": __version__, "sample_time": self.sample_time,
+            "margins": plain(self.margins),
+            "operating_point": plain(self.operating_point),
+            "loop_delay_samples": self.loop.delay,
+            "controller": {"a": plain(self.controller.a), "b_y": plain(self.controller.b_y),
+                           "b_r": plain(self.controller.b_r),
+                           "form": "A(q) u = B_y(q) y + B_r(q) r, q = z^-1, coefficient of "
+                                   "q^i at index i"},
+            "poles": {"real": plain(poles.real), "imag": plain(poles.imag)},
+            "notes": list(self.notes),
+        }
+
+    def plot(self, path: str | Path | None = None, title: str | None = None):
+        """Bode (the gains of L, S, T and C_y S, and L's phase), Nyquist with the Ms
+        circle, and the closed-loop poles (:func:`mfcontrol.api.results.plotting.plot_analysis`).
+        Returns the matplotlib Figure; saved to ``path`` when given."""
+        from ..api.results.plotting import plot_analysis
+
+        return plot_analysis(self, path, title)
+
+    def write(self, folder: str | Path) -> list[Path]:
+        """``analysis.json`` and ``analysis.png`` in ``folder``; returns their paths."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        out = [folder / "analysis.json", folder / "analysis.png"]
+        files.write_text(out[0], json.dumps(self.to_dict(), indent=2) + "\n")
+        self.plot(out[1])
+        return out
+
+    def summary(self) -> str:
+        """The margins and the notes, a line each."""
+        def shown(key: str, v: Any) -> str:
+            if isinstance(v, bool):
+                return str(v)
+            if key == "steady_state_error" and abs(v) < 1e-9:
+                return "0 (to rounding)"  # an integrating loop's, summed in floats
+            return f"{v:.4g}"
+
+        lines = [f"{words}: {shown(key, self.margins[key])}" for key, words in SUMMARY]
+        if self.operating_point is not None:
+            p = self.operating_point
+            lines.append(f"linearised at y = {p['y']:.4g}, u = {p['u']:.4g}")
+        return "\n".join(lines + [f"note: {n}" for n in self.notes])
+
+    def __repr__(self) -> str:
+        m = self.margins
+        return (f"Analysis({self.name or 'loop'}: stable={m['stable']}, Ms={m['Ms']:.3g}, "
+                f"GM={m['gain_margin']:.3g}, PM={m['phase_margin_deg']:.3g} deg)")
+
+
+def _sampled_plant(plant: Any, h: float, substeps: int, level: float | None,
+                   notes: list[str], limits: tuple[float, float] = (-math.inf, math.inf)
+                   ) -> tuple[Any, dict[str, Any] | None]:
+    """The plant as a discrete python-control system at the sample period h, and where it
+    was linearised (None: linear)."""
+    import control
+
+    if isinstance(plant, control.StateSpace | control.TransferFunction):
+        if substeps != 1:
+            raise ValueError(f"substeps = {substeps!r}: a python-control plant is stepped "
+                             "by its zero-order hold over the whole sample")
+        return plant, None  # LinearLoop takes it (a continuous one by its ZOH)
+    missing = [m for m in ("derivative", "output", "x0") if not hasattr(plant, m)]
+    if missing:
+        raise TypeError(f"plant: a mfcontrol.Plant (derivative, output, x0) or a "
+                        f"python-control system, not {type(plant).__name__}")
+    integrator = getattr(plant, "integrator", "exact")
+    if integrator == "rk45":
+        notes.append("the plant's adaptive integrator (rk45) is taken as the exact "
+                     "zero-order hold (its tolerances put it within about 1e-9 of it)")
+    point = None
+    if all(hasattr(plant, m) for m in "ABC"):  # mfcontrol.LTI: its own matrices
+        A, B, C = (np.asarray(getattr(plant, m), dtype=float) for m in "ABC")
+    else:
+        x0 = np.asarray(plant.x0, dtype=float)
+        found = None
+        if level is not None:
+            # inputs to start the search from: 0, then the law's range (its middle, ends)
+            lo, hi = limits
+            starts = [0.0] + ([(lo + hi) / 2, lo, hi] if math.isfinite(lo + hi) else [])
+            found = linearise.steady_state(plant.derivative, plant.output, level, x0,
+                                           tuple(starts))
+        if found is None:
+            x, u = x0, 0.0
+        else:
+            x, u = found
+        A, B, C = linearise.jacobians(plant.derivative, plant.output, x, u)
+        # a plant whose Jacobians are the same far apart is linear: nothing to say
+        far = [(x, u), (x + np.maximum(np.abs(x), 1.0), u + max(abs(u), 1.0))]
+        if not linearise.is_linear(plant.derivative, plant.output, far):
+            point = {"x": x.tolist(), "u": float(u), "y": float(plant.output(x))}
+            if found is None:
+                notes.append(f"no steady state with output {level!r} was found from the "
+                             "initial state: the plant is linearised at its initial state "
+                             "with u = 0")
+            notes.append(f"the plant is nonlinear: linearised at y = {point['y']:.6g}, "
+                         f"u = {point['u']:.6g}; the analysis holds near that point")
+    Ad, Bd = linearise.discretise(A, B, h, integrator, substeps)
+    return control.ss(Ad, Bd[:, None], C.reshape(1, -1), 0.0, h), point
+
+
+def _loop(ctrl: Any, plant: Any, gamma: float | None, delay: int, substeps: int,
+          level: float | None, notes: list[str], name: str) -> Analysis:
+    h = getattr(ctrl, "sample_time", None)
+    if not hasattr(ctrl, "linear_filter"):
+        raise TypeError(f"controller: an mfcontrol controller (IP, IPI, IPD, IPID, PID, "
+                        f"RecursiveIP), not {type(ctrl).__name__}")
+    if h is None:
+        raise ValueError("sample_time = None: the controller needs the sample time of "
+                         "the loop to be analysed")
+    held = _held_gamma(ctrl, gamma)
+    if isinstance(ctrl, PID):
+        if gamma is not None:
+            raise ValueError(f"gamma = {gamma!r}: a PID has no gain gamma")
+        filt = ctrl.linear_filter()
+    else:
+        filt = ctrl.linear_filter(gamma=held)
+        if held is not None:
+            notes.append(f"the gain moves in the run; the analysis holds it at gamma = "
+                         f"{held:.6g}" + ("" if gamma is not None else " (its start, gamma0)"))
+    given: tuple[float | None, float | None]
+    if isinstance(ctrl, RecursiveIP):  # its limits are the duty's, in its column
+        from ..laws import recursive_ip
+
+        given = (float(ctrl._CP[recursive_ip.OUT_MIN, 0]),
+                 float(ctrl._CP[recursive_ip.OUT_MAX, 0]))
+    else:
+        given = getattr(ctrl, "output_limits", (None, None))
+    lo, hi = given
+    limits = (-math.inf if lo is None else float(lo), math.inf if hi is None else float(hi))
+    sampled, point = _sampled_plant(plant, h, substeps, level, notes, limits)
+    loop = LinearLoop(filt, sampled, delay=delay)
+    return Analysis(name, loop, loop.margins(), point, tuple(notes))
+
+
+def _held_gamma(ctrl: Any, gamma: float | None) -> float | None:
+    """The gamma at which to hold a law whose gain moves: the one given, else the
+    variational law's start gamma0; None for a law whose gain is constant."""
+    from ..laws import variational_gain as gain_law
+
+    CP = getattr(ctrl, "_CP", None)
+    if CP is None or CP.shape[0] <= gain_law.MODE or isinstance(ctrl, PID):
+        return gamma
+    mode = CP[gain_law.MODE, 0]
+    if mode == gain_law.CONSTANT or gamma is not None:
+        return gamma
+    if mode == gain_law.VARIATIONAL:
+        return float(CP[gain_law.GAMMA0, 0])
+    raise ValueError("gamma = None: this controller's gain is given from outside at every "
+                     "call (gain='external'); give the gamma (1/alpha) to analyse it at")
+
+
+def _case_notes(cfg: Config) -> list[str]:
+    """What a case's run has that its linear loop does not."""
+    notes = []
+    lo, hi = cfg["controller.duty_min"], cfg["controller.duty_max"]
+    if math.isfinite(lo) or math.isfinite(hi):
+        notes.append(f"the output limits [{lo:g}, {hi:g}] are outside the analysis: it "
+                     "holds while the law's output stays within them")
+    if cfg["sensor.noise"] != "none":
+        notes.append("sensor noise is outside the loop's dynamics: noise_gain_h2 and "
+                     "noise_gain_peak say what it does to u")
+    if cfg["sensor.quantum"] > 0:
+        notes.append("the sensor's quantisation is left out (a nonlinearity)")
+    if cfg["actuator.rate_limit"] > 0:
+        notes.append("the actuator's rate limit is left out (the analysis holds while it "
+                     "is not reached)")
+    if cfg["plant.schedule"] or (cfg["plant.model"] in ("buck", "boost")
+                                 and cfg["plant.change_times"]):
+        notes.append("the plant is taken with its parameters at t = 0: the scheduled "
+                     "changes (load steps) are not in the analysis")
+    return notes
+
+
+def analyze(case_or_controller: Any, plant: Any = None,
+            overrides: Mapping[str, Any] | None = None, *, gamma: float | None = None,
+            operating_point: float | None = None, sensor: Any = None,
+            actuator: Any = None, substeps: int = 1) -> Analysis:
+    """The loop of a case, or of a controller on a plant, as the linear system it is
+    between its limits: poles, margins, sensitivity peaks, noise gain and figures.
+
+    Parameters
+    ----------
+    case_or_controller : str, Path, Config or controller
+        A built-in case name, a case file, a resolved configuration, or a live controller
+        (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID``, ``RecursiveIP`` with its
+        ``sample_time``).
+    plant : python-control system or mfcontrol.Plant
+        Required with a controller (a case has its own). A python-control system (a
+        continuous one by its zero-order hold; a discrete one at the controller's sample
+        time); a :class:`mfcontrol.LTI` by its matrices; any other plant (the converters,
+        :class:`mfcontrol.ODE`) linearised by central differences at ``operating_point``.
+        Plants are made discrete as the engine integrates them (``integrator``: the
+        zero-order hold, or RK4's own linear map).
+    overrides : mapping, optional
+        Dotted keys set on the case first (as ``--set``).
+    gamma : float, optional
+        The gain at which to hold a law whose gain moves (variational, external); default
+        the variational law's gamma0.
+    operating_point : float, optional
+        The output level at which to linearise a nonlinear plant: the steady state with
+        that output. Default: the reference at the end of the case's run (with a
+        controller, its setpoint).
+    sensor, actuator : mfcontrol.Sensor, mfcontrol.Actuator, optional
+        With a controller: their delays (samples) are the loop's; a case has its own.
+    substeps : int
+        With a controller and a mfcontrol plant: integration steps per sample
+        (``simulate_loop``'s ``substeps``).
+
+    Returns
+    -------
+    Analysis
+        ``.margins`` (a dict), ``.poles()``, ``.transfer_functions()``, ``.plot()``,
+        ``.write(folder)``, ``.notes``.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> a = mfcontrol.analyze("bench-lag3")
+    >>> a.margins["stable"], round(a.margins["Ms"], 2)
+    (True, 1.38)
+
+    A live controller on a python-control plant:
+
+    >>> import control
+    >>> pi = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1)
+    >>> round(mfcontrol.analyze(pi, control.tf([1.0], [1.0, 1.0])).margins["Ms"], 3)
+    1.108
+    """
+    if isinstance(case_or_controller, str | Path | Config):
+        if plant is not None or sensor is not None or actuator is not None:
+            raise TypeError("plant, sensor, actuator: a case has its own (set its keys "
+                            "with overrides)")
+        return _analyze_case(case_or_controller, overrides, gamma, operating_point)
+    if overrides:
+        raise TypeError("overrides: for a case; a controller's parameters are its own")
+    if plant is None:
+        raise TypeError("plant: required with a controller (the loop it closes)")
+    delay = sum(int(getattr(e, "delay", 0)) for e in (sensor, actuator) if e is not None)
+    level = operating_point
+    if level is None:
+        level = float(getattr(case_or_controller, "setpoint", 0.0))
+    return _loop(case_or_controller, plant, gamma, delay, substeps, level, [], "")
+
+
+def _analyze_case(case: Any, overrides: Mapping[str, Any] | None, gamma: float | None,
+                  level: float | None) -> Analysis:
+    from ..api.params import reference_column
+    from ..api.run import from_config
+    from ..laws import reference
+    from .cases import resolve_case
+
+    if isinstance(case, Config):
+        cfg = case.with_overrides(dict(overrides)) if overrides else case
+        name = ""
+    else:
+        name, cfg = resolve_case(case, overrides, command="run")
+    if cfg["sweep.key"] is not None:
+        cfg = cfg.with_overrides({"sweep.key": None, "sweep.values": None})
+    if level is None:  # the reference the run ends at
+        col = reference_column(cfg)[:, 0]
+        level = float(reference.evaluate.py_func(*col[:5], cfg["sim.t_end"]))
+    delay = cfg["sensor.delay"] + cfg["actuator.delay"]
+    notes = _case_notes(cfg)
+    return _loop(from_config.controller(cfg), from_config.plant(cfg), gamma, delay,
+                 cfg["sim.substeps"], level, notes, name)
