@@ -456,6 +456,9 @@ ERRORS += [
                   "{d}/out-an"],
                  ['controller.alpha = 3.0: not read with controller.law = "pid"'],
                  id="analyze-unread-key"),
+    pytest.param(["analyze", "bench-lag3", "--region", "controller.kp=1,2,3", "--out",
+                  "{d}/out-an"],
+                 ["--region = 'controller.kp': give two axes"], id="analyze-one-axis"),
 ]
 
 
@@ -679,6 +682,16 @@ def test_analyze_writes_the_json_and_the_figure_and_prints_the_margins(tmp_path,
     data = json.loads((out / "analysis.json").read_text())
     assert data["case"] == "voltage-stable-standard" and data["margins"]["stable"] is True
     assert (out / "analysis.png").stat().st_size > 10_000
+
+
+def test_analyze_writes_a_region(tmp_path, capsys):
+    out = tmp_path / "an"
+    assert main(["analyze", "bench-lag3", "--region", "controller.kp=logspace(-1,1,5)",
+                 "--region", "controller.ki=logspace(-2,1,4)", "--out", str(out)]) == 0
+    assert "region: " in capsys.readouterr().out
+    rows = list(csv.DictReader((out / "region.csv").open()))
+    assert len(rows) == 20 and {"controller.kp", "controller.ki", "stable"} <= set(rows[0])
+    assert (out / "region.png").stat().st_size > 10_000
 
 
 def test_run_fast_records_its_arithmetic_and_agrees_with_the_exact_run(tmp_path):

@@ -32,11 +32,11 @@ _EXPORTS = {
     ".config.resolve": ("Config", "resolve"),
     ".errors": ("CaseError", "ConfigError", "PlantFunctionError"),
     ".experiments.cases": ("make_controller", "run_case", "case_names"),
-    ".experiments.analyze": ("Analysis", "analyze"),
+    ".experiments.analyze": ("Analysis", "Region", "analyze", "analyze_region"),
     ".experiments.compare": ("Comparison", "compare"),
     ".experiments.tune": ("TuneResult", "tune"),
 }
-_RENAMED = {"case_names": "names"}  # public name: name in its module
+_RENAMED = {"case_names": "names", "analyze_region": "region"}  # public: in its module
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
 
 __all__ = ["__version__", *_MODULE_OF]
@@ -80,7 +80,8 @@ if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eage
     from .cexport import export_c
     from .config.resolve import Config, resolve
     from .errors import CaseError, ConfigError, PlantFunctionError
-    from .experiments.analyze import Analysis, analyze
+    from .experiments.analyze import Analysis, Region, analyze
+    from .experiments.analyze import region as analyze_region
     from .experiments.cases import make_controller, run_case
     from .experiments.cases import names as case_names
     from .experiments.compare import Comparison, compare

@@ -145,11 +145,12 @@ def _number_flag(flag: str, text: str, *, positive: bool = False,
 
 def _cmd_analyze(args) -> int:
     from .experiments import cases
-    from .experiments.analyze import analyze
+    from .experiments.analyze import analyze, region, region_axes
 
     gamma = None if args.gamma is None else _number_flag("--gamma", args.gamma, positive=True)
     level = None if args.at is None else _number_flag("--at", args.at)
     name, cfg = cases.resolve_case(args.case, _overrides(args.set), command="run")
+    axes = region_axes(cfg, args.region) if args.region else None
     out = _writable(_out_dir(args.out, Path("results") / name))
     try:
         result = analyze(cfg, gamma=gamma, operating_point=level)
@@ -159,6 +160,13 @@ def _cmd_analyze(args) -> int:
     print(f"{name}: linear loop sampled every {result.sample_time:g} s")
     print(textwrap.indent(result.summary(), "  "))
     written = result.write(out)
+    if axes is not None:
+        started = time.perf_counter()
+        reg = dataclasses.replace(region(cfg, axes, gamma=gamma,
+                                         operating_point=level), name=name)
+        print(f"region: {reg.stable.sum():,} of {reg.stable.size:,} cells stable "
+              f"({time.perf_counter() - started:.1f} s)")
+        written += reg.write(out)
     print(f"wrote {out}/{', '.join(p.name for p in written)}")
     return 0
 
@@ -398,6 +406,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--at", metavar="Y", help="the output level at which to linearise a "
                    "nonlinear plant (its steady state there; default: the reference at the "
                    "end of the run)")
+    s.add_argument("--region", action="append", metavar="KEY=SPEC",
+                   help="an axis of a stability region, given twice, as sweep --grid takes "
+                   "it, e.g. --region 'controller.alpha=logspace(0,3,100)' --region "
+                   "'controller.kp=logspace(0,3,100)': region.csv and region.png (the "
+                   "stable cells and Ms, from the analysis: no simulation)")
     s.add_argument("--out", help="output folder (default results/CASE)")
     s.set_defaults(func=_cmd_analyze)
 

@@ -199,3 +199,55 @@ def test_write_gives_the_json_and_the_figure(tmp_path):
         assert key in data["margins"]
     assert data["case"] == "bench-lag3" and len(data["poles"]["real"]) == a.poles().size
     assert (tmp_path / "analysis.png").stat().st_size > 10_000
+
+
+def test_the_stable_region_is_the_simulated_sweeps_cell_for_cell():
+    # the test: over kp x ki of the PID on 1/(s+1)^3, the analysis's region and
+    # simulated runs agree on every cell not at the boundary (|ln rho| > 5e-4: over the
+    # 4,000 samples compared, a decay or a growth of at least e^2)
+    overrides = {**LINEAR, "sim.t_end": 100.0}
+    reg = mfcontrol.analyze_region("bench-lag3", ["controller.kp=logspace(-1,1.2,7)",
+                                                  "controller.ki=logspace(-2,0.8,6)"],
+                                   overrides)
+    assert 0 < reg.stable.sum() < reg.stable.size
+    compared = 0
+    for iy, ki in enumerate(reg.y):
+        for ix, kp in enumerate(reg.x):
+            rho = reg.spectral_radius[iy, ix]
+            if abs(math.log(rho)) <= 5e-4:
+                continue
+            res = mfcontrol.run_case("bench-lag3", {**overrides, "controller.kp": float(kp),
+                                                    "controller.ki": float(ki)})
+            e = np.abs(res.error)
+            early, late = e[500:1000].max(), e[-500:].max()
+            grew = res.metrics["diverged"] or late > early
+            assert grew is (rho > 1.0), (kp, ki, rho, early, late)
+            compared += 1
+    assert compared >= 25, compared  # of 42 cells; the slow ones sit near rho = 1
+
+
+def test_a_region_over_a_plant_key_is_the_analysis_of_each_cell():
+    reg = mfcontrol.analyze_region("voltage-stable-standard",
+                                   {"controller.alpha": [5.0, 10.0, 20.0],
+                                    "plant.R": [8.0, 10.0, 15.0]})
+    assert reg.point == (10.0, 10.0)
+    for iy, R in enumerate(reg.y):
+        for ix, alpha in enumerate(reg.x):
+            one = mfcontrol.analyze("voltage-stable-standard",
+                                    overrides={"controller.alpha": alpha, "plant.R": R})
+            assert reg.spectral_radius[iy, ix] == pytest.approx(
+                one.margins["spectral_radius"], rel=1e-9)
+    df = reg.to_pandas()
+    assert list(df.columns) == ["controller.alpha", "plant.R", "spectral_radius", "stable",
+                                "Ms", "noise_gain_peak"] and len(df) == 9
+
+
+def test_a_region_needs_two_axes_the_run_reads(tmp_path):
+    with pytest.raises(mfcontrol.ConfigError, match="^--region = 'controller.kp': give two"):
+        mfcontrol.analyze_region("bench-lag3", ["controller.kp=1,2"])
+    with pytest.raises(mfcontrol.ConfigError, match="controller.alpha"):
+        mfcontrol.analyze_region("bench-lag3", ["controller.kp=1,2", "controller.alpha=1,2"])
+    reg = mfcontrol.analyze_region("bench-lag3", ["controller.kp=1,2,3", "controller.ki=1,2"])
+    paths = reg.write(tmp_path)
+    assert [p.name for p in paths] == ["region.csv", "region.png"]
+    assert "6 of 6" in repr(reg) or "of 6 cells" in repr(reg)

@@ -42,7 +42,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.polynomial import polynomial as poly
 
 from ..laws import estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
@@ -109,8 +108,24 @@ def _padded(c: np.ndarray, n: int) -> np.ndarray:
 
 def _trimmed(c: np.ndarray) -> np.ndarray:
     """``c`` without trailing zero coefficients (one zero left of a zero polynomial)."""
-    c = np.trim_zeros(np.asarray(c, dtype=float), "b")
-    return c if c.size else np.zeros(1)
+    nonzero = np.flatnonzero(c)
+    return c[:nonzero[-1] + 1].astype(float) if nonzero.size else np.zeros(1)
+
+
+# numpy.polynomial's functions check and convert their arguments at every call: a
+# stability region builds tens of thousands of filters, so the two operations it needs
+# are written here on plain float arrays
+_mul = np.convolve
+
+
+def _add(a: np.ndarray | list[float], b: np.ndarray | list[float]) -> np.ndarray:
+    """The sum of two polynomials (ascending coefficients) of any lengths."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.size < b.size:
+        a, b = b, a
+    out = a.copy()
+    out[:b.size] += b
+    return out
 
 
 def _normalised(a: np.ndarray, b_y: np.ndarray, b_r: np.ndarray, dt: float) -> LinearFilter:
@@ -120,7 +135,10 @@ def _normalised(a: np.ndarray, b_y: np.ndarray, b_r: np.ndarray, dt: float) -> L
 
 def _difference(n: int, dt: float) -> np.ndarray:
     """(D / h)^n as a polynomial in q."""
-    return poly.polypow(np.array([1.0, -1.0]) / dt, n)
+    out = np.ones(1)
+    for _ in range(n):
+        out = _mul(out, np.array([1.0, -1.0]) / dt)
+    return out
 
 
 def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) -> LinearFilter:
@@ -153,15 +171,15 @@ def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) ->
         f_y = dn
         f_u = np.array([0.0, -1.0 / gamma])
     # the error terms kp + kd D / h (+ ki h / D), cleared of the integral's D
-    k_e = poly.polyadd([kp], kd * delta / dt)
+    k_e = _add([kp], kd * delta / dt)
     if ki != 0.0:
-        k_e = poly.polyadd(poly.polymul(k_e, delta), [ki * dt])
+        k_e = _add(_mul(k_e, delta), [ki * dt])
         clear = delta
     else:
         clear = np.array([1.0])
-    a = poly.polymul(clear, poly.polyadd([1.0], gamma * f_u))
-    b_y = -gamma * poly.polyadd(poly.polymul(clear, f_y), k_e)
-    b_r = gamma * poly.polyadd(poly.polymul(clear, dn), k_e)
+    a = _mul(clear, _add([1.0], gamma * f_u))
+    b_y = -gamma * _add(_mul(clear, f_y), k_e)
+    b_r = gamma * _add(_mul(clear, dn), k_e)
     return _normalised(a, b_y, b_r, dt)
 
 
@@ -181,11 +199,11 @@ def pid_filter(CP: np.ndarray, dt: float) -> LinearFilter:
     else:
         bd = 0.0
         den_d = np.array([1.0])
-    a = poly.polymul(den_i, den_d)
-    integral = poly.polymul([0.0, ki * dt], den_d)  # ki h q / D, over the common denominator
-    b_y = poly.polysub(poly.polymul(-kp, a), integral)
-    b_y = poly.polysub(b_y, poly.polymul(bd * delta, den_i))
-    b_r = poly.polyadd(poly.polymul(kp * b, a), integral)
+    a = _mul(den_i, den_d)
+    integral = _mul([0.0, ki * dt], den_d)  # ki h q / D, over the common denominator
+    b_y = _add(-kp * a, -integral)
+    b_y = _add(b_y, -_mul(bd * delta, den_i))
+    b_r = _add(kp * b * a, integral)
     return _normalised(a, b_y, b_r, dt)
 
 
@@ -210,6 +228,6 @@ def recursive_filter(CP: np.ndarray, dt: float, gamma: float | None = None) -> L
     delta = np.array([1.0, -1.0])
     # the proportional term reads y_{k-1} (published) or y_k (as printed)
     y_p = np.array([1.0]) if CP[recursive_ip.P_CURRENT] != 0.0 else np.array([0.0, 1.0])
-    b_y = out * poly.polysub(-g / hd * delta, sign * kp * y_p)
-    b_r = out * poly.polyadd(g / hd * delta, [sign * kp])
+    b_y = out * _add(-g / hd * delta, -sign * kp * y_p)
+    b_r = out * _add(g / hd * delta, [sign * kp])
     return _normalised(delta, b_y, b_r, dt)

@@ -105,9 +105,10 @@ class LinearLoop:
         object.__setattr__(self, "delay", int(self.delay))
 
     @functools.cached_property
-    def _plant_polynomials(self) -> tuple[np.ndarray, np.ndarray]:
-        """The plant's numerator and denominator as polynomials in q = z^-1 (once: the
-        margins evaluate the loop at every step of their root finding)."""
+    def plant_polynomials(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(N_p, D_p)``: the plant behind the loop's delay, ``q^delay P``, as polynomials
+        in q = z^-1, ascending (derived once: the margins evaluate the loop at every step
+        of their root finding)."""
         import control
 
         tf = control.ss2tf(self.plant) if isinstance(self.plant, control.StateSpace) \
@@ -123,7 +124,7 @@ class LinearLoop:
     def characteristic(self) -> np.ndarray:
         """The closed loop's characteristic polynomial in q = z^-1 (ascending):
         ``A D_p - B_y N_p``, the plant ``P = N_p / D_p``."""
-        num, den = self._plant_polynomials
+        num, den = self.plant_polynomials
         c = self.controller
         return poly.polysub(poly.polymul(c.a, den), poly.polymul(c.b_y, num))
 
@@ -139,7 +140,7 @@ class LinearLoop:
         frequency pi / dt)."""
         c = self.controller
         q = np.exp(-1j * np.asarray(omega) * c.dt)
-        num, den = self._plant_polynomials
+        num, den = self.plant_polynomials
         plant = poly.polyval(q, num) / poly.polyval(q, den)
         c_y = poly.polyval(q, c.b_y) / poly.polyval(q, c.a)
         c_r = poly.polyval(q, c.b_r) / poly.polyval(q, c.a)
@@ -152,7 +153,7 @@ class LinearLoop:
         ``N_p B_r / (A D_p - B_y N_p)`` at z = 1, each factor summed alone (where the law
         integrates, A(1) is an exact 0 and the gain an exact ratio, not a difference of
         near-equal sums); nan when the denominator vanishes."""
-        num, den = self._plant_polynomials
+        num, den = self.plant_polynomials
         c = self.controller
         n1, d1, a1, by1, br1 = (float(np.sum(p)) for p in (num, den, c.a, c.b_y, c.b_r))
         char = a1 * d1 - by1 * n1
@@ -171,7 +172,7 @@ class LinearLoop:
         radius = self.spectral_radius()
         if radius >= 1.0:
             return math.inf
-        num, den = self._plant_polynomials
+        num, den = self.plant_polynomials
         # C_y S = B_y D_p / (A D_p - B_y N_p), polynomials in q: lfilter's own form
         n = poly.polymul(self.controller.b_y, den)
         d = self.characteristic()

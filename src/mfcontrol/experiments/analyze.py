@@ -201,25 +201,27 @@ def _sampled_plant(plant: Any, h: float, substeps: int, level: float | None,
     return control.ss(Ad, Bd[:, None], C.reshape(1, -1), 0.0, h), point
 
 
-def _loop(ctrl: Any, plant: Any, gamma: float | None, delay: int, substeps: int,
-          level: float | None, notes: list[str], name: str) -> Analysis:
-    h = getattr(ctrl, "sample_time", None)
+def _law(ctrl: Any, gamma: float | None, notes: list[str]) -> LinearFilter:
+    """The controller's filter, its gain held where it moves (said in ``notes``)."""
     if not hasattr(ctrl, "linear_filter"):
         raise TypeError(f"controller: an mfcontrol controller (IP, IPI, IPD, IPID, PID, "
                         f"RecursiveIP), not {type(ctrl).__name__}")
-    if h is None:
+    if getattr(ctrl, "sample_time", None) is None:
         raise ValueError("sample_time = None: the controller needs the sample time of "
                          "the loop to be analysed")
-    held = _held_gamma(ctrl, gamma)
     if isinstance(ctrl, PID):
         if gamma is not None:
             raise ValueError(f"gamma = {gamma!r}: a PID has no gain gamma")
-        filt = ctrl.linear_filter()
-    else:
-        filt = ctrl.linear_filter(gamma=held)
-        if held is not None:
-            notes.append(f"the gain moves in the run; the analysis holds it at gamma = "
-                         f"{held:.6g}" + ("" if gamma is not None else " (its start, gamma0)"))
+        return ctrl.linear_filter()
+    held = _held_gamma(ctrl, gamma)
+    if held is not None:
+        notes.append(f"the gain moves in the run; the analysis holds it at gamma = "
+                     f"{held:.6g}" + ("" if gamma is not None else " (its start, gamma0)"))
+    return ctrl.linear_filter(gamma=held)
+
+
+def _limits(ctrl: Any) -> tuple[float, float]:
+    """The controller's output limits (infinite where it has none)."""
     given: tuple[float | None, float | None]
     if isinstance(ctrl, RecursiveIP):  # its limits are the duty's, in its column
         from ..laws import recursive_ip
@@ -229,8 +231,13 @@ def _loop(ctrl: Any, plant: Any, gamma: float | None, delay: int, substeps: int,
     else:
         given = getattr(ctrl, "output_limits", (None, None))
     lo, hi = given
-    limits = (-math.inf if lo is None else float(lo), math.inf if hi is None else float(hi))
-    sampled, point = _sampled_plant(plant, h, substeps, level, notes, limits)
+    return (-math.inf if lo is None else float(lo), math.inf if hi is None else float(hi))
+
+
+def _loop(ctrl: Any, plant: Any, gamma: float | None, delay: int, substeps: int,
+          level: float | None, notes: list[str], name: str) -> Analysis:
+    filt = _law(ctrl, gamma, notes)
+    sampled, point = _sampled_plant(plant, filt.dt, substeps, level, notes, _limits(ctrl))
     loop = LinearLoop(filt, sampled, delay=delay)
     return Analysis(name, loop, loop.margins(), point, tuple(notes))
 
@@ -345,11 +352,7 @@ def analyze(case_or_controller: Any, plant: Any = None,
     return _loop(case_or_controller, plant, gamma, delay, substeps, level, [], "")
 
 
-def _analyze_case(case: Any, overrides: Mapping[str, Any] | None, gamma: float | None,
-                  level: float | None) -> Analysis:
-    from ..api.params import reference_column
-    from ..api.run import from_config
-    from ..laws import reference
+def _case(case: Any, overrides: Mapping[str, Any] | None) -> tuple[str, Config]:
     from .cases import resolve_case
 
     if isinstance(case, Config):
@@ -359,10 +362,199 @@ def _analyze_case(case: Any, overrides: Mapping[str, Any] | None, gamma: float |
         name, cfg = resolve_case(case, overrides, command="run")
     if cfg["sweep.key"] is not None:
         cfg = cfg.with_overrides({"sweep.key": None, "sweep.values": None})
-    if level is None:  # the reference the run ends at
-        col = reference_column(cfg)[:, 0]
-        level = float(reference.evaluate.py_func(*col[:5], cfg["sim.t_end"]))
+    return name, cfg
+
+
+def _reference_at_end(cfg: Config) -> float:
+    """The reference the case's run ends at: where a nonlinear plant is linearised."""
+    from ..api.params import reference_column
+    from ..laws import reference
+
+    col = reference_column(cfg)[:, 0]
+    return float(reference.evaluate.py_func(*col[:5], cfg["sim.t_end"]))
+
+
+def _analyze_case(case: Any, overrides: Mapping[str, Any] | None, gamma: float | None,
+                  level: float | None) -> Analysis:
+    from ..api.run import from_config
+
+    name, cfg = _case(case, overrides)
+    if level is None:
+        level = _reference_at_end(cfg)
     delay = cfg["sensor.delay"] + cfg["actuator.delay"]
     notes = _case_notes(cfg)
     return _loop(from_config.controller(cfg), from_config.plant(cfg), gamma, delay,
                  cfg["sim.substeps"], level, notes, name)
+
+
+@dataclass(frozen=True)
+class Region:
+    """A case's linear loop over a grid of two parameters: what :func:`region` returns.
+
+    Attributes
+    ----------
+    name : str
+        The case's name.
+    x_key, y_key : str
+        The two keys (``x`` varies along a row).
+    x, y : numpy.ndarray
+        Their values.
+    spectral_radius, Ms, noise_gain_peak : numpy.ndarray
+        Shape ``(y.size, x.size)``: the loop's largest pole modulus, its peak sensitivity
+        and its peak noise-to-control gain at each cell (the peaks over a grid of
+        frequencies; they mean little where the loop is unstable).
+    point : tuple of float
+        The case's own (x, y), marked on the figure.
+    notes : tuple of str
+        As :attr:`Analysis.notes`, of the case's own loop.
+    """
+
+    name: str
+    x_key: str
+    x: np.ndarray
+    y_key: str
+    y: np.ndarray
+    spectral_radius: np.ndarray
+    Ms: np.ndarray
+    noise_gain_peak: np.ndarray
+    point: tuple[float, float]
+    notes: tuple[str, ...]
+
+    @property
+    def stable(self) -> np.ndarray:
+        """The cells whose linear loop is asymptotically stable."""
+        return self.spectral_radius < 1.0
+
+    def to_pandas(self):
+        """One row per cell: the two keys, ``spectral_radius``, ``stable``, ``Ms``,
+        ``noise_gain_peak``."""
+        import pandas as pd
+
+        xx, yy = np.meshgrid(self.x, self.y)
+        return pd.DataFrame({self.x_key: xx.ravel(), self.y_key: yy.ravel(),
+                             "spectral_radius": self.spectral_radius.ravel(),
+                             "stable": self.stable.ravel(), "Ms": self.Ms.ravel(),
+                             "noise_gain_peak": self.noise_gain_peak.ravel()})
+
+    def plot(self, path: str | Path | None = None, title: str | None = None):
+        """The stable region, Ms in colour with its 1.4 and 2 contours, and the case's own
+        point (:func:`mfcontrol.api.results.plotting.plot_region`)."""
+        from ..api.results.plotting import plot_region
+
+        return plot_region(self, path, title)
+
+    def write(self, folder: str | Path) -> list[Path]:
+        """``region.csv`` and ``region.png`` in ``folder``; returns their paths."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        out = [folder / "region.csv", folder / "region.png"]
+        files.write_text(out[0], self.to_pandas().to_csv(index=False))
+        self.plot(out[1])
+        return out
+
+    def __repr__(self) -> str:
+        return (f"Region({self.name or 'loop'}: {self.y.size} {self.y_key} x {self.x.size} "
+                f"{self.x_key}, {int(self.stable.sum()):,} of {self.stable.size:,} cells "
+                "stable)")
+
+
+def _typed(key: str, value: float) -> Any:
+    """An axis value as its option takes it (a window is a whole number of samples)."""
+    from ..config.options import BY_KEY
+
+    return int(round(value)) if BY_KEY[key].kind == "int" else float(value)
+
+
+def region_axes(cfg: Config, axes: Any) -> dict[str, np.ndarray]:
+    """A region's two axes, parsed and checked against the case (each value valid, each
+    key one its run reads): refused in one line before any work."""
+    from ..api.run.batch import make_grid, parse_grid
+    from ..errors import ConfigError
+
+    grid = parse_grid(axes, flag="--region")
+    if len(grid) != 2:
+        raise ConfigError("--region", ", ".join(grid), "give two axes, KEY=SPEC each")
+    make_grid(cfg, grid)
+    return grid
+
+
+def region(case: Any, axes: Any, overrides: Mapping[str, Any] | None = None, *,
+           gamma: float | None = None, operating_point: float | None = None,
+           points: int = 400) -> Region:
+    """A case's linear loop over a grid of two of its keys: the stable region and Ms,
+    from the analysis (no simulation).
+
+    Parameters
+    ----------
+    case : str, Path or Config
+        A built-in case name, a case file or a resolved configuration.
+    axes : sequence of str, or mapping
+        Two axes, as ``mfcontrol sweep --grid`` takes them: ``["controller.alpha=
+        logspace(0,2,100)", "controller.kp=linspace(1,100,100)"]``, or a mapping of key
+        to values.
+        A controller key changes the law's filter only; another key (a plant's, a
+        delay) also rebuilds the sampled plant, once per value.
+    overrides, gamma, operating_point
+        As :func:`analyze`.
+    points : int
+        Frequencies on which the peaks are taken (log-spaced over five decades below
+        the Nyquist frequency).
+
+    Returns
+    -------
+    Region
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> r = mfcontrol.analyze_region("bench-lag3", ["controller.kp=logspace(-1,1,12)",
+    ...                                             "controller.ki=logspace(-2,1,10)"])
+    >>> r.spectral_radius.shape, bool(r.stable.any() and not r.stable.all())
+    ((10, 12), True)
+    """
+    from ..analysis import region as batch
+    from ..api.run import from_config
+    from ..api.run.batch import make_grid, parse_grid
+    from ..errors import ConfigError
+
+    name, cfg = _case(case, overrides)
+    grid = parse_grid(axes, flag="--region")
+    if len(grid) != 2:
+        raise ConfigError("--region", ", ".join(grid), "give two axes, KEY=SPEC each")
+    make_grid(cfg, grid)  # every value checked, and each key one the run reads
+    (x_key, xs), (y_key, ys) = grid.items()
+    if level_given := operating_point is not None:
+        level = float(operating_point)
+    else:
+        level = _reference_at_end(cfg)
+    plants: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+    filters: list[LinearFilter] = []
+    keys: list[tuple] = []
+    for vy in ys:
+        for vx in xs:
+            cell = cfg.with_overrides({x_key: _typed(x_key, vx), y_key: _typed(y_key, vy)})
+            filters.append(_law(from_config.controller(cell), gamma, []))
+            key = tuple(v for k, v in ((x_key, vx), (y_key, vy))
+                        if not k.startswith("controller."))
+            keys.append(key)
+            if key not in plants:
+                sampled, _ = _sampled_plant(from_config.plant(cell), filters[-1].dt,
+                                            cell["sim.substeps"], level, [],
+                                            (cell["controller.duty_min"],
+                                             cell["controller.duty_max"]))
+                delay = cell["sensor.delay"] + cell["actuator.delay"]
+                plants[key] = LinearLoop(filters[-1], sampled, delay=delay).plant_polynomials
+    shape = (ys.size, xs.size)
+    out = {k: np.empty(ys.size * xs.size) for k in ("spectral_radius", "Ms",
+                                                       "noise_gain_peak")}
+    for key, (num, den) in plants.items():  # each plant's cells at once
+        cells = [i for i, k in enumerate(keys) if k == key]
+        res = batch.loops([filters[i] for i in cells], num, den, points)
+        for k in out:
+            out[k][cells] = res[k]
+    own = analyze(cfg, gamma=gamma, operating_point=level if level_given else None)
+    return Region(name, x_key, xs, y_key, ys,
+                  spectral_radius=out["spectral_radius"].reshape(shape),
+                  Ms=out["Ms"].reshape(shape),
+                  noise_gain_peak=out["noise_gain_peak"].reshape(shape),
+                  point=(float(cfg[x_key]), float(cfg[y_key])), notes=own.notes)

@@ -767,3 +767,88 @@ def plot_analysis(analysis: LinearAnalysis, path: str | Path | None = None,
         f"Linear analysis of {analysis.name or 'the loop'}, sampled every {dt:g} s"
     fig.suptitle(f"{head}\n{_margin_words(m)}")
     return save_figure(fig, path)
+
+
+class LinearRegion(Protocol):
+    """What a region's figure reads: a :class:`~mfcontrol.Region` is one."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def x_key(self) -> str: ...
+
+    @property
+    def y_key(self) -> str: ...
+
+    @property
+    def x(self) -> np.ndarray: ...
+
+    @property
+    def y(self) -> np.ndarray: ...
+
+    @property
+    def spectral_radius(self) -> np.ndarray: ...
+
+    @property
+    def Ms(self) -> np.ndarray: ...
+
+    @property
+    def point(self) -> tuple[float, float]: ...
+
+
+def _log_axis(values: np.ndarray) -> bool:
+    """Whether an axis's values are spaced by ratios (a log axis shows them evenly)."""
+    v = np.asarray(values, dtype=float)
+    if v.size < 3 or np.any(v <= 0):
+        return False
+    ratios = v[1:] / v[:-1]
+    return bool(np.allclose(ratios, ratios[0], rtol=1e-6) and abs(ratios[0] - 1) > 1e-9
+                and not np.allclose(np.diff(v), v[1] - v[0], rtol=1e-6))
+
+
+def plot_region(region: LinearRegion, path: str | Path | None = None,
+                title: str | None = None) -> Figure:
+    """A stability region (:func:`mfcontrol.analyze_region`): Ms in colour (log scale)
+    where the linear loop is stable, grey where it is not, the boundary in black, Ms = 1.4
+    and 2 as contours, and the case's own point."""
+    from matplotlib.colors import LogNorm
+    from matplotlib.ticker import FormatStrFormatter
+
+    r = region
+    stable = r.spectral_radius < 1.0
+    ms = np.where(stable & np.isfinite(r.Ms), r.Ms, np.nan)
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    ax = fig.subplots()
+    ax.pcolormesh(r.x, r.y, np.where(stable, np.nan, 1.0), cmap="Greys", vmin=0, vmax=2.5,
+                  shading="nearest")
+    finite = ms[np.isfinite(ms)]
+    if finite.size:
+        top = max(float(np.percentile(finite, 99)), 1.0001 * float(finite.min()))
+        image = ax.pcolormesh(r.x, r.y, ms, shading="nearest", cmap="viridis_r",
+                              norm=LogNorm(max(float(finite.min()), 1.0), max(top, 1.01)))
+        bar = fig.colorbar(image, ax=ax, label="Ms, peak sensitivity (log scale; above its "
+                                               "99th percentile: the top colour)",
+                           extend="max", format="%.3g")
+        bar.ax.yaxis.set_minor_formatter(FormatStrFormatter("%.3g"))
+        if finite.min() < 2.0 < finite.max() or finite.min() < 1.4 < finite.max():
+            lines = ax.contour(r.x, r.y, ms, levels=[1.4, 2.0], colors="0.15",
+                               linewidths=0.9, linestyles=["--", "-"])
+            ax.clabel(lines, fmt={1.4: "Ms 1.4", 2.0: "Ms 2"}, fontsize=8)
+    if stable.any() and not stable.all():
+        ax.contour(r.x, r.y, r.spectral_radius, levels=[1.0], colors="black", linewidths=2)
+    ax.plot(*r.point, "*", color="tab:red", ms=14, mec="white",
+            label=f"the case: {r.point[0]:.4g}, {r.point[1]:.4g}")
+    if _log_axis(r.x):
+        ax.set_xscale("log")
+    if _log_axis(r.y):
+        ax.set_yscale("log")
+    ax.set_xlabel(options.label(r.x_key))
+    ax.set_ylabel(options.label(r.y_key))
+    ax.legend(loc="best", fontsize=8)
+    n = int(stable.sum())
+    head = title if title is not None else \
+        f"Stability region of {r.name or 'the loop'} (linear analysis)"
+    ax.set_title(f"{head}\nblack line: the stability boundary; grey: unstable "
+                 f"({n:,} of {stable.size:,} cells stable)", fontsize=10)
+    return save_figure(fig, path)
