@@ -124,6 +124,12 @@ def test_the_algebraic_estimators_steady_state_error_is_the_runs():
     error = 1.0 - res.signals["y"][-1] / final
     assert abs(a.margins["steady_state_error"]) > 1e-4
     assert error == pytest.approx(a.margins["steady_state_error"], rel=1e-6)
+    # the closed form (docs/theory.md): the trapezoid window estimates alpha u with the
+    # DC gain 1 - 1/M^2, so an i-P leaves e = -alpha u / (kp M^2); on y' = -y + u,
+    # alpha = 1, that is a relative error 1 / (kp M^2 + 1)
+    kp, window = 5.0, 20
+    assert a.margins["steady_state_error"] == pytest.approx(1 / (kp * window**2 + 1),
+                                                            rel=1e-9)
 
 
 def test_the_h2_noise_gain_is_the_runs_control_noise():
@@ -251,3 +257,25 @@ def test_a_region_needs_two_axes_the_run_reads(tmp_path):
     paths = reg.write(tmp_path)
     assert [p.name for p in paths] == ["region.csv", "region.png"]
     assert "6 of 6" in repr(reg) or "of 6 cells" in repr(reg)
+
+
+def test_a_plant_of_clustered_poles_is_analysed_from_its_state_space():
+    # the PID the benchmark tuned on 1 / (s + 1)^8 (h = 0.05: eight plant poles at 0.951).
+    # The roots of the loop's characteristic polynomial put a pole at 1.0039 (a growing
+    # loop): coefficients rounded to 1e-16 move eight clustered roots by about
+    # 1e-16^(1/8). The run decays, and so does the analysis, from the state space
+    tuned = {"controller.kp": 0.8465203977955793, "controller.ki": 0.15060496097983617,
+             "controller.kd": 1.6789393444243346}
+    a = mfcontrol.analyze("bench-lag8", overrides={**LINEAR, **tuned})
+    roots = np.roots(np.trim_zeros(a.loop.characteristic(), "b"))
+    assert np.abs(roots).max() > 1.0  # what the polynomial says
+    assert a.margins["stable"] and a.margins["spectral_radius"] < 0.995
+    res = mfcontrol.run_case("bench-lag8", {**LINEAR, **tuned, "sim.t_end": 400.0})
+    e = np.abs(res.error)
+    assert e[-500:].max() < 1e-6 * e[:500].max()
+    reg = mfcontrol.analyze_region("bench-lag8", {
+        "controller.kp": [tuned["controller.kp"], 0.9],
+        "controller.ki": [tuned["controller.ki"]]},
+        {**LINEAR, "controller.kd": tuned["controller.kd"]})
+    assert reg.spectral_radius[0, 0] == pytest.approx(a.margins["spectral_radius"],
+                                                      rel=1e-9)

@@ -80,6 +80,20 @@ def test_the_table_is_the_tuned_controllers_runs(run):
         assert (out / png).stat().st_size > 20_000
 
 
+def test_every_tuned_loop_has_its_linear_analysis(run):
+    entries, out = run
+    table = pd.read_csv(out / "results.csv")
+    md = (out / "report.md").read_text()
+    assert "## Each tuned loop, linear" in md and "Tuned loops with Ms above 2: PID" in md
+    for e, row in zip(entries, table.itertuples(), strict=True):
+        _, best = cases.resolve_case(out / PLANT / e.controller / "best.toml")
+        m = mfcontrol.analyze(best).margins
+        assert row.Ms == pytest.approx(m["Ms"], rel=1e-12)
+        assert row.noise_gain_h2 == pytest.approx(m["noise_gain_h2"], rel=1e-12)
+        assert bool(row.linear_stable) is m["stable"]
+        assert f"| {PLANT} | {e.controller} | {'stable' if m['stable'] else 'unstable'} |" in md
+
+
 def test_a_second_call_resumes_the_finished_tunings(run, monkeypatch):
     entries, out = run
 

@@ -22,14 +22,11 @@ import numpy as np
 from numpy.polynomial import polynomial as poly
 
 from ..numerics import zoh
-from .filters import LinearFilter, _padded
+from .filters import LinearFilter
 
 #: frequencies per decade of the grid on which the peaks (Ms, Mt, the noise gain) are
 #: taken, over the six decades below the Nyquist frequency
 POINTS_PER_DECADE = 2000
-#: the longest impulse response :meth:`LinearLoop.noise_gain_h2` sums (a slower loop's
-#: norm comes from its Lyapunov equation)
-H2_MOST_SAMPLES = 4_000_000
 
 
 def _discrete(plant: Any, dt: float) -> Any:
@@ -60,6 +57,53 @@ def _discrete(plant: Any, dt: float) -> Any:
                          f"{dt!r}, or 0 (a continuous system, discretised by its "
                          "zero-order hold)")
     return plant
+
+
+def closed_loop(Ad: np.ndarray, Bd: np.ndarray, Cp: np.ndarray, delay: int,
+                c: LinearFilter) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, C, D)`` of the law ``c`` closed around the sampled plant ``(Ad, Bd, Cp)``
+    behind ``delay`` samples (:attr:`LinearLoop.state_space`)."""
+    N = c.order
+    a, by, br = (np.concatenate([p, np.zeros(N + 1 - p.size)]) for p in (c.a, c.b_y,
+                                                                         c.b_r))
+    n, d = Ad.shape[0], delay
+    size = n + N + d
+    # u = z_1 + by0 (Cp x + noise) + br0 r, as a row over the state and the inputs
+    u_x = np.zeros(size)
+    u_x[:n] = by[0] * Cp
+    if N:
+        u_x[n] = 1.0
+    u_in = np.array([br[0], by[0]])
+    A = np.zeros((size, size))
+    B = np.zeros((size, 2))
+    # the law: z_i' = z_{i+1} + by_i (y + noise) + br_i r - a_i u
+    law = slice(n, n + N)
+    A[law, :n] = np.outer(by[1:], Cp)
+    A[law] -= np.outer(a[1:], u_x)
+    A[n + np.arange(N - 1), n + 1 + np.arange(N - 1)] += 1.0
+    B[law, 0] = br[1:]
+    B[law, 1] = by[1:]
+    B[law] -= np.outer(a[1:], u_in)
+    # the delay line: its first cell takes u, each the one before; the plant the last
+    for i in range(d):
+        row = n + N + i
+        if i == 0:
+            A[row] = u_x
+            B[row] = u_in
+        else:
+            A[row, row - 1] = 1.0
+    A[:n, :n] = Ad
+    if d:
+        A[:n, n + N + d - 1] += Bd
+    else:
+        A[:n] += np.outer(Bd, u_x)
+        B[:n] += np.outer(Bd, u_in)
+    C = np.zeros((2, size))
+    C[0, :n] = Cp
+    C[1] = u_x
+    D = np.zeros((2, 2))
+    D[1] = u_in
+    return A, B, C, D
 
 
 @dataclass(frozen=True)
@@ -123,16 +167,50 @@ class LinearLoop:
 
     def characteristic(self) -> np.ndarray:
         """The closed loop's characteristic polynomial in q = z^-1 (ascending):
-        ``A D_p - B_y N_p``, the plant ``P = N_p / D_p``."""
+        ``A D_p - B_y N_p``, the plant ``P = N_p / D_p``. For reading, not for root
+        finding: :meth:`poles` takes them from the state space."""
         num, den = self.plant_polynomials
         c = self.controller
         return poly.polysub(poly.polymul(c.a, den), poly.polymul(c.b_y, num))
 
+    @functools.cached_property
+    def plant_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(Ad, Bd, C) of the sampled plant, as given or as python-control realises it."""
+        import control
+
+        ss = control.ss(self.plant)
+        if np.any(np.asarray(ss.D) != 0.0):
+            raise ValueError("plant: must be strictly proper (D = 0): y_k is measured "
+                             "before u_k is computed")
+        return (np.asarray(ss.A, dtype=float), np.asarray(ss.B, dtype=float)[:, 0],
+                np.asarray(ss.C, dtype=float)[0])
+
+    @functools.cached_property
+    def state_space(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(A, B, C, D)`` of the closed loop, state ``[plant x, law z, delay line]``,
+        inputs ``(r, n)`` (the setpoint; a noise added to the measurement), outputs
+        ``(y, u)`` (the plant's output; the law's). The law is in the transposed direct
+        form its difference equation runs in (``scipy.signal.lfilter``'s), the plant in
+        its own state space: its poles are never taken from polynomial coefficients,
+        whose roots move by eps^(1/m) where m poles cluster (a lag of order 8 sampled
+        fast has eight poles within 0.05 of each other)."""
+        return closed_loop(*self.plant_matrices, self.delay, self.controller)
+
     def poles(self) -> np.ndarray:
-        """The closed loop's poles (roots in z of the characteristic polynomial)."""
-        # a polynomial in q of degree d is z^-d times the same coefficients in
-        # descending powers of z
-        return np.roots(np.trim_zeros(self.characteristic(), "b"))
+        """The closed loop's poles: the eigenvalues of :attr:`state_space`'s matrix (its
+        realisation adds poles at z = 0 where the law's or the plant's order exceeds the
+        loop's)."""
+        return np.linalg.eigvals(self.state_space[0])
+
+    def plant_response(self, omega: np.ndarray) -> np.ndarray:
+        """``q^delay P`` at the frequencies ``omega`` (rad/s), from the plant's state
+        space: ``C (zI - Ad)^-1 Bd``."""
+        Ad, Bd, Cp = self.plant_matrices
+        z = np.exp(1j * np.asarray(omega) * self.controller.dt)
+        eye = np.eye(Ad.shape[0])
+        x = np.linalg.solve(z[:, None, None] * eye - Ad, np.broadcast_to(
+            Bd.astype(complex), (z.size, Bd.size))[..., None])[..., 0]
+        return (x @ Cp) * z ** -float(self.delay)
 
     def frequency_response(self, omega: np.ndarray) -> dict[str, np.ndarray]:
         """L, S, T, the noise-to-control gain C_y S and the setpoint-to-output response
@@ -140,8 +218,7 @@ class LinearLoop:
         frequency pi / dt)."""
         c = self.controller
         q = np.exp(-1j * np.asarray(omega) * c.dt)
-        num, den = self.plant_polynomials
-        plant = poly.polyval(q, num) / poly.polyval(q, den)
+        plant = self.plant_response(omega)
         c_y = poly.polyval(q, c.b_y) / poly.polyval(q, c.a)
         c_r = poly.polyval(q, c.b_r) / poly.polyval(q, c.a)
         loop = -c_y * plant
@@ -149,43 +226,28 @@ class LinearLoop:
         return {"L": loop, "S": s, "T": loop * s, "CS": c_y * s, "Try": plant * c_r * s}
 
     def setpoint_dc_gain(self) -> float:
-        """``T_ry(1)``: the output's steady state per unit of a constant setpoint,
-        ``N_p B_r / (A D_p - B_y N_p)`` at z = 1, each factor summed alone (where the law
-        integrates, A(1) is an exact 0 and the gain an exact ratio, not a difference of
-        near-equal sums); nan when the denominator vanishes."""
-        num, den = self.plant_polynomials
-        c = self.controller
-        n1, d1, a1, by1, br1 = (float(np.sum(p)) for p in (num, den, c.a, c.b_y, c.b_r))
-        char = a1 * d1 - by1 * n1
-        if char == 0.0:
+        """``T_ry(1)``: the output's steady state per unit of a constant setpoint, from
+        the closed loop's state space; nan when the loop has a pole at z = 1."""
+        A, B, C, D = self.state_space
+        try:
+            x = np.linalg.solve(np.eye(A.shape[0]) - A, B[:, 0])
+        except np.linalg.LinAlgError:
             return math.nan
-        return n1 * br1 / char
+        return float(C[0] @ x + D[0, 0])
 
     def noise_gain_h2(self) -> float:
         """The H2 norm of ``C_y S``: a white measurement noise of standard deviation
         sigma moves the output u by ``noise_gain_h2 * sigma`` (standard deviation, in the
-        steady state of a stable loop); inf for an unstable one. The root sum of squares
-        of its impulse response, run until the slowest pole has decayed by 1e-9
-        (:data:`H2_MOST_SAMPLES` at most; beyond, from the discrete Lyapunov equation)."""
-        from scipy import linalg, signal
+        steady state of a stable loop); inf for an unstable one. From the closed loop's
+        discrete Lyapunov equation (:attr:`state_space`, from the noise to u)."""
+        from scipy import linalg
 
-        radius = self.spectral_radius()
-        if radius >= 1.0:
+        if self.spectral_radius() >= 1.0:
             return math.inf
-        num, den = self.plant_polynomials
-        # C_y S = B_y D_p / (A D_p - B_y N_p), polynomials in q: lfilter's own form
-        n = poly.polymul(self.controller.b_y, den)
-        d = self.characteristic()
-        samples = math.ceil(math.log(1e-9) / math.log(radius)) + n.size + d.size \
-            if radius > 0.0 else n.size + d.size
-        if samples <= H2_MOST_SAMPLES:
-            impulse = np.zeros(samples)
-            impulse[0] = 1.0
-            return float(math.sqrt(np.sum(signal.lfilter(n, d, impulse) ** 2)))
-        size = max(n.size, d.size)
-        A, B, C, D = signal.tf2ss(_padded(n, size), _padded(d, size))
-        W = linalg.solve_discrete_lyapunov(A, B @ B.T, method="bilinear")
-        return float(math.sqrt(max((C @ W @ C.T)[0, 0] + D[0, 0] ** 2, 0.0)))
+        A, B, C, D = self.state_space
+        b = B[:, 1:2]
+        W = linalg.solve_discrete_lyapunov(A, b @ b.T, method="bilinear")
+        return float(math.sqrt(max(float(C[1] @ W @ C[1]) + D[1, 1] ** 2, 0.0)))
 
     def spectral_radius(self) -> float:
         """The largest modulus of a closed-loop pole: below 1, the linear loop is

@@ -527,7 +527,7 @@ def region(case: Any, axes: Any, overrides: Mapping[str, Any] | None = None, *,
         level = float(operating_point)
     else:
         level = _reference_at_end(cfg)
-    plants: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+    plants: dict[tuple, LinearLoop] = {}
     filters: list[LinearFilter] = []
     keys: list[tuple] = []
     for vy in ys:
@@ -543,13 +543,13 @@ def region(case: Any, axes: Any, overrides: Mapping[str, Any] | None = None, *,
                                             (cell["controller.duty_min"],
                                              cell["controller.duty_max"]))
                 delay = cell["sensor.delay"] + cell["actuator.delay"]
-                plants[key] = LinearLoop(filters[-1], sampled, delay=delay).plant_polynomials
+                plants[key] = LinearLoop(filters[-1], sampled, delay=delay)
     shape = (ys.size, xs.size)
     out = {k: np.empty(ys.size * xs.size) for k in ("spectral_radius", "Ms",
                                                        "noise_gain_peak")}
-    for key, (num, den) in plants.items():  # each plant's cells at once
+    for key, plant in plants.items():  # each plant's cells at once
         cells = [i for i, k in enumerate(keys) if k == key]
-        res = batch.loops([filters[i] for i in cells], num, den, points)
+        res = batch.loops([filters[i] for i in cells], plant, points)
         for k in out:
             out[k][cells] = res[k]
     own = analyze(cfg, gamma=gamma, operating_point=level if level_given else None)

@@ -36,7 +36,7 @@ import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -81,6 +81,9 @@ class Entry:
     stable: bool
     tuning_seconds: float
     map_scores: np.ndarray
+    #: the tuned loop's linear analysis (:func:`mfcontrol.analyze`): the keys of
+    #: :data:`LINEAR`, nan where the search found no stable point
+    linear: dict[str, Any] = field(default_factory=dict)
 
     def row(self) -> dict[str, Any]:
         return {"plant": self.plant, "controller": self.controller,
@@ -90,7 +93,14 @@ class Entry:
                 "iae_setpoint": self.iae_setpoint, "iae_load": self.iae_load,
                 "tv_u_noise": self.tv_u_noise, "worst_map_stable": self.worst,
                 "stable_map": f"{self.n_stable}/{self.n_map}", "stable": self.stable,
-                "tuning_s": round(self.tuning_seconds, 1)}
+                "tuning_s": round(self.tuning_seconds, 1),
+                **{f"linear_{k}" if k == "stable" else k: self.linear.get(k, math.nan)
+                   for k in LINEAR}}
+
+
+#: what the report gives of each tuned loop's linear analysis
+LINEAR = ("stable", "Ms", "gain_margin", "phase_margin_deg", "delay_margin_s",
+          "noise_gain_h2")
 
 
 def _setting(cfg: Config, key: str) -> list[str]:
@@ -217,7 +227,10 @@ def _evaluate(plant: _Plant, name: str, cfg: Config | None, tuned: dict, evaluat
                      iae_load=math.nan, tv_u_noise=math.nan, worst=math.inf, n_stable=0,
                      n_map=math.prod(shape), stable=False, tuning_seconds=seconds,
                      map_scores=np.full(shape, np.inf))
+    from .analyze import analyze
+
     obj = Objective.parse(cfg["benchmark.objective"], "benchmark.objective")
+    margins = analyze(cfg).margins
     quiet = simulate(cfg.with_overrides({"sensor.noise": "none"})).metrics
     noisy = simulate(cfg).metrics
     grid = batch.make_grid(cfg, plant.robustness)
@@ -233,7 +246,8 @@ def _evaluate(plant: _Plant, name: str, cfg: Config | None, tuned: dict, evaluat
                  worst=float(scores[finite].max()) if finite.any() else math.inf,
                  n_stable=int(np.sum(cols["stable"])), n_map=grid.n_members,
                  stable=bool(noisy["stable"] and quiet["stable"]),
-                 tuning_seconds=seconds, map_scores=scores)
+                 tuning_seconds=seconds, map_scores=scores,
+                 linear={k: margins[k] for k in LINEAR})
 
 
 def benchmark(plant_names: Sequence[str | Path] | None = None, *,
@@ -359,6 +373,32 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
                      f"{num(e.objective)} | {num(e.iae_setpoint)} | {num(e.iae_load)} | "
                      f"{num(e.tv_u_noise)} | {r['stable_map']} | {num(e.worst)} | "
                      f"{'yes' if e.stable else 'no'} |")
+    lines += ["", "## Each tuned loop, linear", "",
+              "The tuned controllers' loops as `mfcontrol analyze` sees them (the law's "
+              "filter on the plant, linearised at the reference where it is nonlinear, "
+              "within the output limits, without noise): *linear* is the linear loop's "
+              "stability (every pole inside the unit circle), *Ms* the peak sensitivity "
+              "(1.4 to 2 is the usual range), the gain, phase and delay margins, and the "
+              "*noise gain*, the H2 norm from white sensor noise to u (the factor on the "
+              "noise's standard deviation).", "",
+              "| plant | controller | linear | Ms | gain margin | phase margin (deg) | "
+              "delay margin (s) | noise gain |", "|---|---|---|---|---|---|---|---|"]
+    for e in entries:
+        m = e.linear
+        if not m:
+            lines.append(f"| {e.plant} | {e.controller} | n/a | | | | | |")
+            continue
+        lines.append(f"| {e.plant} | {e.controller} | "
+                     f"{'stable' if m['stable'] else 'unstable'} | {num(m['Ms'])} | "
+                     f"{num(m['gain_margin'])} | {num(m['phase_margin_deg'])} | "
+                     f"{num(m['delay_margin_s'])} | {num(m['noise_gain_h2'])} |")
+    fragile = {c: sum(1 for e in entries if e.controller == c and e.linear
+                      and e.linear["stable"] and e.linear["Ms"] > 2.0)
+               for c, _, _ in CONTROLLERS}
+    lines += ["", "Tuned loops with Ms above 2: " + ", ".join(
+        f"{c} {n} of {sum(1 for e in entries if e.controller == c)}"
+        for c, n in fragile.items()) + ". The tuning's objective does not ask for "
+        "robustness; these figures say what it gave."]
     spaces = {p: plants_[p].spaces for p in labels}
     lines += ["", "## What the table shows", "", *_findings(entries, labels, spaces), "",
               "## Figures", "",
