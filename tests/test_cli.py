@@ -459,6 +459,10 @@ ERRORS += [
     pytest.param(["analyze", "bench-lag3", "--region", "controller.kp=1,2,3", "--out",
                   "{d}/out-an"],
                  ["--region = 'controller.kp': give two axes"], id="analyze-one-axis"),
+    pytest.param(["tune", "bench-lag3", "--param", "controller.kp=0.1:3", "--constraint",
+                  "Ms=1.6", "--out", "{d}/out-tune-c"],
+                 ["--constraint = 'Ms=1.6': must be KEY<=VALUE or KEY>=VALUE"],
+                 id="tune-constraint-without-a-bound"),
 ]
 
 

@@ -256,7 +256,7 @@ def _cmd_tune(args) -> int:
                       scenarios=args.scenarios, aggregate_by=args.aggregate,
                       budget=DEFAULT_BUDGET if args.budget is None else args.budget,
                       seed=args.seed, log=args.log or [], overrides=_overrides(args.set),
-                      out=out, progress=progress)
+                      out=out, progress=progress, constraints=args.constraint or ())
     finally:
         if shown:  # the progress line ends; an error's line starts on its own
             sys.stderr.write("\n")
@@ -271,11 +271,13 @@ def _cmd_tune(args) -> int:
              f"case's own run, which mfcontrol run best.toml gives: {result.nominal:.6g})"
              if result.scenarios else "")
     if math.isinf(result.value):
-        print(f"{name}: no point was valid and stable in {result.evaluations} points: widen "
-              "or move the bounds")
+        met = f" and met {', '.join(result.constraints)}" if result.constraints else ""
+        print(f"{name}: no point was valid and stable{met} in {result.evaluations} points: "
+              "widen or move the bounds")
     else:
         best = ", ".join(f"{k} = {v:.6g}" for k, v in result.best.items())
-        print(f"{name}: best {args.objective} = {result.value:.6g}{where} at {best} "
+        met = f", meeting {', '.join(result.constraints)}" if result.constraints else ""
+        print(f"{name}: best {args.objective} = {result.value:.6g}{where} at {best}{met} "
               f"({result.evaluations} points, {result.runs} runs, {result.seconds:.1f} s, "
               f"{result.stopped}); the case's own {own}")
     print(f"wrote {out}/best.toml, summary.json, history.parquet, convergence.png")
@@ -468,6 +470,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a point's value over its scenarios: the worst (default) or the mean")
     s.add_argument("--budget", type=int, help="points to evaluate at most (default 600)")
     s.add_argument("--seed", type=int, default=0, help="the optimiser's seed (default 0)")
+    s.add_argument("--constraint", action="append", metavar="KEY<=VALUE",
+                   help="a bound on each point's linear analysis (repeatable), e.g. "
+                   "'Ms<=1.6' or 'delay_margin_s>=0.05' (mfcontrol analyze's keys): a point "
+                   "that misses it counts as failed")
     s.add_argument("--set", **setting)
     s.add_argument("--out", help="output folder (default results/tune/CASE)")
     s.set_defaults(func=_cmd_tune)

@@ -256,3 +256,40 @@ def test_a_population_refused_everywhere_spends_the_whole_budget(closed_form, tm
     assert r.evaluations == 30 and r.stopped == "budget" and math.isinf(r.value)
     history = pd.read_parquet(tmp_path / "history.parquet")
     assert history["refused"].all() and (history["scenario"] == -1).all()
+
+
+def test_a_constraint_on_the_linear_analysis_holds_at_the_best_point(tmp_path):
+    # the PID on 1/(s+1)^3, tuned alike with and without Ms <= 1.4: the constrained
+    # best meets it (on the analysis's finer grid too, to 1e-3), every point of its
+    # history that missed it is valued inf, and the bound costs objective
+    common = dict(objective="iae+0.01*tv_u", budget=120, seed=3,
+                  log=["controller.kp", "controller.ki"])
+    params = ["controller.kp=0.01:10", "controller.ki=0.001:10"]
+    free = mfcontrol.tune("bench-lag3", params, **common)
+    held = mfcontrol.tune("bench-lag3", params, **common, constraints=["Ms<=1.4"],
+                          out=tmp_path)
+    assert mfcontrol.analyze(free.config).margins["Ms"] > 1.4
+    assert mfcontrol.analyze(held.config).margins["Ms"] <= 1.4 * (1 + 1e-3)
+    assert held.value > free.value and held.constraints == ["Ms<=1.4"]
+    h = held.history[~held.history["refused"]]
+    assert np.all(np.isinf(h.loc[h["linear_Ms"] > 1.4, "value"]))
+    assert np.all(np.isfinite(h.loc[h["linear_Ms"] <= 1.4, "value"])
+                  | ~h.loc[h["linear_Ms"] <= 1.4, "stable"])
+    assert json.loads((tmp_path / "summary.json").read_text())["constraints"] == ["Ms<=1.4"]
+
+
+def test_a_constraint_on_a_margin_of_the_full_analysis():
+    r = mfcontrol.tune("bench-lag3", ["controller.kp=0.1:3"], budget=24, seed=1,
+                       objective="iae", constraints=["delay_margin_s>=2.0"])
+    assert mfcontrol.analyze(r.config).margins["delay_margin_s"] >= 2.0
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("Ms<1.6", "must be KEY<=VALUE or KEY>=VALUE"),
+    ("overshoot<=0.1", "bounds one of spectral_radius, Ms"),
+    ("Ms<=nan", "must bound the key by a finite number"),
+])
+def test_a_bad_constraint_is_one_line(text, needle):
+    with pytest.raises(mfcontrol.ConfigError, match=f"^--constraint = '{text}': {needle}"):
+        mfcontrol.tune("bench-lag3", ["controller.kp=0.1:3"], budget=12,
+                       constraints=[text])

@@ -512,49 +512,113 @@ def region(case: Any, axes: Any, overrides: Mapping[str, Any] | None = None, *,
     >>> r.spectral_radius.shape, bool(r.stable.any() and not r.stable.all())
     ((10, 12), True)
     """
-    from ..analysis import region as batch
-    from ..api.run import from_config
-    from ..api.run.batch import make_grid, parse_grid
-    from ..errors import ConfigError
-
     name, cfg = _case(case, overrides)
-    grid = parse_grid(axes, flag="--region")
-    if len(grid) != 2:
-        raise ConfigError("--region", ", ".join(grid), "give two axes, KEY=SPEC each")
-    make_grid(cfg, grid)  # every value checked, and each key one the run reads
-    (x_key, xs), (y_key, ys) = grid.items()
-    if level_given := operating_point is not None:
-        level = float(operating_point)
-    else:
-        level = _reference_at_end(cfg)
-    plants: dict[tuple, LinearLoop] = {}
-    filters: list[LinearFilter] = []
-    keys: list[tuple] = []
-    for vy in ys:
-        for vx in xs:
-            cell = cfg.with_overrides({x_key: _typed(x_key, vx), y_key: _typed(y_key, vy)})
-            filters.append(_law(from_config.controller(cell), gamma, []))
-            key = tuple(v for k, v in ((x_key, vx), (y_key, vy))
-                        if not k.startswith("controller."))
-            keys.append(key)
-            if key not in plants:
-                sampled, _ = _sampled_plant(from_config.plant(cell), filters[-1].dt,
-                                            cell["sim.substeps"], level, [],
-                                            (cell["controller.duty_min"],
-                                             cell["controller.duty_max"]))
-                delay = cell["sensor.delay"] + cell["actuator.delay"]
-                plants[key] = LinearLoop(filters[-1], sampled, delay=delay)
+    (x_key, xs), (y_key, ys) = region_axes(cfg, axes).items()
+    cells = [cfg.with_overrides({x_key: _typed(x_key, vx), y_key: _typed(y_key, vy)})
+             for vy in ys for vx in xs]
+    out = linear_margins(cells, ("spectral_radius", "Ms", "noise_gain_peak"),
+                         (x_key, y_key), gamma=gamma, level=operating_point, points=points)
     shape = (ys.size, xs.size)
-    out = {k: np.empty(ys.size * xs.size) for k in ("spectral_radius", "Ms",
-                                                       "noise_gain_peak")}
-    for key, plant in plants.items():  # each plant's cells at once
-        cells = [i for i, k in enumerate(keys) if k == key]
-        res = batch.loops([filters[i] for i in cells], plant, points)
-        for k in out:
-            out[k][cells] = res[k]
-    own = analyze(cfg, gamma=gamma, operating_point=level if level_given else None)
+    own = analyze(cfg, gamma=gamma, operating_point=operating_point)
     return Region(name, x_key, xs, y_key, ys,
                   spectral_radius=out["spectral_radius"].reshape(shape),
                   Ms=out["Ms"].reshape(shape),
                   noise_gain_peak=out["noise_gain_peak"].reshape(shape),
                   point=(float(cfg[x_key]), float(cfg[y_key])), notes=own.notes)
+
+
+#: the margins a constraint can bound (:func:`linear_margins`); the first three come from
+#: the batch (:mod:`mfcontrol.analysis.region`), the others from each loop's margins
+#: (about 20 to 50 ms a loop)
+CONSTRAINABLE = ("spectral_radius", "Ms", "noise_gain_peak", "Mt", "gain_margin",
+                 "phase_margin_deg", "delay_margin_s", "delay_margin_samples",
+                 "bandwidth_rad_s", "noise_gain_h2", "steady_state_error")
+_BATCHED = frozenset(CONSTRAINABLE[:3])
+_OPS = ("<=", ">=")
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """A bound on one of a loop's margins, ``KEY<=VALUE`` or ``KEY>=VALUE``
+    (:data:`CONSTRAINABLE`), as ``mfcontrol tune --constraint`` takes it."""
+
+    key: str
+    op: str
+    bound: float
+
+    @classmethod
+    def parse(cls, text: str, flag: str = "--constraint") -> Constraint:
+        from ..errors import ConfigError, as_float
+
+        for op in _OPS:
+            key, found, value = str(text).partition(op)
+            if found:
+                break
+        else:
+            raise ConfigError(flag, text, "must be KEY<=VALUE or KEY>=VALUE, e.g. 'Ms<=1.6'")
+        key = key.strip()
+        if key not in CONSTRAINABLE:
+            raise ConfigError(flag, text, f"bounds one of {', '.join(CONSTRAINABLE)}")
+        try:
+            bound = as_float(value.strip())
+        except ValueError:
+            bound = math.nan
+        if not math.isfinite(bound):
+            raise ConfigError(flag, text, "must bound the key by a finite number")
+        return cls(key, op, bound)
+
+    def violation(self, values: np.ndarray) -> np.ndarray:
+        """0 where the bound holds, else how far it is missed relative to the bound's
+        size (inf where the margin is not a number: an unstable loop's)."""
+        v = np.asarray(values, dtype=float)
+        scale = max(abs(self.bound), 1e-12)
+        over = (v - self.bound) if self.op == "<=" else (self.bound - v)
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isnan(v), np.inf, np.maximum(over, 0.0) / scale)
+
+    def __str__(self) -> str:
+        return f"{self.key}{self.op}{self.bound:g}"
+
+
+def linear_margins(cfgs: list[Config], keys: Any, varying: Any, *,
+                   gamma: float | None = None, level: float | None = None,
+                   points: int = 400) -> dict[str, np.ndarray]:
+    """The margins ``keys`` (:data:`CONSTRAINABLE`) of each configuration's linear loop:
+    each law's filter around its plant, batched where the keys allow it (the peaks then
+    over ``points`` frequencies). The configurations differ only in the keys
+    ``varying``: the plant is sampled once for each set of values of those that are not
+    the controller's. ``gamma``, ``level``: as :func:`analyze`'s ``gamma`` and
+    ``operating_point``."""
+    from ..analysis import region as batch
+    from ..api.run import from_config
+
+    keys = list(keys)
+    plant_keys = [k for k in varying if not k.startswith("controller.")]
+    plants: dict[tuple, LinearLoop] = {}
+    filters: list[LinearFilter] = []
+    groups: list[tuple] = []
+    for cfg in cfgs:
+        filters.append(_law(from_config.controller(cfg), gamma, []))
+        group = tuple(repr(cfg[k]) for k in plant_keys)
+        groups.append(group)
+        if group not in plants:
+            at = _reference_at_end(cfg) if level is None else float(level)
+            sampled, _ = _sampled_plant(from_config.plant(cfg), filters[-1].dt,
+                                        cfg["sim.substeps"], at, [],
+                                        (cfg["controller.duty_min"],
+                                         cfg["controller.duty_max"]))
+            plants[group] = LinearLoop(filters[-1], sampled,
+                                       delay=cfg["sensor.delay"] + cfg["actuator.delay"])
+    out = {k: np.full(len(cfgs), np.nan) for k in keys}
+    for group, plant in plants.items():
+        cells = [i for i, g in enumerate(groups) if g == group]
+        if set(keys) <= _BATCHED:
+            res = batch.loops([filters[i] for i in cells], plant, points)
+            for k in keys:
+                out[k][cells] = res[k]
+            continue
+        for i in cells:
+            m = LinearLoop(filters[i], plant.plant, delay=plant.delay).margins()
+            for k in keys:
+                out[k][i] = m[k]
+    return out

@@ -162,6 +162,8 @@ class TuneResult(display.Shown):
     budget: int
     seed: int
     history: Any = field(repr=False)
+    #: the bounds on the linear analysis every accepted point met (``Ms<=1.6``, ...)
+    constraints: list[str] = field(default_factory=list)
 
     def _summary(self) -> list[tuple[str, str]]:
         best = ", ".join(f"{k} = {display.fmt(v)}" for k, v in self.best.items())
@@ -196,6 +198,7 @@ class TuneResult(display.Shown):
                 "n_scenarios": self.n_scenarios,
                 "evaluations": self.evaluations, "runs": self.runs, "budget": self.budget,
                 "seed": self.seed, "stopped": self.stopped,
+                "constraints": self.constraints,
                 "seconds": round(self.seconds, 3), "mfcontrol": __version__}
 
     def save(self, out: str | Path) -> Path:
@@ -253,7 +256,8 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
          log: Sequence[str] = (), overrides: Mapping[str, Any] | None = None,
          out: str | Path | None = None,
          progress: Callable[[int, int, float], None] | None = None,
-         start_from_case: bool = True, tol: float = 0.01) -> TuneResult:
+         start_from_case: bool = True, tol: float = 0.01,
+         constraints: Sequence[str] = ()) -> TuneResult:
     """Minimise an objective over some keys of a case by simulation.
 
     Parameters
@@ -290,6 +294,12 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         Stop once every member of the population has a real value and their spread
         (standard deviation) is within this fraction of their mean (scipy's default
         rule); 0 spends the whole budget.
+    constraints : list of str
+        Bounds on the linear analysis of each point's loop (:func:`mfcontrol.analyze`),
+        e.g. ``["Ms<=1.6", "delay_margin_s>=0.05"]``: a point that misses one counts as
+        failed (its value inf, ranked by how far it misses). Checked on the case's own
+        loop, not on each scenario. ``Ms``, ``noise_gain_peak`` and ``spectral_radius``
+        cost a fraction of a run; the other margins 20 to 50 ms a point.
 
     Returns
     -------
@@ -326,6 +336,9 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
     if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 <= tol < 1:
         raise ConfigError("tol", tol, "must be a number in [0, 1)")
     pars = parse_parameters(params, log)
+    from .analyze import Constraint, linear_margins
+
+    bounds = [Constraint.parse(c) for c in constraints]
     scen = batch.parse_grid(scenarios, "--scenarios") if scenarios else {}
     for k in scen:
         if any(p.key == k for p in pars):
@@ -395,11 +408,24 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
             scores[ok] = aggregate(per_run.reshape(-1, n_scen), aggregate_by)
             seen[ok] = _badness(cols, n_scen, base["metrics.stable_tol"],
                                 scenario.n_steps(base))
+            linear: dict[str, np.ndarray] = {}
+            if bounds:  # the analysis of each point's own loop; a miss fails the point
+                idx = np.flatnonzero(ok)
+                linear = linear_margins(
+                    [base.with_overrides({k: axis_value(k, v[j]) for k, v in values.items()})
+                     for j in idx], {b.key for b in bounds}, keys)
+                miss = np.max([b.violation(linear[b.key]) for b in bounds], axis=0)
+                failed = idx[miss > 0]
+                scores[failed] = np.inf
+                # above a point that meets them, below one whose run failed (0.1 and up)
+                seen[failed] = np.maximum(seen[failed], 0.05 * np.minimum(miss[miss > 0], 1))
             point = np.flatnonzero(ok)[cols["member"] // n_scen] + state["evals"]
             frames.append(pd.DataFrame({"generation": state["gen"], "point": point,
                                         "scenario": cols["member"] % n_scen,
                                         "refused": False,
                                         **{k: v for k, v in cols.items() if k != "member"},
+                                        **{f"linear_{k}": np.repeat(v, n_scen)
+                                           for k, v in linear.items()},
                                         "score": per_run,
                                         "value": np.repeat(scores[ok], n_scen)}))
         bad = np.flatnonzero(~ok)
@@ -478,7 +504,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         best=best, value=value, nominal=nominal, start=start, start_value=start_value,
         config=best_cfg, evaluations=state["evals"], runs=state["runs"],
         seconds=time.perf_counter() - t0, stopped=stopped, budget=budget, seed=seed,
-        history=history)
+        history=history, constraints=[str(b) for b in bounds])
     if out is not None:
         result.save(out)
     return result
