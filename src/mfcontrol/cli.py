@@ -154,6 +154,8 @@ def _cmd_analyze(args) -> int:
     out = _writable(_out_dir(args.out, Path("results") / name))
     try:
         result = analyze(cfg, gamma=gamma, operating_point=level)
+    except ConfigError:
+        raise
     except ValueError as exc:  # a law that needs --gamma, a PID given one
         raise ConfigError("--gamma", args.gamma, str(exc).split(": ", 1)[-1]) from None
     result = dataclasses.replace(result, name=name)

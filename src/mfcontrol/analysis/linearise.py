@@ -118,10 +118,13 @@ def discretise(A: np.ndarray, B: np.ndarray, h: float, integrator: str = "exact"
 
 
 def is_linear(derivative: Derivative, output: Output, points: list[tuple[np.ndarray, float]],
-              t: float = 0.0, rtol: float = 1e-6) -> bool:
+              t: float = 0.0, rtol: float = 1e-6,
+              first: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> bool:
     """Whether the plant's Jacobians are the same at every one of ``points`` (state,
-    input), to ``rtol`` of their size: the linearisation then holds everywhere."""
-    first = jacobians(derivative, output, *points[0], t=t)
+    input), to ``rtol`` of their size: the linearisation then holds everywhere.
+    ``first``: the Jacobians at ``points[0]`` when the caller has them already."""
+    if first is None:
+        first = jacobians(derivative, output, *points[0], t=t)
     for x, u in points[1:]:
         other = jacobians(derivative, output, x, u, t=t)
         for a, b in zip(first, other, strict=True):

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import polynomial as poly
 
-from ..numerics import zoh
+from . import linearise
 from .filters import LinearFilter
 
 #: frequencies per decade of the grid on which the peaks (Ms, Mt, the noise gain) are
@@ -45,12 +45,9 @@ def _discrete(plant: Any, dt: float) -> Any:
     if not plant.issiso():
         raise ValueError("plant: must have one input and one output")
     if plant.isctime():
-        # the zero-order hold the engine steps an LTI plant by (numerics/zoh.py)
+        # the zero-order hold the engine steps an LTI plant by
         ss = control.ss(plant)
-        a = np.ascontiguousarray(ss.A, dtype=float)
-        b = np.ascontiguousarray(np.asarray(ss.B, dtype=float)[:, 0])
-        ad, bd = np.empty_like(a), np.empty_like(b)
-        zoh.discretise(a, b, float(dt), ad, bd)
+        ad, bd = linearise.discretise(ss.A, np.asarray(ss.B, dtype=float)[:, 0], float(dt))
         return control.ss(ad, bd[:, None], ss.C, ss.D, dt)
     if plant.dt is True or not math.isclose(plant.dt, dt, rel_tol=1e-12):
         raise ValueError(f"plant.dt = {plant.dt!r}: must be the controller's sample time "
@@ -151,8 +148,8 @@ class LinearLoop:
     @functools.cached_property
     def plant_polynomials(self) -> tuple[np.ndarray, np.ndarray]:
         """``(N_p, D_p)``: the plant behind the loop's delay, ``q^delay P``, as polynomials
-        in q = z^-1, ascending (derived once: the margins evaluate the loop at every step
-        of their root finding)."""
+        in q = z^-1, ascending: the terms of :meth:`characteristic` (the poles and the
+        frequency response come from the plant's state space instead)."""
         import control
 
         tf = control.ss2tf(self.plant) if isinstance(self.plant, control.StateSpace) \
@@ -196,11 +193,16 @@ class LinearLoop:
         fast has eight poles within 0.05 of each other)."""
         return closed_loop(*self.plant_matrices, self.delay, self.controller)
 
+    @functools.cached_property
+    def _poles(self) -> np.ndarray:
+        # once: the margins read them for the radius and again for the noise gain
+        return np.linalg.eigvals(self.state_space[0])
+
     def poles(self) -> np.ndarray:
         """The closed loop's poles: the eigenvalues of :attr:`state_space`'s matrix (its
         realisation adds poles at z = 0 where the law's or the plant's order exceeds the
         loop's)."""
-        return np.linalg.eigvals(self.state_space[0])
+        return self._poles.copy()
 
     def plant_response(self, omega: np.ndarray) -> np.ndarray:
         """``q^delay P`` at the frequencies ``omega`` (rad/s), from the plant's state
@@ -252,7 +254,7 @@ class LinearLoop:
     def spectral_radius(self) -> float:
         """The largest modulus of a closed-loop pole: below 1, the linear loop is
         asymptotically stable."""
-        return float(np.abs(self.poles()).max(initial=0.0))
+        return float(np.abs(self._poles).max(initial=0.0))
 
     def margins(self) -> dict[str, float | bool]:
         """The loop's robustness, as a dict:

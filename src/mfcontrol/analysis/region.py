@@ -22,7 +22,7 @@ import numpy as np
 from .filters import LinearFilter
 from .loop import LinearLoop, closed_loop
 
-#: companion matrices whose eigenvalues are taken in one call (memory: BATCH d^2 floats)
+#: closed-loop matrices whose eigenvalues are taken in one call (memory: BATCH d^2 floats)
 BATCH = 1024
 
 

@@ -95,8 +95,7 @@ class Analysis:
                 return {k: plain(w) for k, w in v.items()}
             if isinstance(v, list | tuple | np.ndarray):
                 return [plain(w) for w in v]
-            v = float(v)
-            return ("inf" if v > 0 else "-inf") if math.isinf(v) else (None if v != v else v)
+            return files.json_number(float(v))
 
         poles = self.poles()
         return {
@@ -189,7 +188,7 @@ def _sampled_plant(plant: Any, h: float, substeps: int, level: float | None,
         A, B, C = linearise.jacobians(plant.derivative, plant.output, x, u)
         # a plant whose Jacobians are the same far apart is linear: nothing to say
         far = [(x, u), (x + np.maximum(np.abs(x), 1.0), u + max(abs(u), 1.0))]
-        if not linearise.is_linear(plant.derivative, plant.output, far):
+        if not linearise.is_linear(plant.derivative, plant.output, far, first=(A, B, C)):
             point = {"x": x.tolist(), "u": float(u), "y": float(plant.output(x))}
             if found is None:
                 notes.append(f"no steady state with output {level!r} was found from the "
@@ -374,17 +373,27 @@ def _reference_at_end(cfg: Config) -> float:
     return float(reference.evaluate.py_func(*col[:5], cfg["sim.t_end"]))
 
 
-def _analyze_case(case: Any, overrides: Mapping[str, Any] | None, gamma: float | None,
-                  level: float | None) -> Analysis:
+def _case_loop(cfg: Config, gamma: float | None, level: float | None, notes: list[str]
+               ) -> tuple[LinearLoop, dict[str, Any] | None]:
+    """A case's loop: its law's filter around its plant, sampled as its run steps it
+    (linearised at ``level``, default the reference the run ends at), behind its sensor's
+    and actuator's delays; and where the plant was linearised."""
     from ..api.run import from_config
 
+    ctrl = from_config.controller(cfg)
+    filt = _law(ctrl, gamma, notes)
+    at = _reference_at_end(cfg) if level is None else float(level)
+    sampled, point = _sampled_plant(from_config.plant(cfg), filt.dt, cfg["sim.substeps"],
+                                    at, notes, _limits(ctrl))
+    return LinearLoop(filt, sampled, delay=cfg["sensor.delay"] + cfg["actuator.delay"]), point
+
+
+def _analyze_case(case: Any, overrides: Mapping[str, Any] | None, gamma: float | None,
+                  level: float | None) -> Analysis:
     name, cfg = _case(case, overrides)
-    if level is None:
-        level = _reference_at_end(cfg)
-    delay = cfg["sensor.delay"] + cfg["actuator.delay"]
     notes = _case_notes(cfg)
-    return _loop(from_config.controller(cfg), from_config.plant(cfg), gamma, delay,
-                 cfg["sim.substeps"], level, notes, name)
+    loop, point = _case_loop(cfg, gamma, level, notes)
+    return Analysis(name, loop, loop.margins(), point, tuple(notes))
 
 
 @dataclass(frozen=True)
@@ -598,17 +607,13 @@ def linear_margins(cfgs: list[Config], keys: Any, varying: Any, *,
     filters: list[LinearFilter] = []
     groups: list[tuple] = []
     for cfg in cfgs:
-        filters.append(_law(from_config.controller(cfg), gamma, []))
         group = tuple(repr(cfg[k]) for k in plant_keys)
         groups.append(group)
-        if group not in plants:
-            at = _reference_at_end(cfg) if level is None else float(level)
-            sampled, _ = _sampled_plant(from_config.plant(cfg), filters[-1].dt,
-                                        cfg["sim.substeps"], at, [],
-                                        (cfg["controller.duty_min"],
-                                         cfg["controller.duty_max"]))
-            plants[group] = LinearLoop(filters[-1], sampled,
-                                       delay=cfg["sensor.delay"] + cfg["actuator.delay"])
+        if group not in plants:  # the first of its plant: the whole loop
+            plants[group], _ = _case_loop(cfg, gamma, level, [])
+            filters.append(plants[group].controller)
+        else:
+            filters.append(_law(from_config.controller(cfg), gamma, []))
     out = {k: np.full(len(cfgs), np.nan) for k in keys}
     for group, plant in plants.items():
         cells = [i for i, g in enumerate(groups) if g == group]

@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
 from ..api.results import metrics as _metrics
-from ..api.results.plotting import save_figure
+from ..api.results.plotting import cell_edges, is_log_spaced, save_figure
 from ..config import options
 
 if TYPE_CHECKING:
@@ -72,31 +72,6 @@ def axis_label(key: str) -> str:
 def swept_keys(frame: pd.DataFrame) -> list[str]:
     """The columns that are not metrics, i.e. the swept keys."""
     return [c for c in frame.columns if c not in METRICS]
-
-
-def is_log_spaced(values) -> bool:
-    """Positive values with a constant ratio between neighbours (after sorting and removing
-    duplicates). Two values count as log-spaced only when they differ by 10x or more."""
-    v = np.unique(np.asarray(values, dtype=float))
-    if v.size < 2 or not np.all(np.isfinite(v)) or v[0] <= 0:
-        return False
-    ratios = v[1:] / v[:-1]
-    if v.size == 2:
-        return bool(ratios[0] >= 10.0)
-    return bool(np.allclose(ratios, ratios[0], rtol=1e-6, atol=0.0))
-
-
-def cell_edges(values: np.ndarray, log: bool) -> np.ndarray:
-    """Edges of the cells centred on the sorted ``values``: midpoints between neighbours
-    (geometric when ``log``), the outer edges half a spacing beyond the end values."""
-    v = np.asarray(values, dtype=float)
-    if log:
-        return 10.0 ** cell_edges(np.log10(v), log=False)
-    if v.size == 1:
-        half = 0.5 * abs(v[0]) if v[0] != 0 else 0.5
-        return np.array([v[0] - half, v[0] + half])
-    mid = 0.5 * (v[1:] + v[:-1])
-    return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
 
 
 @dataclass

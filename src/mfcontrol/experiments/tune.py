@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import files
 from .._version import __version__
 from ..api.results import display
 from ..api.results.objective import AGGREGATES, Objective, aggregate
@@ -188,12 +189,12 @@ class TuneResult(display.Shown):
 
     def summary(self) -> dict[str, Any]:
         return {"case": self.case, "objective": self.objective.text,
-                "aggregate": self.aggregate, "best": _json_number(self.value),
-                "nominal": _json_number(self.nominal),
+                "aggregate": self.aggregate, "best": files.json_number(self.value),
+                "nominal": files.json_number(self.nominal),
                 "parameters": {k: v for k, v in self.best.items()},
                 "bounds": {p.key: [p.low, p.high] for p in self.parameters},
                 "log": [p.key for p in self.parameters if p.log],
-                "start": {"parameters": self.start, "value": _json_number(self.start_value)},
+                "start": {"parameters": self.start, "value": files.json_number(self.start_value)},
                 "scenarios": {k: v.tolist() for k, v in self.scenarios.items()},
                 "n_scenarios": self.n_scenarios,
                 "evaluations": self.evaluations, "runs": self.runs, "budget": self.budget,
@@ -239,11 +240,6 @@ class TuneResult(display.Shown):
 
 _STOPPED = {"budget": "budget spent", "converged": "population converged",
             "interrupted": "interrupted"}
-
-
-def _json_number(v: float) -> float | str | None:
-    """A value for JSON: inf as "inf", NaN (not evaluated) as null."""
-    return None if math.isnan(v) else v if math.isfinite(v) else "inf"
 
 
 def _n_scenarios(scenarios: Mapping[str, np.ndarray]) -> int:

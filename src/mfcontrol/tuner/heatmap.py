@@ -21,7 +21,8 @@ from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
 from ..api.results import metrics as _metrics
-from ..experiments.maps import cell_edges, colour_range
+from ..api.results.plotting import cell_edges
+from ..experiments.maps import colour_range
 from .session import SHORT, MapState, RobustnessMap
 
 GREY = "#d1d1d1"  # matplotlib's "0.82": the colour of the CLI maps' diverged cells

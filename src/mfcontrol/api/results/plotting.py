@@ -797,14 +797,29 @@ class LinearRegion(Protocol):
     def point(self) -> tuple[float, float]: ...
 
 
-def _log_axis(values: np.ndarray) -> bool:
-    """Whether an axis's values are spaced by ratios (a log axis shows them evenly)."""
-    v = np.asarray(values, dtype=float)
-    if v.size < 3 or np.any(v <= 0):
+def is_log_spaced(values) -> bool:
+    """Positive values with a constant ratio between neighbours (after sorting and removing
+    duplicates). Two values count as log-spaced only when they differ by 10x or more."""
+    v = np.unique(np.asarray(values, dtype=float))
+    if v.size < 2 or not np.all(np.isfinite(v)) or v[0] <= 0:
         return False
     ratios = v[1:] / v[:-1]
-    return bool(np.allclose(ratios, ratios[0], rtol=1e-6) and abs(ratios[0] - 1) > 1e-9
-                and not np.allclose(np.diff(v), v[1] - v[0], rtol=1e-6))
+    if v.size == 2:
+        return bool(ratios[0] >= 10.0)
+    return bool(np.allclose(ratios, ratios[0], rtol=1e-6, atol=0.0))
+
+
+def cell_edges(values: np.ndarray, log: bool) -> np.ndarray:
+    """Edges of the cells centred on the sorted ``values``: midpoints between neighbours
+    (geometric when ``log``), the outer edges half a spacing beyond the end values."""
+    v = np.asarray(values, dtype=float)
+    if log:
+        return 10.0 ** cell_edges(np.log10(v), log=False)
+    if v.size == 1:
+        half = 0.5 * abs(v[0]) if v[0] != 0 else 0.5
+        return np.array([v[0] - half, v[0] + half])
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
 
 
 def plot_region(region: LinearRegion, path: str | Path | None = None,
@@ -820,12 +835,14 @@ def plot_region(region: LinearRegion, path: str | Path | None = None,
     ms = np.where(stable & np.isfinite(r.Ms), r.Ms, np.nan)
     fig = Figure(figsize=(8, 6), layout="constrained")
     ax = fig.subplots()
-    ax.pcolormesh(r.x, r.y, np.where(stable, np.nan, 1.0), cmap="Greys", vmin=0, vmax=2.5,
-                  shading="nearest")
+    # cells centred on their values, geometric edges on a log axis (the maps' cells)
+    log_x, log_y = is_log_spaced(r.x), is_log_spaced(r.y)
+    ex, ey = cell_edges(r.x, log_x), cell_edges(r.y, log_y)
+    ax.pcolormesh(ex, ey, np.where(stable, np.nan, 1.0), cmap="Greys", vmin=0, vmax=2.5)
     finite = ms[np.isfinite(ms)]
     if finite.size:
         top = max(float(np.percentile(finite, 99)), 1.0001 * float(finite.min()))
-        image = ax.pcolormesh(r.x, r.y, ms, shading="nearest", cmap="viridis_r",
+        image = ax.pcolormesh(ex, ey, ms, cmap="viridis_r",
                               norm=LogNorm(max(float(finite.min()), 1.0), max(top, 1.01)))
         bar = fig.colorbar(image, ax=ax, label="Ms, peak sensitivity (log scale; above its "
                                                "99th percentile: the top colour)",
@@ -839,9 +856,9 @@ def plot_region(region: LinearRegion, path: str | Path | None = None,
         ax.contour(r.x, r.y, r.spectral_radius, levels=[1.0], colors="black", linewidths=2)
     ax.plot(*r.point, "*", color="tab:red", ms=14, mec="white",
             label=f"the case: {r.point[0]:.4g}, {r.point[1]:.4g}")
-    if _log_axis(r.x):
+    if log_x:
         ax.set_xscale("log")
-    if _log_axis(r.y):
+    if log_y:
         ax.set_yscale("log")
     ax.set_xlabel(options.label(r.x_key))
     ax.set_ylabel(options.label(r.y_key))
