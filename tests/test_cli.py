@@ -452,6 +452,9 @@ ERRORS += [
                  ["--gamma = '2': a PID has no gain gamma"], id="analyze-gamma-of-a-pid"),
     pytest.param(["analyze", "boost-ipd", "--at", "nan", "--out", "{d}/out-an"],
                  ["--at = 'nan': must be a finite number"], id="analyze-at-nan"),
+    pytest.param(["analyze", "bench-lag3", "--at", "2", "--out", "{d}/out-an"],
+                 ["--at = '2': the plant is linear, so there is no operating point to "
+                  "choose"], id="analyze-at-on-a-linear-plant"),
     pytest.param(["analyze", "bench-lag3", "--set", "controller.alpha=3", "--out",
                   "{d}/out-an"],
                  ['controller.alpha = 3.0: not read with controller.law = "pid"'],

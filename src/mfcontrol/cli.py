@@ -156,8 +156,11 @@ def _cmd_analyze(args) -> int:
         result = analyze(cfg, gamma=gamma, operating_point=level)
     except ConfigError:
         raise
-    except ValueError as exc:  # a law that needs --gamma, a PID given one
-        raise ConfigError("--gamma", args.gamma, str(exc).split(": ", 1)[-1]) from None
+    except ValueError as exc:  # --at on a linear plant; a law that needs --gamma, or a
+        # PID given one
+        flag, text = (("--at", args.at) if str(exc).startswith("operating_point")
+                      else ("--gamma", args.gamma))
+        raise ConfigError(flag, text, str(exc).split(": ", 1)[-1]) from None
     result = dataclasses.replace(result, name=name)
     print(f"{name}: linear loop sampled every {result.sample_time:g} s")
     print(textwrap.indent(result.summary(), "  "))

@@ -162,6 +162,9 @@ def test_a_linear_plant_says_nothing_of_a_point():
     a = mfcontrol.analyze("buck-ipi")
     assert a.operating_point is None
     assert not any("nonlinear" in n for n in a.notes)
+    # and an operating point asked for would change nothing: refused
+    with pytest.raises(ValueError, match="^operating_point = 3.0: the plant is linear"):
+        mfcontrol.analyze("buck-ipi", operating_point=3.0)
 
 
 def test_the_notes_say_what_the_run_has_that_the_loop_does_not():

@@ -308,7 +308,8 @@ def analyze(case_or_controller: Any, plant: Any = None,
     operating_point : float, optional
         The output level at which to linearise a nonlinear plant: the steady state with
         that output. Default: the reference at the end of the case's run (with a
-        controller, its setpoint).
+        controller, its setpoint). Refused for a linear plant, where it would change
+        nothing.
     sensor, actuator : mfcontrol.Sensor, mfcontrol.Actuator, optional
         With a controller: their delays (samples) are the loop's; a case has its own.
     substeps : int
@@ -339,16 +340,23 @@ def analyze(case_or_controller: Any, plant: Any = None,
         if plant is not None or sensor is not None or actuator is not None:
             raise TypeError("plant, sensor, actuator: a case has its own (set its keys "
                             "with overrides)")
-        return _analyze_case(case_or_controller, overrides, gamma, operating_point)
-    if overrides:
-        raise TypeError("overrides: for a case; a controller's parameters are its own")
-    if plant is None:
-        raise TypeError("plant: required with a controller (the loop it closes)")
-    delay = sum(int(getattr(e, "delay", 0)) for e in (sensor, actuator) if e is not None)
-    level = operating_point
-    if level is None:
-        level = float(getattr(case_or_controller, "setpoint", 0.0))
-    return _loop(case_or_controller, plant, gamma, delay, substeps, level, [], "")
+        result = _analyze_case(case_or_controller, overrides, gamma, operating_point)
+    else:
+        if overrides:
+            raise TypeError("overrides: for a case; a controller's parameters are its own")
+        if plant is None:
+            raise TypeError("plant: required with a controller (the loop it closes)")
+        delay = sum(int(getattr(e, "delay", 0)) for e in (sensor, actuator) if e is not None)
+        level = operating_point
+        if level is None:
+            level = float(getattr(case_or_controller, "setpoint", 0.0))
+        result = _loop(case_or_controller, plant, gamma, delay, substeps, level, [], "")
+    if operating_point is not None and result.operating_point is None:
+        # a linear plant has one linearisation: the level asked for would change nothing
+        raise ValueError(f"operating_point = {operating_point!r}: the plant is linear, so "
+                         "there is no operating point to choose (it applies to a nonlinear "
+                         "plant: the boost, the buck's power output, an ODE)")
+    return result
 
 
 def _case(case: Any, overrides: Mapping[str, Any] | None) -> tuple[str, Config]:
