@@ -503,7 +503,7 @@ def main() -> None:
           f"{paper.n_samples:,} samples a sweep (warm-up {time.perf_counter() - t0:.0f} s)")
     for name, loop in loops.items():
         met = tables[name]
-        print(f"   {loop.name}: {int(np.sum(met['stable']))}/{loop.n_members} members "
+        print(f"   {loop.name}: {int(np.sum(met['settled']))}/{loop.n_members} members "
               f"stable, {int(np.sum(met['diverged']))} diverged, IAE "
               f"{np.min(met['iae']):.3g}..{np.max(met['iae']):.3g}; axes "
               + " x ".join(f"{k} {v.min():g}..{v.max():g}" for k, v in loop.axes.items()))

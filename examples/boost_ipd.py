@@ -75,7 +75,7 @@ def main(path: str | Path = Path("results", "examples", "boost_ipd.png")) -> mfc
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     t, e = res.time, np.abs(res.error)
-    print(f"boost i-PD: stable={res.metrics['stable']}, max |e| {e[t < T_LOAD].max():.2f} V on "
+    print(f"boost i-PD: settled={res.metrics['settled']}, max |e| {e[t < T_LOAD].max():.2f} V on "
           f"the ramp, {e[(t > 30e-3) & (t < T_LOAD)].max():.1e} V before and "
           f"{e[t > 55e-3].max():.1e} V after the load step (peak {e[t >= T_LOAD].max():.1f} V), "
           f"IAE {res.metrics['iae']:.3g} V s, figure {path}")

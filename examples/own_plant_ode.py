@@ -56,7 +56,7 @@ def main(path: str | Path = Path("results", "examples", "own_plant_ode.png")) ->
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     m = res.metrics
-    print(f"tank i-P: stable={m['stable']} IAE={m['iae']:.3f} m s, "
+    print(f"tank i-P: settled={m['settled']} IAE={m['iae']:.3f} m s, "
           f"final error={res.error[-1]:+.2e} m, wrote {path}")
     return res
 

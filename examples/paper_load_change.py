@@ -13,7 +13,7 @@ published code does (``mfcontrol.run_case``, 10,000 samples of 1 µs).
 What the runs give. The standard i-P rings after the first load change (up to 0.78 V
 off the reference in the zoomed 0.9 ms) and the second one sets off an oscillation that
 grows until the duty cycle hits its limit of 0.9 at 8.2 ms; the error reaches 13.7 V and
-the run is judged unstable. (The 0.78 V is the first 0.9 ms; by 6 ms the ringing has
+the run does not settle. (The 0.78 V is the first 0.9 ms; by 6 ms the ringing has
 grown to 1.56 V.) The variational law absorbs both changes: 0.18 V at 4 ms and
 0.12 V at 6 ms, and 0.049 V from the reference at the end. Over the 10 ms its gain
 gamma moves from 1 to 0.99995, so what makes the difference is mostly where it starts:
@@ -108,7 +108,7 @@ def main(path: str | Path = Path("results", "examples", "paper_load_change.png")
     second = t >= 6e-3
     rail = float(t[np.flatnonzero((std.signals["u"] >= 0.9) & (t > 4e-3))[0]])
     out = {
-        "stable": {name: res.metrics["stable"] for name, res in runs.items()},
+        "settled": {name: res.metrics["settled"] for name, res in runs.items()},
         "max_e_first": {name: float(np.abs(res.error[first]).max()) for name, res in runs.items()},
         "max_e_second": {name: float(np.abs(res.error[second]).max())
                          for name, res in runs.items()},
@@ -118,10 +118,10 @@ def main(path: str | Path = Path("results", "examples", "paper_load_change.png")
         "equal_gain_diff": float(np.abs(equal_gain.signals["y"] - var.signals["y"]).max()),
         "runs": runs,
     }
-    print(f"standard i-P: stable={std.metrics['stable']}, max |e| "
+    print(f"standard i-P: settled={std.metrics['settled']}, max |e| "
           f"{out['max_e_first'][std.name]:.2f} V after 4 ms, "
           f"{out['max_e_second'][std.name]:.1f} V after 6 ms, duty at 0.9 from {rail * 1e3:.1f} ms")
-    print(f"variational: stable={var.metrics['stable']}, max |e| "
+    print(f"variational: settled={var.metrics['settled']}, max |e| "
           f"{out['max_e_first'][var.name]:.3f} V after 4 ms, "
           f"{out['max_e_second'][var.name]:.3f} V after 6 ms, gamma 1 -> {out['gamma_end']:.5f}; "
           f"standard i-P with alpha = 1 within {out['equal_gain_diff']:.1e} V; wrote {path}")

@@ -76,7 +76,7 @@ def main(path: str | Path = Path("results", "examples", "realistic_loops.png")):
     for name in CASES:
         m, d = runs[name].metrics, delayed[name].metrics
         rows.append([SHORT[name], f"{m['iae']:.2f}", f"{m['tv_u']:,.0f}",
-                     f"{m['iae_load']:.2f}", "stable" if d["stable"] else "unstable"])
+                     f"{m['iae_load']:.2f}", "settled" if d["settled"] else "not settled"])
     t = table.table(cellText=rows, colLabels=["controller", "IAE\n(rad)", "TV(u)\n(V)",
                                               "IAE after\nload (rad)",
                                               f"{DELAY}-sample\ndelay"],

@@ -13,8 +13,8 @@ limit, so an unstable loop diverges instead of cycling on the rails.
 
 ``mfcontrol.sweep`` runs the 17 x 13 grid (221 runs of 2,000 samples) in well under a
 second; the heat map is the library's own (``mfcontrol.experiments.maps.heatmap``, what
-``mfcontrol map`` draws): the IAE of the stable members, the diverged ones in grey, the
-stability boundary in red.
+``mfcontrol map`` draws): the IAE of the members that settle (track within 10 % at the
+end), the diverged ones in grey, the boundary of the settled members in red.
 
 What the map shows. The boundary follows ``alpha J = constant``: on this grid the
 smallest stable alpha is 0.42 to 0.54 times the true gain b (the white dashed line is b
@@ -23,7 +23,7 @@ law corrects by ``F_hat / alpha`` at every sample, and the sampled loop's pole i
 ``1 - b/alpha``: unstable once alpha is below b/2, where each correction overshoots by
 more than it corrects. The motor's electrical lag (La/Ra = 1 ms, one sample) weakens
 the first samples' response and moves the boundary a little below b/2 at small J. Two
-members on the boundary are unstable without diverging (hatched). Above the boundary
+members on the boundary neither settle nor diverge (hatched). Above the boundary
 every member is stable up to the grid's largest alpha (50 times b at J = 4e-3), and only
 gets slower: the IAE rises from 4.9 rad just above the boundary to 7.5 rad at
 alpha = 316 and J = 4e-3. Overestimating alpha costs speed; underestimating it by more
@@ -59,9 +59,9 @@ def main(path: str | Path = Path("results", "examples", "robustness_map.png")):
     ax = fig.subplots()
     heatmap(frame, "controller.alpha", "plant.J", "iae", ax=ax, log_color=False,
             title="IAE of the speed over 2 s (step to 60 rad/s, load torque at 1 s)")
-    stable = frame[frame["stable"].astype(bool)]
-    lo, hi = float(stable["iae"].min()), float(stable["iae"].max())
-    # the colours span the stable members' IAE: the few unstable members that did not
+    settled = frame[frame["settled"].astype(bool)]
+    lo, hi = float(settled["iae"].min()), float(settled["iae"].max())
+    # the colours span the settled members' IAE: the few unsettled members that did not
     # diverge (hatched) reach 1e7 and would flatten the rest into one colour
     ax.collections[0].set_clim(lo, hi)
     fig.axes[-1].set_ylabel("IAE, the integral of |e| over 2 s (rad)")
@@ -80,15 +80,15 @@ def main(path: str | Path = Path("results", "examples", "robustness_map.png")):
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
 
-    # the boundary, measured: the smallest stable alpha of each inertia, over the true gain
-    smallest = stable.groupby("plant.J")["controller.alpha"].min()
+    # the boundary, measured: the smallest settled alpha of each inertia, over the true gain
+    smallest = settled.groupby("plant.J")["controller.alpha"].min()
     ratio = smallest.to_numpy() / (KM / (smallest.index.to_numpy() * RA))
-    out = {"frame": frame, "ratio": ratio, "n_stable": len(stable),
+    out = {"frame": frame, "ratio": ratio, "n_settled": len(settled),
            "n_diverged": int(frame["diverged"].sum()),
            "iae_range": (lo, hi)}
-    print(f"alpha x J map: {out['n_stable']} of {len(frame)} stable, {out['n_diverged']} "
-          f"diverged; smallest stable alpha {ratio.min():.2f} to {ratio.max():.2f} times "
-          f"Km/(J Ra); IAE of the stable {out['iae_range'][0]:.1f} to "
+    print(f"alpha x J map: {out['n_settled']} of {len(frame)} settled, {out['n_diverged']} "
+          f"diverged; smallest settled alpha {ratio.min():.2f} to {ratio.max():.2f} times "
+          f"Km/(J Ra); IAE of the settled {out['iae_range'][0]:.1f} to "
           f"{out['iae_range'][1]:.1f} rad; wrote {path}")
     return out
 

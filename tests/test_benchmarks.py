@@ -14,7 +14,7 @@ from mfcontrol.laws.estimators import weights
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import bench_realistic as br  # noqa: E402, I001
 
-METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "energy_u", "stable", "n_samples")
+METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "energy_u", "settled", "n_samples")
 
 
 def _members_are_single_runs(loop):

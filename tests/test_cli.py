@@ -245,7 +245,7 @@ ERRORS = [
           ("controller.alpha", "0", "0"), ("controller.alpha", "-10", "-10"),
           ("sim.t_end", "-1", "-1"), ("sim.t_end", "0", "0"), ("plant.E", "0", "0"),
           ("controller.deriv_scale", "0", "0"), ("controller.output_gain", "-1", "-1"),
-          ("sim.diverge_above", "0", "0"), ("metrics.stable_tol", "0", "0")]],
+          ("sim.diverge_above", "0", "0"), ("metrics.settled_tol", "0", "0")]],
     pytest.param([S, "{d}/zero-h.toml"], ["sim.h = 0.0", "must be a finite number > 0"],
                   id="zero-h-in-file"),
     pytest.param(["run", CASE, "--set", "sim.h=0", "--out", "{d}/out-zero-h"],
@@ -659,7 +659,7 @@ def test_run_writes_the_four_files(tmp_path):
     proc = cli("run", CASE, "--out", str(out), *SHORT, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr
-    assert f"{CASE}: stable = True" in proc.stdout
+    assert f"{CASE}: settled = True" in proc.stdout
     assert sorted(p.name for p in out.iterdir()) == [
         "config.toml", "figure.png", "metrics.json", "trajectory.csv"]
     header, rows = _read_csv(out / "trajectory.csv")
@@ -670,9 +670,9 @@ def test_run_writes_the_four_files(tmp_path):
     assert float(rows[0][0]) == 0.0
     assert float(rows[-1][0]) == pytest.approx(0.001 - 1e-6)
     metrics = json.loads((out / "metrics.json").read_text())
-    for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "stable"):
+    for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "settled"):
         assert key in metrics
-    assert metrics["stable"] is True
+    assert metrics["settled"] is True
     assert metrics["case"] == CASE
     config = tomllib.loads((out / "config.toml").read_text())
     assert config["sim"]["t_end"] == 0.001

@@ -65,10 +65,10 @@ def test_plant_example_runs(name, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     exec(compile(code, name, "exec"), namespace)  # noqa: S102
-    assert namespace["res"].metrics["stable"] and namespace["res"].engine == "compiled"
+    assert namespace["res"].metrics["settled"] and namespace["res"].engine == "compiled"
     assert (tmp_path / "motor.png").exists()
     table = namespace["sweep"].to_pandas()
-    assert len(table) == 12 and table["stable"].any()
+    assert len(table) == 12 and table["settled"].any()
 
 
 def test_link_checker_finds_broken_files_and_anchors(tmp_path):

@@ -21,7 +21,7 @@ def _run(name, tmp_path, monkeypatch):
 
 def test_own_plant_ode(tmp_path, monkeypatch):
     res = _run("own_plant_ode", tmp_path, monkeypatch)
-    assert res.metrics["stable"] and abs(res.error[-1]) < 1e-3
+    assert res.metrics["settled"] and abs(res.error[-1]) < 1e-3
 
 
 def test_live_loop(tmp_path, monkeypatch):
@@ -33,7 +33,7 @@ def test_live_loop(tmp_path, monkeypatch):
 
 def test_boost_ipd(tmp_path, monkeypatch):
     res = _run("boost_ipd", tmp_path, monkeypatch)
-    assert res.metrics["stable"]
+    assert res.metrics["settled"]
     t = res.time
     assert abs(res.error[(t > 0.03) & (t < 0.04)]).max() < 1e-3  # holds 30 V before the load
     assert abs(res.error[t > 0.055]).max() < 1e-3  # and after it
@@ -48,7 +48,7 @@ def test_realistic_loops(tmp_path, monkeypatch):
                                             tv["motor-noise-pid"])
     iae = {name: res.metrics["iae"] for name, res in runs.items()}
     assert min(iae, key=iae.get) == "motor-noise-ipi-algebraic"
-    assert [res.metrics["stable"] for res in delayed.values()] == [False, False, True]
+    assert [res.metrics["settled"] for res in delayed.values()] == [False, False, True]
 
 
 def test_default_figure_goes_to_results(tmp_path, monkeypatch):
@@ -86,7 +86,7 @@ def test_estimator_tradeoff(tmp_path, monkeypatch):
 def test_paper_load_change(tmp_path, monkeypatch):
     out = _run("paper_load_change", tmp_path, monkeypatch)
     std, var = "voltage-unstable-standard", "voltage-unstable-variational"
-    assert out["stable"] == {std: False, var: True}
+    assert out["settled"] == {std: False, var: True}
     # the standard i-P rings after 4 ms and blows up after 6 ms, the duty at 0.9 by 8.2 ms
     assert out["max_e_first"][std] > 1.0 and out["max_e_second"][std] > 10.0
     assert 8.0e-3 < out["t_rail"] < 8.5e-3
@@ -106,10 +106,10 @@ def test_robustness_map(tmp_path, monkeypatch):
     assert 0.35 < out["ratio"].min() and out["ratio"].max() < 0.6
     for _, rows in frame.groupby("plant.J"):
         rows = rows.sort_values("controller.alpha")
-        stable = rows["stable"].astype(bool).to_numpy()
-        first = int(np.argmax(stable))
-        assert stable[first:].all() and not stable[:first].any()  # one boundary per row
-    assert out["n_diverged"] >= 70 and out["n_stable"] + out["n_diverged"] >= len(frame) - 3
+        settled = rows["settled"].astype(bool).to_numpy()
+        first = int(np.argmax(settled))
+        assert settled[first:].all() and not settled[:first].any()  # one boundary per row
+    assert out["n_diverged"] >= 70 and out["n_settled"] + out["n_diverged"] >= len(frame) - 3
     lo, hi = out["iae_range"]
     assert 4.5 < lo < 5.2 and 7.0 < hi < 8.0
 
@@ -117,7 +117,7 @@ def test_robustness_map(tmp_path, monkeypatch):
 def test_tune_against_pid(tmp_path, monkeypatch):
     out = _run("tune_against_pid", tmp_path, monkeypatch)
     tuned, runs = out["tuned"], out["runs"]
-    assert all(res.metrics["stable"] for res in runs.values())
+    assert all(res.metrics["settled"] for res in runs.values())
     # with 1,500 points each the i-PI scores about 5 % better than the PID, on every part
     ratio = tuned["i-PI"].value / tuned["PID"].value
     assert 0.9 < ratio < 1.0
@@ -136,7 +136,7 @@ def test_python_control_plant(tmp_path, monkeypatch):
     assert out["step_diff"] < 1e-9  # equals control.step_response
     assert np.allclose(out["poles"], -20.0, atol=1e-2)
     m = {name: res.metrics for name, res in out["runs"].items()}
-    assert all(v["stable"] for v in m.values())
+    assert all(v["settled"] for v in m.values())
     assert m["i-PD"]["iae"] < m["PID"]["iae"] / 50
     assert m["i-PD"]["iae_load"] < m["PID"]["iae_load"] / 20
     assert np.abs(out["runs"]["i-PD"].error).max() < 1.5e-3  # within about 1 um

@@ -110,7 +110,7 @@ def test_a_run_with_any_number(case, key, value, tally):
         tally["run refused"] += 1
         return
     m = json.loads(res.metrics_json())
-    if m["stable"]:
+    if m["settled"]:
         assert all(math.isfinite(m[k]) for k in ("iae", "ise", "max_abs_e", "tv_u")), m
         tally["run stable"] += 1
     else:
@@ -125,7 +125,7 @@ def test_the_command_line_run_writes_its_files_or_refuses(tmp_path, tally):
                            "--set", f"{key}={value}", "--out", str(tmp_path / str(i))])
         if rc == 0:
             m = json.loads((tmp_path / str(i) / "metrics.json").read_text())
-            assert not m["stable"] or math.isfinite(m["iae"])
+            assert not m["settled"] or math.isfinite(m["iae"])
             tally["cli run written"] += 1
         else:
             _one_line_naming(err, key)

@@ -119,12 +119,12 @@ def _cmd_run(args) -> int:
         result.plot(out / "figure.png", kind="error")
         result.plot(out / "figure-gamma.png", kind="gamma")
         for v, member in zip(result.values, result.members, strict=True):
-            print(f"{result.key} = {v:g}: stable = {member.metrics['stable']}, "
+            print(f"{result.key} = {v:g}: settled = {member.metrics['settled']}, "
                   f"IAE = {member.metrics['iae']:.4g}")
     else:
         result.plot(out / "figure.png")
         m = result.metrics
-        print(f"{name}: stable = {m['stable']}, IAE = {m['iae']:.4g}, "
+        print(f"{name}: settled = {m['settled']}, IAE = {m['iae']:.4g}, "
               f"max |e| after settle = {m['max_abs_e']:.4g}, TV(u) = {m['tv_u']:.4g}")
     print(f"wrote {out}/trajectory.csv, metrics.json, config.toml, figure.png")
     return 0
@@ -277,7 +277,7 @@ def _cmd_tune(args) -> int:
              if result.scenarios else "")
     if math.isinf(result.value):
         met = f" and met {', '.join(result.constraints)}" if result.constraints else ""
-        print(f"{name}: no point was valid and stable{met} in {result.evaluations} points: "
+        print(f"{name}: no point was valid and settled{met} in {result.evaluations} points: "
               "widen or move the bounds")
     else:
         best = ", ".join(f"{k} = {v:.6g}" for k, v in result.best.items())
@@ -440,7 +440,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(their default once it is compiled on the machine)")
     s.set_defaults(func=_cmd_sweep)
 
-    s = sub.add_parser("map", help="heatmap of a sweep's metric with its stability boundary")
+    s = sub.add_parser("map", help="heatmap of a sweep's metric, with the boundary of "
+                       "its settled runs")
     s.add_argument("folder", help="a sweep's output folder")
     s.add_argument("--x", required=True, help="swept key on the x axis")
     s.add_argument("--y", required=True, help="swept key on the y axis")
@@ -467,7 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--log", action="append", metavar="KEY",
                    help="search this tuned key on a log scale (its LO must be > 0)")
     s.add_argument("--objective", default="iae", help="a metric or a weighted sum such as "
-                   "'iae+0.01*tv_u' (default iae); a diverged or unstable run scores inf")
+                   "'iae+0.01*tv_u' (default iae); a diverged or unsettled run scores inf")
     s.add_argument("--scenarios", action="append", metavar="KEY=SPEC",
                    help="run every point on each member of this grid (as sweep --grid: "
                         "a,b,c | linspace(a,b,n) | logspace(a,b,n)), e.g. plant.a=-2,-1,-0.5")

@@ -27,7 +27,7 @@ def test_interconnected_response_equals_simulate_loop(make):
     h, n = 0.01, 300
     plant = FirstOrder(a=-1.0, b=1.0, w=0.3)
     ours = mfcontrol.simulate_loop(plant, make(h), 1.0, t_end=n * h)
-    assert ours.time.size == n and ours.metrics["stable"]
+    assert ours.time.size == n and ours.metrics["settled"]
     ctrl = make(h)
     loop = control.interconnect([as_nlsys(ctrl), _plant_sys(plant, h)], inplist=["r"],
                                 outlist=["y", "u"])

@@ -37,7 +37,7 @@ def test_an_lti_run_equals_the_same_plant_given_as_an_object():
     plant = mfcontrol.LTI(*params.transfer_function_state_space(cfg), integrator="exact")
     loop = mfcontrol.simulate_loop(plant, from_config.controller(cfg), t_end=20.0, h=0.01,
                                    reference=1.0)
-    assert run.metrics["stable"]
+    assert run.metrics["settled"]
     assert np.array_equal(run.signals["u"], loop.signals["u"])
 
 

@@ -129,6 +129,12 @@ def test_unknown_key_is_reported_even_when_its_value_is_none():
     rejects({"controller.alpah": None}, "controller.alpah", None, "unknown key")
 
 
+def test_a_renamed_key_names_its_new_name():
+    # `stable` was a tracking test; the tolerance key followed the metric to `settled`
+    rejects({"metrics.stable_tol": 0.2}, "metrics.stable_tol", 0.2,
+            "renamed metrics.settled_tol")
+
+
 def test_unknown_key_through_run_case():
     with pytest.raises(ConfigError) as info:
         run_case("voltage-stable-standard", overrides={"plant.RR": 3.0})
@@ -650,7 +656,7 @@ def test_to_toml_round_trip_of_quotes_and_backslashes():
 def test_run_case_builtin():
     r = run_case("voltage-stable-standard", overrides=SHORT)
     assert isinstance(r, Result)
-    assert r.metrics["stable"] is True
+    assert r.metrics["settled"] is True
     assert 0.5 < float(r.signals["y"][-1]) < 1.0  # tracking the 1000 V/s ramp (0.999 at t_end)
     assert len(r.time) == 1000
     assert r.config["sim.t_end"] == 1e-3

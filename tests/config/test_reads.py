@@ -193,7 +193,7 @@ def values_to_try(key: str, cfg) -> list[Any]:
         if key == "controller.window":
             return [max(2, v // 2 & ~1), v + 6]
         return [v + 2, v + 5] if key != "sensor.seed" else [v + 7]
-    if key == "metrics.stable_tol":
+    if key == "metrics.settled_tol":
         return [1e-300, 1e300]
     if key == "sim.diverge_above":
         return [1e-9]

@@ -152,7 +152,7 @@ def test_ode_forms_give_the_same_run(f):
                                   changes=[Change(1.0, "tau", 0.05)]))
     assert runs[0].engine == runs[1].engine == "compiled"
     np.testing.assert_array_equal(runs[0].signals["y"], runs[1].signals["y"])
-    assert runs[0].metrics["stable"]
+    assert runs[0].metrics["settled"]
 
 
 class _OpaqueGain:  # an object numba cannot type
@@ -237,7 +237,7 @@ def test_rk45_in_the_engine_agrees_with_scipy_in_the_python_driver():
 def test_divergence_is_flagged_with_finite_metrics(fast):
     res = simulate_loop(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=-50.0,
                         sample_time=0.01), 1.0, t_end=5.0, diverge_above=1e6, fast=fast)
-    assert res.metrics["diverged"] and not res.metrics["stable"]
+    assert res.metrics["diverged"] and not res.metrics["settled"]
     assert res.time.size == res.metrics["n_samples"] < 500
     assert all(np.isfinite(res.metrics[k]) for k in ("iae", "ise", "itae", "max_abs_e"))
     assert res.arithmetic == ("fast" if fast else "exact")
@@ -331,7 +331,7 @@ def test_a_schedule_that_breaks_the_plant_is_refused_for_a_case():
                                                            "set": -1e-3}]})
     with pytest.raises(mfcontrol.ConfigError, match="plant.schedule"):
         mfcontrol.simulate(bad)
-    assert mfcontrol.simulate(cfg).metrics["stable"]
+    assert mfcontrol.simulate(cfg).metrics["settled"]
 
 
 def _motor(f=_motor_inplace, g=lambda x, p: x[0]) -> ODE:

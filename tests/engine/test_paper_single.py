@@ -25,14 +25,14 @@ def test_packed_batch_members_equal_single_runs_bit_for_bit():
     grid, cols = _batch_metrics(base, "controller.Gamma", [5e-8, 5e-6, 1e-4, 3e-4])
     for m in range(grid.n_members):
         single = mfcontrol.simulate(grid.config(m)).metrics
-        for name in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "stable"):
+        for name in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "settled"):
             assert cols[name][m] == single[name], (m, name)
 
 
 def test_divergence_is_flagged_and_the_trajectory_kept_up_to_it():
     r = mfcontrol.run_case("voltage-stable-standard", {"sim.diverge_above": 1.0})
     m = r.metrics
-    assert m["diverged"] and not m["stable"]
+    assert m["diverged"] and not m["settled"]
     k = m["n_samples"]
     assert r.time.size == k < 10_000
     assert m["t_diverge"] == (k * 0.01) / 10_000

@@ -93,7 +93,7 @@ def test_fast_arithmetic_finds_the_same_blow_ups():
     grid = _blow_ups()
     exact = batch.run_grid(grid)
     fast = batch.run_grid(grid, fast=True)
-    for name in ("diverged", "n_samples", "stable"):
+    for name in ("diverged", "n_samples", "settled"):
         assert fast[name].tolist() == exact[name].tolist(), name
     # the same sample; its time k t_end / n may differ by an ulp (a hoisted reciprocal)
     np.testing.assert_allclose(fast["t_diverge"], exact["t_diverge"], rtol=1e-15, atol=0)
@@ -112,7 +112,7 @@ def test_fast_arithmetic_is_within_1e_12_when_the_plant_or_reference_varies(axes
     fast = batch.run_grid(grid, fast=True)
     for name in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_ref"):
         np.testing.assert_allclose(fast[name], exact[name], rtol=1e-12, atol=0, err_msg=name)
-    assert fast["stable"].tolist() == exact["stable"].tolist()
+    assert fast["settled"].tolist() == exact["settled"].tolist()
 
 
 @pytest.mark.parametrize("case", ["voltage-stable-standard", "voltage-stable-variational",
@@ -124,7 +124,7 @@ def test_fast_arithmetic_is_within_1e_12_of_the_exact_runs(case):
     fast = batch.run_grid(grid, fast=True)
     for name in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma"):
         np.testing.assert_allclose(fast[name], exact[name], rtol=1e-12, atol=0, err_msg=name)
-    assert fast["stable"].tolist() == exact["stable"].tolist()
+    assert fast["settled"].tolist() == exact["settled"].tolist()
     # and it is another arithmetic, not the exact kernel under another name
     assert any(not np.array_equal(fast[n], exact[n]) for n in ("iae", "ise", "tv_u"))
 

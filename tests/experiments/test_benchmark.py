@@ -55,9 +55,9 @@ def test_the_table_is_the_tuned_controllers_runs(run):
         assert row.iae_setpoint == pytest.approx(quiet["iae"] - quiet["iae_load"], rel=1e-12)
         assert row.iae_load == quiet["iae_load"] and row.tv_u_noise == noisy["tv_u"]
         assert e.map_scores.shape == (5, 5)
-        n_stable, n_map = map(int, row.stable_map.split("/"))
+        n_settled, n_map = map(int, row.settled_map.split("/"))
         # a member that scores finite is stable (an unstable one scores inf)
-        assert n_map == 25 and n_stable >= int(np.isfinite(e.map_scores).sum())
+        assert n_map == 25 and n_settled >= int(np.isfinite(e.map_scores).sum())
         # the map's member (i, j) is the run of the i-th value of the first axis and the
         # j-th of the second
         (ky, vy), (kx, vx) = list(mfcontrol.api.run.batch.parse_grid(
@@ -69,7 +69,7 @@ def test_the_table_is_the_tuned_controllers_runs(run):
             obj = mfcontrol.api.results.objective.Objective.parse(best["benchmark.objective"])
             assert e.map_scores[i, j] == obj.score_run(m)
         finite = e.map_scores[np.isfinite(e.map_scores)]
-        assert row.worst_map_stable == (finite.max() if finite.size else math.inf)
+        assert row.worst_map_settled == (finite.max() if finite.size else math.inf)
     md = (out / "report.md").read_text()
     for e in entries:
         assert f"| {PLANT} | {e.controller} |" in md
@@ -181,26 +181,26 @@ def test_a_search_that_finds_nothing_is_reported_as_such(tmp_path, monkeypatch):
     monkeypatch.setattr("mfcontrol.experiments.tune.tune", nothing_stable)
     entries = bm.benchmark([str(plant)], budget=12, out=tmp_path / "out")
     ip = next(e for e in entries if e.controller == "i-P")
-    assert not ip.stable and math.isinf(ip.objective) and ip.tuned == {}
+    assert not ip.settled and math.isinf(ip.objective) and ip.tuned == {}
     md = (tmp_path / "out" / "report.md").read_text()
-    assert "| my-plant | i-P | no stable point found |" in md
+    assert "| my-plant | i-P | no settled point found |" in md
 
 
-def _entry(controller, objective, stable=True, tuned=None):
+def _entry(controller, objective, settled=True, tuned=None):
     return bm.Entry(plant="p", controller=controller, config=None, tuned=tuned or {},
                     evaluations=10, objective=objective, iae_setpoint=objective,
-                    iae_load=objective, tv_u_noise=objective, worst=objective, n_stable=25,
-                    n_map=25, stable=stable, tuning_seconds=1.0, map_scores=np.zeros((5, 5)))
+                    iae_load=objective, tv_u_noise=objective, worst=objective, n_settled=25,
+                    n_map=25, settled=settled, tuning_seconds=1.0, map_scores=np.zeros((5, 5)))
 
 
 def test_findings_name_winners_losers_and_bounds():
     spaces = {"p": {"PID": (["controller.kp=0.1:10"], ["controller.kp"]),
                     "i-P": (["controller.kp=0.1:10"], []), "i-PI": (["controller.kp=0.1:10"], [])}}
     entries = [_entry("PID", 2.0, tuned={"controller.kp": 10.0}),
-               _entry("i-P", 1.0, stable=False, tuned={"controller.kp": 5.0}),
+               _entry("i-P", 1.0, settled=False, tuned={"controller.kp": 5.0}),
                _entry("i-PI", 3.0, tuned={"controller.kp": 0.1})]
     text = "\n".join(bm._findings(entries, ["p"], spaces))
     # the unstable i-P is never best although its numbers are lowest
     assert "Best on the tuned objective: PID on 1 (p); i-P on none; i-PI on none." in text
-    assert "i-P on p (not stable), i-PI on p (1.5x the PID's)" in text
+    assert "i-P on p (not settled), i-PI on p (1.5x the PID's)" in text
     assert "PID kp on p (upper, 10), i-PI kp on p (lower, 0.1)" in text

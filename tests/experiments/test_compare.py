@@ -22,7 +22,7 @@ def test_each_row_is_the_cases_own_run(written):
     assert table["case"].tolist() == CASES
     for name, row in zip(CASES, table.itertuples(), strict=True):
         m = mfcontrol.run_case(name, SHORT).metrics
-        assert row.iae == m["iae"] and row.tv_u == m["tv_u"] and row.stable == m["stable"]
+        assert row.iae == m["iae"] and row.tv_u == m["tv_u"] and row.settled == m["settled"]
     assert table["controller"].tolist() == ["PI (kp 0.2, ki 0.54)",
                                             "i-PI, algebraic F (M 40) (alpha 50, kp 20, "
                                             "ki 50)"]
@@ -41,7 +41,7 @@ def test_the_metrics_carry_the_plants_units(written):
     # issue 28: the table had no units; the motor's speed is in rad/s, its input in V
     comp, out = written
     head = comp.markdown().split("\n")[0]
-    assert "| IAE (rad) | IAE load (rad) | TV(u) (V) | overshoot % | settling (s) | stable |" \
+    assert "| IAE (rad) | IAE load (rad) | TV(u) (V) | overshoot % | settling (s) | settled |" \
         in head
 
 

@@ -33,7 +33,7 @@ def frame(xs=XS, ys=YS, metric=f, threshold=5.0, extra=None, diverge_above=np.in
         diverged = v > diverge_above
         rows.append({**row, "iae": v, "ise": v * v, "max_abs_e": v / 2,
                      "diverged": diverged, "t_diverge": 0.01 if diverged else np.nan,
-                     "n_samples": 100, "stable": bool(v < threshold and not diverged),
+                     "n_samples": 100, "settled": bool(v < threshold and not diverged),
                      "member": m})
     return pd.DataFrame(rows)
 
@@ -43,11 +43,11 @@ def mesh_of(fig: Figure, i=0) -> QuadMesh:
 
 
 def boundary_lines(ax):
-    return [ln for ln in ax.get_lines() if ln.get_gid() == "stability-boundary"]
+    return [ln for ln in ax.get_lines() if ln.get_gid() == "settling-boundary"]
 
 
 def hatched_cells(ax):
-    hatch = [c for c in ax.collections if c.get_gid() == "unstable-hatch"]
+    hatch = [c for c in ax.collections if c.get_gid() == "unsettled-hatch"]
     return len(hatch[0].get_paths()) if hatch else 0
 
 
@@ -122,31 +122,31 @@ def test_colour_bar_and_axis_labels():
 def test_boundary_drawn_exactly_when_both_classes_exist():
     mixed = maps.heatmap(frame(threshold=5.0), "controller.alpha", "plant.dR", "iae")
     lines = boundary_lines(mixed.axes[0])
-    assert lines and "stability boundary" in legend_texts(mixed.axes[0])
-    assert "all stable" not in mixed.axes[0].get_title()
+    assert lines and "boundary of the settled runs" in legend_texts(mixed.axes[0])
+    assert "all settled" not in mixed.axes[0].get_title()
     # f >= 5 at x = 1 (3 cells) and at x = 0.1, y = 3 (1 cell): those are hatched
     assert hatched_cells(mixed.axes[0]) == 4
-    assert "unstable" in legend_texts(mixed.axes[0])
+    assert "not settled" in legend_texts(mixed.axes[0])
 
-    for threshold, words, hatched in ((1e9, "all stable", 0), (-1.0, "none stable", 12)):
+    for threshold, words, hatched in ((1e9, "all settled", 0), (-1.0, "none settled", 12)):
         fig = maps.heatmap(frame(threshold=threshold), "controller.alpha", "plant.dR", "iae")
         assert boundary_lines(fig.axes[0]) == []
-        assert "stability boundary" not in legend_texts(fig.axes[0])
+        assert "boundary of the settled runs" not in legend_texts(fig.axes[0])
         assert words in fig.axes[0].get_title()
         assert hatched_cells(fig.axes[0]) == hatched
 
 
 def test_no_stable_column_no_boundary():
-    fig = maps.heatmap(frame().drop(columns="stable"), "controller.alpha", "plant.dR", "iae")
+    fig = maps.heatmap(frame().drop(columns="settled"), "controller.alpha", "plant.dR", "iae")
     assert boundary_lines(fig.axes[0]) == [] and hatched_cells(fig.axes[0]) == 0
-    assert "stable" not in fig.axes[0].get_title()
+    assert "settled" not in fig.axes[0].get_title()
 
 
 def test_boundary_runs_between_stable_and_unstable_cells():
     # stable exactly where x < 0.1: the boundary is the vertical line at the geometric
     # midpoint between 1e-2 and 1e-1, over the whole height of the map
     df = frame()
-    df["stable"] = df["controller.alpha"] < 0.05
+    df["settled"] = df["controller.alpha"] < 0.05
     fig = maps.heatmap(df, "controller.alpha", "plant.dR", "iae")
     (line,) = boundary_lines(fig.axes[0])
     np.testing.assert_allclose(line.get_xdata(), 10 ** -1.5)
@@ -247,7 +247,7 @@ def test_side_by_side_shares_the_colour_norm(tmp_path, monkeypatch):
     assert norms[0] is norms[1]
     # the stable members set the scale (found by the gallery: an unstable member's IAE of
     # 1e7 flattened every stable cell to one colour); the others are beyond its end
-    stable = pd.concat([a, b]).query("stable")["iae"]
+    stable = pd.concat([a, b]).query("settled")["iae"]
     assert (norms[0].vmin, norms[0].vmax) == pytest.approx((stable.min(), stable.max()))
     assert pd.concat([a, b])["iae"].max() > stable.max()
     assert mesh_of(fig, 1).colorbar.extend == "max"  # the bar says so with an arrow
@@ -317,13 +317,13 @@ def test_maps_of_divergence_columns_and_of_unstable_non_positive_values():
     (0.5 to 1.5, an arrow at the bottom); a log scale chosen from the stable members'
     values masked an unstable member's value <= 0, which was then painted the grey that
     means 'diverged'."""
-    fig = maps.heatmap(frame(), "controller.alpha", "plant.dR", "stable")
+    fig = maps.heatmap(frame(), "controller.alpha", "plant.dR", "settled")
     norm = mesh_of(fig).norm
     assert (norm.vmin, norm.vmax) == (0.0, 1.0)
 
     def spread(x, y):  # stable members span 4 decades; unstable ones go to zero and below
         return 10.0 ** (4 * x / XS[-1]) if y < 2 else -1.0
     f = frame(metric=spread, threshold=1e9)
-    f.loc[f["plant.dR"] >= 2, "stable"] = False
+    f.loc[f["plant.dR"] >= 2, "settled"] = False
     norm = mesh_of(maps.heatmap(f, "controller.alpha", "plant.dR", "iae")).norm
     assert not isinstance(norm, LogNorm) and norm.vmin > 0  # linear, stable members' range

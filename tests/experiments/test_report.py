@@ -29,7 +29,7 @@ def test_a_failed_loop_is_not_described_by_the_drift_law(horizons):
     assert len(failed) == 2
     for p, (_, _, r) in zip(failed, [h for h in horizons["paper"] if h[1] == "second-order"],
                             strict=True):
-        assert not r.metrics["stable"]
+        assert not r.metrics["settled"]
         assert "the loop fails" in p and "drifts" not in p and "-12.8" not in p
         assert report._fmt(r.signals["gamma"][-1]) in p  # its own final gamma
     held = [p for p in paras if "first-order" in p]
@@ -39,7 +39,7 @@ def test_a_failed_loop_is_not_described_by_the_drift_law(horizons):
 def test_a_held_loop_states_the_drift_it_measured(horizons):
     for p, (_, order, r) in zip(_paragraphs("published", horizons), horizons["published"],
                             strict=True):
-        assert r.metrics["stable"]
+        assert r.metrics["settled"]
         shape = "linearly" if order == "first-order" else "quadratically"
         assert f"drifts {shape}" in p
         drift = r.signals["gamma"][-1] - r.config["controller.gamma0"]
@@ -51,7 +51,7 @@ def _map(stable):
     gammas, eps = np.logspace(-10, -5, 11), np.logspace(-5, 3, 17)
     G, E = np.meshgrid(gammas, eps, indexing="ij")
     return pd.DataFrame({"controller.Gamma": G.ravel(), "controller.eps_M": E.ravel(),
-                         "stable": stable(G, E).ravel()})
+                         "settled": stable(G, E).ravel()})
 
 
 def test_the_gamma_eps_boundary_is_described_not_its_corners():
@@ -60,13 +60,13 @@ def test_the_gamma_eps_boundary_is_described_not_its_corners():
     text = report.gamma_eps_boundary(_map(lambda G, E: (G * E < 1e-8) & (G < 2e-6)))
     product = float(re.search(r"follows Gamma eps_M = ([0-9.e+-]+) ", text).group(1))
     assert 1e-8 / 10 ** 0.5 <= product <= 1e-8 * 10 ** 0.5  # within one eps_M grid step
-    assert "from 3.16e-06 to 1e-05 is unstable at every eps_M" in text
+    assert "from 3.16e-06 to 1e-05 is not settled at any eps_M" in text
     assert "smallest" not in text
 
 
 def test_rows_stable_everywhere_and_rows_that_alternate_are_said():
     text = report.gamma_eps_boundary(_map(lambda G, E: (G < 1e-9) | ((E > 1) & (E < 10))))
-    assert "from 1e-10 to 3.16e-10 is stable at every eps_M" in text
+    assert "from 1e-10 to 3.16e-10 is settled at every eps_M" in text
     assert "alternate along eps_M" in text
     text = report.gamma_eps_boundary(_map(lambda G, E: E < 1e-3 + 0 * G))
     assert "does not follow a constant product" in text
@@ -80,15 +80,15 @@ def test_a_span_is_said_only_over_consecutive_rows():
 
     text = report.gamma_eps_boundary(_map(lambda G, E: one(G, 1e-9) | one(G, 1e-7)
                                           | ((E < 1) & one(G, 1e-8))))
-    assert "Gamma = 1e-09, 1e-07 is stable at every eps_M" in text
+    assert "Gamma = 1e-09, 1e-07 is settled at every eps_M" in text
     assert "from 1e-09 to 1e-07" not in text
 
 
 def test_a_reversed_crossing_and_missing_cells_are_said_as_they_are():
     text = report.gamma_eps_boundary(_map(lambda G, E: E > 1 + 0 * G))
-    assert "is unstable at small eps_M and stable above" in text and "alternate" not in text
-    frame = _map(lambda G, E: E < 1e-3 + 0 * G).astype({"stable": object})
-    frame.loc[3, "stable"] = np.nan  # a cell without a result is not stable
+    assert "is not settled at small eps_M and settled above" in text and "alternate" not in text
+    frame = _map(lambda G, E: E < 1e-3 + 0 * G).astype({"settled": object})
+    frame.loc[3, "settled"] = np.nan  # a cell without a result is not stable
     assert "has cells without a result" in report.gamma_eps_boundary(frame)
 
 
@@ -99,7 +99,7 @@ def _run(gamma, stable=True, Gamma=5e-8, eps_M=0.1):
     return SimpleNamespace(config={"controller.gamma0": 1.0, "controller.Gamma": Gamma,
                                    "controller.eps_M": eps_M, "sim.h": 1e-6},
                            signals={"gamma": gamma}, time=t, error=np.zeros_like(t),
-                           metrics={"stable": stable})
+                           metrics={"settled": stable})
 
 
 def test_horizon_sentences_at_their_edges():

@@ -36,7 +36,7 @@ def test_results_have_one_row_per_member(tmp_path):
     sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(tmp_path / "s"))
     d = pd.read_parquet(tmp_path / "s" / "results.parquet")
     assert len(d) == 12 and d["member"].tolist() == list(range(12))
-    assert {"controller.alpha", "plant.dR", "iae", "stable", "t_diverge"} <= set(d.columns)
+    assert {"controller.alpha", "plant.dR", "iae", "settled", "t_diverge"} <= set(d.columns)
     np.testing.assert_array_equal(d["plant.dR"][:3], [0.0, 2.5, 5.0])  # last key fastest
     meta = json.loads((tmp_path / "s" / "sweep.json").read_text())
     assert meta["n_members"] == 12 and meta["case"] == "voltage-stable-standard"
@@ -83,7 +83,7 @@ def test_fast_sweep_is_close_to_the_exact_one_and_is_not_mixed_with_it(tmp_path)
     fast = pd.read_parquet(tmp_path / "fast" / "results.parquet")
     assert json.loads((tmp_path / "fast" / "sweep.json").read_text())["arithmetic"] == "fast"
     np.testing.assert_allclose(fast["iae"], exact["iae"], rtol=1e-12)
-    assert fast["stable"].tolist() == exact["stable"].tolist()
+    assert fast["settled"].tolist() == exact["settled"].tolist()
     # resuming a folder with the other arithmetic would mix two kinds of results
     proc = sweep("voltage-stable-standard", *GRID, *FAST, "--out", str(tmp_path / "exact"),
                  "--fast", check=False)

@@ -55,7 +55,7 @@ def test_best_toml_reproduces_the_reported_value_exactly(closed_form, tmp_path):
     _, cfg = cases.resolve_case(tmp_path / "best.toml")
     m = cases.run_config(cfg).metrics
     again = Objective.parse(summary["objective"]).score(
-        {k: np.array([m[k]]) for k in ("ise", "tv_u", "diverged", "stable")})[0]
+        {k: np.array([m[k]]) for k in ("ise", "tv_u", "diverged", "settled")})[0]
     assert again == summary["best"] == summary["nominal"] == r.value
     assert summary["parameters"] == {k: cfg[k] for k in summary["parameters"]}
     history = pd.read_parquet(tmp_path / "history.parquet")
@@ -101,7 +101,7 @@ def test_scenarios_aggregate_each_scenarios_own_run(closed_form, how):
         for b in (1.0, 1.5):
             m = mfcontrol.simulate(r.config.with_overrides({"plant.a": a, "plant.b": b})).metrics
             scores.append(obj.score({k: np.array([m[k]]) for k in
-                                     ("ise", "diverged", "stable")})[0])
+                                     ("ise", "diverged", "settled")})[0])
     assert r.value == (max(scores) if how == "max" else np.mean(scores))
 
 
@@ -274,7 +274,7 @@ def test_a_constraint_on_the_linear_analysis_holds_at_the_best_point(tmp_path):
     h = held.history[~held.history["refused"]]
     assert np.all(np.isinf(h.loc[h["linear_Ms"] > 1.4, "value"]))
     assert np.all(np.isfinite(h.loc[h["linear_Ms"] <= 1.4, "value"])
-                  | ~h.loc[h["linear_Ms"] <= 1.4, "stable"])
+                  | ~h.loc[h["linear_Ms"] <= 1.4, "settled"])
     assert json.loads((tmp_path / "summary.json").read_text())["constraints"] == ["Ms<=1.4"]
 
 

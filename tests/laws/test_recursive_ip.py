@@ -89,7 +89,7 @@ def test_zero_k_gamma_rate_term_changes_nothing():
 def test_printed_p_term_is_positive_feedback():
     r = mfcontrol.run_case("voltage-stable-standard",
                            {"controller.p_error": "y-r", "controller.p_sample": "current"})
-    assert not r.metrics["stable"]
+    assert not r.metrics["settled"]
 
 
 def test_published_recursion_winds_up_and_anti_windup_stops_it():

@@ -221,9 +221,9 @@ OPTIONS: tuple[Option, ...] = (
     # metrics
     _o("metrics.settle_time", "float", 1e-3, "max |e| is taken over t >= this (s)",
        check="nonnegative"),
-    _o("metrics.final_window", "float", 0.2, "stability window: the last fraction of the "
+    _o("metrics.final_window", "float", 0.2, "settling window: the last fraction of the "
        "horizon", check="fraction"),
-    _o("metrics.stable_tol", "float", 0.1, "stable if max |e| over the window <= this "
+    _o("metrics.settled_tol", "float", 0.1, "settled if max |e| over the window <= this "
        "times max |y*|", check="positive"),
     # sweeps
     # benchmark set (mfcontrol benchmark)

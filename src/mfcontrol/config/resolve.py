@@ -144,7 +144,16 @@ def _is_event(e: Any) -> bool:
             and isinstance(e["name"], str) and _is_number(v) and math.isfinite(as_float(v)))
 
 
+#: keys that were renamed, and their new names: an old case file is told, not guessed at
+RENAMED = {
+    # a tracking test, not a stability test: the linear loop's stability is the analysis's
+    "metrics.stable_tol": "metrics.settled_tol",
+}
+
+
 def unknown_key(key: str, value: Any) -> ConfigError:
+    if key in RENAMED:
+        return ConfigError(key, value, f"renamed {RENAMED[key]} (the same tolerance)")
     close = difflib.get_close_matches(key, BY_KEY, n=1)
     hint = f"did you mean {close[0]}?" if close else "see `mfcontrol show` for the known keys"
     return ConfigError(key, value, f"unknown key; {hint}")

@@ -13,7 +13,8 @@ then its best configuration is evaluated on
   (``iae - iae_load``) and from it on (``iae_load``);
 * noise sensitivity: TV(u), the total variation of the control, with the case's noise;
 * robustness: the objective over the robustness map (the plant changes of
-  ``benchmark.robustness``, with noise): its worst member and how many are stable.
+  ``benchmark.robustness``, with noise): its worst member, how many
+  settle (track within ``metrics.settled_tol``) and how many have a stable linear loop.
 
 Layout of ``OUT``::
 
@@ -76,23 +77,28 @@ class Entry:
     iae_load: float
     tv_u_noise: float
     worst: float
-    n_stable: int
+    n_settled: int
     n_map: int
-    stable: bool
+    settled: bool
     tuning_seconds: float
     map_scores: np.ndarray
     #: the tuned loop's linear analysis (:func:`mfcontrol.analyze`): the keys of
-    #: :data:`LINEAR`, nan where the search found no stable point
+    #: :data:`LINEAR`, nan where the search found no settled point
     linear: dict[str, Any] = field(default_factory=dict)
+    #: how many members of the robustness map have a stable linear loop (spectral radius
+    #: below 1, :func:`mfcontrol.analyze`); 0 where the search found no settled point
+    n_linear_stable: int = 0
 
     def row(self) -> dict[str, Any]:
         return {"plant": self.plant, "controller": self.controller,
                 "gains": ", ".join(f"{k.removeprefix('controller.')} {v:.3g}"
-                                   for k, v in self.tuned.items()) or "no stable point found",
+                                   for k, v in self.tuned.items()) or "no settled point found",
                 "points": self.evaluations, "objective": self.objective,
                 "iae_setpoint": self.iae_setpoint, "iae_load": self.iae_load,
-                "tv_u_noise": self.tv_u_noise, "worst_map_stable": self.worst,
-                "stable_map": f"{self.n_stable}/{self.n_map}", "stable": self.stable,
+                "tv_u_noise": self.tv_u_noise, "worst_map_settled": self.worst,
+                "settled_map": f"{self.n_settled}/{self.n_map}",
+                "linear_stable_map": f"{self.n_linear_stable}/{self.n_map}",
+                "settled": self.settled,
                 "tuning_s": round(self.tuning_seconds, 1),
                 **{f"linear_{k}" if k == "stable" else k: self.linear.get(k, math.nan)
                    for k in LINEAR}}
@@ -212,7 +218,7 @@ def _tuned(plant: _Plant, name: str, law: str, budget: int, seed: int, out: Path
     if r.stopped == "interrupted":
         raise KeyboardInterrupt
     marker.write_text(json.dumps(inputs, indent=2) + "\n")  # last: the tuning is whole
-    # a search that found no stable point has no tuned gains to evaluate
+    # a search that found no settled point has no tuned gains to evaluate
     return (r.config if math.isfinite(r.value) else None), r.best, r.evaluations, r.seconds
 
 
@@ -220,14 +226,14 @@ def _evaluate(plant: _Plant, name: str, cfg: Config | None, tuned: dict, evaluat
               seconds: float) -> Entry:
     from ..api.run.simulate import simulate
 
-    if cfg is None:  # the search found no stable point: nothing to evaluate
+    if cfg is None:  # the search found no settled point: nothing to evaluate
         shape = tuple(v.size for v in plant.robustness.values())
         return Entry(plant=plant.label, controller=name, config=plant.config, tuned={},
                      evaluations=evaluations, objective=math.inf, iae_setpoint=math.nan,
-                     iae_load=math.nan, tv_u_noise=math.nan, worst=math.inf, n_stable=0,
-                     n_map=math.prod(shape), stable=False, tuning_seconds=seconds,
+                     iae_load=math.nan, tv_u_noise=math.nan, worst=math.inf, n_settled=0,
+                     n_map=math.prod(shape), settled=False, tuning_seconds=seconds,
                      map_scores=np.full(shape, np.inf))
-    from .analyze import analyze
+    from .analyze import analyze, linear_margins
 
     obj = Objective.parse(cfg["benchmark.objective"], "benchmark.objective")
     margins = analyze(cfg).margins
@@ -236,6 +242,9 @@ def _evaluate(plant: _Plant, name: str, cfg: Config | None, tuned: dict, evaluat
     grid = batch.make_grid(cfg, plant.robustness)
     cols = batch.run_grid(grid)
     scores = obj.score(cols).reshape(grid.shape)
+    # the analysis's verdict on each member beside the run's (which tracks, with noise)
+    radius = linear_margins([grid.config(j) for j in range(grid.n_members)],
+                            ["spectral_radius"], list(plant.robustness))["spectral_radius"]
     finite = np.isfinite(scores)
     load = quiet["iae_load"]
     return Entry(plant=plant.label, controller=name, config=cfg, tuned=tuned,
@@ -244,8 +253,9 @@ def _evaluate(plant: _Plant, name: str, cfg: Config | None, tuned: dict, evaluat
                  iae_setpoint=quiet["iae"] - (load if math.isfinite(load) else 0.0),
                  iae_load=load, tv_u_noise=noisy["tv_u"],
                  worst=float(scores[finite].max()) if finite.any() else math.inf,
-                 n_stable=int(np.sum(cols["stable"])), n_map=grid.n_members,
-                 stable=bool(noisy["stable"] and quiet["stable"]),
+                 n_settled=int(np.sum(cols["settled"])), n_map=grid.n_members,
+                 n_linear_stable=int(np.sum(radius < 1.0)),
+                 settled=bool(noisy["settled"] and quiet["settled"]),
                  tuning_seconds=seconds, map_scores=scores,
                  linear={k: margins[k] for k in LINEAR})
 
@@ -315,7 +325,7 @@ def benchmark(plant_names: Sequence[str | Path] | None = None, *,
 def _plant_figure(plant: str, entries: list[Entry], out: Path) -> None:
     from .compare import compare
 
-    shown = [e for e in entries if e.tuned]  # those whose search found a stable point
+    shown = [e for e in entries if e.tuned]  # those whose search found a settled point
     if len(shown) < 2:
         return
     comp = compare([e.config for e in shown])
@@ -359,20 +369,24 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
         "Columns: *objective* is the tuned objective on that scenario; *IAE setpoint* "
         "and *IAE load* come from the same run without noise, before and from the load "
         "step (n/a: the case has none); *TV(u) noise* is the total variation of the "
-        "control with the noise; *stable map* is how many members of the robustness map "
-        "(the plant changes of `benchmark.robustness`, noise on) are stable, *worst "
-        "(stable)* the objective's worst value over those that are (inf: none is); "
-        "*stable* is the nominal run's stability with and without noise. A controller "
-        "that is not stable is never named best below.", "",
+        "control with the noise; *settled map* is how many members of the robustness map "
+        "(the plant changes of `benchmark.robustness`, noise on) settle, i.e. track "
+        "within `metrics.settled_tol` of the reference over the run's last "
+        "`metrics.final_window` (a tracking test, not a stability one), *linear map* how "
+        "many have a stable linear loop (`mfcontrol analyze`: every pole inside the unit "
+        "circle, no noise, no saturation), *worst (settled)* the objective's worst value "
+        "over those that settle (inf: none does); *settled* is the nominal run's verdict "
+        "with and without noise. A controller whose nominal run does not settle is never "
+        "named best below.", "",
         "| plant | controller | gains | points | objective | IAE setpoint | IAE load | "
-        "TV(u) noise | stable map | worst (stable) | stable |",
-        "|---|---|---|---|---|---|---|---|---|---|---|"]
+        "TV(u) noise | settled map | linear map | worst (settled) | settled |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for e in entries:
         r = e.row()
         lines.append(f"| {e.plant} | {e.controller} | {r['gains']} | {e.evaluations} | "
                      f"{num(e.objective)} | {num(e.iae_setpoint)} | {num(e.iae_load)} | "
-                     f"{num(e.tv_u_noise)} | {r['stable_map']} | {num(e.worst)} | "
-                     f"{'yes' if e.stable else 'no'} |")
+                     f"{num(e.tv_u_noise)} | {r['settled_map']} | {r['linear_stable_map']} | "
+                     f"{num(e.worst)} | {'yes' if e.settled else 'no'} |")
     lines += ["", "## Each tuned loop, linear", "",
               "The tuned controllers' loops as `mfcontrol analyze` sees them (the law's "
               "filter on the plant, linearised at the reference where it is nonlinear, "
@@ -402,8 +416,8 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
     spaces = {p: plants_[p].spaces for p in labels}
     lines += ["", "## What the table shows", "", *_findings(entries, labels, spaces), "",
               "## Figures", "",
-              "Robustness maps (objective over the plant changes; crosses: unstable or "
-              "diverged members):", "", "![robustness maps](robustness.png)", ""]
+              "Robustness maps (objective over the plant changes; crosses: members that did "
+              "not settle or diverged):", "", "![robustness maps](robustness.png)", ""]
     for p in labels:
         lines += [f"### {p}", "", f"{plants_[p].config['description']}", "",
                   f"![{p}: the three tuned controllers]({p}/comparison.png)", ""]
@@ -414,14 +428,14 @@ def write_report(entries: list[Entry], out: Path, *, budget: int, seed: int,
 
 def _findings(entries: list[Entry], plants_: list[str],
               spaces: dict[str, dict[str, tuple[list[str], list[str]]]]) -> list[str]:
-    """Plain sentences computed from the table: who wins what among the stable
+    """Plain sentences computed from the table: who wins what among the settled
     controllers, where the intelligent ones lose, and where any is fragile."""
     out = []
     names = [c for c, _, _ in CONTROLLERS]
 
     def winner(p: str, attr: str) -> str | None:
-        vals = {e.controller: (-e.n_stable, e.worst) if attr == "robust" else
-                (getattr(e, attr),) for e in entries if e.plant == p and e.stable}
+        vals = {e.controller: (-e.n_settled, e.worst) if attr == "robust" else
+                (getattr(e, attr),) for e in entries if e.plant == p and e.settled}
         vals = {c: v for c, v in vals.items() if all(math.isfinite(x) for x in v[1:]
                                                      if attr == "robust") and
                 (attr == "robust" or math.isfinite(v[0]))}
@@ -431,7 +445,7 @@ def _findings(entries: list[Entry], plants_: list[str],
                        ("iae_setpoint", "setpoint tracking (IAE without noise)"),
                        ("iae_load", "load rejection (IAE from the load step, no noise)"),
                        ("tv_u_noise", "the quietest control under noise (TV(u))"),
-                       ("robust", "robustness (most stable members of the map, then the "
+                       ("robust", "robustness (most settled members of the map, then the "
                         "lowest worst value)")):
         won = {p: winner(p, attr) for p in plants_}
         wins = {c: [p for p in plants_ if won[p] == c] for c in names}
@@ -439,7 +453,7 @@ def _findings(entries: list[Entry], plants_: list[str],
                  for c, ps in wins.items()]
         nobody = [p for p in plants_ if won[p] is None]
         if nobody:
-            parts.append(f"no stable controller with a number on {', '.join(nobody)}")
+            parts.append(f"no settled controller with a number on {', '.join(nobody)}")
         out.append(f"- Best on {what}: " + "; ".join(parts) + ".")
     lost = []
     for p in plants_:
@@ -447,9 +461,9 @@ def _findings(entries: list[Entry], plants_: list[str],
         for e in entries:
             if e.plant != p or e.controller == "PID":
                 continue
-            if not e.stable and pid.stable:
-                lost.append(f"{e.controller} on {p} (not stable)")
-            elif e.stable and pid.stable and e.objective > pid.objective:
+            if not e.settled and pid.settled:
+                lost.append(f"{e.controller} on {p} (not settled)")
+            elif e.settled and pid.settled and e.objective > pid.objective:
                 lost.append(f"{e.controller} on {p} "
                             f"({e.objective / pid.objective:.3g}x the PID's)")
     out.append("- Where an intelligent controller loses to the PID on the tuned objective: "
@@ -468,9 +482,9 @@ def _findings(entries: list[Entry], plants_: list[str],
                                     f"{e.plant} ({side}, {bound:g})")
     out.append("- Tuned values at a bound of their search space (the best may lie beyond "
                "it): " + (", ".join(at_bound) if at_bound else "none") + ".")
-    fragile = [f"{e.controller} on {e.plant} ({e.n_stable}/{e.n_map})" for e in entries
-               if e.n_stable < e.n_map]
-    out.append("- Unstable somewhere on the robustness map: "
+    fragile = [f"{e.controller} on {e.plant} ({e.n_settled}/{e.n_map})" for e in entries
+               if e.n_settled < e.n_map]
+    out.append("- Not settled somewhere on the robustness map: "
                + (", ".join(fragile) if fragile else "none") + ".")
     return out
 

@@ -160,7 +160,7 @@ def run_case(name_or_path: str | Path,
     --------
     >>> import mfcontrol
     >>> r = mfcontrol.run_case("voltage-stable-standard", overrides={"sim.t_end": 1e-3})
-    >>> r.metrics["stable"], round(float(r.signals["y"][-1]), 3)
+    >>> r.metrics["settled"], round(float(r.signals["y"][-1]), 3)
     (True, 0.926)
     """
     name, cfg = resolve_case(name_or_path, overrides, command="run")

@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 
 #: the columns of the markdown table and the figure's table: (metric, header)
 SHOWN = (*((m, _metrics.SHORT[m]) for m in ("iae", "iae_load", "tv_u")),
-         ("overshoot", "overshoot %"), ("settling_time", "settling (s)"), ("stable", "stable"))
+         ("overshoot", "overshoot %"), ("settling_time", "settling (s)"), ("settled", "settled"))
 #: keys that may differ between compared cases without changing the scenario
 _OWN = ("description", "controller.", "sweep.")
 

@@ -1,10 +1,10 @@
-"""Heat maps of a sweep's metrics over two swept keys, with the stability boundary.
+"""Heat maps of a sweep's metrics over two swept keys, with the settling boundary.
 
 A sweep folder ``DIR`` holds ``DIR/results.parquet`` (one row per member: the swept keys
 under their dotted names, then the metrics) and ``DIR/sweep.json``. :func:`heatmap` turns
 the rows into a grid ``metric(x, y)`` and draws it with ``pcolormesh`` on the cell edges
 (geometric midpoints on a log axis, arithmetic otherwise), overlays the contour
-``stable = 0.5`` in red, hatches the unstable cells and greys out the members that
+``settled = 0.5`` in red, hatches the unsettled cells and greys out the members that
 diverged: their metrics only cover the samples before divergence, so a member that blew up
 early would otherwise look like the best one.
 
@@ -38,7 +38,7 @@ METRICS = (*_metrics.COLUMNS, "member")
 
 #: Metrics that stay meaningful for a diverged member (the others stop accumulating at the
 #: divergence, so they are hidden for diverged members).
-_ABOUT_DIVERGENCE = frozenset({"diverged", "t_diverge", "n_samples", "stable", "member"})
+_ABOUT_DIVERGENCE = frozenset({"diverged", "t_diverge", "n_samples", "settled", "member"})
 
 BAD_COLOR = "0.82"
 BOUNDARY_COLOR = "tab:red"
@@ -84,24 +84,24 @@ class _Grid:
     xs: np.ndarray
     ys: np.ndarray
     z: np.ndarray          # metric, NaN where hidden (diverged / missing / non-finite)
-    stable: np.ndarray | None  # 1.0 / 0.0, NaN where no member
+    settled: np.ndarray | None  # 1.0 / 0.0, NaN where no member
     n_diverged: int        # cells hidden because the member diverged
     n_missing: int         # cells with no value for another reason
     where: dict[str, Any]
     log_x: bool
     log_y: bool
 
-    def stability(self) -> str | None:
-        """'mixed', 'all stable', 'none stable', or None without a stable column."""
-        if self.stable is None:
+    def settling(self) -> str | None:
+        """'mixed', 'all settled', 'none settled', or None without a settled column."""
+        if self.settled is None:
             return None
-        s = self.stable[np.isfinite(self.stable)]
+        s = self.settled[np.isfinite(self.settled)]
         if s.size == 0:
             return None
         if np.all(s == 1.0):
-            return "all stable"
+            return "all settled"
         if np.all(s == 0.0):
-            return "none stable"
+            return "none settled"
         return "mixed"
 
 
@@ -167,10 +167,10 @@ def _grid(frame: pd.DataFrame, x: str, y: str, metric: str, where: dict | None,
     n_diverged = int(diverged.sum())
     n_missing = int(np.isnan(z).sum()) - n_diverged
 
-    stable = None
-    if "stable" in rows.columns:
-        stable = np.full((ys.size, xs.size), np.nan)
-        stable[iy, ix] = rows["stable"].to_numpy(dtype=float)
+    settled = None
+    if "settled" in rows.columns:
+        settled = np.full((ys.size, xs.size), np.nan)
+        settled[iy, ix] = rows["settled"].to_numpy(dtype=float)
 
     def decide(name: str, vals: np.ndarray, flag: bool | None) -> bool:
         if flag is None:
@@ -179,27 +179,27 @@ def _grid(frame: pd.DataFrame, x: str, y: str, metric: str, where: dict | None,
             raise ValueError(f"log axis for {name!r} needs positive values, got {vals[0]:g}")
         return bool(flag)
 
-    return _Grid(x, y, metric, xs, ys, z, stable, n_diverged, n_missing, where,
+    return _Grid(x, y, metric, xs, ys, z, settled, n_diverged, n_missing, where,
                  decide(x, xs, log_x), decide(y, ys, log_y))
 
 
 def colour_range(maps: list[tuple[np.ndarray, np.ndarray | None]], metric: str,
                  log_color: bool | None = None) -> tuple[float, float, bool]:
-    """One colour scale for maps of ``metric`` (each its values and its stable column, 1/0
+    """One colour scale for maps of ``metric`` (each its values and its settled column, 1/0
     or None): ``(low, high, log)``. Logarithmic for positive values spanning more than two
     decades (or when ``log_color``), linear otherwise. The CLI's maps and the tuner's
     draw with it."""
     finite = np.concatenate([z[np.isfinite(z)] for z, _ in maps])
-    # the stable members set the scale when there are any: an unstable member that did not
-    # diverge (IAE 1e7) flattened every stable cell to one colour; it is hatched, and drawn
+    # the settled members set the scale when there are any: an unsettled member that did not
+    # diverge (IAE 1e7) flattened every settled cell to one colour; it is hatched, and drawn
     # in the scale's end colour. Not for the columns about divergence itself (a map of
-    # `stable` over its stable members would be all one value)
+    # `settled` over its settled members would be all one value)
     everything = finite
     if metric not in _ABOUT_DIVERGENCE:
-        stable = np.concatenate([z[np.isfinite(z) & (s == 1.0)] for z, s in maps
+        settled = np.concatenate([z[np.isfinite(z) & (s == 1.0)] for z, s in maps
                                  if s is not None] or [np.empty(0)])
-        if stable.size:
-            finite = stable
+        if settled.size:
+            finite = settled
     if finite.size == 0:
         return 0.0, 1.0, False
     lo, hi = float(finite.min()), float(finite.max())
@@ -222,12 +222,12 @@ def colour_range(maps: list[tuple[np.ndarray, np.ndarray | None]], metric: str,
 
 def _norm(grids: list[_Grid], log_color: bool | None) -> Normalize:
     """One colour scale for all grids (:func:`colour_range`)."""
-    lo, hi, log = colour_range([(g.z, g.stable) for g in grids], grids[0].metric, log_color)
+    lo, hi, log = colour_range([(g.z, g.settled) for g in grids], grids[0].metric, log_color)
     return LogNorm(lo, hi) if log else Normalize(lo, hi)
 
 
 def _extend(grids: list[_Grid], norm: Normalize) -> str:
-    """The colour bar's arrows for members beyond the scale (unstable ones, see _norm)."""
+    """The colour bar's arrows for members beyond the scale (unsettled ones, see _norm)."""
     z = np.concatenate([g.z[np.isfinite(g.z)] for g in grids])
     above, below = bool((z > norm.vmax).any()), bool((z < norm.vmin).any())
     return {(True, True): "both", (True, False): "max", (False, True): "min"}.get(
@@ -244,28 +244,28 @@ def _what(metric: str, x: str, y: str) -> str:
     return f"{_metrics.LABELS.get(metric, (metric,))[0]} over {quantity(x)} and {quantity(y)}"
 
 
-def _hatch_unstable(ax, grid: _Grid) -> None:
-    """Light hatching over the unstable members that did not diverge (the diverged ones are
+def _hatch_unsettled(ax, grid: _Grid) -> None:
+    """Light hatching over the unsettled members that did not diverge (the diverged ones are
     grey already), so the map shows which side of the boundary is which."""
     ex, ey = cell_edges(grid.xs, grid.log_x), cell_edges(grid.ys, grid.log_y)
-    iy, ix = np.nonzero((grid.stable == 0.0) & np.isfinite(grid.z))
+    iy, ix = np.nonzero((grid.settled == 0.0) & np.isfinite(grid.z))
     cells = [Rectangle((ex[i], ey[j]), ex[i + 1] - ex[i], ey[j + 1] - ey[j])
              for j, i in zip(iy, ix, strict=True)]
     if cells:
         ax.add_collection(PatchCollection(cells, facecolor="none", edgecolor=HATCH_COLOR,
-                                          linewidth=0, hatch="///", gid="unstable-hatch"),
+                                          linewidth=0, hatch="///", gid="unsettled-hatch"),
                           autolim=False)
 
 
 def _boundary(ax, grid: _Grid) -> bool:
-    """Draw the contour stable = 0.5 (computed in the axes' own coordinates, so on a log
+    """Draw the contour settled = 0.5 (computed in the axes' own coordinates, so on a log
     axis it crosses halfway between cells, on the cell edges). True if it was drawn."""
-    if grid.stability() != "mixed":
+    if grid.settling() != "mixed":
         return False
-    assert grid.stable is not None  # it is "mixed"
+    assert grid.settled is not None  # it is "mixed"
     import contourpy
 
-    # Extend the stable grid by its own border values out to the outer cell edges, so the
+    # Extend the settled grid by its own border values out to the outer cell edges, so the
     # boundary runs to the edge of the map (and a single row or column gets one too).
     ex = cell_edges(grid.xs, grid.log_x)
     ey = cell_edges(grid.ys, grid.log_y)
@@ -275,10 +275,10 @@ def _boundary(ax, grid: _Grid) -> bool:
         tx = np.log10(tx)
     if grid.log_y:
         ty = np.log10(ty)
-    s = np.pad(grid.stable, 1, mode="edge")
+    s = np.pad(grid.settled, 1, mode="edge")
     gen = contourpy.contour_generator(tx, ty, np.ma.masked_invalid(s),
                                       line_type=contourpy.LineType.Separate)
-    label = "stability boundary"
+    label = "boundary of the settled runs"
     drawn = False
     # LineType.Separate: one (n, 2) array of points per line (contourpy's annotation is
     # the union over every line type)
@@ -286,7 +286,7 @@ def _boundary(ax, grid: _Grid) -> bool:
         lx = 10.0 ** line[:, 0] if grid.log_x else line[:, 0]
         ly = 10.0 ** line[:, 1] if grid.log_y else line[:, 1]
         ax.plot(lx, ly, color=BOUNDARY_COLOR, lw=2.2, label=label if not drawn else None,
-                gid="stability-boundary")
+                gid="settling-boundary")
         drawn = True
     return drawn
 
@@ -297,8 +297,8 @@ def _title(grid: _Grid, title: str | None) -> str:
     fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in grid.where.items())
     if fixed:
         title += f"\n({fixed})"
-    state = grid.stability()
-    if state in ("all stable", "none stable"):
+    state = grid.settling()
+    if state in ("all settled", "none settled"):
         title += f" [{state}]" if fixed else f"\n[{state}]"
     return title
 
@@ -315,13 +315,13 @@ def _draw(ax, grid: _Grid, norm: Normalize, title: str | None):
     ex, ey = cell_edges(grid.xs, grid.log_x), cell_edges(grid.ys, grid.log_y)
     ax.set_xlim(ex[0], ex[-1])
     ax.set_ylim(ey[0], ey[-1])
-    if grid.stable is not None:
-        _hatch_unstable(ax, grid)
+    if grid.settled is not None:
+        _hatch_unsettled(ax, grid)
     _boundary(ax, grid)
     handles, _ = ax.get_legend_handles_labels()
-    if any(c.get_gid() == "unstable-hatch" for c in ax.collections):
+    if any(c.get_gid() == "unsettled-hatch" for c in ax.collections):
         handles.append(Patch(facecolor="0.45", edgecolor=HATCH_COLOR, hatch="///", lw=0,
-                             label="unstable"))
+                             label="not settled"))
     if grid.n_diverged:
         handles.append(Patch(facecolor=BAD_COLOR, edgecolor="0.5",
                              label=f"diverged ({grid.n_diverged} of {grid.z.size})"))
@@ -347,8 +347,8 @@ def heatmap(frame: pd.DataFrame, x: str, y: str, metric: str, *, ax=None,
     ``where`` fixes the other swept keys that vary in ``frame`` ({key: value}). Log axes
     and the log colour scale are chosen automatically when left at None. Diverged members
     are drawn light grey (their metrics stop at the divergence), except for the metrics
-    about divergence itself (``diverged``, ``t_diverge``, ``n_samples``, ``stable``); the
-    contour between stable and unstable members is drawn in red and the unstable cells are
+    about divergence itself (``diverged``, ``t_diverge``, ``n_samples``, ``settled``); the
+    contour between settled and unsettled members is drawn in red and the unsettled cells are
     hatched. ``units``: the output's and the input's units for the colour bar, by default
     read from the sweep's case (``frame.attrs["sweep"]``, as :func:`load` keeps it).
     Returns the new figure, or ``ax``'s figure.

@@ -10,12 +10,12 @@ import datetime as _dt
 import numpy as np
 
 from .._version import __version__
-from ..api.results.metrics import STABILITY_RULE
+from ..api.results.metrics import SETTLED_RULE
 from ..api.results.result import Result
 from .analyze import analyze
 from .cases import resolve_case
 
-COLUMNS = ("IAE", "ISE", "ITAE", "max |e| after 1 ms", "TV(u)", "final gamma", "stable")
+COLUMNS = ("IAE", "ISE", "ITAE", "max |e| after 1 ms", "TV(u)", "final gamma", "settled")
 
 FIDELITY_TEXT = {
     "published": "the published code's choices: its input coupling (E d/L added to dv/dt "
@@ -67,7 +67,7 @@ def disagreements_markdown() -> str:
 def _row_values(r: Result) -> list:
     m = r.metrics
     return [m["iae"], m["ise"], m["itae"], m["max_abs_e"], m["tv_u"], m["final_gamma"],
-            "yes" if m["stable"] else "no"]
+            "yes" if m["settled"] else "no"]
 
 
 def table_frame(rows: list[tuple[str, Result]]):
@@ -105,10 +105,10 @@ def _words(case: str, fid: str, rows: list[tuple[str, Result]], unit: str) -> st
     paper_std, equal, var = rows[0][1], rows[1][1], rows[2][1]
     s = []
     m_var, m_std, m_eq = var.metrics, paper_std.metrics, equal.metrics
-    verdict = "stable" if m_std["stable"] else "not stable"
+    verdict = "settled" if m_std["settled"] else "not settled"
     s.append(f"The standard i-P with the paper's alpha is {verdict} here "
              f"(IAE {_fmt(m_std['iae'])}); the {rows[2][0]} law is "
-             f"{'stable' if m_var['stable'] else 'not stable'} (IAE {_fmt(m_var['iae'])}).")
+             f"{'settled' if m_var['settled'] else 'not settled'} (IAE {_fmt(m_var['iae'])}).")
     dy = _max_dy(var, equal)
     share = dy / max(m_var["max_abs_ref"], 1e-300)
     if share < 0.01:
@@ -134,7 +134,7 @@ def _words(case: str, fid: str, rows: list[tuple[str, Result]], unit: str) -> st
     if len(rows) > 3:
         lit = rows[3][1].metrics
         s.append(f"Taken literally (gain = alpha, gamma only through the rate term) the law "
-                 f"is {'stable' if lit['stable'] else 'not stable'} with IAE "
+                 f"is {'settled' if lit['settled'] else 'not settled'} with IAE "
                  f"{_fmt(lit['iae'])}.")
     return " ".join(s)
 
@@ -208,15 +208,15 @@ def horizon_frame(rows):
         out.append({"case": case, "integrator": order, "gamma min": float(g.min()),
                     "gamma max": float(g.max()), "gamma final": float(g[-1]),
                     "max |e|, last 10 ms": float(last.max()) if last.size else np.nan,
-                    "stable": "yes" if r.metrics["stable"] else "no"})
+                    "settled": "yes" if r.metrics["settled"] else "no"})
     return pd.DataFrame(out)
 
 
 def _maps_section(fidelities, maps_done) -> list[str]:
     parts = ["", "## Robustness maps", "",
              "Each cell is one simulation (the batch engine, `mfcontrol sweep`); colour: max "
-             "|e| after 1 ms; the red line is the stability boundary (the rule below); "
-             "hatched cells are not stable. The variational law's x axis is its initial gain "
+             "|e| after 1 ms; the red line bounds the settled runs (the settling rule below); "
+             "hatched cells are not settled. The variational law's x axis is its initial gain "
              "1/gamma0, the counterpart of the standard law's alpha. CSV files next to each "
              "figure hold every member's metrics."]
     for fid in fidelities:
@@ -228,30 +228,30 @@ def _maps_section(fidelities, maps_done) -> list[str]:
         words = []
         for label, f, col in (("standard", std, "controller.alpha"),
                               ("variational", var, "controller.gamma0")):
-            share = f["stable"].mean()
+            share = f["settled"].mean()
             gain = f[col] if col == "controller.alpha" else 1 / f[col]
-            stable_all = f.groupby(gain.round(12))["stable"].all()
-            top = stable_all[stable_all].index.max() if stable_all.any() else None
-            words.append(f"{label}: {share:.0%} of the {len(f)} cells stable"
+            settled_all = f.groupby(gain.round(12))["settled"].all()
+            top = settled_all[settled_all].index.max() if settled_all.any() else None
+            words.append(f"{label}: {share:.0%} of the {len(f)} cells settled"
                          + (f", every load change up to dR = {f['plant.dR'].max():g} ohm "
                             f"held for gains alpha (or 1/gamma0) up to {top:.3g}"
                             if top is not None else ", no gain holds every load change"))
         # 1/gamma0 ascending is gamma0 descending: the same cells in the same order
-        s_std = std.sort_values(["controller.alpha", "plant.dR"])["stable"].to_numpy()
+        s_std = std.sort_values(["controller.alpha", "plant.dR"])["settled"].to_numpy()
         s_var = var.sort_values(["controller.gamma0", "plant.dR"],
-                                ascending=[False, True])["stable"].to_numpy()
+                                ascending=[False, True])["settled"].to_numpy()
         same = np.mean(s_std == s_var)
         parts.append("alpha x dR: " + "; ".join(words) + f". At equal initial gain the two "
-                     f"laws agree on stability in {same:.0%} of the cells.")
-        parts.append(f"\nGamma x eps_M: {ge['stable'].mean():.0%} of {len(ge)} cells stable. "
+                     f"laws agree on settling in {same:.0%} of the cells.")
+        parts.append(f"\nGamma x eps_M: {ge['settled'].mean():.0%} of {len(ge)} cells settled. "
                      + gamma_eps_boundary(ge))
     return parts
 
 
 def gamma_eps_boundary(frame) -> str:
-    """The stability boundary of a Gamma x eps_M map in words: which Gamma rows are stable
+    """The settling boundary of a Gamma x eps_M map in words: which Gamma rows are settled
     at every eps_M, which at none, and where the others cross (the geometric mean of the
-    last stable and first unstable eps_M), with whether the crossing follows a constant
+    last settled and first not settled eps_M), with whether the crossing follows a constant
     product Gamma eps_M, which the drift -Gamma eps_M of the gain suggests."""
     rows: dict[str, list[float]] = {"all": [], "none": [], "reversed": [], "mixed": [],
                                     "missing": []}
@@ -259,18 +259,18 @@ def gamma_eps_boundary(frame) -> str:
     eps = np.sort(frame["controller.eps_M"].unique())
     gammas = np.sort(frame["controller.Gamma"].unique())
     for gamma, row in frame.sort_values("controller.eps_M").groupby("controller.Gamma"):
-        stable = row["stable"]
-        if stable.isna().any():  # a cell without a result is not counted as stable
+        settled = row["settled"]
+        if settled.isna().any():  # a cell without a result is not counted as settled
             rows["missing"].append(gamma)
             continue
-        ok = stable.to_numpy(bool)
+        ok = settled.to_numpy(bool)
         e = row["controller.eps_M"].to_numpy()
-        changes = np.flatnonzero(ok[1:] != ok[:-1])  # where stability flips along eps_M
+        changes = np.flatnonzero(ok[1:] != ok[:-1])  # where settling flips along eps_M
         if ok.all():
             rows["all"].append(gamma)
         elif not ok.any():
             rows["none"].append(gamma)
-        elif changes.size == 1 and ok[0]:  # stable below, unstable above
+        elif changes.size == 1 and ok[0]:  # settled below, not settled above
             k = int(changes[0]) + 1
             cuts.append((gamma, float(np.sqrt(e[k - 1] * e[k]))))
         elif changes.size == 1:
@@ -279,29 +279,29 @@ def gamma_eps_boundary(frame) -> str:
             rows["mixed"].append(gamma)
     words = []
     if rows["all"]:
-        words.append(f"Gamma {_span(rows['all'], gammas)} is stable at every eps_M of the "
+        words.append(f"Gamma {_span(rows['all'], gammas)} is settled at every eps_M of the "
                      f"grid (up to {eps[-1]:.3g})")
     if cuts:
         g, c = np.array(cuts).T
         product = g * c
         step = float(np.exp(np.median(np.diff(np.log(eps))))) if eps.size > 1 else 1.0
         if product.max() / product.min() <= step ** 2:
-            words.append(f"Gamma {_span(g, gammas)} is stable below a boundary that follows "
+            words.append(f"Gamma {_span(g, gammas)} is settled below a boundary that follows "
                          f"Gamma eps_M = {np.exp(np.log(product).mean()):.2g} (the crossings "
                          f"lie between {product.min():.2g} and {product.max():.2g}, the grid "
                          f"steps eps_M by x{step:.3g})")
         else:
-            words.append(f"Gamma {_span(g, gammas)} is stable below an eps_M that does not "
+            words.append(f"Gamma {_span(g, gammas)} is settled below an eps_M that does not "
                          "follow a constant product: "
                          + ", ".join(f"{a:.3g}: {b:.3g}" for a, b in cuts))
     if rows["none"]:
-        words.append(f"Gamma {_span(rows['none'], gammas)} is unstable at every eps_M of the "
+        words.append(f"Gamma {_span(rows['none'], gammas)} is not settled at any eps_M of the "
                      f"grid (down to {eps[0]:.3g})")
     if rows["reversed"]:
-        words.append(f"Gamma {_span(rows['reversed'], gammas)} is unstable at small eps_M "
-                     "and stable above")
+        words.append(f"Gamma {_span(rows['reversed'], gammas)} is not settled at small eps_M "
+                     "and settled above")
     if rows["mixed"]:
-        words.append(f"at Gamma {_span(rows['mixed'], gammas)} stable and unstable cells "
+        words.append(f"at Gamma {_span(rows['mixed'], gammas)} settled and not settled cells "
                      "alternate along eps_M")
     if rows["missing"]:
         words.append(f"Gamma {_span(rows['missing'], gammas)} has cells without a result")
@@ -344,7 +344,7 @@ def horizon_sentence(case: str, order: str, r: Result) -> str:
     predicted = -rate * n if first else -rate * n * n / 2
     drift, half = g[-1] - gamma0, g[n // 2] - gamma0
     head = f"\n{case}, {order} integrator: "
-    if not r.metrics["stable"]:
+    if not r.metrics["settled"]:
         broken = np.flatnonzero(~np.isfinite(g))
         gf = g[:broken[0]] if broken.size else g  # up to where it stops being a number
         steps = np.diff(gf)
@@ -420,7 +420,7 @@ def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None) -
                     parts.append(f"![{case} gamma ({fid})]({fid}/{case}-gamma.png)")
                 parts.append(f"\n`{case}`: IAE {_fmt(m['iae'])}, max |e| after 1 ms "
                              f"{_fmt(m['max_abs_e'])}, TV(u) {_fmt(m['tv_u'])}, "
-                             f"stable: {'yes' if m['stable'] else 'no'}.\n")
+                             f"settled: {'yes' if m['settled'] else 'no'}.\n")
             var = [c for c in cases if c.endswith("variational")][0]
             unit = "W" if var.startswith("power") else "V"
             parts += [f"Comparison for `{var}` ({fid}):", "", _md_table(tables[fid][var]), "",
@@ -436,19 +436,19 @@ def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None) -
             short = s.key.split(".")[-1]
             parts.append(f"![{case} gamma ({fid})]({fid}/{case}-gamma.png)")
             parts.append(f"![{case} error ({fid})]({fid}/{case}-error.png)")
-            unstable = [f"{v:g}" for v, m in zip(s.values, s.members, strict=True)
-                        if not m.metrics["stable"]]
+            unsettled = [f"{v:g}" for v, m in zip(s.values, s.members, strict=True)
+                        if not m.metrics["settled"]]
             iae = ", ".join(f"{short} = {v:g}: {_fmt(m.metrics['iae'])}"
                             for v, m in zip(s.values, s.members, strict=True))
             parts.append(f"\nIAE by member: {iae}. "
-                         + (f"Not stable: {short} = {', '.join(unstable)}."
-                            if unstable else "Every member is stable.") + "\n")
+                         + (f"Not settled: {short} = {', '.join(unsettled)}."
+                            if unsettled else "Every member is settled.") + "\n")
     if maps_done:
         parts += _maps_section(fidelities, maps_done)
     if horizons:
         parts += _horizon_section(fidelities, horizons)
     parts += ["", _stability_section(fidelities), "",
-              "## The stability rule", "", STABILITY_RULE, "",
+              "## The settling rule", "", SETTLED_RULE, "",
               "## Where the paper and its published code disagree", "",
               disagreements_markdown()]
     parts += ["", "`fidelity = published` reproduces the published figures (the "

@@ -131,7 +131,7 @@ class TuneResult(display.Shown):
         The best values of the tuned keys.
     value : float
         Their objective value (the aggregate over the scenarios; ``inf`` if no point was
-        valid and stable).
+        valid and settled).
     nominal : float
         The objective of the best configuration's own run (no scenario set): what
         ``mfcontrol run best.toml`` reproduces.
@@ -402,7 +402,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
             cols = batch.run_range(grid, 0, grid.n_members)
             per_run = obj.score(cols)
             scores[ok] = aggregate(per_run.reshape(-1, n_scen), aggregate_by)
-            seen[ok] = _badness(cols, n_scen, base["metrics.stable_tol"],
+            seen[ok] = _badness(cols, n_scen, base["metrics.settled_tol"],
                                 scenario.n_steps(base))
             linear: dict[str, np.ndarray] = {}
             if bounds:  # the analysis of each point's own loop; a miss fails the point
@@ -430,7 +430,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
                                         "point": bad + state["evals"], "scenario": -1,
                                         "refused": True,
                                         **{k: v[bad] for k, v in values.items()},
-                                        "diverged": False, "stable": False,
+                                        "diverged": False, "settled": False,
                                         "score": np.inf, "value": np.inf}))
         # the bookkeeping at once, so that an interrupt leaves it whole
         j = int(np.argmin(scores))
@@ -494,7 +494,7 @@ def tune(case: str | Path | Config, params: Sequence[str] | Mapping[str, tuple[f
         except KeyboardInterrupt:
             stopped = "interrupted"
     elif state["evals"]:
-        value = math.inf  # evaluated, nothing valid and stable
+        value = math.inf  # evaluated, nothing valid and settled
     result = TuneResult(
         case=name, objective=obj, aggregate=aggregate_by, parameters=pars, scenarios=scen,
         best=best, value=value, nominal=nominal, start=start, start_value=start_value,
@@ -588,16 +588,16 @@ _PENALTY = 1e100
 
 
 def _badness(cols: dict[str, np.ndarray], n_scen: int, tol: float, n: int) -> np.ndarray:
-    """How badly each point's worst scenario failed, in [0, 1]: a stable run whose
-    objective is not a number 0; a run unstable by the rule 0.1 .. 0.5 (its final error
+    """How badly each point's worst scenario failed, in [0, 1]: a settled run whose
+    objective is not a number 0; a run not settled by the rule 0.1 .. 0.5 (its final error
     over the tolerance; 0.5 where that ratio is not a number); a diverged run 0.5 .. 1
     (the earlier in its n samples, the worse)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = cols["max_abs_e_final"] / (tol * cols["max_abs_ref"])
     graded = np.isfinite(ratio) & (ratio >= 1)
-    unstable = np.where(graded, 0.5 - 0.4 / np.where(graded, ratio, 1.0), 0.5)
+    unsettled = np.where(graded, 0.5 - 0.4 / np.where(graded, ratio, 1.0), 0.5)
     bad = np.where(cols["diverged"], 1.0 - 0.5 * cols["n_samples"] / n,
-                   np.where(cols["stable"], 0.0, unstable))
+                   np.where(cols["settled"], 0.0, unsettled))
     return bad.reshape(-1, n_scen).max(axis=1)
 
 

@@ -1,7 +1,7 @@
 """The robustness map on the page: a Bokeh heat map of a
 :class:`~mfcontrol.tuner.session.RobustnessMap`, drawn as the command line's maps are
 (:mod:`mfcontrol.experiments.maps`): cells centred on the swept values (edges at the
-geometric midpoints on a log axis), the colour scale set by the stable members, unstable
+geometric midpoints on a log axis), the colour scale set by the settled members, unsettled
 members hatched, diverged ones grey (their metrics stop at the divergence), the current
 setting marked; later changes of the settings move the mark, or dim the map and call it
 stale (:meth:`MapFigure.show`).
@@ -79,9 +79,9 @@ def _any(*renderers: Any) -> list[Any]:
 
 def _mapper(m: RobustnessMap):
     """Viridis over the CLI maps' colour range (:func:`mfcontrol.experiments.maps.
-    colour_range`: the stable members' values, logarithmic over more than two decades);
-    members beyond it take its end colours (they are hatched: unstable)."""
-    lo, hi, log = colour_range([(m.z, m.stable)], m.metric)
+    colour_range`: the settled members' values, logarithmic over more than two decades);
+    members beyond it take its end colours (they are hatched: unsettled)."""
+    lo, hi, log = colour_range([(m.z, m.settled)], m.metric)
     mapper = LogColorMapper if log else LinearColorMapper
     return mapper(palette=Viridis256, low=lo, high=hi, nan_color=GREY)
 
@@ -98,7 +98,7 @@ def draw(m: RobustnessMap, units: tuple[str, str], labels: tuple[str, str],
     z = m.z.ravel()
     shown = np.where(m.diverged.ravel(), math.nan, z)  # a diverged member's metric stops
     verdict = np.where(m.diverged.ravel(), "diverged",
-                       np.where(m.stable.ravel(), "stable", "unstable"))
+                       np.where(m.settled.ravel(), "settled", "not settled"))
     src = ColumnDataSource({
         "left": ex[ix], "right": ex[ix + 1], "bottom": ey[iy], "top": ey[iy + 1],
         "x": m.xs[ix], "y": m.ys[iy], "z": shown, "verdict": verdict})
@@ -119,16 +119,16 @@ def draw(m: RobustnessMap, units: tuple[str, str], labels: tuple[str, str],
     mapper = _mapper(m)
     cells = fig.quad(left="left", right="right", bottom="bottom", top="top", source=src,
                      fill_color={"field": "z", "transform": mapper}, line_color=None)
-    unstable = ~m.stable.ravel() & ~m.diverged.ravel()
+    unsettled = ~m.settled.ravel() & ~m.diverged.ravel()
     legend = []
     hatch = None
-    if unstable.any():
-        sel = np.flatnonzero(unstable)
+    if unsettled.any():
+        sel = np.flatnonzero(unsettled)
         hatch = fig.quad(left=ex[ix[sel]], right=ex[ix[sel] + 1], bottom=ey[iy[sel]],
                          top=ey[iy[sel] + 1], fill_alpha=0.0, line_color=None,
                          hatch_pattern="/", hatch_color="black", hatch_alpha=HATCH_ALPHA,
                          hatch_scale=10)
-        legend.append(LegendItem(label=f"unstable ({int(unstable.sum())} of {z.size}), "
+        legend.append(LegendItem(label=f"not settled ({int(unsettled.sum())} of {z.size}), "
                                        "hatched", renderers=_any(hatch)))
     if m.diverged.any():
         grey = fig.quad(left=[], right=[], bottom=[], top=[], fill_color=GREY,
@@ -157,5 +157,5 @@ def draw(m: RobustnessMap, units: tuple[str, str], labels: tuple[str, str],
         formatters={"@x": "printf", "@y": "printf", "@z": "printf"}))
     fig.grid.visible = False
     return MapFigure(m, fig, subtitle, here_src, here_item, centre_item, cells,
-                     hatch if unstable.any() else None)
+                     hatch if unsettled.any() else None)
 

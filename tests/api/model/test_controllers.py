@@ -46,7 +46,7 @@ def test_ip_with_algebraic_estimator_tracks_a_first_order_plant():
 
     ctrl = IP(alpha=1.0, kp=10.0, sample_time=1e-3, estimator="algebraic", window=20)
     res = mfcontrol.simulate_loop(FirstOrder(a=-2.0, b=1.0, w=0.5), ctrl, 1.0, t_end=2.0)
-    assert res.metrics["stable"]
+    assert res.metrics["settled"]
     assert abs(res.error[-1]) < 1e-3
 
 
@@ -613,6 +613,6 @@ def test_a_controller_with_input_limits_simulates_in_python_and_is_refused_by_sw
     res = mfcontrol.simulate_loop(plant, ctrl, 1.0, t_end=3.0)
     ref = mfcontrol.simulate_loop(plant, free, 1.0, t_end=3.0)
     np.testing.assert_allclose(res.signals["y"], ref.signals["y"], rtol=1e-12, atol=1e-15)
-    assert res.metrics["stable"]
+    assert res.metrics["settled"]
     with pytest.raises(mfcontrol.ConfigError, match="without input_limits"):
         mfcontrol.sweep(plant, ctrl, 1.0, t_end=0.5, grid={"controller.kp": [1.0, 2.0]})

@@ -29,13 +29,13 @@ def test_every_result_repr_is_short_and_says_what_it_is(results):
         text = repr(res)
         assert len(text) < 1000 and text.count("\n") <= 9, (name, text)
         assert "array(" not in text and "Config(" not in text, (name, text)
-    assert "2,000 samples over 2 s, stable" in repr(results["loop"])
+    assert "2,000 samples over 2 s, settled" in repr(results["loop"])
     assert "IAE " in repr(results["run"]) and "states i_L, v_C" in repr(results["run"])
     d = results["diverged"]
     if d.metrics["diverged"]:
         assert "diverged at t = " in repr(d)
     else:
-        assert ("not stable" in repr(d)) != d.metrics["stable"]
+        assert ("not settled" in repr(d)) != d.metrics["settled"]
     assert "5 members over controller.Gamma" in repr(results["sweep case"])
     sweep = repr(results["sweep"])
     assert "3 members over controller.kp = 2..10 (3)" in sweep and "IAE " in sweep

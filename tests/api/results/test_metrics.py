@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.api.results.metrics import is_stable
+from mfcontrol.api.results.metrics import is_settled
 
 
 @pytest.mark.parametrize("case", ["voltage-stable-variational", "power-standard",
@@ -25,10 +25,10 @@ def test_metrics_follow_their_definitions(case):
 
 
 def test_stability_rule():
-    assert is_stable(False, 0.5, 10.0, 0.1)
-    assert not is_stable(False, 1.5, 10.0, 0.1)
-    assert not is_stable(True, 0.0, 10.0, 0.1)
-    assert not is_stable(False, float("nan"), 10.0, 0.1)
+    assert is_settled(False, 0.5, 10.0, 0.1)
+    assert not is_settled(False, 1.5, 10.0, 0.1)
+    assert not is_settled(True, 0.0, 10.0, 0.1)
+    assert not is_settled(False, float("nan"), 10.0, 0.1)
 
 
 @pytest.mark.parametrize("case,stable", [
@@ -36,7 +36,7 @@ def test_stability_rule():
     ("voltage-unstable-standard", False), ("voltage-unstable-variational", True),
     ("power-standard", True), ("power-variational", True)])
 def test_published_cases_are_classified_as_in_the_paper(case, stable):
-    assert mfcontrol.run_case(case, {"fidelity": "published"}).metrics["stable"] is stable
+    assert mfcontrol.run_case(case, {"fidelity": "published"}).metrics["settled"] is stable
 
 
 @pytest.mark.parametrize("case,stable", [
@@ -46,7 +46,7 @@ def test_published_cases_are_classified_as_in_the_paper(case, stable):
     ("voltage-unstable-standard", False), ("voltage-unstable-variational", True),
     ("power-standard", True), ("power-variational", True)])
 def test_paper_fidelity_classification(case, stable):
-    assert mfcontrol.run_case(case, {"fidelity": "paper"}).metrics["stable"] is stable
+    assert mfcontrol.run_case(case, {"fidelity": "paper"}).metrics["settled"] is stable
 
 
 def test_metric_units_read_as_units():
@@ -77,7 +77,7 @@ def test_one_members_metrics_are_the_tables_bit_for_bit():
     M[em.M_N_SAMPLES] = rng.integers(0, 10_000, m)
     M[em.M_N_FINAL] = np.where(rng.random(m) < 0.3, 0.0, rng.integers(1, 99, m))
     M[em.M_T_IN] = np.where(rng.random(m) < 0.5, M[em.M_T_LAST] - 1.0, M[em.M_T_IN])
-    assert any(v["stable"] for v in (from_kernel(M, j, 0.1) for j in range(m)))
+    assert any(v["settled"] for v in (from_kernel(M, j, 0.1) for j in range(m)))
     with np.errstate(invalid="ignore"):  # inf - inf in the made-up step rows
         whole = table(M, 0.1)
     for j in range(m):
@@ -97,5 +97,5 @@ def test_a_metric_has_its_unit_in_the_plants_words():
     assert unit_of("iae", "rad/s") == "rad"  # a rate integrated over time
     assert unit_of("tv_u", "rad/s", "V") == "V"
     assert unit_of("ise", "V") == "V^2 s"
-    assert unit_of("stable") in ("", "1")
+    assert unit_of("settled") in ("", "1")
     assert label("iae", "rad/s").endswith("(rad)")

@@ -20,7 +20,7 @@ def test_parse(text, terms):
     assert Objective.parse(text).terms == terms
 
 
-@pytest.mark.parametrize("text", ["", "  ", "iea", "iae+", "2*iae*3", "iae**2", "stable",
+@pytest.mark.parametrize("text", ["", "  ", "iea", "iae+", "2*iae*3", "iae**2", "settled",
                                   "diverged", "n_samples", "iae + nan*ise", "1e999*iae",
                                   "iae; rm -rf", 3])
 def test_parse_refuses_with_the_metrics_listed(text):
@@ -40,7 +40,7 @@ def test_score_is_the_weighted_sum_and_inf_for_failed_runs():
     table = {"iae": np.array([1.0, 1.0, 1.0, np.nan]),
              "tv_u": np.array([2.0, 2.0, 2.0, 2.0]),
              "diverged": np.array([False, True, False, False]),
-             "stable": np.array([True, False, False, True])}
+             "settled": np.array([True, False, False, True])}
     assert obj.score(table).tolist() == [2.0, np.inf, np.inf, np.inf]
 
 

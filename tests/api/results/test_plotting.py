@@ -33,12 +33,12 @@ def test_coinciding_members_are_drawn_once_and_said_to_coincide():
 
 def test_an_unstable_member_does_not_flatten_the_stable_ones():
     sw = mfcontrol.run_case("sweep-Gamma", {"fidelity": "paper"})
-    assert not all(m.metrics["stable"] for m in sw.members)
+    assert not all(m.metrics["settled"] for m in sw.members)
     fig = sw.plot(kind="gamma")
     lo, hi = fig.axes[0].get_ylim()
-    stable = np.concatenate([m.signals["gamma"] for m in sw.members if m.metrics["stable"]])
+    stable = np.concatenate([m.signals["gamma"] for m in sw.members if m.metrics["settled"]])
     assert lo <= stable.min() and stable.max() <= hi and hi - lo < 2 * np.ptp(stable)
-    assert any(t.startswith("unstable members leave the axis") for t in _texts(fig))
+    assert any(t.startswith("unsettled members leave the axis") for t in _texts(fig))
 
 
 def test_units_of_every_plant_family():
@@ -81,7 +81,7 @@ def test_a_transient_too_small_to_see_gets_a_zoom_and_a_failure_does_not():
     legend = plot_run(stable).axes[0].get_legend()
     assert legend is not None and legend._loc != 0  # not "best", which ignores insets
     failing = mfcontrol.run_case("voltage-unstable-standard")
-    assert not failing.metrics["stable"] and plot_run(failing).axes[0].child_axes == []
+    assert not failing.metrics["settled"] and plot_run(failing).axes[0].child_axes == []
     quiet = mfcontrol.run_case("voltage-stable-variational",
                                overrides={"plant.change_times": [0.02]})
     assert plot_run(quiet).axes[0].child_axes == []  # no event in the run

@@ -61,7 +61,7 @@ def test_axis_values_are_validated():
         batch.make_grid(base, {"controller.alpha": np.array([1.0, -1.0])})
 
 
-@pytest.mark.parametrize("key", ["metrics.settle_time", "metrics.stable_tol",
+@pytest.mark.parametrize("key", ["metrics.settle_time", "metrics.settled_tol",
                                  "sim.diverge_above"])
 def test_settings_shared_by_all_members_cannot_be_swept(key):
     # the kernel reads them once for every member: sweeping them would silently do nothing
@@ -95,7 +95,7 @@ def test_cases_outside_the_papers_kernel_run_in_the_general_engine():
     _, base = resolve_case("first-order-ip-algebraic", {"sim.t_end": 0.5})
     grid = batch.make_grid(base, {"controller.kp": np.array([2.0, 5.0])})
     cols = batch.run_grid(grid)
-    assert cols["stable"].tolist() == [True, True]
+    assert cols["settled"].tolist() == [True, True]
     assert cols["iae"][1] == mfcontrol.simulate(grid.config(1)).metrics["iae"]
     # with a fast mode of their own, close to the exact runs and not equal to them
     fast = batch.run_grid(grid, fast=True)

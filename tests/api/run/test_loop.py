@@ -23,7 +23,7 @@ def test_scheduled_change_acts_and_the_plant_is_left_as_given():
     assert abs(F[(t > 0.45) & (t < 0.5)].mean() - (-1.0)) < 0.05   # F = a y + w, y ~ 1
     assert abs(F[(t > 0.65) & (t < 0.7)].mean() - 1.0) < 0.05
     assert abs(F[t > 0.9].mean() - 0.0) < 0.05
-    assert res.metrics["stable"]
+    assert res.metrics["settled"]
 
 
 def test_a_schedule_that_passed_is_checked_again_once_the_plant_has_changed():
@@ -72,7 +72,7 @@ def test_divergence_is_a_flagged_result():
     # kp < 0: the error obeys e' = +50 e and grows without bound
     res = simulate_loop(FirstOrder(a=-1.0, b=1.0), mfcontrol.IP(alpha=1.0, kp=-50.0,
                         sample_time=0.01), 1.0, t_end=5.0, diverge_above=1e6)
-    assert res.metrics["diverged"] and not res.metrics["stable"]
+    assert res.metrics["diverged"] and not res.metrics["settled"]
     assert res.time.size == res.metrics["n_samples"] < 500
     assert np.all(np.abs(res.signals["y"]) <= 1e6)
 
@@ -204,8 +204,8 @@ def test_metric_settings_are_checked_at_every_run():
     for _ in range(2):
         with pytest.raises(mfcontrol.ConfigError, match="^final_window = 1.5"):
             simulate_loop(plant, ip, 1.0, t_end=1.0, final_window=1.5)
-        with pytest.raises(mfcontrol.ConfigError, match="^stable_tol = .*-1.0.*> 0"):
-            simulate_loop(plant, ip, 1.0, t_end=1.0, stable_tol=np.float64(-1.0))
+        with pytest.raises(mfcontrol.ConfigError, match="^settled_tol = .*-1.0.*> 0"):
+            simulate_loop(plant, ip, 1.0, t_end=1.0, settled_tol=np.float64(-1.0))
         with pytest.raises(mfcontrol.ConfigError, match="^settle_time = True"):
             simulate_loop(plant, ip, 1.0, t_end=1.0, settle_time=True)
     a = simulate_loop(plant, mfcontrol.IP(1.0, 5.0, sample_time=0.01), 1.0, t_end=1.0,

@@ -1,5 +1,5 @@
 """Your own ODE whose f or g raises mid-run: an error naming the function and the time in a
-single run, a member flagged as diverged at that time in a sweep (never a "stable" run
+single run, a member flagged as diverged at that time in a sweep (never a "settled" run
 on made-up numbers), in every path the engine takes (f and g through their addresses,
 the one-member step with f compiled in, the vectorised block, the adaptive integrator)."""
 
@@ -63,7 +63,7 @@ def test_a_raising_f_is_an_error_naming_f_and_the_time(path, f, monkeypatch, cap
     assert "Exception ignored" not in capfd.readouterr().err
     # the same plant where f does not raise runs to the end
     assert mfcontrol.simulate_loop(_plant(k=0.5, f=f), _ctrl(), 1.0,
-                                   t_end=2.0).metrics["stable"]
+                                   t_end=2.0).metrics["settled"]
 
 
 def test_a_raising_g_is_an_error_naming_g():
@@ -82,7 +82,7 @@ def test_an_f_that_returns_nan_is_a_flagged_divergence_not_an_error():
         dxdt[0] = math.nan if t > 0.5 else -x[0] + u
 
     res = mfcontrol.simulate_loop(ODE(f, _g, x0=(0.0,)), _ctrl(), 1.0, t_end=2.0)
-    assert res.metrics["diverged"] and not res.metrics["stable"]
+    assert res.metrics["diverged"] and not res.metrics["settled"]
     assert res.metrics["t_diverge"] == pytest.approx(0.51)
 
 
@@ -94,7 +94,7 @@ def test_in_a_sweep_the_raising_members_diverge_and_the_others_keep_their_bits(v
                          vectorise=vectorise)
     table = sw.table
     assert list(table["diverged"]) == [False, True, False, True]
-    assert list(table["stable"]) == [True, False, True, False]
+    assert list(table["settled"]) == [True, False, True, False]
     np.testing.assert_array_equal(table["t_diverge"][[1, 3]], [0.51, 0.51])
     for j in (0, 2):  # bit for bit the single run of a plant that never raises
         one = mfcontrol.simulate_loop(_plant(k=ks[j], f=f), _ctrl(), 1.0, t_end=2.0)

@@ -34,7 +34,7 @@ def test_general_loop_reproduces_the_compiled_kernel_bit_for_bit(case, fidelity,
 def test_toolkit_cases_hold_their_reference(case, max_error):
     r = mfcontrol.run_case(case)
     assert not compiled(r.config)
-    assert r.metrics["stable"] and r.metrics["max_abs_e"] < max_error
+    assert r.metrics["settled"] and r.metrics["max_abs_e"] < max_error
     assert np.all((r.signals["u"] >= r.config["controller.duty_min"])
                   & (r.signals["u"] <= r.config["controller.duty_max"]))
 
@@ -86,7 +86,7 @@ def test_the_fast_single_run_is_within_1e_12_of_the_exact_one(case, fidelity):
     _, cfg = resolve_case(case, {"fidelity": fidelity})
     exact, fast = mfcontrol.simulate(cfg), mfcontrol.simulate(cfg, fast=True)
     assert fast.metrics["n_samples"] == exact.metrics["n_samples"]
-    assert fast.metrics["stable"] == exact.metrics["stable"]
+    assert fast.metrics["settled"] == exact.metrics["settled"]
     for key in ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma"):
         assert fast.metrics[key] == pytest.approx(exact.metrics[key], rel=rtol, abs=0), key
     for key in ("y", "u", "gamma"):
@@ -118,7 +118,7 @@ def test_every_case_has_a_fast_mode_close_to_its_exact_run(case):
 def test_a_toolkit_case_diverging_at_once_is_a_flagged_result():
     # issue 10: the general loop ended in KeyError: 'gamma' here
     r = mfcontrol.run_case("boost-ipd", overrides={"sim.diverge_above": 10})
-    assert r.metrics["diverged"] and not r.metrics["stable"]
+    assert r.metrics["diverged"] and not r.metrics["settled"]
     assert r.time.size == r.metrics["n_samples"]
 
 
@@ -183,7 +183,7 @@ def test_show_leaves_out_the_options_of_plants_and_choices_not_taken():
                 "controller.Gamma", "controller.k_aw", "sensor.noise_std"):
         assert key not in shown
     for key in ("plant.model", "plant.a", "plant.schedule", "controller.window",
-                "sensor.noise", "sim.h", "metrics.stable_tol", "description"):
+                "sensor.noise", "sim.h", "metrics.settled_tol", "description"):
         assert key in shown
     noisy = shown_keys(resolve_case("motor-noise-ipi")[1])
     assert {"sensor.noise_std", "sensor.seed", "plant.J"} <= noisy

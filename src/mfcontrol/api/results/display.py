@@ -2,9 +2,9 @@
 notebook, instead of every array they hold (a 500-sample run printed 60 kB).
 
 >>> from mfcontrol.api.results.display import metric_line, verdict
->>> m = {"iae": 6.5e-4, "max_abs_e": 0.19, "tv_u": 0.77, "stable": True, "diverged": False}
+>>> m = {"iae": 6.5e-4, "max_abs_e": 0.19, "tv_u": 0.77, "settled": True, "diverged": False}
 >>> verdict(m), metric_line(m)
-('stable', 'IAE 0.00065, max |e| 0.19, TV(u) 0.77')
+('settled', 'IAE 0.00065, max |e| 0.19, TV(u) 0.77')
 """
 
 from __future__ import annotations
@@ -34,11 +34,11 @@ def fmt(value: Any) -> str:
 
 
 def verdict(metrics: Mapping[str, Any]) -> str:
-    """stable, not stable, or where it diverged."""
+    """settled, not settled, or where it diverged."""
     if metrics.get("diverged"):
         t = metrics.get("t_diverge", math.nan)
         return f"diverged at t = {fmt(t)} s" if t == t else "diverged"
-    return "stable" if metrics.get("stable") else "not stable"
+    return "settled" if metrics.get("settled") else "not settled"
 
 
 def metric_line(metrics: Mapping[str, Any]) -> str:

@@ -1,4 +1,4 @@
-"""Names and meaning of the per-run metrics, and the stability rule.
+"""Names and meaning of the per-run metrics, and the settling rule.
 
 All metrics stream out of the kernel over the samples k = 0 .. N-1 (up to divergence),
 with e_k = y_k - y*_k and h the sample period:
@@ -12,12 +12,12 @@ tv_u               sum |u_k - u_{k-1}|, the total variation of the applied contr
 final_gamma        gamma at the last sample (1/alpha for the standard law)
 diverged           a NaN/inf appeared or |y| exceeded sim.diverge_above
 t_diverge          time of the first such sample (NaN if none)
-max_abs_e_final    max |e_k| over the stability window (last 20 % of the horizon)
+max_abs_e_final    max |e_k| over the settling window (last 20 % of the horizon)
 max_abs_ref        max |y*_k| over the run
-stable             see :func:`is_stable`
+settled            see :func:`is_settled` (a tracking test, not a stability one)
 energy_u           sum u_k^2 h, the energy of the controller's (limited) output u, as
                    tv_u (not of u_plant, what an actuator passed on)
-steady_state_error mean of y*_k - y_k over the stability window
+steady_state_error mean of y*_k - y_k over the settling window
 overshoot          on a step reference (from y0 to y1 at t0): the largest excursion past
                    y1, in % of |y1 - y0| (0 if none)
 rise_time          10 % to 90 % of the step: between the first samples that reach them
@@ -45,11 +45,11 @@ import numpy as np
 
 from ...engine import metrics as engine_metrics
 
-STABILITY_RULE = (
-    "A run is *stable* when it did not diverge (no NaN/inf, |y| within sim.diverge_above) "
+SETTLED_RULE = (
+    "A run is *settled* when it did not diverge (no NaN/inf, |y| within sim.diverge_above) "
     "and its tracking error over the last metrics.final_window of the horizon (default "
-    "20 %) stays within metrics.stable_tol (default 10 %) of the largest reference value: "
-    "max |y - y*| over the final window <= stable_tol * max |y*|. A loop that oscillates "
+    "20 %) stays within metrics.settled_tol (default 10 %) of the largest reference value: "
+    "max |y - y*| over the final window <= settled_tol * max |y*|. A loop that oscillates "
     "with growing amplitude or sits on a duty limit fails it; a loop that has settled "
     "after a load change passes."
 )
@@ -60,7 +60,7 @@ LOOP_METRICS = ("energy_u", "steady_state_error", "overshoot", "rise_time", "set
                 "iae_load")
 #: the metric columns of a sweep table, in order
 COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_final",
-           "max_abs_ref", "diverged", "t_diverge", "n_samples", "stable", *LOOP_METRICS)
+           "max_abs_ref", "diverged", "t_diverge", "n_samples", "settled", *LOOP_METRICS)
 
 
 #: each metric in words, and its unit: {y} stands for the output's unit, {u} the input's
@@ -71,7 +71,7 @@ LABELS = {
     "max_abs_e": ("largest |e| after the settling time", "{y}"),
     "tv_u": ("total variation of u", "{u}"),
     "final_gamma": ("gain gamma at the end", "1"),
-    "max_abs_e_final": ("largest |e| over the stability window", "{y}"),
+    "max_abs_e_final": ("largest |e| over the settling window", "{y}"),
     "max_abs_ref": ("largest |reference|", "{y}"),
     "energy_u": ("energy of u", "{u}^2 s"),
     "steady_state_error": ("steady-state error", "{y}"),
@@ -81,14 +81,14 @@ LABELS = {
     "iae_load": ("IAE after the load step", "{y} s"),
     "t_diverge": ("time of divergence", "s"),
     "n_samples": ("samples run", "1"),
-    "stable": ("stable (1) or not (0)", "1"),
+    "settled": ("settled (1) or not (0)", "1"),
     "diverged": ("diverged (1) or not (0)", "1"),
 }
 
 
 #: short names for tables and summaries (the words of each are in LABELS)
 SHORT = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "max_abs_e": "max |e|", "tv_u": "TV(u)",
-         "stable": "stable", "iae_load": "IAE load", "overshoot": "overshoot",
+         "settled": "settled", "iae_load": "IAE load", "overshoot": "overshoot",
          "rise_time": "rise time", "settling_time": "settling time",
          "final_gamma": "final gamma", "energy_u": "energy of u"}
 
@@ -123,8 +123,8 @@ def unit_of(metric: str, y_unit: str = "output unit", u_unit: str = "input unit"
     return unit
 
 
-def is_stable(diverged, max_abs_e_final, max_abs_ref, tol):
-    """The stability rule; works on floats and, element-wise, on arrays."""
+def is_settled(diverged, max_abs_e_final, max_abs_ref, tol):
+    """The settling rule; works on floats and, element-wise, on arrays."""
     return np.logical_and(~np.asarray(diverged, dtype=bool) & np.isfinite(max_abs_e_final),
                           np.asarray(max_abs_e_final) <= tol * np.asarray(max_abs_ref))
 
@@ -145,7 +145,7 @@ def table(M: np.ndarray, tol: float) -> dict[str, np.ndarray]:
         "max_abs_ref": M[engine_metrics.M_MAX_ABS_R].copy(),
         "n_samples": M[engine_metrics.M_N_SAMPLES].astype(np.int64),
     }
-    out["stable"] = is_stable(diverged, out["max_abs_e_final"], out["max_abs_ref"], tol)
+    out["settled"] = is_settled(diverged, out["max_abs_e_final"], out["max_abs_ref"], tol)
     out.update(_loop_metrics(M))
     return out
 
@@ -201,7 +201,7 @@ def from_kernel(M: np.ndarray, j: int, tol: float) -> dict:
         "t_diverge": m[em.M_T_DIVERGE] if diverged else nan,
         "max_abs_e_final": e_final, "max_abs_ref": ref,
         "n_samples": int(m[em.M_N_SAMPLES]),
-        "stable": not diverged and math.isfinite(e_final) and e_final <= tol * ref,
+        "settled": not diverged and math.isfinite(e_final) and e_final <= tol * ref,
         "energy_u": m[em.M_ENERGY],
         "steady_state_error": (m[em.M_E_FINAL] / m[em.M_N_FINAL] if m[em.M_N_FINAL] > 0
                                else nan),

@@ -3,7 +3,7 @@
 An objective is written as metrics with optional weights, ``"iae"``,
 ``"iae + 0.01*tv_u"``, ``"2*ise - 0.5 * final_gamma"``: the metric names of
 :data:`mfcontrol.api.results.metrics.COLUMNS` that are numbers. A run that diverged, that the
-stability rule calls unstable (:data:`mfcontrol.api.results.metrics.STABILITY_RULE`) or whose
+settling rule calls not settled (:data:`mfcontrol.api.results.metrics.SETTLED_RULE`) or whose
 weighted sum is not a finite number (a settling time that never came) scores ``inf``:
 infinitely bad, so an optimiser moves away from it and never stops on it.
 """
@@ -22,7 +22,7 @@ from .metrics import COLUMNS
 
 #: metrics an objective may weigh (the flags and counts of a run are not quantities to
 #: minimise)
-METRICS = tuple(c for c in COLUMNS if c not in ("diverged", "stable", "n_samples",
+METRICS = tuple(c for c in COLUMNS if c not in ("diverged", "settled", "n_samples",
                                                   "t_diverge"))
 #: how the scores of one member over its scenarios are combined
 AGGREGATES = ("max", "mean")
@@ -43,7 +43,7 @@ class Objective:
     >>> obj.terms
     (('iae', 1.0), ('tv_u', 0.01))
     >>> table = {"iae": np.array([1.0, 2.0]), "tv_u": np.array([100.0, 0.0]),
-    ...          "diverged": np.array([False, True]), "stable": np.array([True, False])}
+    ...          "diverged": np.array([False, True]), "settled": np.array([True, False])}
     >>> obj.score(table).tolist()
     [2.0, inf]
     """
@@ -81,19 +81,19 @@ class Objective:
     def score(self, table: Mapping[str, np.ndarray]) -> np.ndarray:
         """Each run's score (rows of a metrics table as :func:`mfcontrol.api.results.metrics.table`
         or a sweep writes it): the weighted sum, ``inf`` where the run diverged, is
-        unstable or the sum is not finite."""
+        not settled or the sum is not finite."""
         with np.errstate(invalid="ignore", over="ignore"):
             value = sum(w * np.asarray(table[name], dtype=float) for name, w in self.terms)
         value = np.array(value, dtype=float, ndmin=1)
         bad = (np.asarray(table["diverged"], dtype=bool)
-               | ~np.asarray(table["stable"], dtype=bool) | ~np.isfinite(value))
+               | ~np.asarray(table["settled"], dtype=bool) | ~np.isfinite(value))
         value[bad] = np.inf
         return value
 
     def score_run(self, metrics: Mapping[str, object]) -> float:
         """The score of one run from its metrics (``Result.metrics``)."""
         return float(self.score({k: np.array([metrics[k]]) for k in
-                                 (*self.metrics, "diverged", "stable")})[0])
+                                 (*self.metrics, "diverged", "settled")})[0])
 
 
 def aggregate(scores: np.ndarray, how: str) -> np.ndarray:

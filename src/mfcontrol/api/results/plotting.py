@@ -331,7 +331,7 @@ def plot_run(result: Run, path: str | Path | None = None, title: str | None = No
     for a in axes:
         a.grid(True, alpha=0.3)
         _mark_changes(a, result, scale)
-    if result.metrics.get("stable"):  # a failing loop's figure shows the failure
+    if result.metrics.get("settled"):  # a failing loop's figure shows the failure
         _transient_zoom(axes[0], t, result.signals["y"], result.signals["y_ref"],
                         event_times(result), scale)
     axes[-1].set_xlabel(time_label)
@@ -384,9 +384,9 @@ def plot_sweep(sweep: Sweep, kind: str = "gamma", path: str | Path | None = None
     # says so: within 0.1 % of the axis; on the log axis within 0.02 decades (a line's
     # width) wherever either is above 1e-4 of the largest value
     finite = [c[np.isfinite(c)] for c in map(curve, sweep.members)]
-    # the stable members set the scale (an unstable one's range is clipped off the axis)
-    stable = [c for c, m in zip(finite, sweep.members, strict=True) if m.metrics["stable"]]
-    span = max((np.ptp(c) for c in (stable or finite) if c.size), default=0.0)
+    # the settled members set the scale (an unsettled one's range is clipped off the axis)
+    settled = [c for c, m in zip(finite, sweep.members, strict=True) if m.metrics["settled"]]
+    span = max((np.ptp(c) for c in (settled or finite) if c.size), default=0.0)
     top = max((np.abs(c).max() for c in finite if c.size), default=0.0)
 
     def same(a: np.ndarray, b: np.ndarray) -> bool:
@@ -413,7 +413,7 @@ def plot_sweep(sweep: Sweep, kind: str = "gamma", path: str | Path | None = None
         m = sweep.members[g[0]]
         values = ", ".join(f"{sweep.values[j]:g}" for j in g)
         label = (f"{short} = {values}" + (" (coincide)" if len(g) > 1 else "")
-                 + (" (unstable)" if not m.metrics["stable"] else ""))
+                 + (" (not settled)" if not m.metrics["settled"] else ""))
         t, c = m.time * scale, curve(m)
         if kind == "gamma":
             ax.plot(t, c, lw=1.2, label=label)
@@ -427,9 +427,9 @@ def plot_sweep(sweep: Sweep, kind: str = "gamma", path: str | Path | None = None
         ax.set_ylabel(r"gain $\gamma$ (1)")
         ax.ticklabel_format(axis="y", useOffset=False)
         _clip_outliers(ax, [curve(sweep.members[g[0]]) for g in groups
-                            if sweep.members[g[0]].metrics["stable"]],
+                            if sweep.members[g[0]].metrics["settled"]],
                        [curve(sweep.members[g[0]]) for g in groups
-                        if not sweep.members[g[0]].metrics["stable"]])
+                        if not sweep.members[g[0]].metrics["settled"]])
     else:
         ax.set_ylabel(f"tracking error $|{sym} - {sym}^*|$ ({unit})")
     _mark_changes(ax, first, scale)
@@ -477,7 +477,7 @@ def _shortened(text: str, most: int) -> str:
 
 
 def _clip_outliers(ax, kept: list[np.ndarray], outliers: list[np.ndarray]) -> None:
-    """Limit the axis to the stable members' range when an unstable one would flatten
+    """Limit the axis to the settled members' range when an unsettled one would flatten
     them (its range ten times theirs or more), and say so on the figure."""
     if not kept or not outliers:
         return
@@ -490,7 +490,7 @@ def _clip_outliers(ax, kept: list[np.ndarray], outliers: list[np.ndarray]) -> No
     if max(o_hi - lo, hi - o_lo) > 10 * span:
         pad = 0.1 * span
         ax.set_ylim(lo - pad, hi + pad)
-        _note(ax, f"unstable members leave the axis (they reach {o_lo:.3g} .. {o_hi:.3g})")
+        _note(ax, f"unsettled members leave the axis (they reach {o_lo:.3g} .. {o_hi:.3g})")
 
 
 def plot_long_horizon(rows, path: str | Path | None = None, fidelity: str = "") -> Figure:
@@ -534,7 +534,7 @@ def convergence(point: np.ndarray, value: np.ndarray, params: dict[str, np.ndarr
     n_inf = int((~finite).sum())
     if n_inf:
         ax.plot([], [], " ", label=f"{n_inf} of {value.size} points scored inf "
-                "(invalid, diverged or unstable)")
+                "(invalid, diverged or not settled)")
     if finite.any() and value[finite].min() > 0 and value[finite].max() > 10 * value[finite].min():
         ax.set_yscale("log")
     ax.set_ylabel(f"objective\n{objective}")
@@ -613,7 +613,7 @@ def robustness_maps(maps: list[list[np.ndarray]], rows: list[str], columns: list
                     ) -> Figure:
     """A grid of small heatmaps (one row per plant, one column per controller) of an
     objective over two swept keys; one colour scale per row (log), crosses on members
-    that scored inf (diverged or unstable)."""
+    that scored inf (diverged or not settled)."""
     from matplotlib.colors import LogNorm
 
     fig = Figure(figsize=(3.3 * len(columns) + 1.2, 2.5 * len(rows) + 0.8),
@@ -644,7 +644,7 @@ def robustness_maps(maps: list[list[np.ndarray]], rows: list[str], columns: list
         if image is not None and norm is not None:
             fig.colorbar(image, ax=list(grid[i]), label=f"objective {objective}\n(log scale)",
                          shrink=0.9)
-    fig.suptitle(f"{title} (red x: diverged or unstable)")
+    fig.suptitle(f"{title} (red x: diverged or not settled)")
     return save_figure(fig, path)
 
 

@@ -253,17 +253,17 @@ class SweepResult(_Files):
     def _summary(self) -> list[tuple[str, str]]:
         table = {k: [m.metrics.get(k, math.nan) for m in self.members]
                  for k, _ in display.MAIN}
-        stable = sum(bool(m.metrics.get("stable")) for m in self.members)
+        settled = sum(bool(m.metrics.get("settled")) for m in self.members)
         return [("sweep", self.name),
                 ("members", f"{len(self.members)} members over {self.key} = "
                             f"{display.fmt(min(self.values))}..{display.fmt(max(self.values))}"),
-                ("stable", f"{stable} of {len(self.members)}"),
+                ("settled", f"{settled} of {len(self.members)}"),
                 ("metric ranges", display.metric_ranges(table))]
 
     def __repr__(self) -> str:
         rows = dict(self._summary())
-        return (f"<SweepResult {rows['sweep']!r}: {rows['members']}, {rows['stable']} "
-                f"stable\n {rows['metric ranges']}>")
+        return (f"<SweepResult {rows['sweep']!r}: {rows['members']}, {rows['settled']} "
+                f"settled\n {rows['metric ranges']}>")
 
 
     def plot(self, path: str | Path | None = None, kind: str = "gamma") -> Figure:

@@ -298,7 +298,7 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         the same either way.
     """
     values = grid.values(start, stop)
-    tol = grid.base["metrics.stable_tol"]
+    tol = grid.base["metrics.settled_tol"]
     if paper_grid(grid):
         changes = _cell_changes(grid) if changes is None else changes
         scn = build_members(grid, start, stop, changes)

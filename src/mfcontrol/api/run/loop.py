@@ -150,9 +150,9 @@ def _hand_back(controller, CS: np.ndarray, traj: np.ndarray, k_end: int) -> None
 
 
 def _settings(settle_time: float, t_end: float, final_window: float,
-              diverge_above: float, stable_tol: float = 0.1) -> np.ndarray:
+              diverge_above: float, settled_tol: float = 0.1) -> np.ndarray:
     """The kernels' metric settings, each checked as its option is (one-line errors)."""
-    values = (settle_time, final_window, stable_tol, diverge_above)
+    values = (settle_time, final_window, settled_tol, diverge_above)
     if all(type(v) is float or type(v) is int for v in values):
         _check_settings(*values)  # numbers seen before are not checked again
     else:
@@ -161,12 +161,12 @@ def _settings(settle_time: float, t_end: float, final_window: float,
 
 
 @functools.lru_cache(maxsize=256)
-def _check_settings(settle_time, final_window, stable_tol, diverge_above) -> None:
+def _check_settings(settle_time, final_window, settled_tol, diverge_above) -> None:
     """Each metric setting checked as its option is; what passed is remembered (a failure
     raises, and is not)."""
     for name, key, value in (("settle_time", "metrics.settle_time", settle_time),
                              ("final_window", "metrics.final_window", final_window),
-                             ("stable_tol", "metrics.stable_tol", stable_tol),
+                             ("settled_tol", "metrics.settled_tol", settled_tol),
                              ("diverge_above", "sim.diverge_above", diverge_above)):
         try:
             check_value(key, value)
@@ -298,7 +298,7 @@ def load_step_of(LP: np.ndarray, changes_per_member, t_end: float, n: int) -> np
 
 
 def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_window,
-           stable_tol, diverge_above):
+           settled_tol, diverge_above):
     """What a run of objects starts from, checked: (plant, h, t, r, S)."""
     plant = _as_plant(plant)
     if h is None:
@@ -310,7 +310,7 @@ def _setup(plant, controller, reference, t_end, h, changes, settle_time, final_w
     n = grid.n_samples(t_end, h)
     _check_changes(plant, changes)
     t = grid.times(n, t_end)
-    S = _settings(settle_time, t_end, final_window, diverge_above, stable_tol)
+    S = _settings(settle_time, t_end, final_window, diverge_above, settled_tol)
     return plant, h, t, _series("reference", reference, t), S
 
 
@@ -356,7 +356,7 @@ def _takes_alpha(controller) -> bool:
 def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float,
                   h: float | None = None, changes: Sequence[Change] = (),
                   settle_time: float = 0.0, final_window: float = 0.2,
-                  stable_tol: float = 0.1, diverge_above: float = 1e12,
+                  settled_tol: float = 0.1, diverge_above: float = 1e12,
                   name: str = "", fast: bool = False, alpha: Reference | None = None,
                   sensor=None, actuator=None, disturbance=None, substeps: int = 1) -> Result:
     """Simulate ``controller`` on ``plant`` tracking ``reference`` for ``t_end`` seconds.
@@ -375,7 +375,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
         Horizon and sample period; ``h`` defaults to the controller's ``sample_time``.
     changes : sequence of Change
         Scheduled plant parameter changes.
-    settle_time, final_window, stable_tol, diverge_above : float
+    settle_time, final_window, settled_tol, diverge_above : float
         Metric settings, as the ``metrics.*`` and ``sim.diverge_above`` options.
     fast : bool
         The compiled engine's fast mode (fused multiply-adds, reciprocals): within about
@@ -407,11 +407,11 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     >>> from mfcontrol import FirstOrder
     >>> ctrl = mfcontrol.IP(alpha=1.0, kp=20.0, sample_time=1e-3)
     >>> res = mfcontrol.simulate_loop(FirstOrder(a=-1.0, b=1.0), ctrl, 1.0, t_end=0.5)
-    >>> bool(res.metrics["stable"]), round(float(res.signals["y"][-1]), 4), res.engine
+    >>> bool(res.metrics["settled"]), round(float(res.signals["y"][-1]), 4), res.engine
     (True, 1.0, 'compiled')
     """
     plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
-                               final_window, stable_tol, diverge_above)
+                               final_window, settled_tol, diverge_above)
     al = _alpha(controller, alpha, t)
     LP = _elements(sensor, actuator, disturbance, substeps, n=t.size)
     step = _constant_step(plant, reference)
@@ -429,10 +429,10 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
             key, value = next(iter(acting.items()))
             raise ConfigError(key, value, "only the compiled engine runs the loop's "
                               f"elements and substeps; this loop runs in Python ({note})")
-        return _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol,
+        return _python_driver(plant, controller, r, t, changes, h, t_end, S, settled_tol,
                               name, note, al, step)
     return compiled_run(plant, ep, controller, law, r[None, :], None, changes, t, h, t_end, S,
-                        stable_tol, name, fast, None if al is None else al[None, :], LP, step)
+                        settled_tol, name, fast, None if al is None else al[None, :], LP, step)
 
 
 def _elements(sensor=None, actuator=None, disturbance=None, substeps=1, *,
@@ -473,14 +473,14 @@ def _constant_step(plant, reference) -> tuple[float, float, float] | None:
     return None
 
 
-def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, stable_tol, name,
+def compiled_run(plant, ep, controller, law, R, RP, changes, t, h, t_end, S, settled_tol, name,
                  fast, AL=None, LP=None, step=None, t_end_key="t_end") -> Result:
     """One member through the compiled engine, its trajectory named as a Result; the
     reference, elements and step as for :func:`run_members`."""
     M, traj, CS, DT = run_members([ep], [law], R, [list(changes)], t_end=t_end, h=h, S=S,
                               fast=fast, record=True, RP=RP, AL=AL, LP=LP, step=step,
                               t_end_key=t_end_key)
-    met = _metrics.from_kernel(M, 0, stable_tol)
+    met = _metrics.from_kernel(M, 0, settled_tol)
     k_end = met["n_samples"]
     _hand_back(controller, CS, traj, k_end)
     signals, states = trajectory.named_rows(traj[:, :k_end], law.components, plant.state_names)
@@ -522,7 +522,7 @@ def _python_reason(plant, ep, controller) -> str:
     return f"{type(controller).__name__} is not a library controller"
 
 
-def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, name,
+def _python_driver(plant, controller, r, t, changes, h, t_end, S, settled_tol, name,
                    note, al=None, step=None) -> Result:
     """The loop in Python, one plant step and one controller call per sample."""
     n = t.size
@@ -560,7 +560,7 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, stable_tol, na
     engine_metrics.start(M, *step_metrics_of(np.zeros((reference_law.N_PARAMS, 1)), step),
                          load_step_of(layout.column(), [changes], t_end, n))
     engine_metrics.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
-    met = _metrics.from_kernel(M, 0, stable_tol)
+    met = _metrics.from_kernel(M, 0, settled_tol)
     k_end = met["n_samples"]
     # the live controllers' component names, as every result names them
     comps["u_raw"] = comps.pop("unlimited", comps.get("u_raw", np.full(n, np.nan)))

@@ -23,7 +23,7 @@ from .loop import compiled_run, law_arrays, run_members
 
 def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: int,
             fast: bool = False) -> Result:
-    met = metrics.from_kernel(M, j, cfg["metrics.stable_tol"])
+    met = metrics.from_kernel(M, j, cfg["metrics.settled_tol"])
     n = met["n_samples"]
     signals, states = trajectory.named_rows(traj[:, m, :n], (), scn.state_names)
     return Result(name=name, config=cfg, time=scn.time()[:n], signals=signals, states=states,
@@ -78,7 +78,7 @@ def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:
     # the reference evaluated in the kernel, as a batch of these members evaluates it
     res = compiled_run(plant, plant.engine(), ctrl, law_arrays(ctrl), np.zeros((0, n)),
                        params.reference_column(cfg), changes, t,
-                       cfg["sim.h"], t_end, S, cfg["metrics.stable_tol"], name, fast,
+                       cfg["sim.h"], t_end, S, cfg["metrics.settled_tol"], name, fast,
                        LP=from_config.elements(cfg), t_end_key="sim.t_end")
     return dataclasses.replace(res, config=cfg, changes=())
 
@@ -111,9 +111,9 @@ def keys_read_by_run(cfg: Config) -> set[str]:
         for v in cfg["sweep.values"]:
             read |= keys_read_by_run(_member(cfg, key, v))
         return read
-    # the engine's choice, the time grid, the metrics' settings and stability verdict
+    # the engine's choice, the time grid, the metrics' settings and settling verdict
     read = keys_read(lambda c: (compiled(c), scenario.n_steps(c), params.metric_settings(c),
-                                c["metrics.stable_tol"]), cfg)
+                                c["metrics.settled_tol"]), cfg)
     read |= keys_read(_check_consistency, cfg)
     if compiled(cfg):
         read |= keys_read(lambda c: scenario.build([c]), cfg)

@@ -84,7 +84,7 @@ class LoopSweepResult(display.Shown):
         axes = ", ".join(f"{k} = {display.fmt(v.min())}..{display.fmt(v.max())} ({v.size})"
                          for k, v in self.axes.items())
         return [("members", f"{self.n_members:,} members over {axes}"),
-                ("verdicts", f"{int(np.sum(self.table['stable'])):,} stable, "
+                ("verdicts", f"{int(np.sum(self.table['settled'])):,} settled, "
                              f"{int(np.sum(self.table['diverged'])):,} diverged"),
                 ("metric ranges", display.metric_ranges(self.table)),
                 ("kept", display.names([f"member {m}" for m in self.kept]) or "none")]
@@ -181,7 +181,7 @@ def _unread(params: Mapping[str, Any], name: str, recursive: bool) -> str:
 def sweep(plant, controller, reference: Reference = 0.0, *,
           grid: Mapping[str, Sequence[float]], t_end: float, h: float | None = None,
           changes: Sequence[Change] = (), fast: bool = False, keep: int = 0,
-          settle_time: float = 0.0, final_window: float = 0.2, stable_tol: float = 0.1,
+          settle_time: float = 0.0, final_window: float = 0.2, settled_tol: float = 0.1,
           diverge_above: float = 1e12, alpha: Reference | None = None,
           vectorise: bool | None = None, sensor=None, actuator=None, disturbance=None,
           substeps: int = 1) -> LoopSweepResult:
@@ -190,7 +190,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     Parameters
     ----------
     plant, controller, reference, t_end, h, changes, settle_time, final_window,
-    stable_tol, diverge_above, alpha, sensor, actuator, disturbance, substeps
+    settled_tol, diverge_above, alpha, sensor, actuator, disturbance, substeps
         As for :func:`mfcontrol.simulate_loop` (``alpha``: one schedule, the same for
         every member; the elements the same for every member but for their swept
         options). Every member starts from the plant's ``x0`` and from a fresh
@@ -248,13 +248,13 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     ...                      grid={"controller.kp": [2.0, 5.0, 10.0], "plant.a": [-1.0, 0.5]},
     ...                      t_end=2.0)
     >>> df = sw.to_pandas()
-    >>> len(df), bool(df["stable"].all())
+    >>> len(df), bool(df["settled"].all())
     (6, True)
     """
     if not isinstance(keep, int | np.integer) or isinstance(keep, bool) or keep < 0:
         raise ConfigError("keep", keep, "must be a whole number >= 0")
     plant, h, t, r, S = _setup(plant, controller, reference, t_end, h, changes, settle_time,
-                               final_window, stable_tol, diverge_above)
+                               final_window, settled_tol, diverge_above)
     if law_arrays(controller) is None:
         raise ConfigError("controller", type(controller).__name__, "a sweep runs in the "
                           "compiled engine: a library controller (IP, IPI, IPD, IPID, "
@@ -319,7 +319,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                           t_end=t_end, h=h, S=S, fast=fast,
                           AL=None if al is None else al[None, :], vectorise=vectorise,
                           LP=layout.stack(member_lp), step=step)
-    met = _metrics.table(M, stable_tol)
+    met = _metrics.table(M, settled_tol)
     table: dict[str, np.ndarray] = {"member": np.arange(len(combos), dtype=np.int64)}
     idx = np.array(combos, dtype=np.int64).reshape(len(combos), len(keys))
     for c, k in enumerate(keys):
@@ -336,7 +336,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
                 kept[m] = simulate_loop(
                     plant, _controller(controller, params, ctrl_keys, values), reference,
                     t_end=t_end, h=h, changes=changes, settle_time=settle_time,
-                    final_window=final_window, stable_tol=stable_tol,
+                    final_window=final_window, settled_tol=settled_tol,
                     diverge_above=diverge_above, name=f"member {m}", fast=fast,
                     alpha=alpha, sensor=members_elements[m][0],
                     actuator=members_elements[m][1], disturbance=members_elements[m][2],
