@@ -74,6 +74,17 @@ window.mf = {
     }
     return out;
   },
+  margins() {                  // margin -> exact value of the linear loop's table, and
+    const t = mf.inside("mf-linear", "table");  // the run it was sent at
+    const out = {};
+    if (!t) return out;
+    for (const tr of t.querySelectorAll("tr[data-margin]")) {
+      const td = tr.querySelector("td.current");
+      if (td && td.dataset.value !== undefined) out[tr.dataset.margin] = td.dataset.value;
+    }
+    out.run = Number(t.dataset.run);
+    return out;
+  },
   text(cls) {                  // the text a Div shows (not its shadow root's styles)
     const el = mf.find(document, "." + cls);
     if (!el) return null;

@@ -28,7 +28,7 @@ from mfcontrol.tuner.page import CURRENT_SIGNALS, FROZEN_SIGNALS  # noqa: E402
 
 CASE = "voltage-stable-standard"  # 10,000 samples
 MOTOR = "motor-noise-ipi-algebraic"  # 10,000 samples, sensor noise, a load step at 5 s
-SHOWN = ("iae", "ise", "itae", "max_abs_e", "tv_u", "stable")
+SHOWN = ("iae", "ise", "itae", "max_abs_e", "tv_u", "settled")
 
 
 @pytest.fixture(scope="module")
@@ -209,8 +209,8 @@ def test_a_robustness_map_is_drawn_with_its_unstable_members(page):
     from mfcontrol.tuner.session import Session
 
     m = Session(CASE).robustness_map("controller.alpha", "plant.dR", "iae")
-    stable = int(m.stable.sum())
-    assert 0 < stable < 81 and "81 runs in" in status and f": {stable} stable" in status
+    stable = int(m.settled.sum())
+    assert 0 < stable < 81 and "81 runs in" in status and f": {stable} settled" in status
     assert page.evaluate("mf.model('map').children.length") == 1
     title = page.evaluate("mf.model('robustness-map').title.text")
     assert title == "Robustness map: IAE over ultra-local model gain alpha and load change dR"
@@ -251,6 +251,27 @@ def test_an_emptied_entry_returns_to_the_cases_value(page):
     assert page.locator(".mf-entry-reference-t-ramp2 input").input_value() == "0.005"
     assert_shows(page.evaluate("mf.cells('current')"), engine())
     assert "back to the case's 0.005" in page.evaluate("mf.text('mf-status')")
+
+
+def test_the_linear_loop_follows_every_change(page):
+    """Issue 30: the margins and the Bode and Nyquist data are the analysis's of the
+    settings shown, after every change."""
+    import mfcontrol
+
+    _, cfg = resolve_case(CASE)
+    m = mfcontrol.analyze(cfg).margins
+    shown = page.evaluate("mf.margins()")
+    assert float(shown["Ms"]) == m["Ms"] and float(shown["spectral_radius"]) == \
+        m["spectral_radius"]
+    page.evaluate("mf.change('mf-entry-controller-kp', '4')")
+    runs = page.evaluate("mf.run()")
+    page.wait_for_function(f"() => mf.margins().run >= {runs}", timeout=30_000)
+    _, cfg = resolve_case(CASE, {"controller.kp": 4.0})
+    after = mfcontrol.analyze(cfg).margins
+    assert float(page.evaluate("mf.margins()")["Ms"]) == after["Ms"] != m["Ms"]
+    assert "unstable" in page.evaluate("mf.text('mf-linear')")
+    n = page.evaluate("mf.model('linear-loop').data.w.length")
+    assert n == 400
 
 
 def test_undo_goes_back_to_the_run_before(page):

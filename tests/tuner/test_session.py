@@ -228,7 +228,7 @@ def test_control_figures_show_a_chattering_control_beside_the_verdict():
     r = simulate(cfg)
     f = control_figures(r)
     u = r.signals["u"]
-    assert r.metrics["stable"]  # the library's verdict on the output
+    assert r.metrics["settled"]  # the library's verdict on the output
     assert f["u_at_limit"] == 100 * np.mean((u <= -24) | (u >= 24))
     assert f["u_at_limit"] > 5
     assert f["step_share"] == pytest.approx(r.metrics["tv_u"] / (u.size - 1) / 48 * 100)
@@ -339,7 +339,7 @@ def test_the_fields_follow_the_law_and_the_model():
 def test_numeric_keys_leave_out_the_time_grid_and_shared_settings():
     keys = Session(CASE).numeric_keys()
     assert "controller.alpha" in keys and "plant.dR" in keys
-    assert not {"sim.h", "sim.t_end", "metrics.stable_tol", "sim.diverge_above"} & set(keys)
+    assert not {"sim.h", "sim.t_end", "metrics.settled_tol", "sim.diverge_above"} & set(keys)
 
 
 def test_text_of_reads_back_to_the_same_value():
@@ -376,7 +376,7 @@ def test_a_robustness_map_is_the_batch_of_its_members():
     assert m.z[1, 1] == s.run().metrics["iae"]
     _, cfg = resolve_case(CASE, {**SHORT, "controller.alpha": m.xs[2], "plant.dR": m.ys[0]})
     assert m.z[0, 2] == simulate(cfg).metrics["iae"]
-    assert m.stable[1, 1]
+    assert m.settled[1, 1]
     with pytest.raises(ConfigError):
         s.robustness_map("controller.alpha", "controller.alpha")
     with pytest.raises(ConfigError):
@@ -415,3 +415,28 @@ def test_the_read_keys_are_the_librarys_and_kept_per_settings():
     assert first == keys_read_by_run(s.cfg) and s.reads(s.cfg) is first
     s.set("controller.law", "i-PI")
     assert "controller.ki" in s.reads(s.cfg) and "controller.ki" not in first
+
+
+def test_the_analysis_is_the_librarys_and_kept_per_settings():
+    """Issue 30: the tuner shows the linear loop's margins beside the run."""
+    import mfcontrol
+
+    s = Session("bench-lag3")
+    a = s.analysis()
+    assert a.margins == mfcontrol.analyze(s.cfg).margins and s.analysis() is a
+    s.freeze()
+    s.set("controller.kp", str(4 * s.cfg["controller.kp"]))
+    b = s.analysis()
+    assert b is not a and b.margins["Ms"] > a.margins["Ms"]
+    assert s.analysis(s.frozen[0].config) is a  # the frozen run's, not analysed again
+
+
+def test_an_analysis_refused_is_its_reason_in_one_line(monkeypatch):
+    from mfcontrol.experiments import analyze as analysis
+
+    def refuse(cfg):
+        raise ConfigError("controller.gamma", None, "give the gain to analyse at\nmore")
+
+    monkeypatch.setattr(analysis, "analyze", refuse)
+    assert Session(CASE, SHORT).analysis() == \
+        "controller.gamma = None: give the gain to analyse at"

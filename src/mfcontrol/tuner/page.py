@@ -3,8 +3,11 @@
 Left, the options the case's run reads, in groups, each number as a slider (over log10 of
 a positive gain) with a typed entry and its message line; centre, the output against its
 reference, the controller's output and, where the gain adapts, gamma, with a frozen run in
-grey; right, the metrics of the run (and of the frozen one), the buttons, the robustness
-map's and the tuning's controls. Every change runs the case again and redraws.
+grey, and below them the linear loop (:func:`mfcontrol.analyze`): the gains of L, S, T and
+C_y S and L's phase over frequency, and the Nyquist curve with the Ms circle; right, the
+metrics of the run and the linear loop's margins (and the frozen runs'), the buttons, the
+robustness map's and the tuning's controls. Every change runs and analyses the case again
+and redraws.
 
 Every callback catches what it raises and shows it on the page: one page's bad input never
 stops the server. The two long jobs run in a thread each and come back to the document
@@ -27,8 +30,8 @@ import numpy as np
 from bokeh.core.properties import value
 from bokeh.document import Document
 from bokeh.layouts import column, row
-from bokeh.models import ColumnDataSource, CustomJS, InlineStyleSheet
-from bokeh.models.annotations import LabelSet, Title
+from bokeh.models import ColumnDataSource, CustomJS, InlineStyleSheet, Range1d
+from bokeh.models.annotations import LabelSet, Span, Title
 from bokeh.models.layouts import TabPanel, Tabs
 from bokeh.models.widgets import Button, Div, MultiChoice, Select, Slider, Spinner, TextInput
 from bokeh.plotting import figure
@@ -43,6 +46,7 @@ from .scale import scale_for
 from .session import (
     DIGITS,
     LABELS,
+    LINEAR_SHOWN,
     MAP_METRICS,
     MAX_FROZEN,
     SHORT,
@@ -73,6 +77,15 @@ FROZEN_SIGNALS = ("y", "u", "gamma")
 MAP_LABEL, REDRAW_LABEL = "Robustness map (9 x 9)", "Redraw map (9 x 9)"
 MAP_HELP = "Each axis: 9 values from the current one / 3 to x 3 (log-spaced when positive)."
 _NOT_DRAWN = object()
+#: frequencies of the linear loop's plots: log-spaced over five decades below the Nyquist
+#: frequency (as ``mfcontrol analyze``'s figure)
+FREQUENCIES, DECADES = 400, 5
+#: the gains of the Bode plot: column, legend, colour, dash
+GAINS = (("L", "loop gain |L|", "#000000", "solid"),
+         ("S", "sensitivity |S|", "#d62728", "solid"),
+         ("T", "complementary sensitivity |T|", "#1f77b4", "solid"),
+         ("CS", "noise to control |C_y S|", "#2ca02c", "dashed"))
+LINEAR_COLUMNS = ("w", *(g[0] for g in GAINS), "phase", "re", "im", "im_mirror")
 
 #: a tab's title where the group's name is too long for five tabs in the panel
 TAB_TITLES = {"sensor, actuator, disturbance": "elements"}
@@ -116,6 +129,20 @@ def fmt(v: Any) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "-"
     return f"{v:.4g}"
+
+
+def _fills(div: Div, column: str) -> CustomJS:
+    """A script that puts the HTML of a data source's ``column`` in ``div``'s element, not
+    as the Div's text (which would lay the whole page out again)."""
+    return CustomJS(args={"div": div}, code=f"""
+        const html = cb_obj.data.{column}[0];
+        const view = Bokeh.index.find_one(div);
+        if (view != null && view.markup_el != null) {{
+            view.markup_el.innerHTML = html;
+        }} else {{
+            div.text = html;  // a Bokeh without markup_el: the same, with a layout
+        }}
+    """)
 
 
 def keep_points(n: int, columns: list[np.ndarray], limit: int = MAX_POINTS) -> np.ndarray:
@@ -274,9 +301,14 @@ class TunerPage:
         self.u_fig = self._figure("Controller output", 210, x_range=self.out_fig.x_range)
         self.g_fig = self._figure("Adaptive gain gamma", 190, x_range=self.out_fig.x_range)
         self._draw_traces()
+        self._build_linear()
 
         self.metrics = Div(width=RIGHT, css_classes=["mf-metrics"],
                            stylesheets=[InlineStyleSheet(css=_TABLE_CSS)])
+        self.linear_div = Div(width=RIGHT, css_classes=["mf-linear"],
+                              stylesheets=[InlineStyleSheet(css=_TABLE_CSS)])
+        self.linear_text = ColumnDataSource({"html": [""]}, name="linear-text")
+        self.linear_text.js_on_change("data", _fills(self.linear_div, "html"))
         self.freeze_button = Button(label="Freeze this run", width=112,
                                     css_classes=["mf-freeze"])
         self.clear_button = Button(label="Clear frozen", width=96, disabled=True,
@@ -294,15 +326,7 @@ class TunerPage:
         # with the traces' one, and a script puts the metrics in the Div's element
         self.page_text = ColumnDataSource({"metrics": [""], "toml": [""],
                                            "filename": [f"{s.name}.toml"]}, name="page-text")
-        self.page_text.js_on_change("data", CustomJS(args={"div": self.metrics}, code="""
-            const html = cb_obj.data.metrics[0];
-            const view = Bokeh.index.find_one(div);
-            if (view != null && view.markup_el != null) {
-                view.markup_el.innerHTML = html;
-            } else {
-                div.text = html;  // a Bokeh without markup_el: the same, with a layout
-            }
-        """))
+        self.page_text.js_on_change("data", _fills(self.metrics, "metrics"))
         self.save_button.js_on_click(CustomJS(args={"store": self.page_text}, code="""
             const text = store.data.toml[0];
             const blob = new Blob([text], {type: "application/toml"});
@@ -355,21 +379,26 @@ class TunerPage:
             heading("Metrics"), self.metrics,
             row(self.freeze_button, self.clear_button, self.undo_button, self.save_button,
                 spacing=4),
+            heading("Linear loop (mfcontrol.analyze)"), self.linear_div,
             heading("Robustness"), row(self.map_x, self.map_y),
             row(self.map_metric, self.map_button), self.map_status,
             heading("Tuning by simulation (mfcontrol.tune)"), self.tune_keys,
             row(self.budget, self.objective, self.tune_button, self.stop_button),
             self.tune_status, width=RIGHT)
-        centre = column(self.out_fig, self.u_fig, self.g_fig, self.map_holder)
+        centre = column(self.out_fig, self.u_fig, self.g_fig, self.linear_title,
+                        row(column(self.gain_fig, self.phase_fig), self.nyq_fig),
+                        self.map_holder)
         left = column(Div(text="<b>Options the run reads</b> (type a value and press "
                       "Enter; an empty entry returns to the case's value)", width=LEFT,
                           styles={"font-size": "13px"}),
                       self.status_div, self.tabs, width=LEFT)
         self.doc.add_root(column(self.head, row(left, centre, right, spacing=14)))
+        # a data source no plot draws reaches the browser only as a root of its own
+        self.doc.add_root(self.linear_text)
         self.doc.title = f"mfcontrol tuner: {s.name}"
 
-    def _figure(self, title: str, height: int, **kwargs: Any):
-        fig = figure(width=CENTRE, height=height, title=Title(text=title, text_font_size="12pt"),
+    def _figure(self, title: str, height: int, width: int = CENTRE, **kwargs: Any):
+        fig = figure(width=width, height=height, title=Title(text=title, text_font_size="12pt"),
                      tools="pan,box_zoom,wheel_zoom,reset,save", toolbar_location="right",
                      **kwargs)
         for ax in (fig.xaxis, fig.yaxis):
@@ -415,6 +444,95 @@ class TunerPage:
             fig.legend.label_text_font_size = "10pt"
             fig.legend.background_fill_alpha = 0.7
             fig.legend.click_policy = "hide"
+
+    def _build_linear(self) -> None:
+        """The linear loop's figures: the gains and L's phase over frequency (left), the
+        Nyquist curve near -1 with the Ms circle (right); empty while there is none."""
+        self.linear_title = Div(text="", width=CENTRE, css_classes=["mf-linear-title"],
+                                styles={"font-size": "14px", "margin-top": "8px"})
+        self.lin_src = ColumnDataSource({k: [] for k in LINEAR_COLUMNS}, name="linear-loop")
+        self.ms_src = ColumnDataSource({"x": [], "y": []}, name="ms-circle")
+        wide = CENTRE - 320
+        self.gain_fig = self._figure("Gains of the linear loop", 250, width=wide,
+                                     x_axis_type="log")
+        self.phase_fig = self._figure("Phase of the loop gain L", 180, width=wide,
+                                      x_axis_type="log", x_range=self.gain_fig.x_range)
+        for col, label, colour, dash in GAINS:
+            self.gain_fig.line("w", col, source=self.lin_src, color=colour, line_dash=dash,
+                               line_width=1.6 if col == "L" else 1.3, legend_label=label)
+        self.ms_line = Span(location=0.0, dimension="width", line_color="#d62728",
+                            line_dash="dotted", line_width=1.2)
+        self.gain_fig.add_layout(self.ms_line)
+        self.gain_fig.add_layout(Span(location=0.0, dimension="width",
+                                      line_color="#999999", line_width=1.0))
+        self.gain_fig.yaxis.axis_label = "gain (dB)"
+        self.gain_fig.legend.location = "bottom_left"
+        self.gain_fig.legend.label_text_font_size = "9pt"
+        self.gain_fig.legend.background_fill_alpha = 0.7
+        self.gain_fig.legend.click_policy = "hide"
+        self.phase_fig.line("w", "phase", source=self.lin_src, color="#000000", line_width=1.4)
+        self.phase_fig.add_layout(Span(location=-180.0, dimension="width",
+                                       line_color="#999999", line_width=1.0))
+        self.phase_fig.yaxis.axis_label = "phase of L (deg)"
+        self.phase_fig.xaxis.axis_label = "frequency (rad/s), up to the Nyquist frequency"
+        circle = np.exp(1j * np.linspace(0.0, 2.0 * math.pi, 200))
+        # a square frame over square ranges: a circle drawn round
+        self.nyq_fig = self._figure("Nyquist curve near -1", 430, width=310,
+                                    x_range=Range1d(start=-3.0, end=2.0),
+                                    y_range=Range1d(start=-2.5, end=2.5))
+        self.nyq_fig.frame_width = self.nyq_fig.frame_height = 230
+        self.nyq_fig.line(circle.real, circle.imag, color="#bbbbbb", line_width=1.0,
+                          legend_label="unit circle")
+        self.nyq_fig.line("re", "im", source=self.lin_src, color="#000000", line_width=1.6,
+                          legend_label="L, w > 0")
+        self.nyq_fig.line("re", "im_mirror", source=self.lin_src, color="#000000",
+                          line_width=1.0, line_dash="dotted", legend_label="w < 0")
+        self.nyq_fig.line("x", "y", source=self.ms_src, color="#d62728", line_dash="dashed",
+                          line_width=1.2, legend_label="distance 1/Ms from -1")
+        self.nyq_fig.scatter([-1.0], [0.0], marker="cross", size=14, line_width=2.5,
+                             color="#d62728", legend_label="-1")
+        self.nyq_fig.xaxis.axis_label = "real part of L"
+        self.nyq_fig.yaxis.axis_label = "imaginary part of L"
+        self.nyq_fig.legend.location = "bottom_right"
+        self.nyq_fig.legend.label_text_font_size = "9pt"
+        self.nyq_fig.legend.background_fill_alpha = 0.7
+
+    def _show_linear(self, a: Any) -> None:
+        """The linear loop of the current settings in the figures (empty where there is
+        none: ``a`` is then the reason, in words)."""
+        # the title only when it changes: a Div's new text lays the page out again
+        title = ("<b>Linear loop</b> (mfcontrol.analyze: no noise, no limits; its margins "
+                 "are on the right)" if not isinstance(a, str) else
+                 f"<b>Linear loop</b>: no analysis of these settings ({html.escape(a)})")
+        if self.linear_title.text != title:
+            self.linear_title.text = title
+        if isinstance(a, str):
+            self.lin_src.data = {k: [] for k in LINEAR_COLUMNS}
+            self.ms_src.data = {"x": [], "y": []}
+            return
+        m = a.margins
+        nyquist = math.pi / a.sample_time
+        w = np.logspace(math.log10(nyquist) - DECADES, math.log10(nyquist), FREQUENCIES)
+        resp = a.loop.frequency_response(w)
+
+        def db(x: np.ndarray) -> np.ndarray:
+            with np.errstate(divide="ignore"):
+                return _finite(20.0 * np.log10(np.abs(x)))
+
+        L = resp["L"]
+        self.lin_src.data = {"w": _finite(w), **{g[0]: db(resp[g[0]]) for g in GAINS},
+                             "phase": _finite(np.degrees(np.unwrap(np.angle(L)))),
+                             "re": _finite(L.real), "im": _finite(L.imag),
+                             "im_mirror": _finite(-L.imag)}
+        ms = m["Ms"]
+        if math.isfinite(ms) and ms > 0:
+            circle = -1.0 + np.exp(1j * np.linspace(0.0, 2.0 * math.pi, 200)) / ms
+            self.ms_src.data = {"x": _finite(circle.real), "y": _finite(circle.imag)}
+            self.ms_line.location = 20.0 * math.log10(ms)
+            self.ms_line.visible = True
+        else:
+            self.ms_src.data = {"x": [], "y": []}
+            self.ms_line.visible = False
 
     def _rebuild_fields(self) -> None:
         """The option widgets, grouped, and the lists of numbers the map and the tuning
@@ -596,6 +714,27 @@ class TunerPage:
         s = self.session
         self.page_text.data = {"metrics": [self._unsent], "toml": [s.toml()],
                                "filename": [f"{s.name}-tuned.toml"]}
+        self._after_sent(self._update_linear)
+
+    def _after_sent(self, job: Callable[[], Any]) -> None:
+        """``job`` after the messages sent so far: on the server's next tick, so that the
+        run's metrics reach the page before the analysis (some 50 ms) is done; at once
+        for the page as first sent and outside a server."""
+        if self.doc.session_context is None or self.runs <= 1:
+            job()
+        else:
+            self.doc.add_next_tick_callback(lambda: job())
+
+    @_guarded
+    def _update_linear(self) -> None:
+        """The linear loop of the current settings: its figures and its margins' table
+        (:meth:`Session.analysis`, kept per settings: a frozen run's is not redone)."""
+        a = self.session.analysis()
+        self._show_linear(a)
+        text = self._linear_table(a)
+        if self.runs <= 1:  # the page as first sent; afterwards, through linear_text
+            self.linear_div.text = text
+        self.linear_text.data = {"html": [text]}
 
     def _columns(self, r: Result, names: tuple[str, ...]) -> dict[str, np.ndarray]:
         cols = [r.signals[k] for k in names]
@@ -619,11 +758,11 @@ class TunerPage:
             verdict = (f'<span class="verdict-no" style="color:#b42318">diverged at '
                        f't = {m["t_diverge"]:.4g} s</span>')
         else:
-            rule = (f'(the output: |e| within {100 * s_cfg["metrics.stable_tol"]:.4g} % of '
+            rule = (f'(the output: |e| within {100 * s_cfg["metrics.settled_tol"]:.4g} % of '
                     f'max |y*| over the last {100 * s_cfg["metrics.final_window"]:.4g} % of '
                     'the run)')
-            verdict = ('<span style="color:#1a7f37">stable</span> ' if m["stable"] else
-                       '<span style="color:#b42318">unstable</span> ') + html.escape(rule)
+            verdict = ('<span style="color:#1a7f37">settled</span> ' if m["settled"] else
+                       '<span style="color:#b42318">not settled</span> ') + html.escape(rule)
         _, u_unit = units(s_cfg)
         f = control_figures(r)
         unit = "" if u_unit == "1" else " " + html.escape(u_unit)  # a duty has none
@@ -648,13 +787,13 @@ class TunerPage:
             values = [run.get(m) for run in runs]
             if m == "final_gamma" and not s.adapts():
                 continue
-            if m != "stable" and not any(_defined(v) for v in values):
+            if m != "settled" and not any(_defined(v) for v in values):
                 continue
             words, unit = LABELS.get(m, (m, ""))
-            if m in _metrics.LABELS and m != "stable":
+            if m in _metrics.LABELS and m != "settled":
                 full = _metrics.label(m, y_unit, u_unit)
                 unit = full[len(words) + 2:-1] if full != words else ""
-            unit = unit.replace("^2", "\u00b2") if m != "stable" else ""
+            unit = unit.replace("^2", "\u00b2") if m != "settled" else ""
             cells = [f'<td title="{html.escape(words)}">{html.escape(SHORT.get(m, m))}'
                      f'<span class="unit">{html.escape(unit)}</span></td>',
                      _cell("current", values[0])]
@@ -669,6 +808,37 @@ class TunerPage:
             head += f"<th>vs #{s.frozen_numbers[-1]}</th>"
         return (f'<table class="metrics" data-run="{self.runs}"><tr>{head}</tr>'
                 f'{"".join(rows)}</table>')
+
+    def _linear_table(self, a: Any) -> str:
+        """The linear loop's verdict and margins (:func:`mfcontrol.analyze`), with a column
+        for each frozen run's, and what the analysis leaves out."""
+        s = self.session
+        head = ('<p class="verdict">The law as a filter around the plant, linearised where '
+                'the plant is not linear; no noise, no limits: ')
+        if isinstance(a, str):
+            return head + f"no analysis: {html.escape(a)}</p>"
+        frozen = [s.analysis(run.config) for run in s.frozen if run.config is not None]
+        runs = [_rounded(a.margins)] + [_rounded(f.margins) if not isinstance(f, str) else {}
+                                        for f in frozen]
+        verdict = ('<span class="linear-stable" style="color:#1a7f37">stable</span> (every '
+                   'pole inside the unit circle)' if a.margins["stable"] else
+                   '<span class="linear-unstable" style="color:#b42318">unstable</span> '
+                   '(a pole on or outside the unit circle)')
+        rows = []
+        for key, words, unit in LINEAR_SHOWN:
+            cells = [f'<td>{html.escape(words)}<span class="unit">{html.escape(unit)}'
+                     f'</span></td>', _cell("current", runs[0].get(key))]
+            cells += [_cell(f"frozen frozen-{n}", m.get(key))
+                      for n, m in zip(s.frozen_numbers, runs[1:], strict=False)]
+            rows.append(f'<tr data-margin="{key}">{"".join(cells)}</tr>')
+        th = "<th>margin</th><th>this run</th>" + "".join(
+            f'<th class="frozen">#{n}</th>' for n in s.frozen_numbers[:len(runs) - 1])
+        notes = "".join(f"<li>{html.escape(n)}</li>" for n in a.notes)
+        return (head + verdict + "</p>"
+                f'<table class="margins" data-run="{self.runs}"><tr>{th}</tr>'
+                f'{"".join(rows)}</table>'
+                + (f'<ul class="frozen-caption" style="margin:4px 0 0 16px; padding:0">'
+                   f'{notes}</ul>' if notes else ""))
 
     def _frozen_caption(self) -> str:
         """Each frozen run's settings against the current ones, redrawn with the table:
@@ -766,9 +936,9 @@ class TunerPage:
         self.map_view = heatmap.draw(m, units(m.cfg), (s.label(m.x), s.label(m.y)),
                                      width=CENTRE)
         self.map_holder.children = [self.map_view.fig]
-        stable = int(m.stable.sum())
-        self._map_done_text = (f"{m.z.size} runs in {m.seconds:.2f} s: {stable} stable, "
-                               f"{m.z.size - stable} not ({int(m.diverged.sum())} diverged).")
+        settled = int(m.settled.sum())
+        self._map_done_text = (f"{m.z.size} runs in {m.seconds:.2f} s: {settled} settled, "
+                               f"{m.z.size - settled} not ({int(m.diverged.sum())} diverged).")
         self._map_shown = None
         self._show_map_state()
 
@@ -825,7 +995,7 @@ class TunerPage:
     def _tune_done(self, result) -> None:
         self._idle()
         if not math.isfinite(result.value):
-            self.tune_status.text = _finished(f"no point was stable in {result.evaluations} "
+            self.tune_status.text = _finished(f"no point was settled in {result.evaluations} "
                                               "points: the values are kept", error=True)
             return
         best = ", ".join(f"{k} = {fmt(v)}" for k, v in result.best.items())
@@ -889,6 +1059,15 @@ def _defined(v: Any) -> bool:
     return v is not None and not (isinstance(v, float) and math.isnan(v))
 
 
+def _rounded(margins: dict[str, Any]) -> dict[str, Any]:
+    """The margins as shown: an integrating loop's steady-state error, summed in floats to
+    some 1e-13, as the 0 it is (as ``mfcontrol analyze`` prints it)."""
+    e = margins.get("steady_state_error")
+    if isinstance(e, float) and abs(e) < 1e-9:
+        return {**margins, "steady_state_error": 0.0}
+    return margins
+
+
 def _cell(cls: str, v: Any) -> str:
     exact = "" if v is None else f' data-value="{html.escape(repr(v))}"'
     style = ' class="verdict-no"' if v is False else ""
@@ -899,7 +1078,7 @@ def _cell(cls: str, v: Any) -> str:
 def _change(metric: str, now: Any, then: Any) -> str:
     """The relative change against the frozen run; green where the run is better (every
     metric of the table but gamma is better smaller)."""
-    if (metric in ("stable", "final_gamma") or not isinstance(now, float)
+    if (metric in ("settled", "final_gamma") or not isinstance(now, float)
             or not isinstance(then, float) or not math.isfinite(now)
             or not math.isfinite(then) or then == 0):
         return "<td></td>"

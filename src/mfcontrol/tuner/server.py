@@ -74,6 +74,7 @@ def make_server(case: str | Path, overrides: Mapping[str, Any] | None = None,
     # the batch kernels load on their first use (seconds): a small map in the background
     # now, so that the page's first map and tuning start at once
     threading.Thread(target=_warm, args=(first,), daemon=True, name="mfcontrol-warm").start()
+    first.analysis()  # python-control and scipy imported: the first page's analysis
 
     def session() -> Session:
         return Session(case, overrides)

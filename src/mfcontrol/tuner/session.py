@@ -73,7 +73,7 @@ _SWEEP_KEYS = ("sweep.key", "sweep.values", "sweep.grid")
 
 #: the metrics of the page's table, in order (the loop metrics only where defined);
 #: ``u_at_limit`` is the tuner's own (:func:`control_figures`), beside TV(u)
-TABLE_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "u_at_limit", "stable",
+TABLE_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "u_at_limit", "settled",
                  "iae_load", "overshoot", "rise_time", "settling_time", "final_gamma")
 
 #: the metrics' short names: one table for the library (api/results/metrics.py), and the
@@ -87,6 +87,19 @@ LABELS = {**metrics.LABELS, "u_at_limit": ("share of the samples with u at an ou
 MAP_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "iae_load", "energy_u",
                "overshoot", "settling_time")
 
+
+#: the linear loop's margins the page shows (:func:`mfcontrol.analyze`), in order, in words
+#: and with their unit ("" for a ratio)
+LINEAR_SHOWN = (("spectral_radius", "spectral radius", ""), ("Ms", "Ms, peak |S|", ""),
+                ("Mt", "Mt, peak |T|", ""), ("gain_margin", "gain margin", ""),
+                ("phase_margin_deg", "phase margin", "deg"),
+                ("delay_margin_samples", "delay margin", "samples"),
+                ("bandwidth_rad_s", "bandwidth", "rad/s"),
+                ("noise_gain_h2", "noise gain (H2)", ""),
+                ("steady_state_error", "steady-state error", "per unit step"))
+
+#: analyses kept (the current settings' and the frozen runs')
+_ANALYSES_KEPT = 8
 
 #: samples of one run at most: every change runs on the server's event loop, and a run of
 #: 10^7 samples took 3 s and 1.2 GB there, freezing every open page
@@ -217,7 +230,7 @@ def control_figures(r: Result) -> dict[str, float]:
     reference while u chatters from one limit to the other): ``u_at_limit``, the share of
     samples (in %) with u at an output limit; ``step_share``, the mean |u_k - u_{k-1}|
     (TV(u) per sample) in % of the limits' span; ``low``, ``high``, the limits. A
-    description of the run, not a verdict: the verdict is the library's ``stable``."""
+    description of the run, not a verdict: the verdict is the library's ``settled``."""
     cfg = r.config
     assert cfg is not None  # a case's run
     low, high = cfg["controller.duty_min"], cfg["controller.duty_max"]
@@ -297,7 +310,7 @@ class RobustnessMap:
         Whether each axis is log-spaced.
     z : ndarray
         ``z[i_y, i_x]``, the metric of member (xs[i_x], ys[i_y]).
-    stable, diverged : ndarray of bool
+    settled, diverged : ndarray of bool
         The same shape: each member's verdict.
     at : tuple of float
         The setting (x, y) it was drawn around, the map's centre.
@@ -316,15 +329,15 @@ class RobustnessMap:
     log_x: bool
     log_y: bool
     z: np.ndarray
-    stable: np.ndarray
+    settled: np.ndarray
     diverged: np.ndarray
     at: tuple[float, float]
     seconds: float
     cfg: Config
 
     @property
-    def n_unstable(self) -> int:
-        return int((~self.stable).sum())
+    def n_unsettled(self) -> int:
+        return int((~self.settled).sum())
 
 
 @dataclass(frozen=True)
@@ -379,7 +392,7 @@ class Session:
     >>> s.set("controller.kp", "1.5")  # None: accepted
     >>> s.set("controller.alpha", "-1")
     'controller.alpha = -1: must be a finite number > 0'
-    >>> s.run().metrics["stable"], s.changed()
+    >>> s.run().metrics["settled"], s.changed()
     (True, {'sim.t_end': 0.001, 'controller.kp': 1.5})
     >>> s.undo()
     'controller.kp = 1.5'
@@ -408,6 +421,9 @@ class Session:
         # a slider's move: the next move of the same slider is the same step)
         self._history: list[tuple[tuple, str, str | None]] = []
         self._reads: dict[int, tuple[Config, frozenset[str]]] = {}
+        # the linear analyses of recent settings, by the id of their Config (kept alive
+        # in the value, so that no id is reused while cached)
+        self._analyses: dict[int, tuple[Config, Any]] = {}
 
     @property
     def description(self) -> str:
@@ -706,6 +722,28 @@ class Session:
         self.seconds = time.perf_counter() - t0
         return self.result
 
+    def analysis(self, cfg: Config | None = None) -> Any:
+        """The linear analysis of the current settings' loop, or of ``cfg`` (a frozen run's
+        ``config``): what :func:`mfcontrol.analyze` gives, a
+        :class:`~mfcontrol.experiments.analyze.Analysis`; or, where the loop has none
+        (a gain given from outside, a plant without a steady state), the reason in one
+        line. Kept for the last few settings: a frozen run is not analysed again."""
+        from ..experiments.analyze import analyze
+
+        cfg = self.cfg if cfg is None else cfg
+        hit = self._analyses.get(id(cfg))
+        if hit is not None and hit[0] is cfg:
+            return hit[1]
+        try:
+            out: Any = analyze(cfg)
+        except (ValueError, ArithmeticError) as exc:  # ConfigError, LinAlgError: ValueErrors
+            lines = str(exc).strip().splitlines()
+            out = lines[0] if lines else type(exc).__name__
+        self._analyses[id(cfg)] = (cfg, out)
+        while len(self._analyses) > _ANALYSES_KEPT:
+            del self._analyses[next(iter(self._analyses))]
+        return out
+
     def freeze(self) -> Result:
         """Keep the current run to compare against (runs it first if it has not run), as
         the newest of the frozen runs: the oldest goes beyond :data:`MAX_FROZEN`."""
@@ -763,7 +801,7 @@ class Session:
 
         return RobustnessMap(
             x=x, y=y, metric=metric, xs=axes[x], ys=axes[y], log_x=logs[0], log_y=logs[1],
-            z=arranged(metric).astype(float), stable=arranged("stable").astype(bool),
+            z=arranged(metric).astype(float), settled=arranged("settled").astype(bool),
             diverged=arranged("diverged").astype(bool), at=(float(cfg[x]), float(cfg[y])),
             seconds=time.perf_counter() - t0, cfg=cfg)
 
