@@ -186,11 +186,12 @@ def test_a_search_that_finds_nothing_is_reported_as_such(tmp_path, monkeypatch):
     assert "| my-plant | i-P | no settled point found |" in md
 
 
-def _entry(controller, objective, settled=True, tuned=None):
+def _entry(controller, objective, settled=True, tuned=None, n_linear_stable=25):
     return bm.Entry(plant="p", controller=controller, config=None, tuned=tuned or {},
                     evaluations=10, objective=objective, iae_setpoint=objective,
                     iae_load=objective, tv_u_noise=objective, worst=objective, n_settled=25,
-                    n_map=25, settled=settled, tuning_seconds=1.0, map_scores=np.zeros((5, 5)))
+                    n_map=25, settled=settled, tuning_seconds=1.0, map_scores=np.zeros((5, 5)),
+                    n_linear_stable=n_linear_stable)
 
 
 def test_findings_name_winners_losers_and_bounds():
@@ -198,8 +199,11 @@ def test_findings_name_winners_losers_and_bounds():
                     "i-P": (["controller.kp=0.1:10"], []), "i-PI": (["controller.kp=0.1:10"], [])}}
     entries = [_entry("PID", 2.0, tuned={"controller.kp": 10.0}),
                _entry("i-P", 1.0, settled=False, tuned={"controller.kp": 5.0}),
-               _entry("i-PI", 3.0, tuned={"controller.kp": 0.1})]
+               _entry("i-PI", 3.0, tuned={"controller.kp": 0.1}, n_linear_stable=11)]
     text = "\n".join(bm._findings(entries, ["p"], spaces))
+    # the two verdicts on the map, each in its own sentence
+    assert "robustness map (the plant as it is at t = 0" in text
+    assert text.endswith("bounded oscillation): i-PI on p (11/25).")
     # the unstable i-P is never best although its numbers are lowest
     assert "Best on the tuned objective: PID on 1 (p); i-P on none; i-PI on none." in text
     assert "i-P on p (not settled), i-PI on p (1.5x the PID's)" in text

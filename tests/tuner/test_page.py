@@ -336,10 +336,15 @@ def test_the_linear_loop_is_drawn_and_its_margins_listed():
     assert text == page.linear_div.text and 'class="linear-stable"' in text
     assert 'data-margin="Ms"><td>Ms, peak |S|' in html.unescape(text)
     assert f'data-value="{a.margins["Ms"]!r}"' in text
+    page.freeze()
     page.change(page.views["controller.kp"], str(20 * page.session.cfg["controller.kp"]))
     after = mfcontrol.analyze(page.session.cfg)
     assert not after.margins["stable"]
-    assert 'class="linear-unstable"' in page.linear_text.data["html"][0]
+    text = page.linear_text.data["html"][0]
+    assert 'class="linear-unstable"' in text
+    # the frozen run's margins in a column of their own
+    assert (f'<td class="frozen frozen-1" data-value="{a.margins["Ms"]!r}">' in text
+            and '<th class="frozen">#1</th>' in text)
     assert page.ms_line.location == pytest.approx(20 * math.log10(after.margins["Ms"]))
 
 

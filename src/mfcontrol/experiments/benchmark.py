@@ -486,6 +486,11 @@ def _findings(entries: list[Entry], plants_: list[str],
                if e.n_settled < e.n_map]
     out.append("- Not settled somewhere on the robustness map: "
                + (", ".join(fragile) if fragile else "none") + ".")
+    linear = [f"{e.controller} on {e.plant} ({e.n_linear_stable}/{e.n_map})" for e in entries
+              if e.tuned and e.n_linear_stable < e.n_map]
+    out.append("- A linear loop unstable somewhere on the robustness map (the plant as it is "
+               "at t = 0, before any load step; the output limits can hold such a loop in a "
+               "bounded oscillation): " + (", ".join(linear) if linear else "none") + ".")
     return out
 
 

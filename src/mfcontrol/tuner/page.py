@@ -77,6 +77,11 @@ FROZEN_SIGNALS = ("y", "u", "gamma")
 MAP_LABEL, REDRAW_LABEL = "Robustness map (9 x 9)", "Redraw map (9 x 9)"
 MAP_HELP = "Each axis: 9 values from the current one / 3 to x 3 (log-spaced when positive)."
 _NOT_DRAWN = object()
+#: how long the changes must pause before the linear loop is analysed and sent (ms).
+#: Analysed on the next tick after each run, the analysis (20 to 130 ms) held the server's
+#: loop and its figures the browser's frame: a change's metrics reached the page in a
+#: median 107 ms instead of 85, its frame in 237 instead of 132 (bench_tuner.py)
+AFTER_MS = 250
 #: frequencies of the linear loop's plots: log-spaced over five decades below the Nyquist
 #: frequency (as ``mfcontrol analyze``'s figure)
 FREQUENCIES, DECADES = 400, 5
@@ -273,6 +278,7 @@ class TunerPage:
         self._scale = 1.0
         # the run each frozen slot shows (none yet: the first redraw hides the empty ones)
         self._frozen_shown: list[Any] = [_NOT_DRAWN] * MAX_FROZEN
+        self._pending: Any = None  # the linear loop's analysis, waiting for a pause
         self._tab_titles: list[str] = []
         self._shown_keys: list[str] = []  # the options the fields show, in the session's order
         self._status_note = False
@@ -717,13 +723,24 @@ class TunerPage:
         self._after_sent(self._update_linear)
 
     def _after_sent(self, job: Callable[[], Any]) -> None:
-        """``job`` after the messages sent so far: on the server's next tick, so that the
-        run's metrics reach the page before the analysis (some 50 ms) is done; at once
-        for the page as first sent and outside a server."""
+        """``job`` once the changes pause: :data:`AFTER_MS` after the last one on the
+        server's loop (a newer change puts it off again), so that the run's metrics and
+        traces reach the page and are drawn first, and a slider's drag is not analysed
+        at every step; at once for the page as first sent and outside a server."""
         if self.doc.session_context is None or self.runs <= 1:
             job()
-        else:
-            self.doc.add_next_tick_callback(lambda: job())
+            return
+        if self._pending is not None:
+            try:
+                self.doc.remove_timeout_callback(self._pending)
+            except ValueError:  # it ran already
+                pass
+
+        def run() -> None:
+            self._pending = None
+            job()
+
+        self._pending = self.doc.add_timeout_callback(run, AFTER_MS)
 
     @_guarded
     def _update_linear(self) -> None:
@@ -817,7 +834,7 @@ class TunerPage:
                 'the plant is not linear; no noise, no limits: ')
         if isinstance(a, str):
             return head + f"no analysis: {html.escape(a)}</p>"
-        frozen = [s.analysis(run.config) for run in s.frozen if run.config is not None]
+        frozen = [s.analysis(run.config) if run.config is not None else "" for run in s.frozen]
         runs = [_rounded(a.margins)] + [_rounded(f.margins) if not isinstance(f, str) else {}
                                         for f in frozen]
         verdict = ('<span class="linear-stable" style="color:#1a7f37">stable</span> (every '
@@ -829,10 +846,10 @@ class TunerPage:
             cells = [f'<td>{html.escape(words)}<span class="unit">{html.escape(unit)}'
                      f'</span></td>', _cell("current", runs[0].get(key))]
             cells += [_cell(f"frozen frozen-{n}", m.get(key))
-                      for n, m in zip(s.frozen_numbers, runs[1:], strict=False)]
+                      for n, m in zip(s.frozen_numbers, runs[1:], strict=True)]
             rows.append(f'<tr data-margin="{key}">{"".join(cells)}</tr>')
         th = "<th>margin</th><th>this run</th>" + "".join(
-            f'<th class="frozen">#{n}</th>' for n in s.frozen_numbers[:len(runs) - 1])
+            f'<th class="frozen">#{n}</th>' for n in s.frozen_numbers)
         notes = "".join(f"<li>{html.escape(n)}</li>" for n in a.notes)
         return (head + verdict + "</p>"
                 f'<table class="margins" data-run="{self.runs}"><tr>{th}</tr>'
