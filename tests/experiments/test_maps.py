@@ -294,6 +294,16 @@ def test_load_reads_results_and_sweep_json(tmp_path):
     assert back.attrs["sweep"]["case"] == "tiny"
 
 
+def test_a_results_file_from_before_the_rename_is_hatched_as_it_was(tmp_path):
+    # its column was `stable`: read as `settled`, its map keeps its hatching and boundary
+    folder = tmp_path / "old"
+    _write_sweep(folder, frame(threshold=5.0).rename(columns={"settled": "stable"}))
+    back = maps.load(folder)
+    assert "settled" in back.columns and "stable" not in back.columns
+    fig = maps.heatmap(back, "controller.alpha", "plant.dR", "iae")
+    assert hatched_cells(fig.axes[0]) == 4 and boundary_lines(fig.axes[0])
+
+
 def test_load_without_results_is_a_clear_error(tmp_path):
     with pytest.raises(ValueError, match="no results.parquet"):
         maps.load(tmp_path)

@@ -49,7 +49,9 @@ RESULTS = "results.parquet"
 
 def load(folder: str | Path) -> pd.DataFrame:
     """``folder/results.parquet`` as a DataFrame (a path to the parquet file also works).
-    The sweep's ``sweep.json``, when present, goes to ``frame.attrs["sweep"]``."""
+    The sweep's ``sweep.json``, when present, goes to ``frame.attrs["sweep"]``. A file
+    written before the metric ``stable`` was renamed ``settled`` is read with the new
+    name (the same test), so that its map is hatched as it was."""
     import pandas as pd
 
     folder = Path(folder)
@@ -57,6 +59,9 @@ def load(folder: str | Path) -> pd.DataFrame:
     if not path.is_file():
         raise ValueError(f"{folder}: no results.parquet there (is it a sweep's output folder?)")
     frame = pd.read_parquet(path)
+    if "stable" in frame.columns and "settled" not in frame.columns:
+        # written before the tracking test was named for what it is: the same column
+        frame = frame.rename(columns={"stable": "settled"})
     meta = path.parent / "sweep.json"
     if meta.is_file():
         frame.attrs["sweep"] = json.loads(meta.read_text())
