@@ -29,6 +29,13 @@ from .filters import LinearFilter
 POINTS_PER_DECADE = 2000
 
 
+def frequencies(dt: float, points: int, decades: float = 5.0) -> np.ndarray:
+    """``points`` frequencies (rad/s), log-spaced over ``decades`` below the Nyquist
+    frequency pi / dt, the last at it: the grid of every peak, plot and crossing search."""
+    nyquist = math.pi / dt
+    return np.logspace(math.log10(nyquist) - decades, math.log10(nyquist), points)
+
+
 def _discrete(plant: Any, dt: float) -> Any:
     """``plant`` as a discrete SISO python-control system of sample time dt: a continuous
     one (or an object with the matrices ``A``, ``B``, ``C`` of x' = A x + B u, y = C x,
@@ -288,9 +295,7 @@ class LinearLoop:
         from scipy.optimize import brentq
 
         c = self.controller
-        nyquist = math.pi / c.dt
-        omega = np.logspace(math.log10(nyquist) - 6, math.log10(nyquist),
-                            6 * POINTS_PER_DECADE)
+        omega = frequencies(c.dt, 6 * POINTS_PER_DECADE, decades=6)
         resp = self.frequency_response(omega)
         loop = resp["L"]
 

@@ -20,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .filters import LinearFilter
-from .loop import LinearLoop, closed_loop
+from .loop import LinearLoop, closed_loop, frequencies
 
 #: closed-loop matrices whose eigenvalues are taken in one call (memory: BATCH d^2 floats)
 BATCH = 1024
@@ -79,8 +79,7 @@ def loops(filters: Sequence[LinearFilter], plant: LinearLoop,
     for i, m in enumerate(closed):
         stack[i, :m.shape[0], :m.shape[0]] = m
     radius = spectral_radii(stack)
-    nyquist = math.pi / dt
-    omega = np.logspace(math.log10(nyquist) - 5, math.log10(nyquist), points)
+    omega = frequencies(dt, points)
     q = np.exp(-1j * omega * dt)
     p = plant.plant_response(omega)
     with np.errstate(all="ignore"):

@@ -29,6 +29,10 @@ from ..api.model.controllers import PID, RecursiveIP
 from ..config.resolve import Config
 
 #: the margins' keys in the order they are printed, with their words
+#: a steady-state error smaller than this is an integrating loop's 0, summed in floats
+#: to some 1e-13: shown as 0 (the summary, the tuner)
+ROUNDING = 1e-9
+
 SUMMARY = (("stable", "stable (linear loop)"), ("spectral_radius", "spectral radius"),
            ("Ms", "Ms (peak |S|)"), ("Mt", "Mt (peak |T|)"), ("gain_margin", "gain margin"),
            ("phase_margin_deg", "phase margin (deg)"), ("delay_margin_s", "delay margin (s)"),
@@ -133,8 +137,8 @@ class Analysis:
         def shown(key: str, v: Any) -> str:
             if isinstance(v, bool):
                 return str(v)
-            if key == "steady_state_error" and abs(v) < 1e-9:
-                return "0 (to rounding)"  # an integrating loop's, summed in floats
+            if key == "steady_state_error" and abs(v) < ROUNDING:
+                return "0 (to rounding)"
             return f"{v:.4g}"
 
         lines = [f"{words}: {shown(key, self.margins[key])}" for key, words in SUMMARY]

@@ -36,6 +36,7 @@ from bokeh.models.layouts import TabPanel, Tabs
 from bokeh.models.widgets import Button, Div, MultiChoice, Select, Slider, Spinner, TextInput
 from bokeh.plotting import figure
 
+from ..analysis.loop import frequencies
 from ..api.results import metrics as _metrics
 from ..api.results.plotting import plain_labels, units
 from ..api.results.result import Result
@@ -82,9 +83,9 @@ _NOT_DRAWN = object()
 #: loop and its figures the browser's frame: a change's metrics reached the page in a
 #: median 107 ms instead of 85, its frame in 237 instead of 132 (bench_tuner.py)
 AFTER_MS = 250
-#: frequencies of the linear loop's plots: log-spaced over five decades below the Nyquist
-#: frequency (as ``mfcontrol analyze``'s figure)
-FREQUENCIES, DECADES = 400, 5
+#: frequencies of the linear loop's plots (:func:`mfcontrol.analysis.loop.frequencies`:
+#: five decades below the Nyquist frequency, as ``mfcontrol analyze``'s figure)
+FREQUENCIES = 400
 #: the gains of the Bode plot: column, legend, colour, dash
 GAINS = (("L", "loop gain |L|", "#000000", "solid"),
          ("S", "sensitivity |S|", "#d62728", "solid"),
@@ -517,8 +518,7 @@ class TunerPage:
             self.ms_src.data = {"x": [], "y": []}
             return
         m = a.margins
-        nyquist = math.pi / a.sample_time
-        w = np.logspace(math.log10(nyquist) - DECADES, math.log10(nyquist), FREQUENCIES)
+        w = frequencies(a.sample_time, FREQUENCIES)
         resp = a.loop.frequency_response(w)
 
         def db(x: np.ndarray) -> np.ndarray:
@@ -1079,8 +1079,10 @@ def _defined(v: Any) -> bool:
 def _rounded(margins: dict[str, Any]) -> dict[str, Any]:
     """The margins as shown: an integrating loop's steady-state error, summed in floats to
     some 1e-13, as the 0 it is (as ``mfcontrol analyze`` prints it)."""
+    from ..experiments.analyze import ROUNDING
+
     e = margins.get("steady_state_error")
-    if isinstance(e, float) and abs(e) < 1e-9:
+    if isinstance(e, float) and abs(e) < ROUNDING:
         return {**margins, "steady_state_error": 0.0}
     return margins
 

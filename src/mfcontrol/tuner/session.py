@@ -171,6 +171,28 @@ def text_of(value: Any) -> str:
     return str(value)
 
 
+def _first_line(exc: BaseException) -> str:
+    """An exception's message in one line, as the page shows it (its class's name when it
+    has none)."""
+    lines = str(exc).strip().splitlines()
+    return lines[0] if lines else type(exc).__name__
+
+
+def _kept(cache: dict[int, tuple[Config, Any]], cfg: Config,
+          make: Callable[[Config], Any], size: int) -> Any:
+    """``make(cfg)``, kept in ``cache`` by the id of ``cfg`` for the ``size`` settings
+    seen last (the oldest dropped first). The Config is kept alive with its value, so that
+    no id is reused while cached."""
+    hit = cache.get(id(cfg))
+    if hit is not None and hit[0] is cfg:
+        return hit[1]
+    value = make(cfg)
+    cache[id(cfg)] = (cfg, value)
+    while len(cache) > size:
+        del cache[next(iter(cache))]
+    return value
+
+
 class RunRefused(ValueError):
     """The run refused settings the options let through: a law or plant checks what the
     option table cannot (the algebraic estimator's window of at least 2 samples) and
@@ -421,9 +443,7 @@ class Session:
         # a slider's move: the next move of the same slider is the same step)
         self._history: list[tuple[tuple, str, str | None]] = []
         self._reads: dict[int, tuple[Config, frozenset[str]]] = {}
-        # the linear analyses of recent settings, by the id of their Config (kept alive
-        # in the value, so that no id is reused while cached)
-        self._analyses: dict[int, tuple[Config, Any]] = {}
+        self._analyses: dict[int, tuple[Config, Any]] = {}  # :func:`_kept`, by settings
 
     @property
     def description(self) -> str:
@@ -552,12 +572,7 @@ class Session:
         (:func:`~mfcontrol.api.run.simulate.keys_read_by_run`), kept for the settings
         seen last: every redraw asks it of the current settings, each frozen run's and a
         map's (about 0.6 ms a call)."""
-        hit = self._reads.get(id(cfg))
-        if hit is None or hit[0] is not cfg:
-            if len(self._reads) >= 32:
-                self._reads.clear()
-            hit = self._reads[id(cfg)] = (cfg, frozenset(keys_read_by_run(cfg)))
-        return hit[1]
+        return _kept(self._reads, cfg, lambda c: frozenset(keys_read_by_run(c)), 32)
 
     def changed(self) -> dict[str, Any]:
         """The options the run reads whose value differs from the case's own (one the
@@ -717,8 +732,7 @@ class Session:
             # how the laws and plants refuse a value their option allows: shown on the
             # page as a refusal; any other exception is taken for a fault of the code
             # and keeps its traceback
-            lines = str(exc).strip().splitlines()
-            raise RunRefused(lines[0] if lines else type(exc).__name__) from exc
+            raise RunRefused(_first_line(exc)) from exc
         self.seconds = time.perf_counter() - t0
         return self.result
 
@@ -730,19 +744,14 @@ class Session:
         line. Kept for the last few settings: a frozen run is not analysed again."""
         from ..experiments.analyze import analyze
 
-        cfg = self.cfg if cfg is None else cfg
-        hit = self._analyses.get(id(cfg))
-        if hit is not None and hit[0] is cfg:
-            return hit[1]
-        try:
-            out: Any = analyze(cfg)
-        except (ValueError, ArithmeticError) as exc:  # ConfigError, LinAlgError: ValueErrors
-            lines = str(exc).strip().splitlines()
-            out = lines[0] if lines else type(exc).__name__
-        self._analyses[id(cfg)] = (cfg, out)
-        while len(self._analyses) > _ANALYSES_KEPT:
-            del self._analyses[next(iter(self._analyses))]
-        return out
+        def analysed(cfg: Config) -> Any:
+            try:
+                return analyze(cfg)
+            except (ValueError, ArithmeticError) as exc:  # ConfigError, LinAlgError too
+                return _first_line(exc)
+
+        return _kept(self._analyses, self.cfg if cfg is None else cfg, analysed,
+                     _ANALYSES_KEPT)
 
     def freeze(self) -> Result:
         """Keep the current run to compare against (runs it first if it has not run), as

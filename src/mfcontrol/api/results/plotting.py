@@ -678,11 +678,12 @@ def plot_analysis(analysis: LinearAnalysis, path: str | Path | None = None,
     L, the sensitivities S and T and the noise-to-control gain C_y S over frequency; L's
     phase; the Nyquist curve of L with -1 and the Ms circle; the closed-loop poles with
     the unit circle."""
+    from ...analysis.loop import frequencies
+
     m = analysis.margins
     loop = analysis.loop
     dt = loop.controller.dt
-    nyquist = math.pi / dt
-    omega = np.logspace(math.log10(nyquist) - 5, math.log10(nyquist), 2000)
+    omega = frequencies(dt, 2000)
     resp = loop.frequency_response(omega)
     fig = Figure(figsize=(11, 8), layout="constrained")
     (ax_mag, ax_nyq), (ax_ph, ax_pole) = fig.subplots(2, 2)
