@@ -81,14 +81,14 @@ NOISE_STD, SEED = 0.5, 1  # rad/s
 SENSOR_DELAY, ACTUATOR_DELAY, RATE_LIMIT = 2, 3, 2000.0  # samples, samples, V/s
 WINDOW = 40  # the algebraic estimator's window, samples
 PID_KP, PID_KI = 0.2, 0.54  # motor-noise-pid's PI
-#: the swept axes of the motor loops, by law (every member stable under the noise and
+#: the swept axes of the motor loops, by law (every member settled under the noise and
 #: the delays)
 MOTOR_AXES = {"ipi": {"controller.kp": np.linspace(5.0, 40.0, SIDE),
                       "plant.J": np.linspace(3e-4, 8e-4, SIDE)},
               "pid": {"controller.kp": np.linspace(0.1, 0.4, SIDE),
                       "plant.J": np.linspace(3e-4, 8e-4, SIDE)}}
 #: bench-lag3 under the i-PI: the law and the gain that make every member of its axes
-#: stable (the case ships a PI), and a horizon of 10,000 of its 20 ms samples
+#: settled (the case ships a PI), and a horizon of 10,000 of its 20 ms samples
 LAG3 = ("bench-lag3", {"controller.law": "i-PI", "controller.alpha": 30.0,
                        "sim.t_end": 200.0})
 LAG3_AXES = {"controller.kp": np.linspace(1.0, 2.0, SIDE),
@@ -504,7 +504,7 @@ def main() -> None:
     for name, loop in loops.items():
         met = tables[name]
         print(f"   {loop.name}: {int(np.sum(met['settled']))}/{loop.n_members} members "
-              f"stable, {int(np.sum(met['diverged']))} diverged, IAE "
+              f"settled, {int(np.sum(met['diverged']))} diverged, IAE "
               f"{np.min(met['iae']):.3g}..{np.max(met['iae']):.3g}; axes "
               + " x ".join(f"{k} {v.min():g}..{v.max():g}" for k, v in loop.axes.items()))
 

@@ -826,6 +826,11 @@ REALISTIC_SWEEPS = {
         "sensor.noise": "none" if j % 4 == 0 else "gaussian",
         "sensor.noise_std": 0.2 + 0.02 * j, "sensor.quantum": 0.05 if j % 3 else 0.0,
         "controller.kp": -20.0 + 1.5 * j}),
+    # a seed per block: each block reads the noise drawn once for the run, the second
+    # block's drawn again for its seed
+    "motor-a-seed-per-block": ("motor-noise-ipi-algebraic", lambda j: {
+        "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": 7 if j < 64 else 8,
+        "controller.kp": -20.0 + 1.5 * j}),
     # one seed, two kinds: each member draws its own
     "motor-one-seed-two-kinds": ("motor-noise-ipi", lambda j: {
         "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": 7,
@@ -952,10 +957,12 @@ def _block_laws_asm():
     @njit(error_model="numpy")
     def laws(buf, n_rows, k):
         D = carray(sig.pointer(buf), (n_rows, lanes))
-        n = compose._intelligent_lanes(D, 0.01, True, True)
-        n += compose._intelligent_lanes(D, 0.01, True, False)
-        n += compose._intelligent_lanes(D, 0.01, False, True)
-        n += compose._intelligent_lanes(D, 0.01, False, False)
+        n = 0
+        for fixed in (True, False):  # a constant gain given, and any gain
+            n += compose._intelligent_gain(D, 0.01, True, True, fixed)
+            n += compose._intelligent_gain(D, 0.01, True, False, fixed)
+            n += compose._intelligent_gain(D, 0.01, False, True, fixed)
+            n += compose._intelligent_gain(D, 0.01, False, False, fixed)
         n += compose._pid_lanes(D, 0.01) + compose._recursive_lanes(D)
         compose._fold_lanes(D, k, 0.01 * k, 0.01, 0.5, 0.8)
         return n

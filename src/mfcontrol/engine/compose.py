@@ -435,7 +435,12 @@ _SY = _UP + 1  # the algebraic estimator's window sums (estimators.sums) of y ..
 _SU = _SY + 1  # ... and of u
 _YO = _SU + 1  # the samples leaving the estimator's window: y ...
 _UO = _YO + 1  # ... and u
-_M0 = _UO + 1  # the metrics, in the rows of engine.metrics
+# a member's constant gain as the intelligent law takes it (intelligent.fixed_gain),
+# computed once a block: alpha and the algebraic estimator's two coefficients
+_ALPHA = _UO + 1
+_CY = _ALPHA + 1
+_CU = _CY + 1
+_M0 = _CU + 1  # the metrics, in the rows of engine.metrics
 _CS0 = _M0 + engine_metrics.N_METRICS  # the law's state (as many rows as it has)
 _DIVERGED = _M0 + engine_metrics.M_DIVERGED
 
@@ -544,20 +549,33 @@ def _estimator_lanes(D, M, order, live):
 
 
 @_jit.step_jit
-def _intelligent_lanes(D, dt, simple, algebraic):
+def _intelligent_lanes(D, dt, simple, algebraic, fixed):
     """A sample past the start-up of the intelligent law
-    (:func:`mfcontrol.laws.intelligent.steady_step`, ``simple`` and ``algebraic`` as it
-    takes them: pass literals; with ``algebraic``, :func:`_estimator_lanes` ran first),
-    for every member of a block at once: the loop vectorises. Members whose measurement
-    is bad must not be in the block (the caller runs such a sample member by member).
-    Returns how many live members have a non-finite output (they stop at this sample)."""
+    (:func:`mfcontrol.laws.intelligent.steady_step`, ``simple``, ``algebraic`` and
+    ``fixed`` as it takes them: pass literals; with ``algebraic``,
+    :func:`_estimator_lanes` ran first; with ``fixed``, every member's constant gain is
+    in rows ``_ALPHA``, ``_CY``, ``_CU``), for every member of a block at once: the loop
+    vectorises. Members whose measurement is bad must not be in the block (the caller
+    runs such a sample member by member). Returns how many live members have a
+    non-finite output (they stop at this sample)."""
     cp, cs = _law_views(D, intelligent.N_PARAMS, intelligent.EST_BASE)
     n_bad = 0
     for i in range(LANES):
         u, u_unlim, gamma = intelligent.steady_step(cp, cs, i, D[_YM, i], D[_R, i], dt,
-                                                    simple, algebraic, D[_SY, i], D[_SU, i])
+                                                    simple, algebraic, D[_SY, i], D[_SU, i],
+                                                    fixed, D[_ALPHA, i], D[_CY, i],
+                                                    D[_CU, i])
         n_bad += _law_out(D, i, u, u_unlim, gamma)
     return n_bad
+
+
+@_jit.step_jit
+def _intelligent_gain(D, dt, simple, algebraic, fixed):
+    """:func:`_intelligent_lanes` with ``fixed`` a literal (``simple``, ``algebraic``:
+    literals)."""
+    if fixed:
+        return _intelligent_lanes(D, dt, simple, algebraic, True)
+    return _intelligent_lanes(D, dt, simple, algebraic, False)
 
 
 @_jit.step_jit
@@ -586,7 +604,7 @@ def _pid_lanes(D, dt):
 
 @_jit.step_jit
 def _sense_lanes(D, acting, sensor_p, keys, shared, shared_key, k, ring_y, y_first,
-                 delays, d_shared):
+                 delays, d_shared, quantised, drawn):
     """What the law reads, for every member of a block: y_k through its sensor
     (:func:`mfcontrol.elements.sensor.read`, then its delay) where an element acts on
     its loop (``acting``), y_k itself elsewhere, into row ``_YM``. ``sensor_p``: the
@@ -602,15 +620,12 @@ def _sense_lanes(D, acting, sensor_p, keys, shared, shared_key, k, ring_y, y_fir
     member of the block, or -1 where they differ (:func:`_block_delay`). Three loops,
     not one: each touches few arrays, so the compiler vectorises the first (one loop
     over the rings, the reading and the first reading measured 53 against 10 ns per
-    member-sample)."""
-    if shared >= 0.0:
-        a0, b0 = noise.unit(shared, shared_key, k)
-        for lane in range(LANES):
-            _sensed(D, acting, sensor_p, lane, a0, b0)
+    member-sample). ``quantised``: some member of the block quantises. ``drawn``: the
+    shared noise's unit factors at every sample (:func:`_draw_series`), or no columns."""
+    if quantised:
+        _readings(D, acting, sensor_p, keys, shared, shared_key, k, True, drawn)
     else:
-        for lane in range(LANES):
-            a, b = noise.unit(sensor_p[sensor.NOISE, lane], keys[lane], k)
-            _sensed(D, acting, sensor_p, lane, a, b)
+        _readings(D, acting, sensor_p, keys, shared, shared_key, k, False, drawn)
     if k == 0:
         for lane in range(LANES):
             y_first[lane] = D[_YM, lane]
@@ -629,14 +644,50 @@ def _sense_lanes(D, acting, sensor_p, keys, shared, shared_key, k, ring_y, y_fir
 
 
 @_jit.step_jit
-def _sensed(D, acting, sensor_p, lane, a, b):
+def _readings(D, acting, sensor_p, keys, shared, shared_key, k, quantised, drawn):
+    """The sensors' readings of y_k before their delays (:func:`_sensed`), the noise
+    drawn once for the block where its members share it (``shared`` >= 0), or read from
+    ``drawn`` where it has columns. ``quantised`` (a literal): some member quantises;
+    without, the loop has no quantisation (whose division a loop over members computes
+    for every member)."""
+    if shared >= 0.0:
+        if drawn.shape[1] > 0:
+            a0, b0 = drawn[0, k], drawn[1, k]
+        else:
+            a0, b0 = noise.unit(shared, shared_key, k)
+        for lane in range(LANES):
+            _sensed(D, acting, sensor_p, lane, a0, b0, quantised)
+    else:
+        for lane in range(LANES):
+            a, b = noise.unit(sensor_p[sensor.NOISE, lane], keys[lane], k)
+            _sensed(D, acting, sensor_p, lane, a, b, quantised)
+
+
+@_jit.step_jit
+def _sensed(D, acting, sensor_p, lane, a, b, quantised):
     """Member ``lane``'s reading of y_k (row ``_Y``) with its noise's unit factors a, b
     (:func:`mfcontrol.elements.sensor.read_unit`) into row ``_YM`` where an element acts
-    on its loop (y_k elsewhere)."""
+    on its loop (y_k elsewhere); ``quantised`` as :func:`_readings` takes it."""
     y = D[_Y, lane]
+    quantum = sensor_p[sensor.QUANTUM, lane] if quantised else 0.0
     ym = sensor.read_unit(sensor_p[sensor.NOISE, lane], sensor_p[sensor.STD, lane], a, b,
-                          sensor_p[sensor.QUANTUM, lane], y)
+                          quantum, y)
     D[_YM, lane] = ym if acting[lane] else y
+
+
+#: the longest run whose shared noise is drawn ahead (:func:`_draw_series`: 16 bytes a
+#: sample); a longer one draws it in each block
+SERIES_MAX = 1 << 20
+
+
+@_jit.step_jit
+def _draw_series(drawn, kind, key):
+    """The unit factors (:func:`mfcontrol.elements.noise.unit`) of noise ``kind`` with
+    seed key ``key`` at every sample into ``drawn`` (2 rows): drawn once for every
+    block that shares them (a sweep's one seed), not once a block (a hash, a log and a
+    cosine a sample: about 0.7 ns a member-sample in a block of 64)."""
+    for k in range(drawn.shape[1]):
+        drawn[0, k], drawn[1, k] = noise.unit(kind, key, k)
 
 
 @_jit.step_jit
@@ -885,6 +936,11 @@ def _make_block_loop(fast):
             d_y = max(d_y, int(LP[layout.SENSOR + sensor.DELAY, j]))
             d_u = max(d_u, int(LP[layout.ACTUATOR + actuator.DELAY, j]))
         ring_y = np.zeros((d_y + 1, lanes))
+        # the noise the blocks share, drawn for the first block that has it
+        drawn = np.zeros((2, n_steps if n_steps <= SERIES_MAX else 0))
+        drawn_kind = -1.0
+        drawn_key = np.uint64(0)
+        no_series = np.zeros((2, 0))
         ring_u = np.zeros((d_u + 1, lanes))
         n_vector = 0
         for b0 in range(j0, j1, lanes):
@@ -924,8 +980,17 @@ def _make_block_loop(fast):
                 keys[lane] = noise.seed_key(sensor_p[sensor.SEED, lane])
             # what the block's members share is computed once a sample
             shared_noise, shared_key = _block_noise(sensor_p, keys)
+            if any_acting and shared_noise > noise.NONE and drawn.shape[1] > 0 and (
+                    shared_noise != drawn_kind or shared_key != drawn_key):
+                _draw_series(drawn, shared_noise, shared_key)
+                drawn_kind, drawn_key = shared_noise, shared_key
+            series = (drawn if shared_noise == drawn_kind and shared_key == drawn_key
+                      else no_series)
             dist_shared = _same_columns(DP, members)
             y_shared = _block_delay(sensor_p, sensor.DELAY)
+            quantised = False
+            for lane in range(lanes):
+                quantised |= sensor_p[sensor.QUANTUM, lane] > 0.0
             u_shared = _block_delay(actuator_p, actuator.DELAY)
             for lane in range(lanes):
                 _prepare_lane(prepare, pb, ps, lane, hs, n_x)
@@ -965,6 +1030,15 @@ def _make_block_loop(fast):
                     # a bumpless start is taken at the first sample, member by member
                     start = cs[pid.START, lane]
                     lanes_law &= law_k0 == 0.0 or start != start
+            # a constant gain in every member: its divisions made once, here
+            fixed = law_kind == INTELLIGENT
+            if fixed:
+                for lane in range(lanes):
+                    fixed &= cp[variational_gain.MODE, lane] == variational_gain.CONSTANT
+            if fixed:
+                for lane in range(lanes):
+                    D[_ALPHA, lane], D[_CY, lane], D[_CU, lane] = intelligent.fixed_gain(
+                        cp, lane, law_dt, simple)
             # one reference for the block when its members share it
             shared_ref = not own_ref
             if not use_series:
@@ -1001,7 +1075,7 @@ def _make_block_loop(fast):
                             D[_Y, lane] = D[_Y, lane] + dval[lane]
                 if any_acting:
                     _sense_lanes(D, acting, sensor_p, keys, shared_noise, shared_key, k, ring_y,
-                                 y_first, d_y > 0, y_shared)
+                                 y_first, d_y > 0, y_shared, quantised, series)
                 else:
                     for lane in range(lanes):
                         D[_YM, lane] = D[_Y, lane]
@@ -1037,13 +1111,13 @@ def _make_block_loop(fast):
                             live += 1
                         _estimator_lanes(D, m_win, order, live)
                     if law_kind == INTELLIGENT and simple and algebraic:
-                        n_bad = _intelligent_lanes(D, law_dt, True, True)
+                        n_bad = _intelligent_gain(D, law_dt, True, True, fixed)
                     elif law_kind == INTELLIGENT and simple:
-                        n_bad = _intelligent_lanes(D, law_dt, True, False)
+                        n_bad = _intelligent_gain(D, law_dt, True, False, fixed)
                     elif law_kind == INTELLIGENT and algebraic:
-                        n_bad = _intelligent_lanes(D, law_dt, False, True)
+                        n_bad = _intelligent_gain(D, law_dt, False, True, fixed)
                     elif law_kind == INTELLIGENT:
-                        n_bad = _intelligent_lanes(D, law_dt, False, False)
+                        n_bad = _intelligent_gain(D, law_dt, False, False, fixed)
                     elif law_kind == PID:
                         n_bad = _pid_lanes(D, law_dt)
                     else:

@@ -401,16 +401,31 @@ def sums(CS, j, base, M, order):
 
 
 @step_jit
+def coefficients(M, h, alpha, order):
+    """(c_y, c_u) with F_hat = c_y sy - c_u su (:func:`combine`): constants of a member
+    whose alpha is, which a loop over members computes once, not at every sample (each
+    is a division). M and the order are whole numbers, as integers or floats."""
+    fm = float(M)
+    if order == 1:
+        m3 = fm * fm * fm
+        return 6.0 / (h * m3), 6.0 * alpha / m3
+    m5 = fm * fm * fm * fm * fm
+    return 20.0 / (m5 * h * h), 10.0 * alpha / m5
+
+
+@step_jit
 def combine(sy, su, M, h, alpha, order):
     """F_hat from the window's sums (:func:`sums`): apart from them because alpha may
     change at every sample (the variational gain) and the sums do not depend on it. M
     and the order are whole numbers, as integers or floats."""
-    fm = float(M)
-    if order == 1:
-        m3 = fm * fm * fm
-        return (6.0 / (h * m3)) * sy - (6.0 * alpha / m3) * su
-    m5 = fm * fm * fm * fm * fm
-    return (20.0 / (m5 * h * h)) * sy - (10.0 * alpha / m5) * su
+    c_y, c_u = coefficients(M, h, alpha, order)
+    return combine_with(sy, su, c_y, c_u)
+
+
+@step_jit
+def combine_with(sy, su, c_y, c_u):
+    """:func:`combine` with the member's :func:`coefficients` given."""
+    return c_y * sy - c_u * su
 
 
 @step_jit

@@ -83,3 +83,15 @@ def update(CP, CS, j, k, e_dot):
     CS[G2, j] = g1
     CS[G1, j] = g
     return g, g1
+
+
+@step_jit
+def update_constant(CP, CS, j):
+    """:func:`update` of a member whose mode is constant: the same state and values,
+    without the other modes' arithmetic (a loop over members would compute every mode's
+    and select, a division among them)."""
+    g1 = CS[G1, j]
+    g = CP[INV_ALPHA, j]
+    CS[G2, j] = g1
+    CS[G1, j] = g
+    return g, g1

@@ -5,6 +5,7 @@ computed as ``(k * t_end) / N`` (not ``k * h``) so that the last sample is exact
 change scheduled at a time lands on the same sample in every driver.
 """
 
+import functools
 import math
 
 import numpy as np
@@ -76,6 +77,7 @@ def time(k, t_end, n):
     return (k * t_end) / n
 
 
+@functools.lru_cache(maxsize=4096)  # a sweep asks it of every member, mostly the same
 def first_sample_at(t_event: float, t_end: float, n: int) -> int:
     """First k with t_k >= t_event (n if never), t_k evaluated in float64 exactly as the
     kernels do: a guess from the real quotient, then corrected."""

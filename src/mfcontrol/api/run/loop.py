@@ -176,13 +176,21 @@ def _check_settings(settle_time, final_window, settled_tol, diverge_above) -> No
 
 def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mapping[str, int],
                   t_end: float, n: int):
-    """(ev_k, ev_col, ev_add, ev_val) for members that share the list of changed names."""
+    """(ev_k, ev_col, ev_add, ev_val) for members that share the list of changed names.
+    A list that several members hold (a sweep's one schedule) is read once."""
     first = list(changes_per_member[0])
     names = [(c.name, c.add) for c in first]
     m = len(changes_per_member)
     ev_k = np.zeros((len(first), m), dtype=np.int64)
     ev_val = np.zeros((len(first), m))
+    seen: dict[int, int] = {}  # id of a list read -> the member whose column holds it
     for j, changes in enumerate(changes_per_member):
+        done = seen.get(id(changes))
+        if done is not None:
+            ev_k[:, j] = ev_k[:, done]
+            ev_val[:, j] = ev_val[:, done]
+            continue
+        seen[id(changes)] = j
         if j and [(c.name, c.add) for c in changes] != names:
             raise ValueError("members of one run must change the same parameters in order")
         for e, c in enumerate(changes):
@@ -288,12 +296,18 @@ def load_step_of(LP: np.ndarray, changes_per_member, t_end: float, n: int) -> np
     if len(changes_per_member) == 1:
         changes_per_member = list(changes_per_member) * m
     load = []
-    # on Python floats: a loop over the members either way (their changes are objects)
+    # on Python floats: a loop over the members either way (their changes are objects),
+    # each setting worked out once (a sweep's members mostly share theirs)
+    known: dict[tuple[float, float, int], float] = {}
     for kind, t0, changes in zip(kinds, starts, changes_per_member, strict=True):
-        first = min(t0 if kind == disturbance_law.STEP else math.inf,
-                    min((c.time for c in changes), default=math.inf))
-        seen = math.isfinite(first) and grid.first_sample_at(first, t_end, n) < n
-        load.append(first if seen else math.inf)
+        key = (kind, t0, id(changes))
+        at = known.get(key)
+        if at is None:
+            first = min(t0 if kind == disturbance_law.STEP else math.inf,
+                        min((c.time for c in changes), default=math.inf))
+            seen = math.isfinite(first) and grid.first_sample_at(first, t_end, n) < n
+            at = known[key] = first if seen else math.inf
+        load.append(at)
     return np.array(load)
 
 
