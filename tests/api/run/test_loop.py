@@ -213,3 +213,21 @@ def test_metric_settings_are_checked_at_every_run():
     b = simulate_loop(plant, mfcontrol.IP(1.0, 5.0, sample_time=0.01), 1.0, t_end=1.0,
                       final_window=np.float64(0.5))
     assert a.metrics == b.metrics
+
+
+def test_the_event_arrays_of_members_read_each_schedule_once_and_refuse_a_mismatch():
+    from mfcontrol.api.run.loop import _event_arrays
+
+    columns = {"tau": 3, "J": 1}
+    shared = [Change(0.5, "tau", 0.05), Change(0.7, "J", 1e-4, add=True)]
+    own = [Change(0.25, "tau", 0.1), Change(0.9, "J", 2e-4, add=True)]
+    ev_k, ev_col, ev_add, ev_val = _event_arrays([shared, own, shared], columns, 1.0, 100)
+    np.testing.assert_array_equal(ev_k, [[50, 25, 50], [70, 90, 70]])
+    np.testing.assert_array_equal(ev_val, [[0.05, 0.1, 0.05], [1e-4, 2e-4, 1e-4]])
+    np.testing.assert_array_equal(ev_col, [3, 1])
+    np.testing.assert_array_equal(ev_add, [False, True])
+    ev_k, ev_col, ev_add, ev_val = _event_arrays([[], []], columns, 1.0, 100)
+    assert ev_k.shape == ev_val.shape == (0, 2) and ev_col.size == ev_add.size == 0
+    for members in ([[], shared], [shared, []], [shared, own[::-1]]):
+        with pytest.raises(ValueError, match="must change the same parameters"):
+            _event_arrays(members, columns, 1.0, 100)

@@ -183,6 +183,10 @@ def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mappi
     m = len(changes_per_member)
     ev_k = np.zeros((len(first), m), dtype=np.int64)
     ev_val = np.zeros((len(first), m))
+    if not first:  # no member changes anything (most runs): nothing to read
+        if any(changes_per_member):
+            raise ValueError("members of one run must change the same parameters in order")
+        return ev_k, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), ev_val
     seen: dict[int, int] = {}  # id of a list read -> the member whose column holds it
     for j, changes in enumerate(changes_per_member):
         done = seen.get(id(changes))
