@@ -147,30 +147,40 @@ def output(f_hat, rn, gamma, e, integ1, e1, dt, kp, ki, kd, lo, hi, aw, k_aw):
 
 
 @step_jit
-def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su, fixed=False, alpha_c=0.0,
-             c_y=0.0, c_u=0.0):
+def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su):
     """Sample k >= n past the hold: the derivatives, gamma, F_hat, the bracket and its
     terms into the state; returns (u_k applied, u unlimited, gamma_k). With ``algebraic``,
     (sy, su) are the estimator's window sums (:func:`mfcontrol.laws.estimators.sums`:
-    NaN until the window is full, and the backward difference stands in). ``fixed`` (a
-    literal): the member's gain is constant, and ``alpha_c`` = 1 / gamma and (c_y, c_u)
-    = :func:`mfcontrol.laws.estimators.coefficients` are given, computed once for a run
-    instead of at every sample (the same values: four divisions fewer a sample)."""
-    e = y - r
-    u1 = CS[U1, j]
+    NaN until the window is full, and the backward difference stands in)."""
     yd, rd, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
-    if fixed:
-        gamma, _ = variational_gain.update_constant(CP, CS, j)
-        alpha = alpha_c
-    else:
-        gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
-        alpha = 1.0 / gamma
-        if algebraic:
-            # M and n as the floats they are stored as: an int() of them here stops a
-            # loop over members from vectorising (measured: the algebraic i-PI's law,
-            # scalar)
-            c_y, c_u = estimators.coefficients(CP[M_WIN, j], dt, alpha, n)
-    f_hat = yn - alpha * u1
+    gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
+    alpha = 1.0 / gamma
+    c_y = 0.0
+    c_u = 0.0
+    if algebraic:
+        # M and n as the floats they are stored as: an int() of them here stops a loop
+        # over members from vectorising (measured: the algebraic i-PI's law, scalar)
+        c_y, c_u = estimators.coefficients(CP[M_WIN, j], dt, alpha, n)
+    return _terms(CP, CS, j, y, r, dt, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y, c_u)
+
+
+@step_jit
+def _bracket_fixed(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su, alpha, c_y, c_u):
+    """:func:`_bracket` of a member whose gain is constant, with alpha = 1 / gamma and
+    the estimator's coefficients given (:func:`fixed_gain`): the same values, without
+    their four divisions a sample."""
+    _, _, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
+    gamma, _ = variational_gain.update_constant(CP, CS, j)
+    return _terms(CP, CS, j, y, r, dt, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y, c_u)
+
+
+@step_jit
+def _terms(CP, CS, j, y, r, dt, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y, c_u):
+    """The bracket from the sample's derivatives (yn, rn) and gain (gamma, alpha = 1 /
+    gamma, the estimator's coefficients c_y, c_u), its terms into the state; returns
+    (u_k applied, u unlimited, gamma_k)."""
+    e = y - r
+    f_hat = yn - alpha * CS[U1, j]
     if algebraic:
         f_alg = estimators.combine_with(sy, su, c_y, c_u)
         if not math.isnan(f_alg):
@@ -232,8 +242,7 @@ def fixed_gain(CP, j, dt, simple):
 
 
 @step_jit
-def steady_step(CP, CS, j, y, r, dt, simple, algebraic, sy, su, fixed=False, alpha=0.0,
-                c_y=0.0, c_u=0.0):
+def steady_step(CP, CS, j, y, r, dt, simple, algebraic, sy, su, fixed, alpha, c_y, c_u):
     """:func:`step` for a sample past the start-up (k >= :data:`STEADY`) with the
     start-up's branches compiled out, so that a loop over members vectorises; returns
     (u_k applied, u unlimited, gamma_k). ``simple`` (pass a literal True or False: the
@@ -248,7 +257,10 @@ def steady_step(CP, CS, j, y, r, dt, simple, algebraic, sy, su, fixed=False, alp
     aw = CP[AW, j]
     if simple:
         aw = AW_CLAMP if aw == AW_CLAMP else AW_NONE
-    u, u_unlim, gamma = _bracket(CP, CS, j, y, r, dt, STEADY, n, aw, algebraic, sy, su,
-                                 fixed, alpha, c_y, c_u)
+    if fixed:
+        u, u_unlim, gamma = _bracket_fixed(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su,
+                                           alpha, c_y, c_u)
+    else:
+        u, u_unlim, gamma = _bracket(CP, CS, j, y, r, dt, STEADY, n, aw, algebraic, sy, su)
     _remember(CS, j, y, r, u)
     return u, u_unlim, gamma
