@@ -836,6 +836,13 @@ REALISTIC_SWEEPS = {
         "sim.t_end": 1.0, "sim.diverge_above": 150.0, "sensor.seed": 7,
         "sensor.noise": "uniform" if j % 3 == 0 else "gaussian",
         "controller.kp": -20.0 + 1.5 * j}),
+    # load steps of their own: the fold tests each member's windows (a block whose
+    # members share them has the tests made once a sample, as every other case here)
+    "motor-load-steps-of-their-own": ("motor-noise-pid", lambda j: {
+        "sim.t_end": 1.5, "sim.diverge_above": 65.0, "sensor.seed": 100 + j,
+        "sensor.delay": 2, "actuator.delay": 3, "actuator.rate_limit": 2000.0,
+        "disturbance.kind": "step", "disturbance.t0": 0.6 + 0.1 * (j % 4),
+        "disturbance.amplitude": 2.0, "controller.kp": 0.05 + 0.1 * j}),
     "lag3-ipi-algebraic": ("bench-lag3", lambda j: {
         "sim.t_end": 30.0, "sim.diverge_above": 5.0, "sensor.seed": j,
         "controller.law": "i-PI", "controller.alpha": 0.5 + 0.1 * j, "controller.kp": 1.0,
@@ -945,8 +952,8 @@ def test_the_one_member_step_is_taken_when_it_costs_no_compilation_worth_weighin
 
 def _block_laws_asm():
     """The machine code of the vectorised loop's law and metrics loops over a block (the
-    i-PI of every estimator and form, the PID, the recursive law and the metrics fold),
-    compiled for this machine."""
+    i-PI of every estimator and form, the PID, the recursive law and both metrics
+    folds), compiled for this machine."""
     from numba import carray, njit
 
     from mfcontrol.engine import compose
@@ -965,6 +972,7 @@ def _block_laws_asm():
             n += compose._intelligent_gain(D, 0.01, False, False, fixed)
         n += compose._pid_lanes(D, 0.01) + compose._recursive_lanes(D)
         compose._fold_lanes(D, k, 0.01 * k, 0.01, 0.5, 0.8)
+        compose._fold_windows(D, k, 0.01 * k, 0.01, 0.5, 0.8, k > 2, k > 3, k > 4)
         return n
 
     n_rows = compose._CS0 + 200
@@ -983,3 +991,107 @@ def test_the_vectorised_laws_store_through_no_mask():
     stores = [line.strip() for line in asm.splitlines()
               if "vmaskmov" in line and line.rstrip().endswith(")")]
     assert not stores, stores
+
+
+def _block_folds():
+    """A compiled driver of the vectorised loop's two metrics folds over one block:
+    ``fold(M, ys, rs, us, ts, h, settle, final_start, shared)`` folds the samples (one
+    row of ys and us per sample, a value per lane) into M (the block's metric rows,
+    lanes as columns) by :func:`compose._fold_windows` (``shared``, its window tests
+    made from lane 0) or :func:`compose._fold_lanes`; returns the block's last applied
+    inputs (row ``_AP``)."""
+    from numba import carray, njit
+
+    from mfcontrol.engine import compose
+    from mfcontrol.engine import metrics as em
+    from mfcontrol.numerics import signatures as sig
+
+    lanes, n_rows = compose.LANES, compose._CS0
+
+    @njit(error_model="numpy")
+    def fold(M, ys, rs, us, ts, h, settle, final_start, shared):
+        buf = np.zeros(n_rows * lanes)
+        D = carray(sig.pointer(buf), (n_rows, lanes))
+        for i in range(em.N_METRICS):
+            for lane in range(lanes):
+                D[compose._M0 + i, lane] = M[i, lane]
+        step_t0, step_to = M[em.M_STEP_T0, 0], M[em.M_STEP_TO, 0]
+        load_t0 = M[em.M_LOAD_T0, 0]
+        for k in range(ts.size):
+            t = ts[k]
+            for lane in range(lanes):
+                D[compose._Y, lane] = ys[k, lane]
+                D[compose._R, lane] = rs[k]
+                D[compose._U, lane] = us[k, lane]
+                D[compose._G, lane] = 0.1 * k
+            if shared:
+                compose._fold_windows(D, k, t, h, settle, final_start,
+                                      em.in_step_window(t, step_t0, step_to, load_t0),
+                                      t >= final_start, t >= load_t0)
+            else:
+                compose._fold_lanes(D, k, t, h, settle, final_start)
+        for i in range(em.N_METRICS):
+            for lane in range(lanes):
+                M[i, lane] = D[compose._M0 + i, lane]
+        return D[compose._AP].copy()
+
+    @njit
+    def shared(M):
+        return compose._windows_shared(M)
+
+    return fold, shared
+
+
+@pytest.mark.parametrize("windows", ["step-and-load", "no-step", "no-load"])
+def test_the_fold_of_shared_windows_gives_the_bits_of_each_members_own_tests(windows):
+    # the block's window tests made once a sample (_fold_windows) against each member's
+    # own (_fold_lanes, loop_sums's selects), samples on every window's edge (times
+    # exact in binary), steps from and to values of each member's own
+    from mfcontrol.engine import compose
+    from mfcontrol.engine import metrics as em
+
+    fold, shared = _block_folds()
+    lanes, rng = compose.LANES, np.random.default_rng(3)
+    h, n = 0.125, 12  # the step at 0.25, the load at 0.5, the final window from 0.75
+    M = np.zeros((em.N_METRICS, lanes))
+    em.start(M, 0.25, rng.uniform(-1, 0, lanes),
+             np.nan if windows == "no-step" else rng.uniform(1, 2, lanes),
+             np.inf if windows == "no-load" else 0.5)
+    assert shared(M)
+    ts = h * np.arange(n)
+    ys, us = rng.normal(1.0, 0.5, (n, lanes)), rng.normal(0.0, 1.0, (n, lanes))
+    rs = np.where(ts >= 0.25, 1.5, 0.0)
+    got, want = M.copy(), M.copy()
+    ap = fold(got, ys, rs, us, ts, h, 0.375, 0.75, True)
+    ap_want = fold(want, ys, rs, us, ts, h, 0.375, 0.75, False)
+    np.testing.assert_array_equal(got.view(np.uint64), want.view(np.uint64))
+    np.testing.assert_array_equal(ap.view(np.uint64), ap_want.view(np.uint64))
+    # the windows were entered: each sum moved
+    assert got[em.M_IAE_LOAD].any() == (windows != "no-load")
+    assert np.isfinite(got[em.M_T10]).any() == (windows != "no-step")
+    assert got[em.M_N_FINAL, 0] == 6.0  # t = 0.75 .. 1.375
+
+
+def test_a_block_shares_its_window_tests_only_when_every_lane_makes_the_same():
+    from mfcontrol.engine import compose
+    from mfcontrol.engine import metrics as em
+
+    _, shared = _block_folds()
+    lanes = compose.LANES
+    M = np.zeros((em.N_METRICS, lanes))
+    em.start(M, 0.25, 0.0, np.linspace(1.0, 2.0, lanes), 0.5)
+    assert shared(M)  # steps to values of their own: each lane reads its own
+    for row, value in [(em.M_STEP_TO, np.nan), (em.M_LOAD_T0, np.inf),
+                       (em.M_STEP_T0, 0.375)]:
+        other = M.copy()
+        other[row, lanes - 1] = value
+        assert not shared(other), row
+        other = M.copy()
+        other[row, 0] = value  # lane 0, whose tests the block would make
+        assert not shared(other), row
+    signed = M.copy()
+    signed[em.M_STEP_T0] = 0.0
+    signed[em.M_STEP_T0, 1] = -0.0
+    assert not shared(signed)
+    signed[em.M_STEP_T0, 1] = 0.0
+    assert shared(signed)

@@ -100,6 +100,46 @@ def start(M: np.ndarray, step_t0, step_from, step_to, load_t0) -> None:
 
 
 @step_jit
+def energy_sum(energy, a, h):
+    """A sample of the applied input a folded into the control's energy, sum a^2 h."""
+    return energy + a * a * h
+
+
+@step_jit
+def in_step_window(t, step_t0, step_to, load_t0):
+    """Whether time t lies in the step window: the reference steps (``step_to`` not NaN),
+    from ``step_t0`` on and before the load step."""
+    return step_to == step_to and t >= step_t0 and t < load_t0
+
+
+@step_jit
+def step_response(peak, t10, t90, t_in, t, h, y, step_from, step_to):
+    """A sample (t, y) of the step window folded into the step response's peak, 10 % and
+    90 % times and settling (2 %) time."""
+    delta = step_to - step_from
+    size = abs(delta)
+    sign = 1.0 if delta >= 0.0 else -1.0
+    peak = np.fmax(peak, sign * (y - step_to))
+    rise = sign * (y - step_from)
+    t10 = np.fmin(t10, t if rise >= 0.1 * size else np.inf)
+    t90 = np.fmin(t90, t if rise >= 0.9 * size else np.inf)
+    t_in = np.fmax(t_in, t + h if abs(y - step_to) > 0.02 * size else -np.inf)
+    return peak, t10, t90, t_in
+
+
+@step_jit
+def final_sum(e_final, n_final, y, r):
+    """A sample of the stability window folded into its error sum and sample count."""
+    return e_final + (r - y), n_final + 1.0
+
+
+@step_jit
+def load_sum(iae_load, h, y, r):
+    """A sample from the load step on folded into its IAE."""
+    return iae_load + abs(y - r) * h
+
+
+@step_jit
 def loop_sums(energy, peak, t10, t90, t_in, t_last, e_final, n_final, iae_load, t, h, y, r,
               a, step_t0, step_from, step_to, load_t0, final_start):
     """Sample (t, y, r, a) folded into the loop metrics: the control's energy, a step
@@ -108,22 +148,15 @@ def loop_sums(energy, peak, t10, t90, t_in, t_last, e_final, n_final, iae_load, 
     the load are the same for a member at every sample (a scalar loop predicts them, a
     loop over members turns them into selects); a sum left alone keeps its bits, as a
     sum weighted by 0 would."""
-    energy = energy + a * a * h
-    if step_to == step_to and t >= step_t0 and t < load_t0:  # a step, in its window
-        delta = step_to - step_from
-        size = abs(delta)
-        sign = 1.0 if delta >= 0.0 else -1.0
-        peak = np.fmax(peak, sign * (y - step_to))
-        rise = sign * (y - step_from)
-        t10 = np.fmin(t10, t if rise >= 0.1 * size else np.inf)
-        t90 = np.fmin(t90, t if rise >= 0.9 * size else np.inf)
-        t_in = np.fmax(t_in, t + h if abs(y - step_to) > 0.02 * size else -np.inf)
+    energy = energy_sum(energy, a, h)
+    if in_step_window(t, step_t0, step_to, load_t0):
+        peak, t10, t90, t_in = step_response(peak, t10, t90, t_in, t, h, y, step_from,
+                                             step_to)
         t_last = t
     if t >= final_start:
-        e_final = e_final + (r - y)
-        n_final = n_final + 1.0
+        e_final, n_final = final_sum(e_final, n_final, y, r)
     if t >= load_t0:
-        iae_load = iae_load + abs(y - r) * h
+        iae_load = load_sum(iae_load, h, y, r)
     return energy, peak, t10, t90, t_in, t_last, e_final, n_final, iae_load
 
 
@@ -142,7 +175,8 @@ def measurement_ok(y, r, bound):
     """y_k is finite and within the bound, and the error's metrics stay finite: the
     divergence test on the measurement (a law runs only on a sample that passes it)."""
     e = y - r
-    return np.isfinite(y) and abs(y) <= bound and np.isfinite(e * e)
+    # & on the three tests, not ``and``: no branches, so a loop over members vectorises
+    return np.isfinite(y) & (abs(y) <= bound) & np.isfinite(e * e)
 
 
 @step_jit
