@@ -289,3 +289,20 @@ def test_a_grid_of_too_many_members_is_refused_at_once():
     # a tuner's points share one dimension: counted once
     assert batch.make_grid(base, {"controller.alpha": big, "controller.kp": big},
                            points=("controller.alpha", "controller.kp")).n_members == 10_000
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 3), st.lists(st.integers(0, 3), min_size=1, max_size=40),
+       st.randoms(use_true_random=False))
+def test_the_distinct_settings_of_members_are_numpys_unique_rows(n_keys, rows, rnd):
+    # the members' setting indices of n_keys swept keys, one row per member
+    at = np.array([[rnd.randrange(4) for _ in range(n_keys)] for _ in rows],
+                  dtype=np.int64).reshape(len(rows), n_keys)
+    settings, which = batch._distinct_rows(at)
+    np.testing.assert_array_equal(settings[which.reshape(-1)], at)
+    if n_keys:
+        want, want_which = np.unique(at, axis=0, return_inverse=True)
+        np.testing.assert_array_equal(settings, want)
+        np.testing.assert_array_equal(which.reshape(-1), want_which.reshape(-1))
+    else:
+        assert settings.shape == (1, 0)

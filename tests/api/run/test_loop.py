@@ -231,3 +231,20 @@ def test_the_event_arrays_of_members_read_each_schedule_once_and_refuse_a_mismat
     for members in ([[], shared], [shared, []], [shared, own[::-1]]):
         with pytest.raises(ValueError, match="must change the same parameters"):
             _event_arrays(members, columns, 1.0, 100)
+
+
+def test_distinct_finds_each_object_once_in_order_and_where_each_item_is():
+    from mfcontrol.api.run.loop import distinct
+
+    a, b, c = [1.0], [1.0], [2.0]  # a and b equal, not the same object
+    objs, at = distinct([a, b, a, c, b, a])
+    assert len(objs) == 3 and objs[0] is a and objs[1] is b and objs[2] is c
+    assert at.tolist() == [0, 1, 0, 2, 1, 0] and at.dtype == np.int64
+    objs, at = distinct([])
+    assert objs == [] and at.size == 0
+    # items made while iterating (rows of an array, a generator's): each is held while
+    # distinct runs, so no object's id is taken by the next one
+    objs, at = distinct(np.arange(8.0).reshape(4, 2))
+    assert len(objs) == 4 and at.tolist() == [0, 1, 2, 3]
+    objs, at = distinct(float(x) * 1e300 for x in range(3))
+    assert [o / 1e300 for o in objs] == [0.0, 1.0, 2.0] and at.tolist() == [0, 1, 2]

@@ -374,12 +374,24 @@ def _general_batch(grid: Grid, start: int, stop: int, fast: bool) -> np.ndarray:
         # the distinct settings of this part's keys, and which one each member has
         at = np.stack([np.asarray(idx[c], dtype=np.int64) for c in mine], axis=1) if mine \
             else np.zeros((stop - start, 0), dtype=np.int64)
-        settings, which = np.unique(at, axis=0, return_inverse=True)
+        settings, which = _distinct_rows(at)
         built = [build(grid.base.with_overrides(  # the configuration with them set, checked
             {keys[c]: axis_value(keys[c], grid.axes[keys[c]][i])
              for c, i in zip(mine, row.tolist(), strict=True)})) for row in settings]
         members[part] = [built[w] for w in which.reshape(-1).tolist()]
     return batch_metrics(grid.base, members, fast=fast)[0]
+
+
+def _distinct_rows(at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(at, axis=0, return_inverse=True)`` (the distinct rows of an integer
+    array, sorted, and the index of each row among them), without its cost for no
+    column or one (a structured view and a sort of rows)."""
+    if at.shape[1] == 0:
+        return np.zeros((1, 0), dtype=at.dtype), np.zeros(at.shape[0], dtype=np.int64)
+    if at.shape[1] == 1:
+        values, which = np.unique(at[:, 0], return_inverse=True)
+        return values[:, None], which
+    return np.unique(at, axis=0, return_inverse=True)
 
 
 def chunks(n_members: int, size: int) -> Iterator[tuple[int, int, int]]:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import functools
 import inspect
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -205,6 +205,38 @@ def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mappi
     return ev_k, ev_col, ev_add, ev_val
 
 
+def distinct(items: Iterable[Any]) -> tuple[list[Any], np.ndarray]:
+    """The distinct objects of ``items`` (by identity, in the order of their first
+    appearance) and where each item is among them: ``items[j] is objs[at[j]]``.
+
+    Examples
+    --------
+    >>> a, b = [1.0], [2.0]
+    >>> objs, at = distinct([a, b, a, a])
+    >>> objs == [a, b], at.tolist()
+    (True, [0, 1, 0, 0])
+    """
+    first: dict[int, int] = {}
+    objs: list[Any] = []  # holds each object seen, so that no id is reused meanwhile
+    at = []
+    for item in items:
+        i = first.get(id(item))
+        if i is None:
+            i = first[id(item)] = len(objs)
+            objs.append(item)
+        at.append(i)
+    return objs, np.array(at, dtype=np.int64)
+
+
+def stacked(columns: Sequence[np.ndarray],
+            stack: Callable[[list[np.ndarray]], np.ndarray] = np.hstack) -> np.ndarray:
+    """``stack(columns)`` (members' columns side by side), each distinct column object
+    stacked once (:func:`distinct`) and then taken for every member that holds it: a
+    sweep's members hold a few columns many times."""
+    objs, at = distinct(columns)
+    return np.take(stack(objs), at, axis=1)
+
+
 def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
                 changes_per_member: Sequence[Sequence[Change]], *, t_end: float, h: float,
                 S: np.ndarray, fast: bool = False, record: bool = False,
@@ -229,25 +261,34 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     :func:`mfcontrol.numerics.dopri45.integrate`; 0 for the other integrators).
     """
     n = grid.n_samples(t_end, h)
+    m = len(plants)
+    if len(laws) != m:
+        raise ValueError(f"{m} plants and {len(laws)} laws: one of each per member")
+    # a sweep's members hold a few objects many times (an n x m grid of a plant key and
+    # a law key: n plants and m laws, each in many members): each is checked and
+    # stacked once, then spread to its members
+    plants, at_plant = distinct(plants)
+    laws, at_law = distinct(laws)
     p0, l0 = plants[0], laws[0]
-    for ep, law in zip(plants, laws, strict=True):
+    for ep in plants:
         if ep.functions != p0.functions or ep.integrator != p0.integrator or \
                 ep.p.size != p0.p.size or ep.x0.size != p0.x0.size:
             raise ValueError("members of one run must share the plant model and integrator")
+    for law in laws:
         if law.kind != l0.kind or law.CP.shape != l0.CP.shape or law.dt != l0.dt:
             raise ValueError("members of one run must share the law and its sample time")
-    m = len(plants)
     # fresh arrays (the engine writes X, P and CS in place), C-ordered
     if m == 1:  # a single run: copies, without the stacking's per-call costs
         X, P = p0.x0.reshape(1, -1).copy(), p0.p.reshape(1, -1).copy()
         CP, CS = l0.CP.copy(), l0.CS.copy()
     else:
-        X = np.array([ep.x0 for ep in plants])
-        P = np.array([ep.p for ep in plants])
-        CP = np.concatenate([law.CP for law in laws], axis=1)
-        CS = np.zeros((max(law.CS.shape[0] for law in laws), m))
+        X = np.array([ep.x0 for ep in plants])[at_plant]
+        P = np.array([ep.p for ep in plants])[at_plant]
+        CP = np.take(np.concatenate([law.CP for law in laws], axis=1), at_law, axis=1)
+        CS = np.zeros((max(law.CS.shape[0] for law in laws), len(laws)))
         for j, law in enumerate(laws):
             CS[:law.CS.shape[0], j] = law.CS[:, 0]
+        CS = np.take(CS, at_law, axis=1)
     events = _event_arrays(changes_per_member, p0.columns, t_end, n)
     RP = np.zeros((reference.N_PARAMS, m)) if RP is None else np.ascontiguousarray(RP)
     LP = layout.column() if LP is None else LP

@@ -18,7 +18,7 @@ from .. import params
 from ..results import metrics
 from ..results.result import Result, SweepResult
 from . import from_config, scenario
-from .loop import compiled_run, law_arrays, run_members
+from .loop import compiled_run, law_arrays, run_members, stacked
 
 
 def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: int,
@@ -154,8 +154,8 @@ def batch_metrics(first: Config, parts: Mapping[str, Sequence[Any]], *, fast: bo
     M, _, CS, _ = run_members([ep for ep, _ in parts["plant"]], parts["law"], np.zeros((0, n)),
                            [ch for _, ch in parts["plant"]], t_end=first["sim.t_end"],
                            h=first["sim.h"], S=params.metric_settings(first), fast=fast,
-                           RP=np.hstack(parts["reference"]),
-                           LP=layout.stack(parts["elements"]), vectorise=vectorise)
+                           RP=stacked(parts["reference"]),
+                           LP=stacked(parts["elements"], layout.stack), vectorise=vectorise)
     return M, CS
 
 

@@ -34,6 +34,7 @@ from .loop import (
     law_arrays,
     run_members,
     simulate_loop,
+    stacked,
 )
 
 if TYPE_CHECKING:
@@ -318,7 +319,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     M, _, _, _ = run_members(plants, member_laws, R, [list(changes)] * len(combos),
                           t_end=t_end, h=h, S=S, fast=fast,
                           AL=None if al is None else al[None, :], vectorise=vectorise,
-                          LP=layout.stack(member_lp), step=step)
+                          LP=stacked(member_lp, layout.stack), step=step)
     met = _metrics.table(M, settled_tol)
     table: dict[str, np.ndarray] = {"member": np.arange(len(combos), dtype=np.int64)}
     idx = np.array(combos, dtype=np.int64).reshape(len(combos), len(keys))
