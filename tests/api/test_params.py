@@ -1,8 +1,12 @@
 """The translator's transfer-function plant (``plant.model = "lti"``)."""
 
+import warnings
+
 import control
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import mfcontrol
 from mfcontrol.api import params
@@ -55,3 +59,38 @@ def test_bad_transfer_functions_are_named(settings, key, needle):
     with pytest.raises(mfcontrol.ConfigError) as info:
         mfcontrol.resolve({**LTI, **settings})
     assert info.value.key == key and needle in str(info.value)
+
+
+_coefficient = st.floats(-1e3, 1e3, allow_nan=False).filter(lambda c: c == 0 or abs(c) > 1e-3)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_coefficient, min_size=1, max_size=6), st.lists(_coefficient, min_size=2,
+       max_size=7), st.floats(1e-3, 1e3), st.sampled_from([1.0, 1e-8, 1e8]))
+def test_the_realisation_has_the_bits_of_scipys_tf2ss(num, den, tau, scale):
+    from scipy import signal
+
+    # scaled as the translator scales K G(tau s): tiny and huge coefficients included
+    den = np.array(den) * tau ** np.arange(len(den) - 1, -1, -1.0)
+    num = np.array(num) * scale * tau ** np.arange(len(num) - 1, -1, -1.0)
+    den = np.trim_zeros(den, "f")
+    num = np.trim_zeros(num, "f")
+    assume(den.size >= 2 and num.size >= 1 and num.size < den.size)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", signal.BadCoefficients)
+        want = signal.tf2ss(num, den)[:3]
+    got = params.controllable_canonical(num, den)
+    for w, g in zip(want, got, strict=True):
+        np.testing.assert_array_equal(np.asarray(w).reshape(-1).view(np.uint64),
+                                      np.asarray(g).reshape(-1).view(np.uint64))
+    assert got[0].shape == want[0].shape and got[1].shape == (den.size - 1,)
+
+
+def test_a_time_scale_that_underflows_the_denominator_is_named():
+    # tau^3 underflows: the scaled denominator loses its leading coefficient and the
+    # transfer function its strict properness
+    cfg = mfcontrol.resolve({**LTI, "plant.num": [1.0, 0.0, 0.0], "plant.den": [1.0, 3.0,
+                             3.0, 1.0], "plant.time_scale": 1e-110})
+    with pytest.raises(mfcontrol.ConfigError) as info:
+        params.transfer_function_state_space(cfg)
+    assert info.value.key == "plant.time_scale"
