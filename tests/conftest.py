@@ -1,8 +1,16 @@
+import signal
 from pathlib import Path
 
 import pytest
 
 DATA = Path(__file__).parent / "data"
+
+# A shell starts a background job (``pytest &``, under nohup) with SIGINT ignored, and an
+# ignored signal stays ignored in every process started from it: the tests that press
+# Ctrl-C on a command would find the command deaf to it (seen: exit 0 and -9 instead of
+# 130). The tests run as from a terminal, where Ctrl-C interrupts.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
