@@ -180,26 +180,22 @@ def _event_arrays(changes_per_member: Sequence[Sequence[Change]], columns: Mappi
     A list that several members hold (a sweep's one schedule) is read once."""
     first = list(changes_per_member[0])
     names = [(c.name, c.add) for c in first]
-    m = len(changes_per_member)
-    ev_k = np.zeros((len(first), m), dtype=np.int64)
-    ev_val = np.zeros((len(first), m))
     if not first:  # no member changes anything (most runs): nothing to read
         if any(changes_per_member):
             raise ValueError("members of one run must change the same parameters in order")
-        return ev_k, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), ev_val
-    seen: dict[int, int] = {}  # id of a list read -> the member whose column holds it
-    for j, changes in enumerate(changes_per_member):
-        done = seen.get(id(changes))
-        if done is not None:
-            ev_k[:, j] = ev_k[:, done]
-            ev_val[:, j] = ev_val[:, done]
-            continue
-        seen[id(changes)] = j
+        m = len(changes_per_member)
+        return (np.zeros((0, m), dtype=np.int64), np.zeros(0, dtype=np.int64),
+                np.zeros(0, dtype=np.bool_), np.zeros((0, m)))
+    lists, at = distinct(changes_per_member)  # each list read once, then spread
+    ev_k = np.zeros((len(first), len(lists)), dtype=np.int64)
+    ev_val = np.zeros((len(first), len(lists)))
+    for j, changes in enumerate(lists):
         if j and [(c.name, c.add) for c in changes] != names:
             raise ValueError("members of one run must change the same parameters in order")
         for e, c in enumerate(changes):
             ev_k[e, j] = grid.first_sample_at(c.time, t_end, n)
             ev_val[e, j] = c.value
+    ev_k, ev_val = np.take(ev_k, at, axis=1), np.take(ev_val, at, axis=1)
     ev_col = np.array([columns[name] for name, _ in names], dtype=np.int64)
     ev_add = np.array([add for _, add in names], dtype=np.bool_)
     return ev_k, ev_col, ev_add, ev_val
