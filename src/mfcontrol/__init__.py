@@ -17,6 +17,8 @@ from ._version import __version__
 # (and the command line's start, --help, --version) no longer waits 1.6 s for numpy,
 # scipy and numba, and a Ctrl-C in that time reaches the command's own handling.
 _EXPORTS = {
+    ".analysis.alpha": ("AlphaEstimate", "backward_difference_bound", "estimate_alpha",
+                        "plant_alpha"),
     ".analysis.filters": ("LinearFilter",),
     ".analysis.loop": ("LinearLoop",),
     ".api.model.controllers": ("IP", "IPD", "IPI", "IPID", "PID", "IntelligentController",
@@ -67,6 +69,12 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eagerly
+    from .analysis.alpha import (
+        AlphaEstimate,
+        backward_difference_bound,
+        estimate_alpha,
+        plant_alpha,
+    )
     from .analysis.filters import LinearFilter
     from .analysis.loop import LinearLoop
     from .api.model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
