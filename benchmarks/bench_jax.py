@@ -67,7 +67,7 @@ def motor_rhs(inertia, tau):
                          (u - R_A * x[1] - K_T * x[0]) / L_A)
 
 
-def ipi_step(law, y, r, k, kp, *, gamma, ki, lo, hi, h, f_alg=None):
+def ipi_step(law, y, r, k, kp, *, gamma, ki, lo, hi, h, f_alg=None, hold=1):
     """One sample of the i-PI as :func:`mfcontrol.laws.intelligent.step` computes it
     (model order 1, constant gain gamma = 1/alpha, clamp anti-windup, output limits),
     operation for operation, in ``jax.numpy``.
@@ -75,8 +75,9 @@ def ipi_step(law, y, r, k, kp, *, gamma, ki, lo, hi, h, f_alg=None):
     ``law`` is (y_{k-1}, r_{k-1}, u_{k-1} applied, integral, e_{k-1}), all 0 before the
     first sample. F_hat is the backward difference, or ``f_alg`` where that is given and
     not NaN (the algebraic estimator, NaN until its window is full). Returns the law's
-    next memory and u_k applied; before the first derivative (k = 0) the output holds
-    ``u_{-1}`` = 0."""
+    next memory and u_k applied; before sample ``hold`` (1: the first derivative; the
+    algebraic estimator's window M under its default ``startup = "hold"``) the output
+    holds ``u_{-1}`` = 0."""
     import jax.numpy as jnp
 
     y1, r1, u1, integ1, e1 = law
@@ -96,7 +97,7 @@ def ipi_step(law, y, r, k, kp, *, gamma, ki, lo, hi, h, f_alg=None):
                              | ((u_unlim < lo) & (pushed < 0.0)))
     integ = jnp.where(undo, integ1, integ)
     u = jnp.where(undo, jnp.clip(-gamma * (base + ki * integ), lo, hi), u)
-    started = k >= 1  # before the first derivative the output holds u_init = 0
+    started = k >= hold  # before, the output holds u_init = 0 (intelligent.held)
     u = jnp.where(started, u, u1)
     integ = jnp.where(started, integ, integ1)
     return (y, r, u, integ, e), u

@@ -323,14 +323,16 @@ def jax_algebraic_ipi(*, alpha: float, ki: float, lo: float, hi: float, h: float
     """The i-PI with the algebraic estimator as ``(init, step)`` for :func:`jax_member`
     (``p["kp"]`` the member's gain): F_hat is the FIR of
     :func:`mfcontrol.laws.estimators.weights` over ring buffers of the last M + 1
-    measurements and M applied inputs, NaN (the backward difference) until the window is
-    full (:func:`bench_jax.ipi_step`)."""
+    measurements and M applied inputs (the held kernel, mfcontrol's default), the output
+    held until the window is full (the default ``startup = "hold"``,
+    :func:`bench_jax.ipi_step`)."""
     import jax.numpy as jnp
     from jax import lax
 
     gamma = 1.0 / alpha
     m1 = window + 1
-    wy, wu = weights(1, window, h, 1.0 / gamma)  # oldest first; the law's alpha is 1/gamma
+    # oldest first; the law's alpha is 1/gamma
+    wy, wu = weights(1, window, h, 1.0 / gamma, "held")
     # the weights rotated onto the rings: y_k lives in slot k % (M + 1), u_k in k % M, so
     # at sample k ring slot j holds y_{k-M+((j-k-1) % (M+1))} and u_{k-M+((j-k) % M)}
     wy_rings = jnp.asarray(np.stack([np.roll(wy, s + 1) for s in range(m1)]))
@@ -348,7 +350,7 @@ def jax_algebraic_ipi(*, alpha: float, ki: float, lo: float, hi: float, h: float
         f_alg = ring_y @ wy_rings[k % m1] + ring_u @ wu_rings[k % window]
         f_alg = jnp.where(k >= window, f_alg, jnp.nan)
         law, u = ipi_step(law, y, r, k, p["kp"], gamma=gamma, ki=ki, lo=lo, hi=hi, h=h,
-                          f_alg=f_alg)
+                          f_alg=f_alg, hold=window)
         return (law, ring_y, ring_u), u
 
     return init, step

@@ -64,12 +64,13 @@ def test_motor_loop(law):
         if law == "ipi":
             # F_hat once the window is full: the algebraic estimator's FIR over the last
             # 41 measurements and 40 applied inputs (alpha 50, M = 40)
-            wy, wu = weights(1, br.WINDOW, h, 1.0 / (1.0 / br.ALPHA))
+            wy, wu = weights(1, br.WINDOW, h, 1.0 / (1.0 / br.ALPHA), "held")
             M = br.WINDOW
             fir = np.array([wy @ y_meas[k - M:k + 1] + wu @ u[k - M:k]
                             for k in range(M, y.size)])
             assert np.allclose(s["F_hat"][M:], fir, rtol=0, atol=1e-9 * np.abs(fir).max())
-            assert np.abs(u).max() == br.U_MAX
+            # held until the window is full (startup = "hold"), then within the limits
+            assert np.all(u[:M] == 0.0) and np.abs(u).max() <= br.U_MAX
         else:  # a PI on the measurement: P = kp (r - y_meas), no derivative
             assert np.array_equal(s["P"], kp_m * (s["y_ref"] - y_meas))
             assert not np.any(s["D"])

@@ -72,7 +72,8 @@ def test_estimator_tradeoff(tmp_path, monkeypatch):
     # the algebraic estimator: a delay of half its window, noise falling as the window grows
     for r in algebraic:
         assert abs(r["delay"] - r["window"] * h / 2) < 0.1 * r["window"] * h / 2
-        assert 0.95 < r["noise"] / r["closed_form"] < 1.2  # within 3 %, or 11-15 % above
+        assert 0.85 < r["noise"] / r["closed_form"] < 1.15  # within 3 %, or 10 % (M <= 20)
+        assert r["delay"] == pytest.approx(r["window"] * h / 2, rel=1e-3)  # the held kernel
     noise = [r["noise"] for r in rows]
     delay = [r["delay"] for r in rows]
     assert noise == sorted(noise, reverse=True) and delay == sorted(delay)
@@ -139,8 +140,9 @@ def test_python_control_plant(tmp_path, monkeypatch):
     assert all(v["settled"] for v in m.values())
     assert m["i-PD"]["iae"] < m["PID"]["iae"] / 50
     assert m["i-PD"]["iae_load"] < m["PID"]["iae_load"] / 20
-    assert np.abs(out["runs"]["i-PD"].error).max() < 1.5e-3  # within about 1 um
-    assert m["i-PD"]["tv_u"] > m["PID"]["tv_u"]
+    assert np.abs(out["runs"]["i-PD"].error).max() < 2e-3  # within 2 um
+    # the held kernel's order-2 estimate: no ringing at the command's steps
+    assert m["i-PD"]["tv_u"] < m["PID"]["tv_u"]
 
 
 def test_c_export(tmp_path, monkeypatch):

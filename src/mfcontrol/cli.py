@@ -18,6 +18,7 @@ import shutil
 import sys
 import textwrap
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -455,8 +456,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="results", help="output folder (default results)")
     s.add_argument("--fidelity", choices=("published", "paper", "both"), default="both",
                    help="published: the options as the published code sets them (its "
-                   "trajectories, bit for bit); paper: as the printed equations state "
-                   "them, where the two differ; both (default): each in its own folder")
+                   "trajectories, bit for bit); paper: the printed plant coupling, gamma "
+                   "integrator and rate term (it keeps the published P term on y_{k-1}, "
+                   "derivative divisor and gamma on the derivative error); both (default): "
+                   "each in its own folder")
     s.set_defaults(func=_cmd_reproduce)
 
     s = sub.add_parser("tune", help="tune a case's gains by simulation (differential "
@@ -550,12 +553,19 @@ def _own_process(command: str) -> None:
     atexit.register(gc.freeze)
 
 
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line, as the command's errors are: no source file and line."""
+    print(f"mfcontrol: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if argv is None:  # the command's own process (its console script, python -m)
         _own_process(args.command)
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_line
+            return args.func(args)
     except (ConfigError, CaseError) as exc:
         print(f"mfcontrol: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

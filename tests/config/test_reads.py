@@ -105,7 +105,9 @@ BASES = [(plant, law) for plant in PLANTS
          if law not in ("ip", "variational") or plant in ("buck", "boost")]
 #: every other choice of the table, on a positional law and on the paper's law
 CHOICES: list[tuple[str, str, dict[str, Any]]] = [
-    ("dc-motor", "i-PID", {"controller__estimator": "algebraic", "controller__window": 10}),
+    # the reference moving from the start: the estimator's start-up acts
+    ("dc-motor", "i-PID", {"controller__estimator": "algebraic", "controller__window": 10,
+                           "reference__t0": 0.0}),
     ("dc-motor", "i-PI", {"controller__order": 2}),
     ("dc-motor", "i-PI", {"controller__adapt": "variational", "controller__gamma0": 0.02,
                           "controller__Gamma": 1e-6, "controller__alpha": None}),

@@ -114,10 +114,10 @@ def test_the_analysed_loop_is_the_simulated_run(case, overrides):
 
 
 def test_the_algebraic_estimators_steady_state_error_is_the_runs():
-    # the algebraic estimator's F_hat is a window's average: the i-P on y' = -y + u
-    # leaves a finite error, which the analysis gives before the run
+    # the trapezoid window's F_hat is off at rest: the i-P on y' = -y + u leaves a
+    # finite error, which the analysis gives before the run
     overrides = {"plant.schedule": [], "controller.duty_min": -1e6,
-                 "controller.duty_max": 1e6}
+                 "controller.duty_max": 1e6, "controller.kernel": "trapezoid"}
     a = mfcontrol.analyze("first-order-ip-algebraic", overrides=overrides)
     res = mfcontrol.run_case("first-order-ip-algebraic", overrides)
     final = res.signals["y_ref"][-1]
@@ -130,6 +130,12 @@ def test_the_algebraic_estimators_steady_state_error_is_the_runs():
     kp, window = 5.0, 20
     assert a.margins["steady_state_error"] == pytest.approx(1 / (kp * window**2 + 1),
                                                             rel=1e-9)
+    # the held kernel (the default) is exact at rest: no error, in the analysis and the run
+    held = {**overrides, "controller.kernel": "held"}
+    a = mfcontrol.analyze("first-order-ip-algebraic", overrides=held)
+    res = mfcontrol.run_case("first-order-ip-algebraic", held)
+    assert abs(a.margins["steady_state_error"]) < 1e-12
+    assert abs(1.0 - res.signals["y"][-1] / res.signals["y_ref"][-1]) < 1e-9
 
 
 def test_the_h2_noise_gain_is_the_runs_control_noise():

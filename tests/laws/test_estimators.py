@@ -1,12 +1,16 @@
 """The sliding-window algebraic estimator of F, checked against facts.
 
-* its O(1) sliding moments give the direct FIR sum of the integral (``weights``);
+* its O(1) sliding moments give the direct FIR sum of the integral (``weights``), for
+  both kernels;
+* the held kernel returns F to rounding under any held input; the trapezoid kernel's
+  error is its closed form;
 * it recovers a known F from signals that obey the ultra-local model, at t - T/2;
 * for F constant or linear in t it is exact up to the quadrature rule's error, which for
   polynomial signals is known in closed form (Euler-Maclaurin);
 * the per-sample work does not depend on M (structurally, not by timing).
 """
 
+import itertools
 import math
 
 import numpy as np
@@ -39,34 +43,34 @@ def make_state(M, base=0, members=1):
     return CS
 
 
-def run(order, M, h, alpha, y, u, base=0):
+def run(order, M, h, alpha, y, u, base=0, kernel="trapezoid"):
     """Push y_k, u_{k-1} one by one; return the estimates (NaN while the window fills)."""
     CS = make_state(M, base)
     f = np.empty(y.size)
     for k in range(y.size):
         est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE, order)
-        f[k] = est.estimate(CS, 0, base, M, h, alpha, order)
+        f[k] = est.estimate(CS, 0, base, M, h, alpha, order, est.KERNELS[kernel])
     return f
 
 
-def direct(order, M, h, alpha, y, u):
+def direct(order, M, h, alpha, y, u, kernel="trapezoid"):
     """The FIR form over every full window (k = M .. N-1), and the size of its terms."""
-    wy, wu = est.weights(order, M, h, alpha)
+    wy, wu = est.weights(order, M, h, alpha, kernel)
     Y = sliding_window_view(y, M + 1)
     U = sliding_window_view(u[:-1], M)
     return Y @ wy + U @ wu, np.abs(Y * wy).sum(1) + np.abs(U * wu).sum(1)
 
 
-def check_equals_direct(order, M, h, alpha, y, u):
-    f = run(order, M, h, alpha, y, u, base=3)
+def check_equals_direct(order, M, h, alpha, y, u, kernel="trapezoid"):
+    f = run(order, M, h, alpha, y, u, base=3, kernel=kernel)
     assert np.isnan(f[:M]).all()
-    d, scale = direct(order, M, h, alpha, y, u)
+    d, scale = direct(order, M, h, alpha, y, u, kernel)
     assert np.isfinite(f[M:]).all()
     # A sliding sum keeps the rounding of every sample that passed through it until the
     # next resync (at most M samples later), including samples whose FIR weight is zero
     # (u at s = 0): 1.0 there absorbs a 1e-94 beside it (found by hypothesis). So the error
     # is relative to the largest samples since then, times the weights' sizes.
-    wy, wu = est.weights(order, M, h, alpha)
+    wy, wu = est.weights(order, M, h, alpha, kernel)
     ay, au = np.abs(y), np.abs(u)
     # run() pushes U_BEFORE as u_{-1} with y_0: it passes through the sums too
     au = np.concatenate([[abs(U_BEFORE)], au])  # au[k] is now |u_{k-1}|
@@ -81,19 +85,22 @@ def check_equals_direct(order, M, h, alpha, y, u):
 # --- 1. the sliding moments are the direct sum ------------------------------------------------
 
 WINDOWS = [(1, 2), (1, 3), (1, 4), (1, 7), (1, 64), (2, 2), (2, 4), (2, 10), (2, 64)]
+#: (order, M, kernel): the held kernel takes any M at order 2
+CASES = ([(n, M, "trapezoid") for n, M in WINDOWS]
+         + [(n, M, "held") for n, M in WINDOWS + [(2, 3), (2, 7)]])
 moderate = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
 
 
 @st.composite
 def short_runs(draw):
-    order, M = draw(st.sampled_from(WINDOWS))
+    order, M, kernel = draw(st.sampled_from(CASES))
     n = M + 1 + draw(st.integers(0, 3 * M))
     # fill=nothing(): every sample drawn on its own, no repeated background value
     y = draw(arrays(np.float64, n, elements=moderate, fill=st.nothing()))
     u = draw(arrays(np.float64, n, elements=moderate, fill=st.nothing()))
     h = draw(st.sampled_from([1e-4, 1e-3, 0.1, 1.0]))
     alpha = draw(st.floats(-100.0, 100.0))
-    return order, M, h, alpha, y, u
+    return order, M, h, alpha, y, u, kernel
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -102,17 +109,18 @@ def test_moments_equal_direct_sum(case):
     check_equals_direct(*case)
 
 
-@pytest.mark.parametrize("order,M", WINDOWS)
+@pytest.mark.parametrize("order,M,kernel", CASES)
 @settings(max_examples=5, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), offset=moderate, y_amp=st.floats(1e-3, 1e3),
        u_amp=st.floats(1e-3, 1e3), alpha=st.floats(-100.0, 100.0))
-def test_long_runs_stay_equal_to_direct_sum(order, M, seed, offset, y_amp, u_amp, alpha):
+def test_long_runs_stay_equal_to_direct_sum(order, M, kernel, seed, offset, y_amp, u_amp,
+                                            alpha):
     # 20 M samples: 20 resyncs, and drift would have grown between them
     rng = np.random.default_rng(seed)
     n = 20 * M + M // 2 + 1
     y = offset + y_amp * rng.standard_normal(n)
     u = u_amp * rng.uniform(-1.0, 1.0, n)
-    check_equals_direct(order, M, 1e-3, alpha, y, u)
+    check_equals_direct(order, M, 1e-3, alpha, y, u, kernel)
 
 
 def test_a_non_finite_sample_is_forgotten_at_the_next_resync_after_it_leaves():
@@ -132,7 +140,10 @@ def test_a_non_finite_sample_is_forgotten_at_the_next_resync_after_it_leaves():
 
 def test_invalid_windows():
     with pytest.raises(ValueError, match="even"):
-        est.weights(2, 5, 1e-3, 1.0)
+        est.weights(2, 5, 1e-3, 1.0, "trapezoid")
+    with pytest.raises(ValueError, match="kernel = 'simpson'"):
+        est.check_window(1, 4, "simpson")
+    est.check_window(2, 5, "held")  # the held kernel has no Simpson pattern
     for order, M in ((3, 4), (1, 1), (1, 4.0), (2, 0)):
         with pytest.raises(ValueError):
             est.check_window(order, M)
@@ -231,6 +242,70 @@ def test_constant_F_without_input_bias_closed_form(order, bias):
         np.testing.assert_allclose(f[M:], 4.0 * (1 + bias(M)), rtol=1e-9)
 
 
+# --- 3b. the held kernel is exact under a held input; the trapezoid's error, closed form ------
+
+
+def held_input_run(order, M, h, F, alpha, u, y0=0.4, v0=-1.3):
+    """Exact samples of y^(n) = F + alpha u under the held input u (u_j over
+    [t_j, t_{j+1})), from y_0 = y0 (and y'_0 = v0 for n = 2)."""
+    y = np.empty(u.size + 1)
+    y[0], v = y0, v0
+    for j, uj in enumerate(u):
+        a = F + alpha * uj
+        if order == 1:
+            y[j + 1] = y[j] + h * a
+        else:
+            y[j + 1] = y[j] + h * v + 0.5 * a * h * h
+            v += a * h
+    return y
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("M", [2, 3, 4, 9, 20, 64])
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), F=st.floats(-50.0, 50.0), alpha=st.floats(-20.0, 20.0),
+       h=st.sampled_from([1e-5, 1e-3, 0.1]))
+def test_the_held_kernel_returns_F_under_any_held_input(order, M, seed, F, alpha, h):
+    u = np.random.default_rng(seed).uniform(-1.0, 1.0, 3 * M + 5)
+    y = held_input_run(order, M, h, F, alpha, u)
+    f = run(order, M, h, alpha, y, np.append(u, 0.0), kernel="held")
+    # relative to the largest term: |alpha u| and F (y's size enters through rounding of
+    # the differences, ~ |y| eps / h^n per term)
+    scale = abs(F) + abs(alpha) + np.abs(y).max() * 1e3 * (1.0 if order == 1 else 1.0 / h)
+    assert np.abs(f[M:] - F).max() <= 1e-10 * max(scale, 1.0)
+
+
+@pytest.mark.parametrize("M", [2, 4, 5, 20])
+@pytest.mark.parametrize("F,alpha,u", [(3.0, 2.0, 0.0), (3.0, 2.0, 1.0), (-1.0, 0.5, -4.0)])
+def test_trapezoid_error_under_a_constant_input_closed_form(M, F, alpha, u):
+    # F_hat = F + (2 F + 3 alpha u) / M^2: the y part gains 1 + 2/M^2, the u part's
+    # trapezoid sum of s (T - s) is T^3/6 (1 - 1/M^2)
+    h = 1e-3
+    y = held_input_run(1, M, h, F, alpha, np.full(2 * M, u))
+    f = run(1, M, h, alpha, y, np.full(y.size, u))
+    np.testing.assert_allclose(f[M:], F + (2.0 * F + 3.0 * alpha * u) / M**2, rtol=1e-10,
+                               atol=1e-10)
+    g = run(1, M, h, alpha, y, np.full(y.size, u), kernel="held")
+    np.testing.assert_allclose(g[M:], F, rtol=1e-10, atol=1e-10)
+
+
+def test_trapezoid_error_under_a_moving_input_is_the_issues_measurement():
+    # y' = 3 + 2 u, u = +-1 at random: the trapezoid's error is about 0.8 alpha |du| / M,
+    # 1.125 at most at M = 4 (a window whose u alternates); the held kernel's is rounding
+    # (an independent implementation's figure); its worst case over all 16 patterns of a
+    # window of 4
+    h, F, alpha = 0.01, 3.0, 2.0
+    worst = held_worst = 0.0
+    for pattern in itertools.product([-1.0, 1.0], repeat=4):
+        u = np.array(pattern * 2)
+        y = held_input_run(1, 4, h, F, alpha, u)
+        worst = max(worst, np.abs(run(1, 4, h, alpha, y, np.append(u, 0.0))[4:] - F).max())
+        held = run(1, 4, h, alpha, y, np.append(u, 0.0), kernel="held")
+        held_worst = max(held_worst, np.abs(held[4:] - F).max())
+    assert worst == pytest.approx(1.125, rel=1e-9)
+    assert held_worst < 1e-12
+
+
 # --- 4. the per-sample work does not grow with M ----------------------------------------------
 # Not timed: timings are noisy and would test the machine. The O(M) part of push is the
 # resync; everything else is a fixed number of row updates. We check (a) that a push writes
@@ -283,7 +358,9 @@ def test_order_one_carries_its_moments_with_the_bits_they_have_beside_all(M):
         est.push(full, 0, 0, M, y, u, 2)
         np.testing.assert_array_equal(one[kept], full[kept])
         assert not one[left].any()
-        np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1), est.sums(full, 0, 0, M, 1))
+        for kernel in est.KERNELS.values():
+            np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1, kernel),
+                                          est.sums(full, 0, 0, M, 1, kernel))
 
 
 def test_moments_are_carried_and_recomputed_only_every_M_samples():

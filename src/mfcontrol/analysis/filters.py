@@ -8,7 +8,10 @@ output u. Written in the delay operator q = z^-1 (``q y_k = y_{k-1}``), with
 Intelligent law (:mod:`mfcontrol.laws.intelligent`), ``e = y - r``, gain gamma::
 
     u = -gamma (F_hat - r^(n) + kp e + ki h e / D + kd D e / h),   y^(n) = (D / h)^n y
-    F_hat = (D / h)^n y - (q / gamma) u         backward difference
+    with a compensated delay of d samples, F_hat's u terms are q^d times these, and
+    with its prediction e = y - r + h (d F_hat + S u / gamma), S = q + ... + q^d
+    F_hat = (D / h)^n y - (q / gamma) u         backward difference (n = 1; n = 2, trapezoid)
+    F_hat = (D / h)^2 y - (q + q^2) u / (2 gamma)   backward difference (n = 2, held)
     F_hat = W_y(q) y + W_u(q) u                 algebraic estimator, window M
 
 with the algebraic estimator's FIR weights (:func:`mfcontrol.laws.estimators.weights`,
@@ -29,8 +32,8 @@ y (as printed)::
     D u_raw = -(g / hd) D (y - r) + s kp (r - y_p),     u = G u_raw (the applied output)
 
 What the filter leaves out, by construction: the output limits and the anti-windup they
-trigger, the start-up (the output held for the first n samples; the backward difference
-standing in until the algebraic estimator's window is full), the variational gain's
+trigger, the start-up (the output held for the first n samples, or the algebraic estimator's
+first M; or the backward difference standing in until its window is full), the variational gain's
 motion (the filter holds gamma at a value you give), and rounding. Past the start-up and
 within the limits the law's outputs satisfy the filter's equation to rounding
 (``tests/analysis/test_filters.py`` holds every law family to it on simulated runs).
@@ -163,13 +166,20 @@ def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) ->
     delta = np.array([1.0, -1.0])
     if CP[intelligent.EST] == intelligent.ALGEBRAIC:
         m = int(CP[intelligent.M_WIN])
-        wy, wu = estimators.weights(n, m, dt, 1.0 / gamma)
+        kernel = {v: k for k, v in estimators.KERNELS.items()}[CP[intelligent.KERNEL]]
+        wy, wu = estimators.weights(n, m, dt, 1.0 / gamma, kernel)
         # oldest first: y_{k-M} .. y_k and u_{k-M} .. u_{k-1}; q^i is i samples back
         f_y = wy[::-1]
         f_u = np.concatenate([[0.0], wu[::-1]])
     else:
         f_y = dn
-        f_u = np.array([0.0, -1.0 / gamma])
+        if n == 2 and CP[intelligent.KERNEL] == estimators.HELD:
+            f_u = np.array([0.0, -0.5 / gamma, -0.5 / gamma])  # (u_{k-1} + u_{k-2}) / 2
+        else:
+            f_u = np.array([0.0, -1.0 / gamma])
+    d = int(CP[intelligent.DELAY])
+    if d > 0:  # the estimator pairs y with the input the plant received, d samples older
+        f_u = np.concatenate([np.zeros(d), f_u])
     # the error terms kp + kd D / h (+ ki h / D), cleared of the integral's D
     k_e = _add([kp], kd * delta / dt)
     if ki != 0.0:
@@ -178,7 +188,14 @@ def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) ->
     else:
         clear = np.array([1.0])
     a = _mul(clear, _add([1.0], gamma * f_u))
-    b_y = -gamma * _add(_mul(clear, f_y), k_e)
+    p_y = np.array([1.0])
+    if d > 0 and CP[intelligent.PREDICT] != 0.0:
+        # e = p_y y + p_u u - r: y predicted over the delay by the model
+        p_y = _add([1.0], dt * d * f_y)
+        in_flight = np.concatenate([[0.0], np.ones(d)]) / gamma
+        p_u = dt * _add(d * f_u, in_flight)
+        a = _add(a, gamma * _mul(k_e, p_u))
+    b_y = -gamma * _add(_mul(clear, f_y), _mul(k_e, p_y))
     b_r = gamma * _add(_mul(clear, dn), k_e)
     return _normalised(a, b_y, b_r, dt)
 

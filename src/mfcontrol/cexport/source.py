@@ -259,13 +259,17 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
     if cp[gain_law.MODE] == gain_law.EXTERNAL:
         raise ConfigError("gain", "external", "the exported step has no alpha argument: "
                           "export a constant or variational gain")
+    if cp[intelligent.DELAY] > 0:
+        raise ConfigError(f"{key_prefix}delay", int(cp[intelligent.DELAY]),
+                          "the exported step compensates no delay yet: export with delay 0")
     limits = (intelligent.OUT_MIN, intelligent.OUT_MAX)
     law = _Law(
         "intelligent", intelligent.step, (CP, CS, J, REAL, REAL, REAL),
         intelligent.reset, (CP, CS, J),
         init=f"    @RESET@(s->cs);\n    s->last_output = @P@_params[{intelligent.U_INIT}];\n",
         bumpless=(f"    @RESET@(s->cs);\n{_clamp(limits)}"
-                  f"    s->cs[{intelligent.U1}] = start;\n    s->last_output = start;\n"),
+                  f"    s->cs[{intelligent.U1}] = start;\n    s->cs[{intelligent.U2}] = start;\n"
+                  "    s->last_output = start;\n"),
         call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
     if cp[intelligent.EST] == intelligent.ALGEBRAIC:
         M = int(cp[intelligent.M_WIN])

@@ -60,7 +60,10 @@ OPTIONS: tuple[Option, ...] = (
     _o("description", "str", "", "one line describing the case (at most "
        f"{MAX_DESCRIPTION:,} characters; a figure's title shows the first {TITLE_MOST})"),
     _o("fidelity", "str", "published", "preset for the options below that differ between the "
-       "published code and the printed equations", FIDELITIES),
+       "published code and the printed equations; paper sets the printed plant coupling, "
+       "gamma integrator and rate term, and keeps the published P term on y_{k-1} "
+       "(controller.p_sample), derivative divisor (controller.deriv_scale) and gamma on "
+       "the derivative error (controller.gain)", FIDELITIES),
     # plant
     _o("plant.model", "str", "buck", "plant model: averaged buck or boost converter, "
        "y' = a y + b u + w, a DC motor's speed under its armature voltage, or a transfer "
@@ -136,7 +139,21 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.estimator", "str", "backward-difference", "positional laws: estimator of "
        "F", ("backward-difference", "algebraic")),
     _o("controller.window", "int", 20, "algebraic estimator: window M (samples; even for "
-       "n = 2)", check="positive"),
+       "n = 2 with the trapezoid kernel)", check="positive"),
+    _o("controller.kernel", "str", "held", "positional laws, algebraic estimator or n = 2: "
+       "the estimator's discretisation; held: exact for a constant F under the held "
+       "input (the i-P then has no steady-state error); trapezoid: the literature's "
+       "trapezoid / Simpson rule and alpha u_{k-1}, half a sample out of line",
+       ("held", "trapezoid")),
+    _o("controller.delay", "int", 0, "positional laws: the loop's input delay the law "
+       "compensates (samples; the actuator's and sensor's together): F is estimated with "
+       "the input the plant received", check="nonnegative"),
+    _o("controller.predict", "bool", False, "positional laws of order 1 with a "
+       "compensated delay: the error predicted over the delay by the ultra-local model"),
+    _o("controller.startup", "str", "hold", "algebraic estimator, until its window is "
+       "full: hold the starting output for M samples, or let the backward difference "
+       "stand in (stable only for alpha > beta (2 + K_P h) / 4)",
+       ("hold", "backward-difference")),
     _o("controller.anti_windup", "str", "auto", "when the output is limited: the recursive "
        "laws' u (clamp: carry the limited value; back-calculation: a share k_aw h of the "
        "excess), the positional laws' integral; auto = none for the recursive laws (as "

@@ -396,9 +396,11 @@ def _check_consistency(v: dict[str, Any]) -> None:
         # one interval fits no line through the window: the estimator needs two
         raise ConfigError("controller.window", v["controller.window"],
                           "must be at least 2 samples for the algebraic estimator")
-    if algebraic and v["controller.order"] == 2 and v["controller.window"] % 2:
+    if (algebraic and v["controller.order"] == 2 and v["controller.window"] % 2
+            and v["controller.kernel"] == "trapezoid"):
         raise ConfigError("controller.window", v["controller.window"],
-                          "must be even for order 2 (Simpson's rule)")
+                          "must be even for order 2 with the trapezoid kernel (Simpson's "
+                          "rule)")
     n = round(v["sim.t_end"] / v["sim.h"])
     if algebraic and v["controller.window"] >= min(n, estimators.MAX_WINDOW + 1):
         # a window the run never fills estimates nothing (and would allocate its ring)

@@ -525,7 +525,7 @@ _EST_VIEW_ROWS = intelligent.EST_BASE + estimators.n_state(estimators.MAX_WINDOW
 
 
 @_jit.step_jit
-def _estimator_lanes(D, M, order, live):
+def _estimator_lanes(D, M, order, kernel, live):
     """The algebraic estimator's sample for every member of a block, all at the same
     sample with the same window M and model order (what :func:`intelligent.step` does
     first: :func:`mfcontrol.laws.estimators.push`): y_k (the measurement) and the
@@ -561,10 +561,15 @@ def _estimator_lanes(D, M, order, live):
     if estimators.resync_due(n, M):
         estimators.resync_members(cs, 0, LANES, base, M, order)
     full, oldest, newest, parity = estimators.window(cs, live, base, M)
-    if full:
+    # the kernel a literal in each loop (the block's members share it)
+    if full and kernel == estimators.HELD:
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
-                                                      parity)
+                                                      parity, estimators.HELD)
+    elif full:
+        for i in range(LANES):
+            D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
+                                                      parity, estimators.TRAPEZOID)
     else:
         for i in range(LANES):
             D[_SY, i] = np.nan
@@ -1099,10 +1104,15 @@ def _make_block_loop(fast):
             algebraic = False
             m_win = 0
             order = 1
+            kernel = estimators.TRAPEZOID
+            block_steady = steady
             if law_kind == INTELLIGENT:
                 algebraic = cp[intelligent.EST, 0] == intelligent.ALGEBRAIC
                 m_win = int(cp[intelligent.M_WIN, 0])
                 order = int(cp[intelligent.N_ORDER, 0])
+                kernel = cp[intelligent.KERNEL, 0]
+                # past the start's hold (the members share it: they share M and startup)
+                block_steady = max(steady, intelligent.held(cp, 0, float(order), algebraic))
             count0 = cs[intelligent.EST_BASE + estimators.COUNT, 0] if algebraic else 0.0
             for lane in range(lanes):
                 # a member that comes in stopped stops at its first sample, member by member
@@ -1113,8 +1123,14 @@ def _make_block_loop(fast):
                     if algebraic:
                         lanes_law &= cp[intelligent.M_WIN, lane] == m_win
                         lanes_law &= cp[intelligent.N_ORDER, lane] == order
+                        lanes_law &= cp[intelligent.KERNEL, lane] == kernel
+                        lanes_law &= (cp[intelligent.STARTUP, lane]
+                                      == cp[intelligent.STARTUP, 0])
                         lanes_law &= (cs[intelligent.EST_BASE + estimators.COUNT, lane]
                                       == count0)
+                    # a compensated delay's queue is read at rows that depend on the
+                    # member's window: member by member
+                    lanes_law &= cp[intelligent.DELAY, lane] == 0.0
                     simple &= cp[intelligent.N_ORDER, lane] == 1.0
                     simple &= cp[intelligent.AW, lane] != intelligent.AW_BACK
                 elif law_kind == PID:
@@ -1182,7 +1198,7 @@ def _make_block_loop(fast):
                     for lane in range(lanes):
                         j = _member_of(b0, lane, nb)
                         D[_R, lane] = R[j, k] if use_series else reference.value(RP, j, t)
-                vector = lanes_law and law_k0 + k >= steady
+                vector = lanes_law and law_k0 + k >= block_steady
                 if vector:
                     # every live member's measurement good: then the law runs for all as
                     # one loop (stopped and spare lanes too: their plant state is a copy
@@ -1204,7 +1220,7 @@ def _make_block_loop(fast):
                         live = 0
                         while not alive[live]:
                             live += 1
-                        _estimator_lanes(D, m_win, order, live)
+                        _estimator_lanes(D, m_win, order, kernel, live)
                     if law_kind == INTELLIGENT and simple and algebraic:
                         n_bad = _intelligent_gain(D, law_dt, True, True, fixed)
                     elif law_kind == INTELLIGENT and simple:

@@ -21,9 +21,13 @@ FIDELITY_TEXT = {
     "published": "the published code's choices: its input coupling (E d/L added to dv/dt "
                  "too), first-order gamma integrator, no K_gamma dgamma/dt term, gamma_k "
                  "multiplying the derivative error",
-    "paper": "the printed equations: the textbook buck model, the second-order integrator "
-             "of eq. (32), the rate term K_gamma dgamma/dt with its printed + sign, gamma_k "
-             "multiplying the derivative error",
+    "paper": "the printed equations where the code departs from them: the textbook buck "
+             "model, the second-order integrator of eq. (32), the rate term K_gamma "
+             "dgamma/dt with its printed + sign. Not purely the printed law: it keeps "
+             "three published choices, the P term on y_{k-1} (controller.p_sample), the "
+             "backward differences divided by 1e-3 (controller.deriv_scale; the paper "
+             "writes h) and gamma_k on the derivative error (controller.gain; eq. 33 "
+             "taken literally puts 1/alpha there, which the comparison tables also run)",
 }
 
 DISAGREEMENTS = (
@@ -453,6 +457,7 @@ def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None) -
               disagreements_markdown()]
     parts += ["", "`fidelity = published` reproduces the published figures (the "
               "voltage-stable-standard trajectory matches the published data exactly); "
-              "`fidelity = paper` runs the printed equations. Explicit keys override either "
-              "preset.", ""]
+              "`fidelity = paper` runs the printed equations where the code departs from "
+              "them, keeping the published P term on y_{k-1}, derivative divisor 1e-3 and "
+              "gamma_k on the derivative error. Explicit keys override either preset.", ""]
     return "\n".join(parts)

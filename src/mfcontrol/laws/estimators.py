@@ -12,12 +12,27 @@ derivatives of y onto w, where they are exact::
         F_hat = (60 / T^5) int_0^T [ (T^2 - 6 T s + 6 s^2) y(t-T+s)
                                       - (alpha / 2) s^2 (T - s)^2 u(t-T+s) ] ds
 
-The integral is exact for F constant over the window and, w being symmetric about T/2,
-gives F(t - T/2) for F linear in time: the estimate is delayed by half a window. The
-integrals are taken by the trapezoid rule (n = 1) and composite Simpson (n = 2, M even)
-over the M + 1 samples, u_i standing for u(t_i); u weighs nothing at either end, so u_k is
-never needed. The rule adds its own error, large for small M: with F constant and u = 0
-the estimate is F (1 + 2/M^2) for n = 1 and F (1 + 24/M^4) for n = 2.
+Two discretisations of the integral, the ``kernel``:
+
+``trapezoid`` (the literature's, in most published MFC code)
+    The trapezoid rule (n = 1) and composite Simpson (n = 2, M even) over the M + 1
+    samples, u_i standing for u(t_i). It is *not* exact for a constant F: the rule treats
+    the held input u_j as a node value, half a sample out of line with y, and adds its own
+    error to the y part. With F constant and u constant the estimate is
+    ``F + (2 F + 3 alpha u) / M^2`` (n = 1); under a varying held input the error is about
+    ``0.8 alpha |du| / M``. In a loop this gives the i-P a finite DC gain
+    ``kp M^2 / alpha`` and a steady-state error ``-alpha u / (kp M^2)``.
+``held`` (exact under a zero-order hold)
+    Between samples a held input makes y' = F + alpha u_j (n = 1) constant, so
+    ``(y_{j+1} - y_j) / h - alpha u_j = F`` exactly, and for n = 2
+    ``(y_{j+2} - 2 y_{j+1} + y_j) / h^2 - alpha (u_j + u_{j+1}) / 2 = F``. The kernel is
+    the weighted mean of these exact relations over the window, weighted by the integral's
+    w at each relation's centre (``v_j ~ w(s_{j+1/2})`` for n = 1, ``w(s_{j+1})`` for
+    n = 2): the same smoothing as the integral, and F_hat = F to rounding for any held
+    input when F is constant. M may be odd for n = 2.
+
+Both weigh the window symmetrically about its centre: for F linear in time the estimate
+is F(t - T/2), delayed by half a window. Both need only u up to u_{k-1}.
 
 Sliding moments
 ---------------
@@ -26,9 +41,14 @@ In the centred window index c = i - M/2 both kernels are polynomials in c::
     n = 1:  y weight ~ -2 c              u weight ~ M^2/4 - c^2
     n = 2:  y weight ~ 6 c^2 - M^2/2     u weight ~ (M^2/4 - c^2)^2
 
+and the held kernels (u at its own centred index, c = j - M/2 for u_j)::
+
+    n = 1:  y weight ~ 2 c              u weight ~ M^2/4 - (c + 1/2)^2
+    n = 2:  y weight ~ 12 c^2 + 2 - M^2 u weight ~ g(c) + g(c + 1), g(c) = (M^2/4 - c^2)^2
+
 so F_hat is a fixed combination of the moments ``Y_p = sum c^p y`` (p <= 2) and
-``U_p = sum c^p u`` (p <= 4), plus the rule's end corrections, which need only the oldest
-and newest y. When the window slides by one sample every c drops by one, so
+``U_p = sum c^p u`` (p <= 4), plus end corrections, which need only the oldest and
+newest y. When the window slides by one sample every c drops by one, so
 ``Y_p <- sum_q C(p, q) (-1)^(p-q) Y_q``, less the sample leaving, plus the one entering:
 O(1) work per sample whatever M. Simpson's 1-4-2-...-4-1 pattern needs separate sums over
 even and odd positions; a sample's position changes parity at every slide, its absolute
@@ -73,6 +93,10 @@ U_MOM = Y_MOM + 2 * N_YMOM
 RING = U_MOM + 2 * N_UMOM  # y ring (M + 1 rows), then u ring (M + 1 rows)
 
 ORDERS = (1, 2)
+# the discretisation of the integral (see the module's docstring)
+TRAPEZOID = 0.0
+HELD = 1.0
+KERNELS = {"trapezoid": TRAPEZOID, "held": HELD}
 #: longest window: its ring buffer of 2 (M + 1) samples stays under 160 MB
 MAX_WINDOW = 10_000_000
 
@@ -82,8 +106,9 @@ def n_state(M: int) -> int:
     return RING + 2 * (M + 1)
 
 
-def check_window(order: int, M: int) -> None:
-    """Raise ValueError unless (order, M) is a valid estimator: n = 1 or 2, M >= 2, even for n = 2.
+def check_window(order: int, M: int, kernel: str = "held") -> None:
+    """Raise ValueError unless (order, M, kernel) is a valid estimator: n = 1 or 2,
+    M >= 2, even for n = 2 with the trapezoid kernel (Simpson's rule).
 
     Call it where parameters are built: the compiled functions cannot raise and return NaN
     for an invalid pair instead.
@@ -92,8 +117,11 @@ def check_window(order: int, M: int) -> None:
         raise ValueError(f"order = {order!r}: the ultra-local model order must be 1 or 2")
     if not isinstance(M, int | np.integer) or isinstance(M, bool) or M < 2:
         raise ValueError(f"M = {M!r}: the window must be a whole number of samples >= 2")
-    if order == 2 and M % 2:
-        raise ValueError(f"M = {M!r}: Simpson's rule (order 2) needs an even number of intervals")
+    if kernel not in KERNELS:
+        raise ValueError(f"kernel = {kernel!r}: must be one of {', '.join(KERNELS)}")
+    if order == 2 and M % 2 and kernel == "trapezoid":
+        raise ValueError(f"M = {M!r}: Simpson's rule (order 2, trapezoid kernel) needs an "
+                         "even number of intervals")
 
 
 @step_jit
@@ -358,9 +386,9 @@ def window(CS, j, base, M):
 
 
 @step_jit
-def sums_at(CS, j, base, M, order, oldest, newest, parity):
+def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel):
     """The window's weighted sums (sy, su) of y and u, the slots given (:func:`window`):
-    F_hat = :func:`combine` (sy, su, ...). NaN for an invalid (order, M)."""
+    F_hat = :func:`combine` (sy, su, ...). NaN for an invalid (order, M, kernel)."""
     y_old = CS[base + RING + oldest, j]  # y_{k-M}
     y_new = CS[base + RING + newest, j]
     fm = float(M)
@@ -368,6 +396,31 @@ def sums_at(CS, j, base, M, order, oldest, newest, parity):
     h2 = half * half
     y0 = base + Y_MOM
     u0 = base + U_MOM
+    if kernel == HELD:
+        # the moments over both parities: these kernels have no Simpson pattern
+        yy0 = CS[y0, j] + CS[y0 + N_YMOM, j]
+        yy1 = CS[y0 + 1, j] + CS[y0 + N_YMOM + 1, j]
+        yy2 = CS[y0 + 2, j] + CS[y0 + N_YMOM + 2, j]
+        uu0 = CS[u0, j] + CS[u0 + N_UMOM, j]
+        uu1 = CS[u0 + 1, j] + CS[u0 + N_UMOM + 1, j]
+        uu2 = CS[u0 + 2, j] + CS[u0 + N_UMOM + 2, j]
+        if order == 1:
+            # y weight 2c inside, v_0 and -v_{M-1} (M/2 - 1/4) at the ends; u weight
+            # v_j ~ M^2/4 - (c + 1/2)^2
+            return (2.0 * yy1 + (half + 0.25) * (y_old - y_new),
+                    (h2 - 0.25) * uu0 - uu1 - uu2)
+        if order == 2:
+            uu3 = CS[u0 + 3, j] + CS[u0 + N_UMOM + 3, j]
+            uu4 = CS[u0 + 4, j] + CS[u0 + N_UMOM + 4, j]
+            # y weight: the second difference of g(c) = (h2 - c^2)^2, 12 c^2 + 2 - 4 h2,
+            # less g's polynomial value (M + 1)^2 one sample past each end, where the
+            # weights are zero; u weight g(c) + g(c + 1)
+            m1 = fm + 1.0
+            sy = 12.0 * yy2 + (2.0 - 4.0 * h2) * yy0 - m1 * m1 * (y_old + y_new)
+            su = (2.0 * uu4 + 4.0 * uu3 + (6.0 - 4.0 * h2) * uu2 + (4.0 - 4.0 * h2) * uu1
+                  + (1.0 - 2.0 * h2 + 2.0 * h2 * h2) * uu0)
+            return sy, su
+        return np.nan, np.nan
     if order == 1:
         y1 = CS[y0 + 1, j] + CS[y0 + N_YMOM + 1, j]
         uu0 = CS[u0, j] + CS[u0 + N_UMOM, j]
@@ -392,20 +445,28 @@ def sums_at(CS, j, base, M, order, oldest, newest, parity):
 
 
 @step_jit
-def sums(CS, j, base, M, order):
+def sums(CS, j, base, M, order, kernel):
     """(sy, su) of the window ending at the newest sample; NaN until it is full."""
     full, oldest, newest, parity = window(CS, j, base, M)
     if not full:
         return np.nan, np.nan
-    return sums_at(CS, j, base, M, order, oldest, newest, parity)
+    return sums_at(CS, j, base, M, order, oldest, newest, parity, kernel)
 
 
 @step_jit
-def coefficients(M, h, alpha, order):
+def coefficients(M, h, alpha, order, kernel):
     """(c_y, c_u) with F_hat = c_y sy - c_u su (:func:`combine`): constants of a member
     whose alpha is, which a loop over members computes once, not at every sample (each
-    is a division). M and the order are whole numbers, as integers or floats."""
+    is a division). M, the order and the kernel are whole numbers, as integers or floats:
+    the weights' normalisations (the integral of w, or the sum of the held kernel's
+    v_j: M (2 M^2 + 1) / 12 for n = 1, M (M^4 - 1) / 30 for n = 2)."""
     fm = float(M)
+    if kernel == HELD:
+        if order == 1:
+            s1 = fm * (2.0 * fm * fm + 1.0)
+            return 12.0 / (h * s1), 12.0 * alpha / s1
+        s2 = fm * (fm * fm * fm * fm - 1.0)
+        return 30.0 / (s2 * h * h), 15.0 * alpha / s2
     if order == 1:
         m3 = fm * fm * fm
         return 6.0 / (h * m3), 6.0 * alpha / m3
@@ -414,11 +475,11 @@ def coefficients(M, h, alpha, order):
 
 
 @step_jit
-def combine(sy, su, M, h, alpha, order):
+def combine(sy, su, M, h, alpha, order, kernel):
     """F_hat from the window's sums (:func:`sums`): apart from them because alpha may
-    change at every sample (the variational gain) and the sums do not depend on it. M
-    and the order are whole numbers, as integers or floats."""
-    c_y, c_u = coefficients(M, h, alpha, order)
+    change at every sample (the variational gain) and the sums do not depend on it. M,
+    the order and the kernel are whole numbers, as integers or floats."""
+    c_y, c_u = coefficients(M, h, alpha, order, kernel)
     return combine_with(sy, su, c_y, c_u)
 
 
@@ -429,25 +490,56 @@ def combine_with(sy, su, c_y, c_u):
 
 
 @step_jit
-def estimate(CS, j, base, M, h, alpha, order):
+def estimate(CS, j, base, M, h, alpha, order, kernel):
     """F_hat for the window ending at the newest sample; it belongs to t_k - M h / 2.
 
-    NaN until the window is full (fewer than M + 1 samples) and for an invalid (order, M).
+    NaN until the window is full (fewer than M + 1 samples) and for an invalid
+    (order, M, kernel).
     """
-    sy, su = sums(CS, j, base, M, order)
-    return combine(sy, su, M, h, alpha, order)
+    sy, su = sums(CS, j, base, M, order, kernel)
+    return combine(sy, su, M, h, alpha, order, kernel)
 
 
-def weights(order: int, M: int, h: float, alpha: float) -> tuple[np.ndarray, np.ndarray]:
-    """The estimator as FIR kernels, straight from the integral (no moments).
+def weights(order: int, M: int, h: float, alpha: float,
+            kernel: str = "held") -> tuple[np.ndarray, np.ndarray]:
+    """The estimator as FIR kernels, straight from their definitions (no moments).
 
     Returns ``(wy, wu)``, oldest sample first, of lengths M + 1 and M, such that
     ``F_hat = wy @ [y_{k-M}, ..., y_k] + wu @ [u_{k-M}, ..., u_{k-1}]``.
+
+    Examples
+    --------
+    The held kernel is exact under a held input: y' = 3 + 2 u with u = +-1 at random.
+
+    >>> import numpy as np
+    >>> from mfcontrol.laws import estimators
+    >>> h, M = 0.01, 4
+    >>> u = np.random.default_rng(0).choice([-1.0, 1.0], M)
+    >>> y = np.concatenate([[0.0], np.cumsum(h * (3.0 + 2.0 * u))])
+    >>> wy, wu = estimators.weights(1, M, h, 2.0, "held")
+    >>> round(float(wy @ y + wu @ u), 12)
+    3.0
     """
-    check_window(order, M)
+    check_window(order, M, kernel)
     T = M * h
     i = np.arange(M + 1)
     s = h * i
+    if kernel == "held":
+        # v_j, the weights of the exact relations (the module's docstring), then the y
+        # and u weights they give
+        if order == 1:
+            mid = s[:M] + 0.5 * h
+            v = mid * (T - mid)
+            v /= v.sum()
+            wy = (np.concatenate([[0.0], v]) - np.concatenate([v, [0.0]])) / h
+            return wy, -alpha * v
+        centre = s[1:M]
+        v = centre**2 * (T - centre) ** 2
+        v /= v.sum()
+        padded = np.concatenate([[0.0, 0.0], v, [0.0, 0.0]])
+        wy = (padded[:-2] - 2.0 * padded[1:-1] + padded[2:]) / h**2
+        wu = -0.5 * alpha * (padded[1:-2] + padded[2:-1])
+        return wy[: M + 1], wu[:M]
     if order == 1:
         q = np.full(M + 1, h)  # trapezoid
         q[0] = q[-1] = 0.5 * h

@@ -12,10 +12,21 @@ F_hat, selectable:
 
 * backward difference: ``F_hat_k = y^(n)_k - alpha u_{k-1}`` with ``y'_k = (y_k - y_{k-1})/dt``
   and ``y''_k = (y_k - 2 y_{k-1} + y_{k-2})/dt^2``. With it the i-P is the incremental law
-  ``u_k = u_{k-1} - (y^(n)_k - y*^(n)_k + K_P e_k)/alpha``.
+  ``u_k = u_{k-1} - (y^(n)_k - y*^(n)_k + K_P e_k)/alpha``. For n = 1 it is exact under
+  a held input. For n = 2 the ``kernel`` decides: ``held`` subtracts
+  ``alpha (u_{k-1} + u_{k-2}) / 2``, which a held input makes exact (the second
+  difference of y over two held samples is h^2 (F + alpha (u_{k-1} + u_{k-2}) / 2)); the
+  i-P on y'' = beta u is then stable for alpha down to about beta/3. ``trapezoid`` keeps
+  the literature's ``alpha u_{k-1}``, half a sample out of line, stable only above about
+  beta/2.
 * algebraic: the integral estimator of :mod:`mfcontrol.laws.estimators` over the last M
-  samples (its value belongs to t - M dt / 2); the backward difference stands in until the
-  window is full.
+  samples (its value belongs to t - M dt / 2), with the same ``kernel`` choice (exact
+  under a held input, or the literature's trapezoid / Simpson rule). Until its window is
+  full the ``startup`` decides: ``hold`` holds the output (u_init, or the bumpless start)
+  for the first M samples, so the loop first runs on a full window; ``backward-difference``
+  lets the backward difference stand in, whose stability bound (alpha > beta (2 + K_P h)
+  / 4 for n = 1 on y' = beta u) is much narrower than the full estimator's: it can blow
+  up a loop the estimator would hold.
 
 ``u_{k-1}`` is the *applied* (limited) output: the ultra-local model relates y to what the
 plant received, so the F term never winds up. The integral can; anti-windup, selectable:
@@ -25,7 +36,15 @@ plant received, so the F term never winds up. The integral can; anti-windup, sel
 * ``back-calculation``: the integral is corrected by ``K_aw dt (u - u_unlimited)``,
   expressed in integral units.
 
-Until n samples have been seen no derivative exists: the output holds ``u_init``.
+Delay: with a known input delay of d samples (the actuator's and the sensor's together)
+the estimators pair y with the input the plant received, ``u_{k-1-d}`` (and
+``u_{k-2-d}``), not the one just sent; the law keeps its last d + 2 outputs for it
+(:func:`in_flight`). With ``predict`` (n = 1) the error is also predicted over the
+delay by the ultra-local model, ``y_{k+d} = y_k + h (d F_hat + alpha (u_{k-d} + ... +
+u_{k-1}))``: the model-free counterpart of a Smith predictor.
+
+Until n samples have been seen no derivative exists: the output holds ``u_init``
+(:func:`held`).
 """
 
 import math
@@ -45,7 +64,13 @@ OUT_MAX = variational_gain.N_PARAMS + 7
 AW = variational_gain.N_PARAMS + 8  # 0 none, 1 clamp, 2 back-calculation
 K_AW = variational_gain.N_PARAMS + 9
 U_INIT = variational_gain.N_PARAMS + 10
-N_PARAMS = variational_gain.N_PARAMS + 11
+KERNEL = variational_gain.N_PARAMS + 11  # estimators.TRAPEZOID or HELD
+STARTUP = variational_gain.N_PARAMS + 12  # START_BACKWARD or START_HOLD
+DELAY = variational_gain.N_PARAMS + 13  # the loop's known input delay d, samples
+PREDICT = variational_gain.N_PARAMS + 14  # 1: the error predicted over the delay
+N_PARAMS = variational_gain.N_PARAMS + 15
+#: the longest delay a law compensates, samples: a queue of that many outputs per member
+MAX_DELAY = 100_000
 
 BACKWARD = 0.0
 ALGEBRAIC = 1.0
@@ -54,6 +79,10 @@ AW_NONE = 0.0
 AW_CLAMP = 1.0
 AW_BACK = 2.0
 ANTI_WINDUP = {"none": AW_NONE, "clamp": AW_CLAMP, "back-calculation": AW_BACK}
+KERNELS = estimators.KERNELS
+START_BACKWARD = 0.0
+START_HOLD = 1.0
+STARTUPS = {"hold": START_HOLD, "backward-difference": START_BACKWARD}
 
 # state rows (after the gain adaptation rows)
 K = variational_gain.N_STATE + 0
@@ -71,15 +100,47 @@ C_P = variational_gain.N_STATE + 10
 C_I = variational_gain.N_STATE + 11
 C_D = variational_gain.N_STATE + 12
 C_UNLIM = variational_gain.N_STATE + 13
-EST_BASE = variational_gain.N_STATE + 14
+U2 = variational_gain.N_STATE + 14  # applied u_{k-2}
+EST_BASE = variational_gain.N_STATE + 15
 #: the terms of the bracket by signal name: a live controller's ``components`` and the
 #: engine's recorded trajectory rows both read these
 COMPONENTS = (("F_hat", C_F), ("feedforward", C_FF), ("P", C_P), ("I", C_I), ("D", C_D))
 
 
-def n_state(M: int) -> int:
-    """State rows for a window of M samples (M = 0: no algebraic estimator)."""
-    return EST_BASE + (estimators.n_state(M) if M > 0 else 0)
+def n_state(M: int, d: int = 0) -> int:
+    """State rows for a window of M samples (M = 0: no algebraic estimator) and a
+    compensated delay of d samples (its queue of the last d + 2 outputs after the
+    estimator's rows, :func:`queue_base`)."""
+    return EST_BASE + (estimators.n_state(M) if M > 0 else 0) + (d + 2 if d > 0 else 0)
+
+
+@step_jit
+def queue_base(CP, j):
+    """The first row of the delay's queue of outputs: after the estimator's rows."""
+    if CP[EST, j] == ALGEBRAIC:
+        return EST_BASE + estimators.RING + 2 * (int(CP[M_WIN, j]) + 1)  # its n_state
+    return EST_BASE
+
+
+@step_jit
+def in_flight(CP, CS, j, k, d):
+    """With an input delay of d samples (> 0), at sample k: (u_{k-1-d}, u_{k-2-d}), the
+    inputs the plant received over the last two samples, which the estimator of F pairs
+    with y, and the sum of u_{k-d} .. u_{k-1}, those sent and not yet received. u_m
+    lives in slot m % (d + 2) of the queue; before the start every slot holds u_init."""
+    base = queue_base(CP, j)
+    m = int(d) + 2
+    kk = int(k)
+    s_u = 0.0
+    for i in range(1, int(d) + 1):
+        s_u += CS[base + (kk - i + m) % m, j]
+    return CS[base + (kk + 1) % m, j], CS[base + kk % m, j], s_u
+
+
+@step_jit
+def _queue(CP, CS, j, k, d, u):
+    """u_k into the delay's queue (over u_{k-2-d}, read by :func:`in_flight` before)."""
+    CS[queue_base(CP, j) + int(k) % (int(d) + 2), j] = u
 
 
 @step_jit
@@ -88,8 +149,20 @@ def reset(CP, CS, j):
     for row in range(K, EST_BASE):
         CS[row, j] = 0.0
     CS[U1, j] = CP[U_INIT, j]
+    CS[U2, j] = CP[U_INIT, j]
     if CP[EST, j] == ALGEBRAIC:
         estimators.reset(CS, j, EST_BASE, int(CP[M_WIN, j]))
+    fill_queue(CP, CS, j, CP[U_INIT, j])
+
+
+@step_jit
+def fill_queue(CP, CS, j, u):
+    """Every slot of the delay's queue (if any) to u: the output held before the start."""
+    d = int(CP[DELAY, j])
+    if d > 0:
+        base = queue_base(CP, j)
+        for i in range(d + 2):
+            CS[base + i, j] = u
 
 
 @step_jit
@@ -98,8 +171,9 @@ def _limit(x, lo, hi):
 
 
 #: from this sample on the law depends on k only through its state (the model order n is
-#: at most 2 and the gain adaptation starts at its own STEADY): a loop over members may
-#: run every later sample through :func:`steady_step`, without the start-up branches
+#: at most 2 and the gain adaptation starts at its own STEADY), once past :func:`held`'s
+#: hold: a loop over members may run every later sample through :func:`steady_step`,
+#: without the start-up branches
 STEADY = max(2.0, variational_gain.STEADY)
 
 
@@ -147,11 +221,14 @@ def output(f_hat, rn, gamma, e, integ1, e1, dt, kp, ki, kd, lo, hi, aw, k_aw):
 
 
 @step_jit
-def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su):
+def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su, u1, u2, predict, s_u, d):
     """Sample k >= n past the hold: the derivatives, gamma, F_hat, the bracket and its
     terms into the state; returns (u_k applied, u unlimited, gamma_k). With ``algebraic``,
     (sy, su) are the estimator's window sums (:func:`mfcontrol.laws.estimators.sums`:
-    NaN until the window is full, and the backward difference stands in)."""
+    NaN until the window is full, and the backward difference stands in). (u1, u2): the
+    inputs the plant received over the last two samples; ``predict``: the error is
+    predicted over the delay d, s_u the sum of the inputs sent and not yet received
+    (:func:`in_flight`)."""
     yd, rd, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
     gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
     alpha = 1.0 / gamma
@@ -160,8 +237,9 @@ def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su):
     if algebraic:
         # M and n as the floats they are stored as: an int() of them here stops a loop
         # over members from vectorising (measured: the algebraic i-PI's law, scalar)
-        c_y, c_u = estimators.coefficients(CP[M_WIN, j], dt, alpha, n)
-    return _terms(CP, CS, j, y, r, dt, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y, c_u)
+        c_y, c_u = estimators.coefficients(CP[M_WIN, j], dt, alpha, n, CP[KERNEL, j])
+    return _terms(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su, yn, rn, gamma, alpha,
+                  c_y, c_u, u1, u2, predict, s_u, d)
 
 
 @step_jit
@@ -171,20 +249,31 @@ def _bracket_fixed(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su, alpha, c_y, c_
     their four divisions a sample."""
     _, _, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
     gamma, _ = variational_gain.update_constant(CP, CS, j)
-    return _terms(CP, CS, j, y, r, dt, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y, c_u)
+    return _terms(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su, yn, rn, gamma, alpha,
+                  c_y, c_u, CS[U1, j], CS[U2, j], False, 0.0, 0.0)
 
 
 @step_jit
-def _terms(CP, CS, j, y, r, dt, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y, c_u):
-    """The bracket from the sample's derivatives (yn, rn) and gain (gamma, alpha = 1 /
-    gamma, the estimator's coefficients c_y, c_u), its terms into the state; returns
-    (u_k applied, u unlimited, gamma_k)."""
+def _terms(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y,
+           c_u, u1, u2, predict, s_u, d):
+    """The bracket of model order n from the sample's derivatives (yn, rn) and gain
+    (gamma, alpha = 1 / gamma, the estimator's coefficients c_y, c_u), its terms into the
+    state; returns (u_k applied, u unlimited, gamma_k). (u1, u2, predict, s_u, d): as
+    :func:`_bracket` takes them."""
     e = y - r
-    f_hat = yn - alpha * CS[U1, j]
+    u_model = u1
+    if n == 2.0 and CP[KERNEL, j] == estimators.HELD:
+        # the held input's exact second difference (the module's docstring)
+        u_model = 0.5 * (u1 + u2)
+    f_hat = yn - alpha * u_model
     if algebraic:
         f_alg = estimators.combine_with(sy, su, c_y, c_u)
         if not math.isnan(f_alg):
             f_hat = f_alg
+    if predict:
+        # y once the inputs already sent have reached the plant, by the ultra-local model
+        # (n = 1): y_{k+d} = y_k + h (d F + alpha (u_{k-d} + ... + u_{k-1}))
+        e = e + dt * (d * f_hat + alpha * s_u)
     kp, ki, kd = CP[KP, j], CP[KI, j], CP[KD, j]
     u, u_unlim, integ, e_d = output(f_hat, rn, gamma, e, CS[INTEG, j], CS[E1, j], dt, kp, ki,
                                     kd, CP[OUT_MIN, j], CP[OUT_MAX, j], aw, CP[K_AW, j])
@@ -195,19 +284,31 @@ def _terms(CP, CS, j, y, r, dt, aw, algebraic, sy, su, yn, rn, gamma, alpha, c_y
     CS[C_I, j] = ki * integ
     CS[C_D, j] = kd * e_d
     CS[C_UNLIM, j] = u_unlim
+    CS[E1, j] = e
     return u, u_unlim, gamma
 
 
 @step_jit
 def _remember(CS, j, y, r, u):
-    """The sample's y, r, e and applied u into the history; one more sample seen."""
+    """The sample's y, r and applied u into the history; one more sample seen (the
+    error is kept where it is computed, :func:`_terms`, or the start's hold)."""
     CS[Y2, j] = CS[Y1, j]
     CS[Y1, j] = y
     CS[R2, j] = CS[R1, j]
     CS[R1, j] = r
-    CS[E1, j] = y - r
+    CS[U2, j] = CS[U1, j]
     CS[U1, j] = u
     CS[K, j] = CS[K, j] + 1.0
+
+
+@step_jit
+def held(CP, j, n, algebraic):
+    """How many samples the output holds at the start: n (no derivative exists before),
+    or the algebraic estimator's window M with ``startup = hold`` (its window is full
+    from sample M on)."""
+    if algebraic and CP[STARTUP, j] == START_HOLD:
+        return max(n, CP[M_WIN, j])
+    return n
 
 
 @step_jit
@@ -216,17 +317,29 @@ def step(CP, CS, j, y, r, dt):
     k = CS[K, j]
     n = CP[N_ORDER, j]
     algebraic = CP[EST, j] == ALGEBRAIC
+    d = CP[DELAY, j]
+    u1 = CS[U1, j]
+    u2 = CS[U2, j]
+    s_u = 0.0
+    if d > 0.0:
+        u1, u2, s_u = in_flight(CP, CS, j, k, d)
     if algebraic:
-        estimators.push(CS, j, EST_BASE, int(CP[M_WIN, j]), y, CS[U1, j], n)
-    if k < n:
+        estimators.push(CS, j, EST_BASE, int(CP[M_WIN, j]), y, u1, n)
+    if k < held(CP, j, n, algebraic):
         u = CS[U1, j]
         CS[C_UNLIM, j] = u
+        CS[E1, j] = y - r
     else:
         sy = 0.0
         su = 0.0
         if algebraic:
-            sy, su = estimators.sums(CS, j, EST_BASE, int(CP[M_WIN, j]), int(n))
-        u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic, sy, su)
+            sy, su = estimators.sums(CS, j, EST_BASE, int(CP[M_WIN, j]), int(n),
+                                     CP[KERNEL, j])
+        predict = d > 0.0 and CP[PREDICT, j] != 0.0
+        u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic, sy, su, u1, u2,
+                           predict, s_u, d)
+    if d > 0.0:
+        _queue(CP, CS, j, k, d, u)
     _remember(CS, j, y, r, u)
     return u
 
@@ -237,7 +350,7 @@ def fixed_gain(CP, j, dt, simple):
     them with ``fixed``: computed once for a run, in the law's own expressions."""
     n = 1.0 if simple else CP[N_ORDER, j]
     alpha = 1.0 / CP[variational_gain.INV_ALPHA, j]
-    c_y, c_u = estimators.coefficients(CP[M_WIN, j], dt, alpha, n)
+    c_y, c_u = estimators.coefficients(CP[M_WIN, j], dt, alpha, n, CP[KERNEL, j])
     return alpha, c_y, c_u
 
 
@@ -251,7 +364,8 @@ def steady_step(CP, CS, j, y, r, dt, simple, algebraic, sy, su, fixed, alpha, c_
     their divisions, out of the loop (measured 9.8 against 6.6 ns per member-sample).
     ``algebraic``: the algebraic estimator, its sample already pushed and its window sums
     (sy, su) taken (:func:`mfcontrol.laws.estimators.push`, ``sums``), which a loop over
-    members at the same sample does once for all of them. ``fixed`` (a literal): the
+    members at the same sample does once for all of them. The member compensates no
+    delay (its DELAY is 0). ``fixed`` (a literal): the
     member's gain is constant, and (alpha, c_y, c_u) are its :func:`fixed_gain`."""
     n = 1.0 if simple else CP[N_ORDER, j]
     aw = CP[AW, j]
@@ -261,6 +375,7 @@ def steady_step(CP, CS, j, y, r, dt, simple, algebraic, sy, su, fixed, alpha, c_
         u, u_unlim, gamma = _bracket_fixed(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su,
                                            alpha, c_y, c_u)
     else:
-        u, u_unlim, gamma = _bracket(CP, CS, j, y, r, dt, STEADY, n, aw, algebraic, sy, su)
+        u, u_unlim, gamma = _bracket(CP, CS, j, y, r, dt, STEADY, n, aw, algebraic, sy, su,
+                                     CS[U1, j], CS[U2, j], False, 0.0, 0.0)
     _remember(CS, j, y, r, u)
     return u, u_unlim, gamma

@@ -66,7 +66,8 @@ def test_rk45_on_the_buck_agrees_with_rk4():
     ({"plant.schedule": [{"t": 0.1, "name": "Q", "set": 1.0}]}, "plant.schedule"),
     ({"plant.schedule": [{"t": 0.1, "name": "w"}]}, "plant.schedule"),
     ({"plant.schedule": [{"t": -1.0, "name": "w", "add": 1.0}]}, "plant.schedule"),
-    ({"controller.order": 2, "controller.window": 21}, "controller.window"),
+    ({"controller.order": 2, "controller.window": 21, "controller.kernel": "trapezoid"},
+     "controller.window"),
     ({"controller.law": "ip"}, "controller.law"),
     ({"controller.order": 3}, "controller.order"),
 ])

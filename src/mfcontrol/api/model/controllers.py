@@ -392,7 +392,32 @@ class IntelligentController(_Sampled):
         rejected as a NaN is (the output holds, ``nan_count`` counts it, the law never sees
         it). Set it to keep a finite outlier out of the law's memory.
     estimator : {"backward-difference", "algebraic"}
-        How F is estimated; ``window`` (samples, even for order 2) for the algebraic one.
+        How F is estimated; ``window`` (samples) for the algebraic one.
+    kernel : {"held", "trapezoid"}
+        How the estimator is discretised (:mod:`mfcontrol.laws.estimators`). ``"held"``
+        (the default) is exact for a constant F under the held input the law applies:
+        the algebraic estimator returns F to rounding, the i-P has no steady-state error,
+        and the order-2 backward difference subtracts ``alpha (u_{k-1} + u_{k-2}) / 2``
+        (stable for alpha down to about beta/3 on y'' = beta u). ``"trapezoid"`` is the
+        literature's discretisation (trapezoid / Simpson rule, ``alpha u_{k-1}``): off by
+        about ``0.8 alpha |du| / M`` under a moving input, and the i-P keeps a
+        steady-state error ``-alpha u / (kp M^2)``; the algebraic order-2 window must then
+        be even. For the order-1 backward difference both are the same estimator.
+    startup : {"hold", "backward-difference"}
+        The algebraic estimator's start, until its window is full: ``"hold"`` (the
+        default) holds ``starting_output`` for the first ``window`` samples;
+        ``"backward-difference"`` lets the backward difference stand in, which is stable
+        only for alpha > beta (2 + kp h) / 4 on y' = beta u (n = 1) and can blow up a loop
+        the full window holds.
+    delay : int
+        The loop's input delay the law compensates, in samples (the actuator's and the
+        sensor's delays together, as far as they are known): the estimator of F pairs y
+        with the input the plant received, ``u_{k-1-delay}``, instead of the one just
+        sent. 0 (the default) for none.
+    predict : bool
+        With a delay (order 1 only): the error the law acts on is predicted over the
+        delay by the ultra-local model, ``y_{k+d} = y_k + h (d F_hat + alpha
+        (u_{k-d} + ... + u_{k-1}))``, as a Smith predictor does with a model.
     anti_windup : {"clamp", "back-calculation", "none"}
         Integral anti-windup when the output is limited; ``k_aw`` is the back-calculation
         gain (1/s), by default 1/sample_time: the integral sheds the whole excess of the
@@ -430,7 +455,8 @@ class IntelligentController(_Sampled):
                  output_limits: tuple[float | None, float | None] = (None, None),
                  input_limits: tuple[float | None, float | None] = (None, None),
                  estimator: str = "backward-difference", window: int | None = None,
-                 anti_windup: str = "clamp", k_aw: float | None = None,
+                 kernel: str = "held", startup: str | None = None, delay: int = 0,
+                 predict: bool = False, anti_windup: str = "clamp", k_aw: float | None = None,
                  gain: str = "constant",
                  gamma0: float | None = None, Gamma: float = 5e-8, eps_M: float = 0.1,
                  integrator: str = "first-order", setpoint: float = 0.0,
@@ -438,18 +464,37 @@ class IntelligentController(_Sampled):
         alpha = _number("alpha", alpha, positive=True)
         _choice("order", order, (1, 2))
         _choice("estimator", estimator, tuple(intelligent.ESTIMATORS))
+        _choice("kernel", kernel, tuple(intelligent.KERNELS))
+        if startup is not None:
+            _choice("startup", startup, tuple(intelligent.STARTUPS))
+            if estimator != "algebraic":
+                raise ValueError(f"startup = {shown(startup)}: only the algebraic estimator "
+                                 "has a start-up: set estimator='algebraic', or remove it")
         _choice("anti_windup", anti_windup, tuple(intelligent.ANTI_WINDUP))
         _choice("gain", gain, tuple(gain_law.MODES))
         _choice("integrator", integrator, ("first-order", "second-order"))
         lo, hi = _limits(output_limits)
+        if (not isinstance(delay, int | np.integer) or isinstance(delay, bool) or delay < 0
+                or delay > intelligent.MAX_DELAY):
+            raise ValueError(f"delay = {shown(delay)}: must be a whole number of samples "
+                             f"from 0 to {intelligent.MAX_DELAY:,}")
+        if not isinstance(predict, bool | np.bool_):
+            raise ValueError(f"predict = {shown(predict)}: must be True or False")
+        if predict and delay == 0:
+            raise ValueError("predict = True: only a delay > 0 is predicted over: set "
+                             "delay, or remove it")
+        if predict and order != 1:
+            raise ValueError(f"predict = True: the prediction is of order 1 (order = "
+                             f"{shown(order)}): set order=1, or remove it")
         if estimator == "algebraic":
             if (not isinstance(window, int) or isinstance(window, bool) or window < 2
                     or window > estimators.MAX_WINDOW):
                 raise ValueError(f"window = {shown(window)}: must be a whole number of samples "
                                  f"from 2 to {estimators.MAX_WINDOW:,} for the algebraic "
                                  "estimator")
-            if order == 2 and window % 2:
-                raise ValueError(f"window = {shown(window)}: must be even for order 2 (Simpson)")
+            if order == 2 and window % 2 and kernel == "trapezoid":
+                raise ValueError(f"window = {shown(window)}: must be even for order 2 with "
+                                 "kernel='trapezoid' (Simpson's rule)")
         elif window is not None:
             raise ValueError(f"window = {shown(window)}: only the algebraic estimator has one")
         # the options of a choice not taken would be dropped in silence: refused
@@ -468,7 +513,10 @@ class IntelligentController(_Sampled):
             "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
                                                             positive=True),
             "order": int(order), "output_limits": [lo, hi], "estimator": estimator,
-            "window": window, "anti_windup": anti_windup,
+            "window": window, "kernel": kernel, "delay": int(delay),
+            "predict": bool(predict),
+            "startup": (startup or "hold") if estimator == "algebraic" else None,
+            "anti_windup": anti_windup,
             "k_aw": None if k_aw is None else _number("k_aw", k_aw, nonneg=True),
             "gain": gain,
             # None (1/alpha) stays None: a controller rebuilt with another alpha (a sweep,
@@ -480,7 +528,7 @@ class IntelligentController(_Sampled):
         }
         # (the algebraic estimator's window is a whole number: checked above)
         m = window if estimator == "algebraic" and window is not None else 0
-        super().__init__(params, intelligent.N_PARAMS, intelligent.n_state(m))
+        super().__init__(params, intelligent.N_PARAMS, intelligent.n_state(m, int(delay)))
         cp = self._CP[:, 0]
         cp[gain_law.MODE] = gain_law.MODES[gain]
         cp[gain_law.INV_ALPHA] = 1 / alpha
@@ -494,6 +542,10 @@ class IntelligentController(_Sampled):
         cp[intelligent.KD] = params["kd"]
         cp[intelligent.EST] = intelligent.ESTIMATORS[estimator]
         cp[intelligent.M_WIN] = m
+        cp[intelligent.KERNEL] = intelligent.KERNELS[kernel]
+        cp[intelligent.STARTUP] = intelligent.STARTUPS[params["startup"] or "hold"]
+        cp[intelligent.DELAY] = params["delay"]
+        cp[intelligent.PREDICT] = 1.0 if params["predict"] else 0.0
         cp[intelligent.OUT_MIN] = -_INF if lo is None else lo
         cp[intelligent.OUT_MAX] = _INF if hi is None else hi
         cp[intelligent.AW] = intelligent.ANTI_WINDUP[anti_windup]
@@ -522,6 +574,8 @@ class IntelligentController(_Sampled):
         self._reset_state()
         start = min(max(start, lo), hi)
         self._CS[intelligent.U1, 0] = start
+        self._CS[intelligent.U2, 0] = start
+        intelligent.fill_queue(self._CP, self._CS, 0, start)
         self._last_output = start
 
     def __call__(self, y: float, setpoint: float | None = None, dt: float | None = None,
@@ -648,8 +702,9 @@ class IPD(IP):
 
     Examples
     --------
-    A double integrator y'' = u: order 2 holds the start for two samples (y'' needs three
-    measurements), then F_hat = y'' - alpha u is zero and u = kp (1 - y) - kd y'.
+    A double integrator y'' = u under the held output (stepped exactly): order 2 holds the
+    start for two samples (y'' needs three measurements), then F_hat = y'' - alpha
+    (u_{k-1} + u_{k-2}) / 2 is zero (the held kernel is exact) and u = kp (1 - y) - kd y'.
 
     >>> import mfcontrol
     >>> ctrl = mfcontrol.IPD(alpha=1.0, kp=25.0, kd=10.0, sample_time=0.01)
@@ -657,11 +712,11 @@ class IPD(IP):
     >>> out = []
     >>> for _ in range(4):
     ...     u = ctrl(y, setpoint=1.0)
+    ...     y += 0.01 * v + 0.5 * 0.01**2 * u
     ...     v += 0.01 * u
-    ...     y += 0.01 * v
     ...     out.append(round(u, 3))
     >>> out
-    [0.0, 0.0, 25.0, 22.438]
+    [0.0, 0.0, 25.0, 23.719]
     """
 
     _drop = ("ki",)

@@ -64,6 +64,13 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
     }
     # the options of a choice made, read only under it (what is read is what matters:
     # mfcontrol show and a run's config.toml print these keys)
+    if options["estimator"] == "algebraic" or options["order"] == 2:
+        options["kernel"] = cfg["controller.kernel"]
+    if options["estimator"] == "algebraic":
+        options["startup"] = cfg["controller.startup"]
+    options["delay"] = cfg["controller.delay"]
+    if options["delay"] > 0:
+        options["predict"] = cfg["controller.predict"]
     if options["anti_windup"] == "back-calculation":
         options["k_aw"] = cfg["controller.k_aw"]
     if options["gain"] == "variational":

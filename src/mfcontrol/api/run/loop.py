@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 import inspect
 import math
+import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -408,6 +409,17 @@ def _takes_alpha(controller) -> bool:
 # one run
 
 
+def warn_alpha(controller: Any, plant: Any) -> None:
+    """A RuntimeWarning when an intelligent controller's alpha breaks the
+    backward-difference bound on the plant (:func:`mfcontrol.analysis.alpha.alpha_warning`):
+    the run goes ahead, and is likely to diverge within a few samples."""
+    from ...analysis.alpha import alpha_warning
+
+    message = alpha_warning(controller, plant)
+    if message is not None:
+        warnings.warn(message, RuntimeWarning, stacklevel=3)
+
+
 def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float,
                   h: float | None = None, changes: Sequence[Change] = (),
                   settle_time: float = 0.0, final_window: float = 0.2,
@@ -472,6 +484,7 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     step = _constant_step(plant, reference)
     ep = plant.engine() if hasattr(plant, "engine") else None
     law = law_arrays(controller)
+    warn_alpha(controller, plant)
     if ep is None or law is None:
         note = _python_reason(plant, ep, controller)
         if fast:

@@ -18,7 +18,7 @@ from .. import params
 from ..results import metrics
 from ..results.result import Result, SweepResult
 from . import from_config, scenario
-from .loop import compiled_run, law_arrays, run_members, stacked
+from .loop import compiled_run, law_arrays, run_members, stacked, warn_alpha
 
 
 def _result(name: str, cfg: Config, scn: scenario.Scenario, M, traj, j: int, m: int,
@@ -63,6 +63,8 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
     >>> abs(fast.metrics["iae"] / exact.metrics["iae"] - 1) < 1e-12
     True
     """
+    if cfg["controller.law"] in from_config.POSITIONAL:
+        warn_alpha(from_config.controller(cfg), from_config.plant_and_changes(cfg)[0])
     if not compiled(cfg):
         return _simulate_loop(cfg, name, fast)
     return simulate_many([cfg], name=name, fast=fast)[0]
