@@ -26,4 +26,8 @@ def test_reproduce_writes_every_figure_table_and_the_report(tmp_path):
                      "long-horizon.csv", "map-alpha-dR-standard.csv"):
             assert (tmp_path / fid / name).exists(), name
     assert "## Robustness maps" in text and "## Long horizon" in text
-    assert len(messages) == 30 and messages[-1].startswith("[30/30]")
+    for fid in ("published", "paper"):
+        for study in ("noise", "sample_time", "frozen"):
+            assert (tmp_path / fid / f"claims-{study}.csv").exists(), study
+    assert "## The claims under noise, at a digital sample time, with the gain frozen" in text
+    assert len(messages) == 32 and messages[-1].startswith("[32/32]")

@@ -12,6 +12,7 @@ import numpy as np
 from .._version import __version__
 from ..api.results.metrics import SETTLED_RULE
 from ..api.results.result import Result
+from . import claims
 from .analyze import analyze
 from .cases import resolve_case
 
@@ -392,7 +393,8 @@ def horizon_sentence(case: str, order: str, r: Result) -> str:
     return head + text
 
 
-def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None) -> str:
+def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None,
+           studies=None) -> str:
     today = _dt.date.today().isoformat()
     parts = [
         "# Reproduction: variational and symplectic model-free control (Michel, CCTA 2025)",
@@ -451,6 +453,8 @@ def render(runs, tables, fidelities: list[str], maps_done=None, horizons=None) -
         parts += _maps_section(fidelities, maps_done)
     if horizons:
         parts += _horizon_section(fidelities, horizons)
+    if studies:
+        parts += claims.section(fidelities, studies)
     parts += ["", _stability_section(fidelities), "",
               "## The settling rule", "", SETTLED_RULE, "",
               "## Where the paper and its published code disagree", "",

@@ -7,6 +7,7 @@ Layout of ``OUT``::
     FIDELITY/CASE-gamma.png         gamma(t) for the variational cases
     FIDELITY/SWEEP-gamma.png, SWEEP-error.png, SWEEP.csv
     FIDELITY/comparison-CASE.csv    the table behind each comparison
+    FIDELITY/claims-STUDY.csv       the claims under noise, at 20 us, with gamma frozen
 
 Each file is written as soon as its run finishes, so an interrupted reproduction keeps
 everything it finished.
@@ -27,7 +28,7 @@ from ..api.results.plotting import (
     units,
 )
 from ..api.results.result import Result, SweepResult
-from . import maps, report
+from . import claims, maps, report
 from .cases import resolve_case, run_case, run_config
 
 SINGLE = (
@@ -123,7 +124,8 @@ def reproduce(out: Path, fidelities: list[str],
     tables: dict[str, dict[str, list[tuple[str, Result]]]] = {}
     maps_done: dict[str, dict] = {}
     horizons: dict[str, list] = {}
-    total = len(fidelities) * (len(SINGLE) + len(SWEEPS) + len(VARIATIONAL) + len(MAPS) + 1)
+    studies: dict[str, dict[str, Any]] = {}
+    total = len(fidelities) * (len(SINGLE) + len(SWEEPS) + len(VARIATIONAL) + len(MAPS) + 2)
     done = 0
 
     def tick(what: str) -> None:
@@ -180,7 +182,13 @@ def reproduce(out: Path, fidelities: list[str],
         plot_long_horizon(horizons[fid], folder / "long-horizon.png", fid)
         report.horizon_frame(horizons[fid]).to_csv(folder / "long-horizon.csv", index=False)
         tick(f"{fid}/long horizon")
+        studies[fid] = {"noise": claims.noise_study(fid),
+                        "sample_time": claims.sample_time_study(fid),
+                        "frozen": claims.frozen_gain_study(fid)}
+        for study, frame in studies[fid].items():
+            frame.to_csv(folder / f"claims-{study}.csv", index=False, float_format="%.17g")
+        tick(f"{fid}/claims under noise, at 20 us, with gamma frozen")
     path = out / "report.md"
-    path.write_text(report.render(runs, tables, fidelities, maps_done, horizons),
+    path.write_text(report.render(runs, tables, fidelities, maps_done, horizons, studies),
                     encoding="utf-8")
     return path
