@@ -5,8 +5,10 @@ A boost converter's voltage under an i-PD (ultra-local model of order 2)
 The output voltage of an averaged boost converter follows a smooth 20 V to 30 V ramp,
 then rides out a load step R 10 to 15 ohm.
 
-Why these gains. With the backward-difference estimate
-``F_hat_k = v''_k - alpha d_(k-1)`` the i-PD is the incremental law
+Why these gains. With the literature's backward-difference estimate
+``F_hat_k = v''_k - alpha d_(k-1)`` (``kernel = "trapezoid"`` in the case: the default
+held kernel subtracts ``alpha (d_(k-1) + d_(k-2))/2``, exact under the held duty, and
+gives 77 degrees of phase margin against 70) the i-PD is the incremental law
 ``alpha (d_k - d_(k-1)) = -(e'' + kd e' + kp e)``, i.e. a PID on ``e = v - v*`` with
 ``(Kd, Kp, Ki) = (1, kd, kp) / (alpha h)``. The converter from d to v is
 ``(E / LC) (1 - s/z) / (s^2 + s/(RC) + (1-D)^2/(LC))``, with a right-half-plane zero at
@@ -20,8 +22,7 @@ Why these gains. With the backward-difference estimate
   duty. Textbook gains ``kp = w^2``, ``kd = 2 w`` with w ~ 100 rad/s cross over at
   ``g w^2 LC/(1-D)^2`` < 1 rad/s: a loop so slow it looks like a steady offset.
 * Backward difference, no window: an algebraic window of M samples delays F_hat by
-  M h/2, slows the built-in integral action M/2 times (alpha must shrink by 2/M), and
-  its Simpson weight error ``4/M^4`` times ``alpha d`` leaves a steady offset.
+  M h/2 and slows the built-in integral action M/2 times (alpha must shrink by 2/M).
 * h = 10 µs: g h = 0.015, sampling costs about 1 degree; only ``alpha h`` matters.
 
 F_hat carries ``d_(k-1)``, so the loop integrates and no ki is needed. The load step

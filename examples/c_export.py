@@ -13,9 +13,9 @@ measurement sequence through the C controller and through the Python live contro
 
 The sequence is the case's own run: 10,000 noisy speed readings (0.5 rad/s of sensor
 noise) and its setpoint, with a sensor dropout of five NaN readings at 3 s, which both
-controllers must reject by holding their last output (the burst of u at the start is
-the first 40 samples, which run on backward differences while the estimator's window
-fills; the step of u at 5 s answers the case's load torque). The numbers cross the process
+controllers must reject by holding their last output (u holds its starting value for
+the first 40 samples, while the estimator's window fills; the step of u at 5 s answers
+the case's load torque). The numbers cross the process
 boundary as hexadecimal floats (``float.hex`` in, ``%a`` out), so nothing is rounded
 on the way.
 

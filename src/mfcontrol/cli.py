@@ -553,7 +553,8 @@ def _own_process(command: str) -> None:
     atexit.register(gc.freeze)
 
 
-def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+def _warning_line(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
     """A warning as one line, as the command's errors are: no source file and line."""
     print(f"mfcontrol: warning: {message}", file=sys.stderr if file is None else file)
 

@@ -453,3 +453,19 @@ def test_a_run_warns_when_alpha_breaks_the_backward_difference_bound(tmp_path, c
     assert code == 0
     lines = [line for line in err.splitlines() if "warning" in line]
     assert len(lines) == 1 and lines[0].startswith("mfcontrol: warning: alpha = 0.1 is ")
+
+
+def test_a_plant_beyond_floating_point_is_refused_and_never_warns_about_alpha():
+    # found by the fuzz test: a motor of inductance 5e-324 H linearised to NaN, and the
+    # alpha check raised "beta = nan" from a run
+    import warnings
+
+    from mfcontrol.analysis.alpha import alpha_warning
+
+    motor = mfcontrol.DCMotor(La=5e-324)
+    with pytest.raises(mfcontrol.ConfigError, match="^plant = a DCMotor: must have (a )?finite"):
+        plant_alpha(motor, 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert alpha_warning(mfcontrol.IPI(alpha=50.0, kp=20.0, ki=50.0, sample_time=1e-3),
+                             motor) is None

@@ -150,3 +150,40 @@ def test_the_readme_motor_holds_20_samples_of_actuator_delay_with_compensation()
     assert not run().metrics["settled"]
     res = run(delay=20)
     assert res.metrics["settled"] and abs(res.signals["y"][-1] - 60.0) < 0.05
+
+
+def test_a_snapshot_from_before_the_kernel_continues_bit_for_bit():
+    # snapshots taken by mfcontrol at e29fdec (before kernel, startup and delay existed,
+    # and the state row of u_{k-2}): from_snapshot builds the controller they ran
+    # (kernel "trapezoid", startup "backward-difference") and continues it exactly
+    import json
+    from pathlib import Path
+
+    data = json.loads((Path(__file__).parents[1] / "data"
+                       / "snapshots-before-kernel.json").read_text())
+    for name, case in data.items():
+        cls = getattr(mfcontrol, case["snapshot"]["controller"])
+        ctrl = cls.from_snapshot(case["snapshot"])
+        out = [ctrl(y, setpoint=1.0) for y in case["measurements"]]
+        assert out == case["outputs"], name
+    # a pickle of the older layout is refused in words, not read past its end
+    import pickle
+
+    ctrl = mfcontrol.IP(alpha=1.0, kp=10.0, sample_time=0.01)
+    state = ctrl.__getstate__()
+    state["_CP"] = state["_CP"][:-4]
+    fresh = mfcontrol.IP.__new__(mfcontrol.IP)
+    with pytest.raises(ValueError, match="pickled by an older mfcontrol"):
+        fresh.__setstate__(state)
+    assert pickle.loads(pickle.dumps(ctrl)).snapshot()["params"] == ctrl.snapshot()["params"]
+
+
+def test_kernel_and_startup_are_refused_where_they_change_nothing():
+    with pytest.raises(ValueError, match="kernel = 'trapezoid': the order-1 backward"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, kernel="trapezoid")
+    with pytest.raises(ValueError, match="startup = 'hold': only the algebraic"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, startup="hold")
+    with pytest.raises(ValueError, match="predict = True: the prediction is of order 1"):
+        mfcontrol.IPD(alpha=1.0, kp=1.0, kd=1.0, sample_time=0.1, delay=2, predict=True)
+    assert mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1).snapshot()["params"]["kernel"] \
+        is None

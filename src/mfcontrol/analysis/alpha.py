@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import sys
 import warnings
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -555,10 +556,9 @@ def _matrices(plant: Any, x: npt.ArrayLike | None, u: float | None, y: float | N
                                  float, str]:
     """(A, B, C) of ``plant`` at its operating point, the point (x, u) and the point in
     words ("" for a python-control system, whose point is irrelevant)."""
-    try:
-        import control
-    except ImportError:  # pragma: no cover - python-control is a dependency
-        control = None
+    # a python-control system exists only once python-control is imported: not importing
+    # it here saves a single run's warning check the 0.85 s of its import
+    control = sys.modules.get("control")
     if control is not None and isinstance(plant, control.StateSpace | control.TransferFunction):
         if not plant.isctime():
             raise ConfigError("plant.dt", plant.dt, "must be 0: a continuous-time system")
@@ -664,15 +664,25 @@ def plant_alpha(plant: Any, order: int = 1, *, x: npt.ArrayLike | None = None,
     order = _integer("order", order, (1, 2))
     t = _real("t", t)
     A, B, C, x_op, u_op, where = _matrices(plant, x, u, y, t)
+    if not (np.isfinite(A).all() and np.isfinite(B).all() and np.isfinite(C).all()):
+        raise ConfigError("plant", _Described(f"a {type(plant).__name__}"),
+                          "must have a finite linearisation"
+                          + (f" {where}" if where else "") + " (its parameters overflow)")
     n = A.shape[0]
     markov, bound = [], []
     Ak_B = B.copy()
-    for k in range(max(n, order)):
-        markov.append(float(C @ Ak_B))
-        # what C A^k B could be: a zero is a zero against it (the Jacobians' differences
-        # leave ~1e-11 of it on a nonlinear plant)
-        bound.append(float(np.linalg.norm(C) * np.linalg.norm(A, 2) ** k * np.linalg.norm(B)))
-        Ak_B = A @ Ak_B
+    with np.errstate(all="ignore"):  # powers of A may overflow: checked below
+        for k in range(max(n, order)):
+            markov.append(float(C @ Ak_B))
+            # what C A^k B could be: a zero is a zero against it (the Jacobians'
+            # differences leave ~1e-11 of it on a nonlinear plant)
+            bound.append(float(np.linalg.norm(C) * np.linalg.norm(A, 2) ** k
+                               * np.linalg.norm(B)))
+            Ak_B = A @ Ak_B
+    if not all(math.isfinite(m) for m in markov[:order]):
+        raise ConfigError("plant", _Described(f"a {type(plant).__name__}"),
+                          "must have finite Markov parameters C A^k B"
+                          + (f" {where}" if where else "") + " (its parameters overflow)")
     zero = [abs(m) <= 1e-7 * s for m, s in zip(markov, bound, strict=True)]
     names = ["C B", "C A B"] + [f"C A^{k} B" for k in range(2, len(markov))]
     if all(zero):
@@ -974,19 +984,25 @@ def alpha_warning(controller: Any, plant: Any) -> str | None:
         return None
     order = int(c[intelligent.N_ORDER])
     try:
-        beta = plant_alpha(plant, order)
+        with np.errstate(all="ignore"):  # a plant beyond floating point: no warning here
+            beta = plant_alpha(plant, order)
     except (ValueError, TypeError, ArithmeticError, np.linalg.LinAlgError):
         return None  # no high-frequency gain of that order: the bound does not apply
     alpha = 1.0 / c[gain_law.INV_ALPHA]
-    kernel = {v: k for k, v in estimators.KERNELS.items()}[c[intelligent.KERNEL]]
+    if not (math.isfinite(beta) and math.isfinite(alpha)):
+        return None  # a plant or gain beyond floating point: the run itself says so
+    kernel = estimators.kernel_name(c[intelligent.KERNEL])
     model = "y' = beta u" if order == 1 else "y'' = beta u"
     where = (f"on the plant's fast part {model}, beta = {beta:.4g} (its high-frequency "
              "gain at x0)")
     if beta <= 0.0:
         return (f"alpha = {alpha:.4g} has the opposite sign of the plant's gain {where}: "
                 "the backward-difference loop is unstable there for every alpha > 0")
-    bound = backward_difference_bound(beta, c[intelligent.KP], controller.sample_time, order,
-                                      kd=c[intelligent.KD], kernel=kernel)
+    try:
+        bound = backward_difference_bound(beta, c[intelligent.KP], controller.sample_time,
+                                          order, kd=c[intelligent.KD], kernel=kernel)
+    except ValueError:  # gains beyond the bound's own checks (overflowing products)
+        return None
     if bound is None:
         return (f"alpha = {alpha:.4g}: no alpha makes this law's backward-difference estimate "
                 f"of F stable {where} with these kp, kd and sample time "

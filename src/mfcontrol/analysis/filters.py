@@ -166,7 +166,7 @@ def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) ->
     delta = np.array([1.0, -1.0])
     if CP[intelligent.EST] == intelligent.ALGEBRAIC:
         m = int(CP[intelligent.M_WIN])
-        kernel = {v: k for k, v in estimators.KERNELS.items()}[CP[intelligent.KERNEL]]
+        kernel = estimators.kernel_name(CP[intelligent.KERNEL])
         wy, wu = estimators.weights(n, m, dt, 1.0 / gamma, kernel)
         # oldest first: y_{k-M} .. y_k and u_{k-M} .. u_{k-1}; q^i is i samples back
         f_y = wy[::-1]

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..elements import noise
 from ..errors import ConfigError, as_float
-from ..laws import estimators
+from ..laws import estimators, intelligent
 from ..numerics import grid
 from .options import (
     BY_KEY,
@@ -391,6 +391,15 @@ def _check_consistency(v: dict[str, Any]) -> None:
         raise ConfigError("sim.integrator", "exact", "is the zero-order hold of a linear "
                           f"plant (lti, first-order), not of {v['plant.model']}: use rk4 or "
                           "rk45")
+    positional = v["controller.law"] in POSITIONAL
+    if positional and v["controller.delay"] > intelligent.MAX_DELAY:
+        # the law keeps a queue of its outputs per member
+        raise ConfigError("controller.delay", v["controller.delay"], "must be a whole number "
+                          f"from 0 to {intelligent.MAX_DELAY:,}")
+    if (positional and v["controller.delay"] > 0 and v["controller.predict"]
+            and v["controller.order"] != 1):
+        raise ConfigError("controller.predict", True, "the prediction over the delay is of "
+                          "order 1: set controller.order = 1, or remove it")
     algebraic = v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
     if algebraic and v["controller.window"] < 2:
         # one interval fits no line through the window: the estimator needs two

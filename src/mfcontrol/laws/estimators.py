@@ -97,6 +97,11 @@ ORDERS = (1, 2)
 TRAPEZOID = 0.0
 HELD = 1.0
 KERNELS = {"trapezoid": TRAPEZOID, "held": HELD}
+
+
+def kernel_name(value: float) -> str:
+    """The name of a kernel as a parameter row stores it (:data:`KERNELS`)."""
+    return {v: k for k, v in KERNELS.items()}[float(value)]
 #: longest window: its ring buffer of 2 (M + 1) samples stays under 160 MB
 MAX_WINDOW = 10_000_000
 
@@ -405,8 +410,8 @@ def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel):
         uu1 = CS[u0 + 1, j] + CS[u0 + N_UMOM + 1, j]
         uu2 = CS[u0 + 2, j] + CS[u0 + N_UMOM + 2, j]
         if order == 1:
-            # y weight 2c inside, v_0 and -v_{M-1} (M/2 - 1/4) at the ends; u weight
-            # v_j ~ M^2/4 - (c + 1/2)^2
+            # y weight 2c inside; at the ends -v_0 (y_{k-M}) and +v_{M-1} (y_k), both
+            # M/2 - 1/4 in size; u weight v_j ~ M^2/4 - (c + 1/2)^2
             return (2.0 * yy1 + (half + 0.25) * (y_old - y_new),
                     (h2 - 0.25) * uu0 - uu1 - uu2)
         if order == 2:

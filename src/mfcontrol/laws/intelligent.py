@@ -70,6 +70,7 @@ DELAY = variational_gain.N_PARAMS + 13  # the loop's known input delay d, sample
 PREDICT = variational_gain.N_PARAMS + 14  # 1: the error predicted over the delay
 N_PARAMS = variational_gain.N_PARAMS + 15
 #: the longest delay a law compensates, samples: a queue of that many outputs per member
+#: (0.8 MB each; the loop elements' own delays go to 1,000,000, in a ring per thread)
 MAX_DELAY = 100_000
 
 BACKWARD = 0.0
@@ -116,7 +117,8 @@ def n_state(M: int, d: int = 0) -> int:
 
 @step_jit
 def queue_base(CP, j):
-    """The first row of the delay's queue of outputs: after the estimator's rows."""
+    """The first row of the delay's queue of outputs: after the estimator's rows (the
+    rows where the C export keeps its spread resync's moments: it refuses a delay)."""
     if CP[EST, j] == ALGEBRAIC:
         return EST_BASE + estimators.RING + 2 * (int(CP[M_WIN, j]) + 1)  # its n_state
     return EST_BASE
@@ -356,7 +358,8 @@ def fixed_gain(CP, j, dt, simple):
 
 @step_jit
 def steady_step(CP, CS, j, y, r, dt, simple, algebraic, sy, su, fixed, alpha, c_y, c_u):
-    """:func:`step` for a sample past the start-up (k >= :data:`STEADY`) with the
+    """:func:`step` for a sample past the start-up (k >= :data:`STEADY` and past
+    :func:`held`'s hold) with the
     start-up's branches compiled out, so that a loop over members vectorises; returns
     (u_k applied, u unlimited, gamma_k). ``simple`` (pass a literal True or False: the
     caller compiles one loop for each): the member has model order 1 and no

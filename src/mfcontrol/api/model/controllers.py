@@ -284,6 +284,7 @@ class _Controller:
         and leaves the controller exactly as it was."""
         if not isinstance(snap, Mapping):
             raise ValueError(f"snapshot = {shown(snap)}: must be the dict snapshot() returns")
+        snap = self._migrated(snap)
         missing = [k for k in self._SNAPSHOT_KEYS if k not in snap]
         if missing:
             raise ValueError(f"snapshot lacks {', '.join(missing)}: must be the dict "
@@ -330,9 +331,15 @@ class _Controller:
 
     @classmethod
     def from_snapshot(cls, snap: dict[str, Any]) -> Self:
+        snap = cls._migrated(snap)
         ctrl = cls(**snap["params"])
         ctrl.restore(snap)
         return ctrl
+
+    @classmethod
+    def _migrated(cls, snap: Any) -> Any:
+        """A snapshot of an older layout as this version's (subclasses that changed it)."""
+        return snap
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self._params.items())
@@ -393,19 +400,21 @@ class IntelligentController(_Sampled):
         it). Set it to keep a finite outlier out of the law's memory.
     estimator : {"backward-difference", "algebraic"}
         How F is estimated; ``window`` (samples) for the algebraic one.
-    kernel : {"held", "trapezoid"}
-        How the estimator is discretised (:mod:`mfcontrol.laws.estimators`). ``"held"``
+    kernel : {"held", "trapezoid"}, optional
+        How the estimator is discretised (:mod:`mfcontrol.laws.estimators`), for the
+        algebraic estimator and the order-2 backward difference (the order-1 backward
+        difference has one, exact: giving it one is refused). ``"held"``
         (the default) is exact for a constant F under the held input the law applies:
         the algebraic estimator returns F to rounding, the i-P has no steady-state error,
         and the order-2 backward difference subtracts ``alpha (u_{k-1} + u_{k-2}) / 2``
         (stable for alpha down to about beta/3 on y'' = beta u). ``"trapezoid"`` is the
         literature's discretisation (trapezoid / Simpson rule, ``alpha u_{k-1}``): off by
-        about ``0.8 alpha |du| / M`` under a moving input, and the i-P keeps a
+        about ``0.8 alpha |du| / M`` under a moving input, and the order-1 i-P keeps a
         steady-state error ``-alpha u / (kp M^2)``; the algebraic order-2 window must then
-        be even. For the order-1 backward difference both are the same estimator.
-    startup : {"hold", "backward-difference"}
-        The algebraic estimator's start, until its window is full: ``"hold"`` (the
-        default) holds ``starting_output`` for the first ``window`` samples;
+        be even.
+    startup : {"hold", "backward-difference"}, optional
+        The algebraic estimator's start, until its window is full (only it has one):
+        ``"hold"`` (the default) holds ``starting_output`` for the first ``window`` samples;
         ``"backward-difference"`` lets the backward difference stand in, which is stable
         only for alpha > beta (2 + kp h) / 4 on y' = beta u (n = 1) and can blow up a loop
         the full window holds.
@@ -413,7 +422,9 @@ class IntelligentController(_Sampled):
         The loop's input delay the law compensates, in samples (the actuator's and the
         sensor's delays together, as far as they are known): the estimator of F pairs y
         with the input the plant received, ``u_{k-1-delay}``, instead of the one just
-        sent. 0 (the default) for none.
+        sent. 0 (the default) for none. A rejected measurement holds the output without
+        advancing the queue: for d samples after it, F_hat pairs y with an input one
+        sample off.
     predict : bool
         With a delay (order 1 only): the error the law acts on is predicted over the
         delay by the ultra-local model, ``y_{k+d} = y_k + h (d F_hat + alpha
@@ -440,8 +451,8 @@ class IntelligentController(_Sampled):
     [0.0, 0.0, -98.0301]
 
     Order 2 (the i-PID's default) holds the start for two samples; at the third,
-    F_hat = y'' - alpha u = 0.01 / 0.01**2 = 100, P = 4 (-0.99), I = 1 (-0.99 * 0.01),
-    D = 2 (0.01 / 0.01), and u = -(100 - 3.96 - 0.0099 + 2) / 1:
+    F_hat = y'' - alpha (u_{k-1} + u_{k-2}) / 2 = 0.01 / 0.01**2 = 100, P = 4 (-0.99),
+    I = 1 (-0.99 * 0.01), D = 2 (0.01 / 0.01), and u = -(100 - 3.96 - 0.0099 + 2) / 1:
 
     >>> {k: round(v, 4) for k, v in ctrl.components.items() if k in ("F_hat", "P", "I", "D")}
     {'F_hat': 100.0, 'P': -3.96, 'I': -0.0099, 'D': 2.0}
@@ -455,7 +466,7 @@ class IntelligentController(_Sampled):
                  output_limits: tuple[float | None, float | None] = (None, None),
                  input_limits: tuple[float | None, float | None] = (None, None),
                  estimator: str = "backward-difference", window: int | None = None,
-                 kernel: str = "held", startup: str | None = None, delay: int = 0,
+                 kernel: str | None = None, startup: str | None = None, delay: int = 0,
                  predict: bool = False, anti_windup: str = "clamp", k_aw: float | None = None,
                  gain: str = "constant",
                  gamma0: float | None = None, Gamma: float = 5e-8, eps_M: float = 0.1,
@@ -464,7 +475,13 @@ class IntelligentController(_Sampled):
         alpha = _number("alpha", alpha, positive=True)
         _choice("order", order, (1, 2))
         _choice("estimator", estimator, tuple(intelligent.ESTIMATORS))
-        _choice("kernel", kernel, tuple(intelligent.KERNELS))
+        kernel_applies = estimator == "algebraic" or order == 2
+        if kernel is not None:
+            _choice("kernel", kernel, tuple(intelligent.KERNELS))
+            if not kernel_applies:
+                raise ValueError(f"kernel = {shown(kernel)}: the order-1 backward difference "
+                                 "has one discretisation (exact under a held input): set "
+                                 "estimator='algebraic' or order=2, or remove it")
         if startup is not None:
             _choice("startup", startup, tuple(intelligent.STARTUPS))
             if estimator != "algebraic":
@@ -513,7 +530,8 @@ class IntelligentController(_Sampled):
             "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
                                                             positive=True),
             "order": int(order), "output_limits": [lo, hi], "estimator": estimator,
-            "window": window, "kernel": kernel, "delay": int(delay),
+            "window": window, "kernel": (kernel or "held") if kernel_applies else None,
+            "delay": int(delay),
             "predict": bool(predict),
             "startup": (startup or "hold") if estimator == "algebraic" else None,
             "anti_windup": anti_windup,
@@ -542,7 +560,7 @@ class IntelligentController(_Sampled):
         cp[intelligent.KD] = params["kd"]
         cp[intelligent.EST] = intelligent.ESTIMATORS[estimator]
         cp[intelligent.M_WIN] = m
-        cp[intelligent.KERNEL] = intelligent.KERNELS[kernel]
+        cp[intelligent.KERNEL] = intelligent.KERNELS[params["kernel"] or "held"]
         cp[intelligent.STARTUP] = intelligent.STARTUPS[params["startup"] or "hold"]
         cp[intelligent.DELAY] = params["delay"]
         cp[intelligent.PREDICT] = 1.0 if params["predict"] else 0.0
@@ -562,6 +580,35 @@ class IntelligentController(_Sampled):
 
     def _check_law(self, params: dict[str, Any]) -> None:
         """Subclasses restrict which terms exist."""
+
+    @classmethod
+    def _migrated(cls, snap: Any) -> Any:
+        """A snapshot taken before the estimators' kernel and start-up existed: its
+        controller with the discretisation and start it ran (``kernel="trapezoid"``,
+        ``startup="backward-difference"``, no delay) and its state with the row of
+        u_{k-2} put in (read by the held kernel only), so that it continues bit for bit."""
+        if not isinstance(snap, Mapping) or not isinstance(snap.get("params"), Mapping) \
+                or "kernel" in snap["params"] or not isinstance(snap.get("state"), list):
+            return snap
+        params = dict(snap["params"])
+        algebraic = params.get("estimator") == "algebraic"
+        params["kernel"] = "trapezoid" if algebraic or params.get("order") == 2 else None
+        params["startup"] = "backward-difference" if algebraic else None
+        params["delay"], params["predict"] = 0, False
+        state = list(snap["state"])
+        state.insert(intelligent.U2, state[intelligent.U1] if len(state) > intelligent.U1
+                     else 0.0)
+        return {**snap, "params": params, "state": state}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        cp = state.get("_CP")
+        if cp is not None and cp.shape[0] != intelligent.N_PARAMS:
+            # the compiled step would read past a shorter column
+            raise ValueError(f"this {type(self).__name__} was pickled by an older mfcontrol "
+                             "(its parameter layout changed): rebuild it from a snapshot, "
+                             f"{type(self).__name__}.from_snapshot(snap), which carries "
+                             "older snapshots over")
+        super().__setstate__(state)
 
     def _reset_state(self) -> None:
         live.intelligent_reset(self._CP, self._CS)
@@ -732,8 +779,8 @@ class IPID(IP):
     Examples
     --------
     A measurement held at 0 under a setpoint of 1: order 2 holds the start for two
-    samples; at the third, F_hat = y'' - alpha u = 0 and u = -(kp e + ki int(e) + kd e') /
-    alpha with e = -1, int(e) = -0.01 and e' = 0:
+    samples; at the third, F_hat = y'' - alpha (u_{k-1} + u_{k-2}) / 2 = 0 and
+    u = -(kp e + ki int(e) + kd e') / alpha with e = -1, int(e) = -0.01 and e' = 0:
 
     >>> import mfcontrol
     >>> ctrl = mfcontrol.IPID(alpha=1.0, kp=25.0, ki=5.0, kd=10.0, sample_time=0.01)

@@ -63,11 +63,23 @@ def simulate(cfg: Config, name: str = "", *, fast: bool = False) -> Result:
     >>> abs(fast.metrics["iae"] / exact.metrics["iae"] - 1) < 1e-12
     True
     """
-    if cfg["controller.law"] in from_config.POSITIONAL:
+    if _backward_difference(cfg):
         warn_alpha(from_config.controller(cfg), from_config.plant_and_changes(cfg)[0])
     if not compiled(cfg):
         return _simulate_loop(cfg, name, fast)
     return simulate_many([cfg], name=name, fast=fast)[0]
+
+
+def _backward_difference(cfg: Config) -> bool:
+    """Whether a positional law with a constant gain estimates F by the backward
+    difference (at least at its start): the runs whose alpha :func:`warn_alpha` checks,
+    told from the configuration before anything is built for it."""
+    if cfg["controller.law"] not in from_config.POSITIONAL:
+        return False
+    if cfg["controller.adapt"] != "constant" or cfg["controller.delay"] > 0:
+        return False
+    return (cfg["controller.estimator"] != "algebraic"
+            or cfg["controller.startup"] == "backward-difference")
 
 
 def _simulate_loop(cfg: Config, name: str, fast: bool = False) -> Result:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -331,7 +332,10 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
         for m in keep_members(len(combos), keep):
             m = int(m)
             values = {k: float(table[k][m]) for k in keys}
-            with restored(plant):
+            with restored(plant), warnings.catch_warnings():
+                # the alpha check is a single run's: a sweep's kept members are members
+                warnings.filterwarnings("ignore", r"alpha = .* (outside|opposite)",
+                                        RuntimeWarning)
                 for k in plant_keys:
                     plant.set_param(k.partition(".")[2], values[k])
                 kept[m] = simulate_loop(
