@@ -243,13 +243,14 @@ def test_live_controllers_take_anything(spec, sequence, switch, tally):
 
 # --- issue 29: extreme finite samples, huge integers, raising functions, damaged folders ---
 
+ALGEBRAIC_WINDOW = 10
 #: controllers that hold y' = -y + u (Euler, h = 0.01) at 1 from 0: every law family
 STABLE = {
     "PID": lambda lim: mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01,
                                      output_limits=(-24, 24), input_limits=lim),
     "i-PI algebraic": lambda lim: mfcontrol.IPI(
-        alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01, estimator="algebraic", window=10,
-        output_limits=(-24, 24), input_limits=lim),
+        alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01, estimator="algebraic",
+        window=ALGEBRAIC_WINDOW, output_limits=(-24, 24), input_limits=lim),
     "i-PI variational": lambda lim: mfcontrol.IPI(
         alpha=1.0, kp=4.0, ki=1.0, sample_time=0.01, gain="variational",
         integrator="second-order", output_limits=(-24, 24), input_limits=lim),
@@ -295,11 +296,16 @@ def test_extreme_finite_samples_never_lock_a_live_controller(law, spikes, at, li
     # gain one sample later): at most RESTART_AFTER are rejected, in a row (then the law
     # restarts from its last output), and every sample after them is taken. (1,500 random
     # bursts: never more than 2 rejected, the last at the third sample after the burst.)
+    # The algebraic i-PI weighs a sample by its place in the window, which changes as it
+    # slides: its overflow may come at any of the M + 1 samples it stays in the window,
+    # and with startup "hold" the law computes nothing over its first M samples (a burst
+    # then is taken, and overflows once the window is live)
     rejected = [i for i, ok in enumerate(after) if not ok]
     assert len(rejected) <= RESTART_AFTER, (law, spikes, rejected)
     if rejected:
         assert rejected == list(range(rejected[0], rejected[-1] + 1)), (law, spikes, rejected)
-    assert all(after[RESTART_AFTER + 1:]), (law, spikes, rejected)
+    in_window = ALGEBRAIC_WINDOW + 1 if law == "i-PI algebraic" else 0
+    assert all(after[in_window + RESTART_AFTER + 1:]), (law, spikes, rejected)
     tally["extreme samples survived"] += len(spikes)
 
 

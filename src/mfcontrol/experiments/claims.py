@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ..api.results.result import Result
 from .analyze import analyze
 from .cases import resolve_case, run_config
 
@@ -51,9 +52,12 @@ SUBSTEPS = 20
 FRACTIONS = (0.25, 0.5, 1.0)
 
 
-def _run(fidelity: str, overrides: dict[str, Any], case: str = CASE):
+def _run(fidelity: str, overrides: dict[str, Any], case: str = CASE) -> Result:
+    """One run of ``case`` (a single run, not a sweep) under ``fidelity``."""
     _, cfg = resolve_case(case, {"fidelity": fidelity, **overrides})
-    return run_config(cfg, case)
+    r = run_config(cfg, case)
+    assert isinstance(r, Result), case
+    return r
 
 
 def noise_study(fidelity: str):
@@ -120,8 +124,7 @@ def frozen_gain_study(fidelity: str):
     import pandas as pd
 
     _, cfg = resolve_case(CASE, {"fidelity": fidelity})
-    run = run_config(cfg, CASE)
-    gamma = run.signals["gamma"]
+    gamma = _run(fidelity, {}).signals["gamma"]
     # the largest relative change of gamma in one sample
     rate = float(np.max(np.abs(np.diff(gamma)) / np.abs(gamma[1:]))) if gamma.size > 1 \
         else 0.0
