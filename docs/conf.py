@@ -68,6 +68,7 @@ SECTIONS = {  # the order and the words of the reference's sections
     ".experiments.analyze": "Linear analysis of a case's loop, or a controller's on a plant",
     ".analysis.filters": "Linear analysis: a law as its linear filter",
     ".analysis.loop": "Linear analysis: poles and margins of the loop",
+    ".analysis.alpha": "The gain alpha: from data, from a plant, its stable range",
     ".api.results.result": "Results",
     ".experiments.cases": "Built-in cases",
     ".config.resolve": "Configuration",
