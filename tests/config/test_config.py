@@ -881,3 +881,25 @@ def test_a_window_of_one_sample_is_refused_naming_the_key():
     assert exc.key == "controller.window"
     assert str(exc) == ("controller.window = 1: must be at least 2 samples for the algebraic "
                         "estimator")
+
+
+@pytest.mark.parametrize("keys,message", [
+    ({"controller.delay": 100_001},
+     "controller.delay = 100001: must be a whole number of samples from 0 to 100,000"),
+    ({"controller.delay": 3, "controller.predict": True, "controller.order": 2},
+     "controller.predict = True: the prediction over the delay is of order 1: set "
+     "controller.order = 1, or remove it"),
+    ({"controller.estimator": "algebraic", "controller.order": 2, "controller.window": 9,
+      "controller.kernel": "trapezoid"},
+     "controller.window = 9: must be even for order 2 with the trapezoid kernel"),
+])
+def test_the_laws_own_rules_are_refused_in_the_keys_names(keys, message):
+    # the rules live once (intelligent.delay_problem, estimators.parity_problem); the
+    # configuration and the live classes phrase them in their own keys
+    base = {"plant.model": "first-order", "controller.law": "i-PD", "controller.kd": 1.0}
+    with pytest.raises(ConfigError, match="^" + message.replace("(", r"\(")):
+        resolve({**base, **keys})
+    live = {k.removeprefix("controller."): v for k, v in keys.items()}
+    with pytest.raises(ValueError, match="^" + message.removeprefix("controller.")
+                       .replace("controller.order = ", "order=").replace("(", r"\(")):
+        mfcontrol.IPD(alpha=1.0, kp=1.0, kd=1.0, sample_time=0.01, **live)

@@ -131,7 +131,7 @@ def test_fast_arithmetic_is_within_1e_12_of_the_exact_runs(case):
 
 def test_shared_constants_leave_swept_scheduled_and_derived_rows_to_the_data():
     D = np.arange(paper_sweep.P_ROWS * 2, dtype=float).reshape(paper_sweep.P_ROWS, 2)
-    kp = paper_sweep.P_CP + 6 + 0  # recursive_ip.KP
+    kp = paper_sweep.P_CP + 7 + 0  # recursive_ip.KP
     from mfcontrol.laws import recursive_ip
     from mfcontrol.plants import buck
     assert kp == paper_sweep.P_CP + recursive_ip.KP
@@ -215,3 +215,21 @@ def test_a_second_process_loads_the_paper_sweep_kernels_from_the_disk_cache():
     saved = [line for line in run(True).splitlines()
              if "data saved" in line and "paper_sweep" in line]
     assert saved == []
+
+
+@pytest.mark.parametrize("specialise", [False, True])
+def test_multi_rate_members_equal_their_single_runs(specialise):
+    # the sum and count of the multi-rate update live in the block's rows: a sweep over
+    # adapt_every (and one sharing it, specialised) gives each member's single run
+    base = resolve_case("voltage-unstable-variational",
+                        {"sim.t_end": 2e-3, "controller.integrator": "second-order",
+                         "controller.Gamma": 1e-9})[1]
+    grid = batch.make_grid(base, {"controller.adapt_every": np.array([1, 5, 50])})
+    cols = batch.run_grid(grid, specialise=specialise)
+    finals = set()
+    for m in range(grid.n_members):
+        single = mfcontrol.simulate(grid.config(m)).metrics
+        finals.add(single["final_gamma"])
+        for name in ALL:
+            assert _same(cols[name][m], single[name]), (m, name, cols[name][m], single[name])
+    assert len(finals) == 3  # the rate changes the run

@@ -178,12 +178,48 @@ def test_a_snapshot_from_before_the_kernel_continues_bit_for_bit():
     assert pickle.loads(pickle.dumps(ctrl)).snapshot()["params"] == ctrl.snapshot()["params"]
 
 
+def test_a_snapshot_from_before_the_multi_rate_rows_continues_bit_for_bit():
+    # snapshots taken at f012638, before the gain adaptation's multi-rate sum and count
+    # (two state rows after gamma's): from_snapshot puts them in and continues exactly
+    import json
+    from pathlib import Path
+
+    data = json.loads((Path(__file__).parents[1] / "data"
+                       / "snapshots-before-multi-rate.json").read_text())
+    for name, case in data.items():
+        assert "layout" not in case["snapshot"]
+        cls = getattr(mfcontrol, case["snapshot"]["controller"])
+        ctrl = cls.from_snapshot(case["snapshot"])
+        out = [ctrl(y, setpoint=1.0) for y in case["measurements"]]
+        assert out == case["outputs"], name
+        assert ctrl.snapshot()["layout"] == 2
+
+
+def test_multi_rate_gamma_holds_between_updates_in_the_intelligent_law():
+    ctrl = mfcontrol.IPI(alpha=2.0, kp=5.0, ki=1.0, sample_time=0.01, gain="variational",
+                         gamma0=0.5, Gamma=1e-3, adapt_every=4)
+    ys = np.cumsum(np.random.default_rng(3).normal(0, 0.05, 40))
+    gammas = []
+    for y in ys:
+        ctrl(y, setpoint=1.0)
+        gammas.append(ctrl.gamma)
+    g = np.array(gammas)
+    moves = np.flatnonzero(np.diff(g)) + 1
+    assert moves.size > 3 and (np.diff(moves) == 4).all()
+    with pytest.raises(ValueError, match="adapt_every = 0: must be a whole number >= 1"):
+        mfcontrol.IPI(alpha=2.0, kp=5.0, ki=1.0, sample_time=0.01, gain="variational",
+                      adapt_every=0)
+    with pytest.raises(ValueError, match="adapt_every = 4: only the variational gain"):
+        mfcontrol.IPI(alpha=2.0, kp=5.0, ki=1.0, sample_time=0.01, adapt_every=4)
+
+
 def test_kernel_and_startup_are_refused_where_they_change_nothing():
     with pytest.raises(ValueError, match="kernel = 'trapezoid': the order-1 backward"):
         mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, kernel="trapezoid")
     with pytest.raises(ValueError, match="startup = 'hold': only the algebraic"):
         mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, startup="hold")
-    with pytest.raises(ValueError, match="predict = True: the prediction is of order 1"):
+    with pytest.raises(ValueError, match="predict = True: the prediction over the delay is "
+                       "of order 1: set order=1"):
         mfcontrol.IPD(alpha=1.0, kp=1.0, kd=1.0, sample_time=0.1, delay=2, predict=True)
     assert mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1).snapshot()["params"]["kernel"] \
         is None

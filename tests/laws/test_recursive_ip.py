@@ -116,13 +116,67 @@ def test_auto_anti_windup_keeps_the_published_behaviour(published_reference):
 
 @settings(max_examples=60, deadline=None)
 @given(k=st.integers(3, 10**9), y=st.floats(-10, 10), r=st.floats(-10, 10),
-       state=st.lists(st.floats(-5, 5), min_size=5, max_size=5),
-       mode=st.sampled_from([0.0, 1.0]), order=st.sampled_from([1.0, 2.0]),
+       state=st.lists(st.floats(-5, 5), min_size=6, max_size=6),
+       count=st.integers(0, 3), mode=st.sampled_from([0.0, 1.0]),
+       order=st.sampled_from([1.0, 2.0]), every=st.sampled_from([1.0, 4.0]),
        use_gamma=st.sampled_from([0.0, 1.0]), rate_coef=st.sampled_from([0.0, 0.3]))
 def test_from_STEADY_on_the_law_depends_on_k_only_through_its_state(
-        k, y, r, state, mode, order, use_gamma, rate_coef):
+        k, y, r, state, count, mode, order, every, use_gamma, rate_coef):
     # the sweep kernel passes STEADY for every later sample: that must change nothing
     from mfcontrol.laws.recursive_ip import STEADY, advance
-    params = (mode, 0.1, 1.0, 1e-6, 0.01, order, 2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef,
+    params = (mode, 0.1, 1.0, 1e-6, 0.01, order, every, 2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef,
               use_gamma, 1 / 2000, 1e-3, 0.9, 0.0)
+    state = (*state, float(count))
     assert advance(float(k), y, r, *state, params) == advance(STEADY, y, r, *state, params)
+
+
+@pytest.mark.parametrize("order,lag", [("first-order", 1), ("second-order", 2)])
+@pytest.mark.parametrize("m", [3, 10])
+def test_multi_rate_gamma_is_the_integrator_at_the_macro_step(order, lag, m):
+    # gamma moves every m samples, by the same difference equation at the step m h: the
+    # force averaged over the m samples, Gamma scaled by m^lag; it holds in between
+    r = mfcontrol.run_case("voltage-stable-variational",
+                           {**SHORT, "controller.integrator": order, "controller.Gamma": 1e-6,
+                            "controller.adapt_every": m})
+    c, g = r.config, r.signals["gamma"]
+    force = _edot(r, c["controller.deriv_scale"]) - c["controller.eps_M"]  # [k-1]: sample k
+    assert (g[: m + 2] == c["controller.gamma0"]).all()  # held until the first update
+    updates = np.arange(m + 2, g.size, m)
+    held = np.setdiff1d(np.arange(3, g.size), updates)
+    for k in held:  # gamma is the value of the last update
+        last = updates[updates < k]
+        assert g[k] == (g[last[-1]] if last.size else c["controller.gamma0"])
+    mean = np.array([force[k - m:k].mean() for k in updates])  # samples k-m+1 .. k
+    prev = np.concatenate([[c["controller.gamma0"]] * 2, g[updates]])  # at the macro steps
+    if lag == 1:
+        lhs = prev[2:] - prev[1:-1]
+    else:
+        lhs = prev[2:] - 2 * prev[1:-1] + prev[:-2]
+    rhs = m**lag * c["controller.Gamma"] * mean
+    np.testing.assert_allclose(lhs, rhs, rtol=1e-6, atol=1e-15)
+    assert np.ptp(g) > 0  # it adapted
+
+
+def test_multi_rate_follows_the_per_sample_law_under_a_constant_force():
+    # f constant: per sample gamma_k = gamma0 + Gamma f n (n + 1) / 2 after n updates; at
+    # the macro step the same curve sampled every m, gamma0 + m^2 Gamma f K (K + 1) / 2:
+    # equal to O(m / n) (the macro step's Verlet is exact for a quadratic in time)
+    from mfcontrol.laws.variational_gain import VARIATIONAL, next_gamma
+
+    def run(every, n):
+        g1 = g2 = 1.0
+        acc = cnt = 0.0
+        out = []
+        for k in range(3, 3 + n):
+            g, g1, g2, acc, cnt = next_gamma(VARIATIONAL, float(k), 0.6, g1, g2, acc, cnt,
+                                             1.0, 1.0, 1e-6, 0.1, 2.0, float(every), 1.0)
+            out.append(g)
+        return np.array(out)
+
+    n, m = 4000, 20
+    per_sample, macro = run(1, n), run(m, n)
+    K = n // m
+    np.testing.assert_allclose(macro[m - 1::m][:K],
+                               1.0 + m * m * 1e-6 * 0.5 * np.arange(1, K + 1)
+                               * np.arange(2, K + 2) / 2, rtol=1e-12)
+    assert abs(macro[-1] - per_sample[-1]) / abs(per_sample[-1] - 1.0) < 2 * m / n

@@ -140,6 +140,7 @@ def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
     if not variational or cfg["controller.gain"] == "alpha":
         col[variational_gain.INV_ALPHA] = 1 / cfg["controller.alpha"]
     col[variational_gain.ORDER] = 1.0
+    col[variational_gain.EVERY] = 1.0
     col[recursive_ip.USE_GAMMA] = 1.0
     if variational:
         col[variational_gain.GAMMA0] = cfg["controller.gamma0"]
@@ -147,6 +148,7 @@ def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
         col[variational_gain.EPS_M] = cfg["controller.eps_M"]
         col[variational_gain.ORDER] = (2.0 if cfg["controller.integrator"] == "second-order"
                                        else 1.0)
+        col[variational_gain.EVERY] = cfg["controller.adapt_every"]
         col[recursive_ip.USE_GAMMA] = 1.0 if cfg["controller.gain"] == "gamma" else 0.0
     col[recursive_ip.KP] = cfg["controller.kp"]
     col[recursive_ip.HD] = cfg["controller.deriv_scale"]

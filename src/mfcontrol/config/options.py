@@ -168,6 +168,9 @@ OPTIONS: tuple[Option, ...] = (
        "states 5e-8; code v1.0.1 uses h^2/K_gamma = 1e-12 for single runs)"),
     _o("controller.eps_M", "float", 0.1, "variational: bound eps_M on |F_k - F_{k-1}|"),
     _o("controller.k_gamma", "float", 1.0, "variational: coupling K_gamma of the rate term"),
+    _o("controller.adapt_every", "int", 1, "variational: update gamma every m control "
+       "samples (the multi-rate integrator: macro step m h, the force averaged over it, "
+       "Gamma scaled by m^order); 1 updates it at each sample", check="positive"),
     _o("controller.integrator", "str", None, "variational: gamma integrator order",
        ("first-order", "second-order"),
        preset={"published": "first-order", "paper": "second-order"}),

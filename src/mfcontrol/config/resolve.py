@@ -392,24 +392,23 @@ def _check_consistency(v: dict[str, Any]) -> None:
                           f"plant (lti, first-order), not of {v['plant.model']}: use rk4 or "
                           "rk45")
     positional = v["controller.law"] in POSITIONAL
-    if positional and v["controller.delay"] > intelligent.MAX_DELAY:
-        # the law keeps a queue of its outputs per member
-        raise ConfigError("controller.delay", v["controller.delay"], "must be a whole number "
-                          f"from 0 to {intelligent.MAX_DELAY:,}")
-    if (positional and v["controller.delay"] > 0 and v["controller.predict"]
-            and v["controller.order"] != 1):
-        raise ConfigError("controller.predict", True, "the prediction over the delay is of "
-                          "order 1: set controller.order = 1, or remove it")
+    if positional:
+        delay = v["controller.delay"]
+        problem = intelligent.delay_problem(delay, delay > 0 and v["controller.predict"],
+                                            v["controller.order"])
+        if problem:
+            key, allowed = problem
+            raise ConfigError(f"controller.{key}", delay if key == "delay" else True,
+                              allowed.format(order="controller.order = "))
     algebraic = v["controller.law"] in POSITIONAL and v["controller.estimator"] == "algebraic"
     if algebraic and v["controller.window"] < 2:
         # one interval fits no line through the window: the estimator needs two
         raise ConfigError("controller.window", v["controller.window"],
                           "must be at least 2 samples for the algebraic estimator")
-    if (algebraic and v["controller.order"] == 2 and v["controller.window"] % 2
-            and v["controller.kernel"] == "trapezoid"):
+    if algebraic and estimators.parity_problem(v["controller.order"], v["controller.window"],
+                                               v["controller.kernel"]):
         raise ConfigError("controller.window", v["controller.window"],
-                          "must be even for order 2 with the trapezoid kernel (Simpson's "
-                          "rule)")
+                          estimators.EVEN_FOR_SIMPSON)
     n = round(v["sim.t_end"] / v["sim.h"])
     if algebraic and v["controller.window"] >= min(n, estimators.MAX_WINDOW + 1):
         # a window the run never fills estimates nothing (and would allocate its ring)

@@ -93,6 +93,7 @@ def _single_loop(fast):
         u_prev, y_prev, r_prev = (CS[recursive_ip.U_PREV, 0], CS[recursive_ip.Y_PREV, 0],
                                   CS[recursive_ip.R_PREV, 0])
         g1, g2, k0 = CS[variational_gain.G1, 0], CS[variational_gain.G2, 0], CS[recursive_ip.K, 0]
+        acc, cnt = CS[variational_gain.ACC, 0], CS[variational_gain.CNT, 0]
         alive, t_div, n_done = 1.0 - M[M_DIVERGED, 0], M[M_T_DIVERGE, 0], M[M_N_SAMPLES, 0]
         iae, ise, itae = M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0]
         max_e_s, max_e_f, max_r = M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0]
@@ -124,8 +125,8 @@ def _single_loop(fast):
                 p_ev += 1
             y = buck.measure(i, v, out_sel)
             r = reference.evaluate(ref_kind, ref1, ref2, ref3, ref4, t)
-            u, a, g, gamma, u_prev, g1, g2 = recursive_ip.advance(
-                k0 + k, y, r, u_prev, y_prev, r_prev, g1, g2, law)
+            u, a, g, gamma, u_prev, g1, g2, acc, cnt = recursive_ip.advance(
+                k0 + k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, law)
             y_prev, r_prev = y, r
             n_run = k + 1
             (alive, t_div, n_done, iae, ise, itae, max_e_s, max_e_f, max_r, tv,
@@ -149,6 +150,7 @@ def _single_loop(fast):
         CS[recursive_ip.U_PREV, 0], CS[recursive_ip.Y_PREV, 0] = u_prev, y_prev
         CS[recursive_ip.R_PREV, 0], CS[recursive_ip.K, 0] = r_prev, k0 + n_run
         CS[variational_gain.G1, 0], CS[variational_gain.G2, 0] = g1, g2
+        CS[variational_gain.ACC, 0], CS[variational_gain.CNT, 0] = acc, cnt
         M[M_DIVERGED, 0], M[M_T_DIVERGE, 0], M[M_N_SAMPLES, 0] = 1.0 - alive, t_div, n_done
         M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0] = iae, ise, itae
         M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0] = max_e_s, max_e_f, max_r

@@ -78,9 +78,9 @@ def _row(r):
 
 # offsets of the rows the member loop reads and writes
 _I, _V = _row(P_X + buck.I_L), _row(P_X + buck.V_C)
-_UP, _YP, _RP, _G1, _G2 = (_row(P_CS + r) for r in (
+_UP, _YP, _RP, _G1, _G2, _ACC, _CNT = (_row(P_CS + r) for r in (
     recursive_ip.U_PREV, recursive_ip.Y_PREV, recursive_ip.R_PREV, variational_gain.G1,
-    variational_gain.G2))
+    variational_gain.G2, variational_gain.ACC, variational_gain.CNT))
 (_DIV, _TDIV, _NS, _IAE, _ISE, _ITAE, _MXS, _MXF, _MXR, _TV, _GF) = (_row(P_M + r) for r in (
     metrics.M_DIVERGED, metrics.M_T_DIVERGE, metrics.M_N_SAMPLES, metrics.M_IAE, metrics.M_ISE,
     metrics.M_ITAE, metrics.M_MAX_E_SETTLED, metrics.M_MAX_E_FINAL, metrics.M_MAX_ABS_R,
@@ -193,6 +193,10 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
     # plain tile need not store them
     CONSTANT_GAIN = (not VARY[P_CP + variational_gain.MODE]
                      and K[P_CP + variational_gain.MODE] == variational_gain.CONSTANT)
+    # the multi-rate sum and count move only when some member updates gamma every m > 1
+    # samples: otherwise a tile need not store them (they stay as reset left them)
+    MULTI_RATE = not CONSTANT_GAIN and (VARY[P_CP + variational_gain.EVERY]
+                                        or K[P_CP + variational_gain.EVERY] > 1.0)
     flags = _jit.FASTMATH if fast else False
     options: dict[str, Any] = dict(error_model="numpy", fastmath=flags)
 
@@ -254,14 +258,16 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                         r = R[j]
                     i, v = D[_I + j], D[_V + j]
                     y = buck.measure(i, v, output(D, j)[0])
-                    u, a, g, gamma, carried, g1, g2 = recursive_ip.advance(
+                    u, a, g, gamma, carried, g1, g2, acc, cnt = recursive_ip.advance(
                         kl, y, r, D[_UP + j], D[_YP + j], (r_prev if HOIST else D[_RP + j]),
-                        D[_G1 + j], D[_G2 + j], law(D, j))
+                        D[_G1 + j], D[_G2 + j], D[_ACC + j], D[_CNT + j], law(D, j))
                     D[_UP + j], D[_YP + j] = carried, y
                     if not HOIST:
                         D[_RP + j] = r
                     if checked or not CONSTANT_GAIN:
                         D[_G1 + j], D[_G2 + j] = g1, g2
+                    if MULTI_RATE:
+                        D[_ACC + j], D[_CNT + j] = acc, cnt
                     if checked:
                         (alive, D[_TDIV + j], D[_NS + j], D[_IAE + j], D[_ISE + j], D[_ITAE + j],
                          D[_MXS + j], D[_MXF + j], D[_MXR + j], D[_TV + j],

@@ -111,6 +111,18 @@ def n_state(M: int) -> int:
     return RING + 2 * (M + 1)
 
 
+#: what :func:`parity_problem` refuses, in words (the caller names the window's key)
+EVEN_FOR_SIMPSON = "must be even for order 2 with the trapezoid kernel (Simpson's rule)"
+
+
+def parity_problem(order: int, M: int, kernel: str) -> bool:
+    """Whether window M cannot take (order, kernel): Simpson's rule (order 2, trapezoid
+    kernel) needs an even number of intervals. The one statement of the rule: the live
+    controllers and the configuration refuse it in their own key's name
+    (:data:`EVEN_FOR_SIMPSON`)."""
+    return order == 2 and M % 2 == 1 and kernel == "trapezoid"
+
+
 def check_window(order: int, M: int, kernel: str = "held") -> None:
     """Raise ValueError unless (order, M, kernel) is a valid estimator: n = 1 or 2,
     M >= 2, even for n = 2 with the trapezoid kernel (Simpson's rule).
@@ -124,9 +136,8 @@ def check_window(order: int, M: int, kernel: str = "held") -> None:
         raise ValueError(f"M = {M!r}: the window must be a whole number of samples >= 2")
     if kernel not in KERNELS:
         raise ValueError(f"kernel = {kernel!r}: must be one of {', '.join(KERNELS)}")
-    if order == 2 and M % 2 and kernel == "trapezoid":
-        raise ValueError(f"M = {M!r}: Simpson's rule (order 2, trapezoid kernel) needs an "
-                         "even number of intervals")
+    if parity_problem(order, M, kernel):
+        raise ValueError(f"M = {M!r}: {EVEN_FOR_SIMPSON}")
 
 
 @step_jit

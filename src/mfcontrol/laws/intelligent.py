@@ -73,6 +73,20 @@ N_PARAMS = variational_gain.N_PARAMS + 15
 #: (0.8 MB each; the loop elements' own delays go to 1,000,000, in a ring per thread)
 MAX_DELAY = 100_000
 
+
+def delay_problem(delay: int, predict: bool, order: int) -> tuple[str, str] | None:
+    """What the law cannot run of a compensated delay (a whole number of samples >= 0)
+    and a prediction over it: (the option at fault, "delay" or "predict", what is
+    allowed, with ``{order}`` where the caller names its order option), or None. The one
+    statement of these rules: the live controllers and the configuration refuse them in
+    their own keys' names."""
+    if delay > MAX_DELAY:
+        return "delay", f"must be a whole number of samples from 0 to {MAX_DELAY:,}"
+    if predict and order != 1:
+        return "predict", ("the prediction over the delay is of order 1: set {order}1, "
+                           "or remove it")
+    return None
+
 BACKWARD = 0.0
 ALGEBRAIC = 1.0
 ESTIMATORS = {"backward-difference": BACKWARD, "algebraic": ALGEBRAIC}

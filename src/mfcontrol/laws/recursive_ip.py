@@ -70,7 +70,7 @@ def clip(x, lo, hi):
 
 
 @step_jit
-def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, P):
+def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, P):
     """One sample from plain floats: the one place the law is written.
 
     ``P`` holds the member's parameters, rows 0 .. N_PARAMS-1 of its column in row order
@@ -85,12 +85,13 @@ def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, P):
         u0 = P[U0]
         applied = clip(out_gain * u0, lo, hi)
         carried = u0 if aw_coef == 0.0 else u0 + aw_coef * (applied / out_gain - u0)
-        return u0, applied, g0, g0, carried, g1, g2
+        return u0, applied, g0, g0, carried, g1, g2, acc, cnt
     hd = P[HD]
     e_dot = (y - y_prev) / hd - (r - r_prev) / hd
     # the recursive law has no external gain: alpha_ext is never read
-    gamma = vg.next_gamma(mode, k, e_dot, g1, g2, inv_alpha, gamma0, P[vg.GAMMA_RATE],
-                          P[vg.EPS_M], P[vg.ORDER], 1.0)
+    gamma, g1_next, g2_next, acc, cnt = vg.next_gamma(
+        mode, k, e_dot, g1, g2, acc, cnt, inv_alpha, gamma0, P[vg.GAMMA_RATE], P[vg.EPS_M],
+        P[vg.ORDER], P[vg.EVERY], 1.0)
     g = gamma if P[USE_GAMMA] != 0.0 else inv_alpha
     y_p = y if P[P_CURRENT] != 0.0 else y_prev
     u = (u_prev - g * e_dot) + P[P_SIGN] * (P[KP] * (r - y_p))
@@ -99,7 +100,7 @@ def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, P):
         u = u + rate_coef * ((gamma - g1) / hd)
     applied = clip(out_gain * u, lo, hi)
     carried = u if aw_coef == 0.0 else u + aw_coef * (applied / out_gain - u)
-    return u, applied, g, gamma, carried, gamma, g1
+    return u, applied, g, gamma, carried, g1_next, g2_next, acc, cnt
 
 
 @step_jit
@@ -111,14 +112,16 @@ def parameters(CP, j):
 @step_jit
 def _step_at(CP, CS, j, y, r, k):
     """One sample, the law evaluated as at sample k, its state advanced by one sample."""
-    u, applied, g, gamma, carried, g1, g2 = advance(
+    u, applied, g, gamma, carried, g1, g2, acc, cnt = advance(
         k, y, r, CS[U_PREV, j], CS[Y_PREV, j], CS[R_PREV, j], CS[vg.G1, j], CS[vg.G2, j],
-        parameters(CP, j))
+        CS[vg.ACC, j], CS[vg.CNT, j], parameters(CP, j))
     CS[U_PREV, j] = carried
     CS[Y_PREV, j] = y
     CS[R_PREV, j] = r
     CS[vg.G1, j] = g1
     CS[vg.G2, j] = g2
+    CS[vg.ACC, j] = acc
+    CS[vg.CNT, j] = cnt
     CS[K, j] = CS[K, j] + 1.0
     return u, applied, g, gamma
 

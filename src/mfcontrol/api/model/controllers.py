@@ -77,6 +77,30 @@ def _choice(name: str, value: Any, allowed) -> Any:
     return value
 
 
+#: the state rows' layout a snapshot records: 2 since the gain adaptation's multi-rate rows
+#: (a snapshot without it is older; :func:`_with_multi_rate_rows`)
+STATE_LAYOUT = 2
+
+
+def _with_multi_rate_rows(snap: Any) -> Any:
+    """A snapshot of a law on the gain adaptation's rows (intelligent, recursive) taken
+    before the multi-rate sum and count existed, with them put in as a reset leaves them
+    (zero: an update at each sample never reads them), so that it continues bit for bit."""
+    if not isinstance(snap, Mapping) or not isinstance(snap.get("state"), list) \
+            or snap.get("layout", 1) >= 2:
+        return snap
+    state = list(snap["state"])
+    state[gain_law.ACC:gain_law.ACC] = [0.0] * (gain_law.N_STATE - gain_law.ACC)
+    return {**snap, "state": state, "layout": STATE_LAYOUT}
+
+
+def _whole(name: str, value: Any) -> int:
+    """A whole number >= 1 (a count of samples)."""
+    if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"{name} = {shown(value)}: must be a whole number >= 1")
+    return int(value)
+
+
 def _limits(value: Any, name: str = "output_limits") -> tuple[float | None, float | None]:
     try:
         lo, hi = value
@@ -269,7 +293,7 @@ class _Controller:
             "last_output": self._last_output, "nan_count": self.nan_count,
             "auto_mode": self.auto_mode, "setpoint": self.setpoint, "skipped": self._skipped,
             "overflows": self._overflows, "restarts": self.restarts,
-            **self._snapshot_extra(),
+            "layout": STATE_LAYOUT, **self._snapshot_extra(),
         }
 
     def _snapshot_extra(self) -> dict[str, Any]:
@@ -435,11 +459,20 @@ class IntelligentController(_Sampled):
         unlimited output over the limit at each sample.
     gain : {"constant", "variational", "external"}
         Gain adaptation: constant alpha, the paper's variational update (``gamma0``,
-        ``Gamma``, ``eps_M``, ``integrator``), or alpha passed to every call
+        ``Gamma``, ``eps_M``, ``integrator``, ``adapt_every``), or alpha passed to every call
         (``simulate_loop`` and ``sweep`` take it as ``alpha=``). With an external alpha
         the constructor's ``alpha`` only shows as ``gamma`` before the first derivative
         exists, and the algebraic estimator weighs its window's past inputs by the
         present alpha.
+    gamma0, Gamma, eps_M, integrator
+        The variational update (:mod:`mfcontrol.laws.variational_gain`): initial gamma
+        (default 1/alpha), its gain, the level eps_M, and ``"first-order"`` (the published
+        code's) or ``"second-order"`` (eq. 32 as printed).
+    adapt_every : int
+        Variational gain: gamma moves every m control samples and holds between (the
+        multi-rate integrator the paper points to: macro step m h, the force averaged
+        over it, Gamma scaled by m, or m^2 for the second-order integrator). 1, the
+        default, updates it at each sample.
     setpoint, starting_output : float
         Initial setpoint and the output held until the first derivative exists.
 
@@ -470,8 +503,8 @@ class IntelligentController(_Sampled):
                  predict: bool = False, anti_windup: str = "clamp", k_aw: float | None = None,
                  gain: str = "constant",
                  gamma0: float | None = None, Gamma: float = 5e-8, eps_M: float = 0.1,
-                 integrator: str = "first-order", setpoint: float = 0.0,
-                 starting_output: float = 0.0):
+                 integrator: str = "first-order", adapt_every: int = 1,
+                 setpoint: float = 0.0, starting_output: float = 0.0):
         alpha = _number("alpha", alpha, positive=True)
         _choice("order", order, (1, 2))
         _choice("estimator", estimator, tuple(intelligent.ESTIMATORS))
@@ -491,8 +524,7 @@ class IntelligentController(_Sampled):
         _choice("gain", gain, tuple(gain_law.MODES))
         _choice("integrator", integrator, ("first-order", "second-order"))
         lo, hi = _limits(output_limits)
-        if (not isinstance(delay, int | np.integer) or isinstance(delay, bool) or delay < 0
-                or delay > intelligent.MAX_DELAY):
+        if not isinstance(delay, int | np.integer) or isinstance(delay, bool) or delay < 0:
             raise ValueError(f"delay = {shown(delay)}: must be a whole number of samples "
                              f"from 0 to {intelligent.MAX_DELAY:,}")
         if not isinstance(predict, bool | np.bool_):
@@ -500,18 +532,19 @@ class IntelligentController(_Sampled):
         if predict and delay == 0:
             raise ValueError("predict = True: only a delay > 0 is predicted over: set "
                              "delay, or remove it")
-        if predict and order != 1:
-            raise ValueError(f"predict = True: the prediction is of order 1 (order = "
-                             f"{shown(order)}): set order=1, or remove it")
+        problem = intelligent.delay_problem(int(delay), bool(predict), int(order))
+        if problem:
+            key, allowed = problem
+            value = delay if key == "delay" else predict
+            raise ValueError(f"{key} = {shown(value)}: {allowed.format(order='order=')}")
         if estimator == "algebraic":
             if (not isinstance(window, int) or isinstance(window, bool) or window < 2
                     or window > estimators.MAX_WINDOW):
                 raise ValueError(f"window = {shown(window)}: must be a whole number of samples "
                                  f"from 2 to {estimators.MAX_WINDOW:,} for the algebraic "
                                  "estimator")
-            if order == 2 and window % 2 and kernel == "trapezoid":
-                raise ValueError(f"window = {shown(window)}: must be even for order 2 with "
-                                 "kernel='trapezoid' (Simpson's rule)")
+            if estimators.parity_problem(order, window, kernel or "held"):
+                raise ValueError(f"window = {shown(window)}: {estimators.EVEN_FOR_SIMPSON}")
         elif window is not None:
             raise ValueError(f"window = {shown(window)}: only the algebraic estimator has one")
         # the options of a choice not taken would be dropped in silence: refused
@@ -519,9 +552,10 @@ class IntelligentController(_Sampled):
             raise ValueError(f"k_aw = {shown(k_aw)}: only back-calculation anti-windup reads it: "
                              "set anti_windup='back-calculation', or remove it")
         if gain != "variational":
-            for name, value, default in (("gamma0", gamma0, None), ("Gamma", Gamma, 5e-8),
-                                         ("eps_M", eps_M, 0.1),
-                                         ("integrator", integrator, "first-order")):
+            unread: tuple[tuple[str, Any, Any], ...] = (
+                ("gamma0", gamma0, None), ("Gamma", Gamma, 5e-8), ("eps_M", eps_M, 0.1),
+                ("integrator", integrator, "first-order"), ("adapt_every", adapt_every, 1))
+            for name, value, default in unread:
                 if value != default:
                     raise ValueError(f"{name} = {shown(value)}: only the variational gain reads "
                                      "it: set gain='variational', or remove it")
@@ -541,7 +575,8 @@ class IntelligentController(_Sampled):
             # from_snapshot) starts from its own 1/alpha
             "gamma0": _number("gamma0", gamma0, allow_none=True),
             "Gamma": _number("Gamma", Gamma), "eps_M": _number("eps_M", eps_M),
-            "integrator": integrator, "setpoint": _number("setpoint", setpoint),
+            "integrator": integrator, "adapt_every": _whole("adapt_every", adapt_every),
+            "setpoint": _number("setpoint", setpoint),
             "starting_output": _number("starting_output", starting_output),
         }
         # (the algebraic estimator's window is a whole number: checked above)
@@ -554,6 +589,7 @@ class IntelligentController(_Sampled):
         cp[gain_law.GAMMA_RATE] = params["Gamma"]
         cp[gain_law.EPS_M] = params["eps_M"]
         cp[gain_law.ORDER] = 2.0 if integrator == "second-order" else 1.0
+        cp[gain_law.EVERY] = params["adapt_every"]
         cp[intelligent.N_ORDER] = order
         cp[intelligent.KP] = params["kp"]
         cp[intelligent.KI] = params["ki"]
@@ -583,14 +619,20 @@ class IntelligentController(_Sampled):
 
     @classmethod
     def _migrated(cls, snap: Any) -> Any:
-        """A snapshot taken before the estimators' kernel and start-up existed: its
-        controller with the discretisation and start it ran (``kernel="trapezoid"``,
-        ``startup="backward-difference"``, no delay) and its state with the row of
-        u_{k-2} put in (read by the held kernel only), so that it continues bit for bit."""
+        """An older snapshot as this version's, so that it continues bit for bit: taken
+        before the multi-rate gain update, with its rows (:func:`_with_multi_rate_rows`)
+        and ``adapt_every=1``; taken before the estimators' kernel and start-up existed,
+        with the discretisation and start it ran (``kernel="trapezoid"``,
+        ``startup="backward-difference"``, no delay) and the row of u_{k-2} put in (read
+        by the held kernel only)."""
+        snap = _with_multi_rate_rows(snap)
         if not isinstance(snap, Mapping) or not isinstance(snap.get("params"), Mapping) \
-                or "kernel" in snap["params"] or not isinstance(snap.get("state"), list):
+                or not isinstance(snap.get("state"), list):
             return snap
         params = dict(snap["params"])
+        params.setdefault("adapt_every", 1)
+        if "kernel" in params:
+            return {**snap, "params": params}
         algebraic = params.get("estimator") == "algebraic"
         params["kernel"] = "trapezoid" if algebraic or params.get("order") == 2 else None
         params["startup"] = "backward-difference" if algebraic else None
@@ -912,6 +954,11 @@ class RecursiveIP(_Controller):
         self._CP[recursive_ip.U0, 0] = raw
         self._last_output = start
 
+    @classmethod
+    def _migrated(cls, snap: Any) -> Any:
+        """A snapshot taken before the multi-rate gain update, with its rows."""
+        return _with_multi_rate_rows(snap)
+
     def _snapshot_extra(self) -> dict[str, Any]:
         # the first raw output after a bumpless start lives in the parameter column
         return {"start": float(self._CP[recursive_ip.U0, 0])}
@@ -966,7 +1013,8 @@ class RecursiveIP(_Controller):
 RECURSIVE_KEYS = ("controller.law", "controller.alpha", "controller.kp",
                   "controller.anti_windup", "controller.k_aw", "controller.gamma0",
                   "controller.Gamma", "controller.eps_M", "controller.k_gamma",
-                  "controller.integrator", "controller.rate_term", "controller.rate_sign",
+                  "controller.adapt_every", "controller.integrator", "controller.rate_term",
+                  "controller.rate_sign",
                   "controller.gain", "controller.deriv_scale", "controller.output_gain",
                   "controller.duty_min", "controller.duty_max", "controller.p_sample",
                   "controller.p_error", "controller.u0")

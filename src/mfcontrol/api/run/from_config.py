@@ -75,7 +75,8 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
         options["k_aw"] = cfg["controller.k_aw"]
     if options["gain"] == "variational":
         options.update(gamma0=cfg["controller.gamma0"], Gamma=cfg["controller.Gamma"],
-                       eps_M=cfg["controller.eps_M"], integrator=cfg["controller.integrator"])
+                       eps_M=cfg["controller.eps_M"], integrator=cfg["controller.integrator"],
+                       adapt_every=cfg["controller.adapt_every"])
     # each law reads only its own gains (a translator's reads say what a key affects);
     # an adapting gain starts from gamma0, alpha then unused (the option's default stands
     # in, unread)
