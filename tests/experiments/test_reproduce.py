@@ -27,7 +27,10 @@ def test_reproduce_writes_every_figure_table_and_the_report(tmp_path):
             assert (tmp_path / fid / name).exists(), name
     assert "## Robustness maps" in text and "## Long horizon" in text
     for fid in ("published", "paper"):
-        for study in ("noise", "sample_time", "frozen"):
+        for study in ("noise", "sample_time", "frozen", "symplectic", "operating_range"):
             assert (tmp_path / fid / f"claims-{study}.csv").exists(), study
-    assert "## The claims under noise, at a digital sample time, with the gain frozen" in text
+    assert ("## The claims under noise, at a digital sample time, with the gain frozen, "
+            "as a symplectic integrator, over the operating range") in text
+    assert "Eq. (32) as printed is the Stormer-Verlet step" in text
+    assert "The power output v_C i_L is a nonlinear map" in text
     assert len(messages) == 32 and messages[-1].startswith("[32/32]")

@@ -7,7 +7,9 @@ Layout of ``OUT``::
     FIDELITY/CASE-gamma.png         gamma(t) for the variational cases
     FIDELITY/SWEEP-gamma.png, SWEEP-error.png, SWEEP.csv
     FIDELITY/comparison-CASE.csv    the table behind each comparison
-    FIDELITY/claims-STUDY.csv       the claims under noise, at 20 us, with gamma frozen
+    FIDELITY/claims-STUDY.csv       the claims under noise, at 20 us, with gamma frozen,
+                                    as a symplectic integrator, over the power cases'
+                                    operating range
 
 Each file is written as soon as its run finishes, so an interrupted reproduction keeps
 everything it finished.
@@ -184,10 +186,13 @@ def reproduce(out: Path, fidelities: list[str],
         tick(f"{fid}/long horizon")
         studies[fid] = {"noise": claims.noise_study(fid),
                         "sample_time": claims.sample_time_study(fid),
-                        "frozen": claims.frozen_gain_study(fid)}
+                        "frozen": claims.frozen_gain_study(fid),
+                        "symplectic": claims.symplectic_study(fid),
+                        "operating_range": claims.operating_range_study(fid)}
         for study, frame in studies[fid].items():
             frame.to_csv(folder / f"claims-{study}.csv", index=False, float_format="%.17g")
-        tick(f"{fid}/claims under noise, at 20 us, with gamma frozen")
+        tick(f"{fid}/claims under noise, at 20 us, with gamma frozen, as a symplectic "
+             "integrator, over the operating range")
     path = out / "report.md"
     path.write_text(report.render(runs, tables, fidelities, maps_done, horizons, studies),
                     encoding="utf-8")
