@@ -104,6 +104,8 @@ VARIANTS = [
     ("buck-ipi", {}),
     ("boost-ipd", {}),
     ("first-order-ip-algebraic", {}),
+    ("first-order-ip-algebraic", {"controller.kernel": "delay-reduced",
+                                  "controller.lag": 3.0}),
 ]
 
 
@@ -177,7 +179,15 @@ def intelligent_controllers(draw):
         options.update(
             gamma0=draw(st.none() | st.floats(0.01, 10.0)), Gamma=draw(st.floats(-1e-3, 1e-3)),
             eps_M=draw(st.floats(-1.0, 1.0)),
-            integrator=draw(st.sampled_from(["first-order", "second-order"])))
+            integrator=draw(st.sampled_from(["first-order", "second-order"])),
+            adapt_every=draw(st.integers(1, 4)))
+    if estimator == "algebraic":
+        kernels = ["held", "trapezoid"] + (["delay-reduced"] if order == 1 else [])
+        options["kernel"] = draw(st.sampled_from(kernels))
+        if options["kernel"] == "trapezoid" and order == 2:
+            window += window % 2  # Simpson's rule
+        if options["kernel"] == "delay-reduced":
+            options["lag"] = draw(st.floats(0.0, 0.5 * window))
     return mfcontrol.IPID(
         alpha=draw(st.floats(0.1, 100.0)), kp=draw(gains), ki=draw(gains), kd=draw(gains),
         sample_time=draw(st.sampled_from([1e-6, 1e-3, 0.01, 0.1])), order=order,

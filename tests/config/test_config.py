@@ -903,3 +903,25 @@ def test_the_laws_own_rules_are_refused_in_the_keys_names(keys, message):
     with pytest.raises(ValueError, match="^" + message.removeprefix("controller.")
                        .replace("controller.order = ", "order=").replace("(", r"\(")):
         mfcontrol.IPD(alpha=1.0, kp=1.0, kd=1.0, sample_time=0.01, **live)
+
+
+@pytest.mark.parametrize("keys,message", [
+    ({"controller.kernel": "delay-reduced", "controller.order": 2},
+     "controller.kernel = 'delay-reduced': weighs the algebraic estimator's window"),
+    ({"controller.kernel": "delay-reduced", "controller.estimator": "algebraic",
+      "controller.window": 8, "controller.lag": 4.5},
+     "controller.lag = 4.5: must be from 0 to M/2 = 4 samples"),
+])
+def test_the_delay_reduced_kernels_rules_in_a_case(keys, message):
+    base = {"plant.model": "first-order", "controller.law": "i-P"}
+    with pytest.raises(ConfigError, match="^" + message):
+        resolve({**base, **keys})
+    # a case runs it: at lag M/2 it is the held kernel (to rounding), at lag 0 it is not
+    held = run_case("first-order-ip-algebraic").metrics["iae"]
+    centre = run_case("first-order-ip-algebraic", {"controller.kernel": "delay-reduced",
+                                                   "controller.lag": 10.0})
+    assert centre.metrics["iae"] == pytest.approx(held, rel=1e-9)
+    assert centre.config["controller.window"] == 20
+    newest = run_case("first-order-ip-algebraic", {"controller.kernel": "delay-reduced"})
+    assert newest.config["controller.lag"] is None  # the kernel's default, 0
+    assert abs(newest.metrics["iae"] / held - 1.0) > 0.1

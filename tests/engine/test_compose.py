@@ -42,6 +42,9 @@ CONTROLLERS = {
     "IPID-trapezoid-delay": lambda h: mfcontrol.IPID(
         alpha=1.0, kp=20.0, ki=5.0, kd=0.05, order=1, sample_time=h, estimator="algebraic",
         window=10, kernel="trapezoid", startup="backward-difference", delay=2),
+    "IPI-delay-reduced": lambda h: mfcontrol.IPI(
+        alpha=2.0, kp=6.0, ki=4.0, sample_time=h, estimator="algebraic", window=12,
+        kernel="delay-reduced", lag=2.5),
 }
 PLANTS = {
     "first-order": lambda: FirstOrder(a=-1.0, b=1.0, w=0.3),
@@ -368,6 +371,10 @@ VECTORISED_LAWS = {
         window=8, output_limits=(-24, 24), kernel="trapezoid", startup="backward-difference"),
     "IPI-delay": lambda kp: mfcontrol.IPI(alpha=50.0, kp=kp, ki=50.0, sample_time=1e-3,
                                           output_limits=(-24, 24), delay=2),
+    # each member its own lag (a block shares the kernel, not the lag)
+    "IPI-delay-reduced": lambda kp: mfcontrol.IPI(
+        alpha=50.0, kp=kp, ki=20.0, sample_time=1e-3, estimator="algebraic", window=8,
+        output_limits=(-24, 24), kernel="delay-reduced", lag=(kp + 40.0) % 4.0),
     # anti-windup differing between the members of a block (round(2 kp) = 3 j - 80: its
     # parity alternates with j)
     "IPI-mixed-anti-windup": lambda kp: mfcontrol.IPI(

@@ -43,19 +43,21 @@ def make_state(M, base=0, members=1):
     return CS
 
 
-def run(order, M, h, alpha, y, u, base=0, kernel="trapezoid"):
+def run(order, M, h, alpha, y, u, base=0, kernel="trapezoid", lag=0.0):
     """Push y_k, u_{k-1} one by one; return the estimates (NaN while the window fills)."""
     CS = make_state(M, base)
     f = np.empty(y.size)
+    code = est.KERNELS[kernel]
     for k in range(y.size):
-        est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE, order)
-        f[k] = est.estimate(CS, 0, base, M, h, alpha, order, est.KERNELS[kernel])
+        est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE,
+                 est.moment_order(float(order), code))
+        f[k] = est.estimate(CS, 0, base, M, h, alpha, order, code, lag)
     return f
 
 
-def direct(order, M, h, alpha, y, u, kernel="trapezoid"):
+def direct(order, M, h, alpha, y, u, kernel="trapezoid", lag=None):
     """The FIR form over every full window (k = M .. N-1), and the size of its terms."""
-    wy, wu = est.weights(order, M, h, alpha, kernel)
+    wy, wu = est.weights(order, M, h, alpha, kernel, lag)
     Y = sliding_window_view(y, M + 1)
     U = sliding_window_view(u[:-1], M)
     return Y @ wy + U @ wu, np.abs(Y * wy).sum(1) + np.abs(U * wu).sum(1)
@@ -358,9 +360,10 @@ def test_order_one_carries_its_moments_with_the_bits_they_have_beside_all(M):
         est.push(full, 0, 0, M, y, u, 2)
         np.testing.assert_array_equal(one[kept], full[kept])
         assert not one[left].any()
-        for kernel in est.KERNELS.values():
-            np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1, kernel),
-                                          est.sums(full, 0, 0, M, 1, kernel))
+        # (the delay-reduced kernel reads order 2's set: est.moment_order)
+        for kernel in (est.HELD, est.TRAPEZOID):
+            np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1, kernel, 0.0),
+                                          est.sums(full, 0, 0, M, 1, kernel, 0.0))
 
 
 def test_moments_are_carried_and_recomputed_only_every_M_samples():
@@ -447,3 +450,56 @@ def test_a_spread_push_does_work_independent_of_M():
             if k > M:
                 writes.append(int((CS != before).any(axis=1).sum()))
         assert max(writes) <= 3 + 2 * est.SPREAD_ROWS
+
+
+@pytest.mark.parametrize("M", [2, 5, 20, 64])
+@pytest.mark.parametrize("lag", [0.0, 0.25, 3.0, None])
+def test_the_delay_reduced_kernel_is_exact_for_an_affine_F_at_its_lag(M, lag):
+    # under a held +-1 input, F = 3 + 40 t (a ramp): F_hat = F(t_k - lag h) to rounding,
+    # for every lag from 0 to M/2 (None: M/2, the held kernel's point)
+    lag = 0.5 * M if lag is None else min(lag, 0.5 * M)
+    h, alpha, n = 1e-2, 2.0, 3 * M + 40
+    rng = np.random.default_rng(M)
+    u = rng.choice([-1.0, 1.0], n)
+    t = h * np.arange(n)
+    # y' = 3 + 40 t + alpha u_j on [t_j, t_j+1]: exact integral over each interval
+    y = np.concatenate([[0.0], np.cumsum(h * (3.0 + 40.0 * (t[:-1] + 0.5 * h))
+                                         + h * alpha * u[:-1])])
+    f = run(1, M, h, alpha, y, u, kernel="delay-reduced", lag=lag)
+    k = np.arange(M, n)
+    np.testing.assert_allclose(f[k], 3.0 + 40.0 * (t[k] - lag * h), rtol=0, atol=1e-9)
+    # the moments give the FIR form of the definition
+    fd, size = direct(1, M, h, alpha, y, u, "delay-reduced", lag)
+    np.testing.assert_allclose(f[M:], fd, rtol=0, atol=RTOL_SCALE * size.max())
+    # at lag M/2 it is the held kernel, weights and all
+    if lag == 0.5 * M:
+        held = est.weights(1, M, h, alpha, "held")
+        for a, b in zip(est.weights(1, M, h, alpha, "delay-reduced", lag), held, strict=True):
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max())
+
+
+def test_the_delay_reduced_kernels_noise_grows_as_its_lag_shrinks():
+    # the y weights' root sum of squares, the estimate's standard deviation per unit of
+    # white sensor noise: the held point (lag M/2) is the least noisy of the family
+    M, h = 20, 1e-3
+    gain = [np.sqrt(np.sum(est.weights(1, M, h, 1.0, "delay-reduced", lag)[0] ** 2))
+            for lag in (10.0, 5.0, 0.0)]
+    assert gain[0] < gain[1] < gain[2]
+    held = np.sqrt(np.sum(est.weights(1, M, h, 1.0, "held")[0] ** 2))
+    assert gain[0] == pytest.approx(held, rel=1e-12)
+    # the variance of a line's value at x* is var(centre) (1 + x*^2 / sigma^2) for
+    # uncorrelated relations; the relations share their end samples, so only a bound:
+    # at lag 0 between 2 and 4 times the held kernel's
+    assert 2.0 < gain[2] / held < 4.0
+
+
+def test_the_delay_reduced_kernels_rules():
+    est.check_window(1, 8, "delay-reduced", 0.0)
+    est.check_window(1, 8, "delay-reduced", 4.0)
+    with pytest.raises(ValueError, match=r"lag = 4.5: must be from 0 to M/2 = 4 samples"):
+        est.check_window(1, 8, "delay-reduced", 4.5)
+    with pytest.raises(ValueError, match="kernel = 'delay-reduced': the delay-reduced kernel "
+                       "is of model order 1"):
+        est.check_window(2, 8, "delay-reduced", 0.0)
+    with pytest.raises(ValueError, match="lag = 1.0: only the delay-reduced kernel"):
+        est.check_window(1, 8, "held", 1.0)

@@ -223,3 +223,38 @@ def test_kernel_and_startup_are_refused_where_they_change_nothing():
         mfcontrol.IPD(alpha=1.0, kp=1.0, kd=1.0, sample_time=0.1, delay=2, predict=True)
     assert mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1).snapshot()["params"]["kernel"] \
         is None
+
+
+@pytest.mark.parametrize("kernel,lag", [("held", None), ("delay-reduced", 0.0),
+                                        ("delay-reduced", 2.0), ("delay-reduced", 5.0)])
+def test_the_estimates_delay_sets_the_i_ps_error_on_a_ramp_in_F(kernel, lag):
+    # y' = b t + alpha u, held input: F_hat_k = F(t_k - tau) exactly (tau = lag h, or
+    # M h / 2 for the held kernel), and the i-P settles where the plant's mean F over the
+    # coming interval, F(t_k + h/2), exceeds F_hat_k by kp e: e = b (h/2 + tau) / kp
+    M, h, alpha, kp, b = 10, 1e-2, 2.0, 5.0, 3.0
+    ctrl = mfcontrol.IP(alpha=alpha, kp=kp, sample_time=h, estimator="algebraic", window=M,
+                        kernel=kernel, **({} if lag is None else {"lag": lag}))
+    y, e = 0.0, []
+    for k in range(600):
+        u = ctrl(y, setpoint=0.0)
+        e.append(y)
+        t = k * h
+        y += h * (b * (t + 0.5 * h) + alpha * u)
+    tau = (0.5 * M if lag is None else lag) * h
+    assert e[-1] == pytest.approx(b * (0.5 * h + tau) / kp, rel=1e-6)
+    assert ctrl.snapshot()["params"]["lag"] == lag
+
+
+def test_the_delay_reduced_kernel_is_refused_where_it_cannot_run():
+    with pytest.raises(ValueError, match="kernel = 'delay-reduced': weighs the algebraic"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, order=2, kernel="delay-reduced")
+    with pytest.raises(ValueError, match="kernel = 'delay-reduced': the delay-reduced kernel "
+                       "is of model order 1"):
+        mfcontrol.IPD(alpha=1.0, kp=1.0, kd=1.0, sample_time=0.1, estimator="algebraic",
+                      window=8, kernel="delay-reduced")
+    with pytest.raises(ValueError, match=r"lag = 4.5: must be from 0 to M/2 = 4 samples"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
+                     kernel="delay-reduced", lag=4.5)
+    with pytest.raises(ValueError, match="lag = 1.0: only the delay-reduced kernel has a lag"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
+                     lag=1.0)

@@ -782,7 +782,9 @@ class AlphaBounds(NamedTuple):
     upper: float
 
 
-KERNELS = tuple(estimators.KERNELS)
+#: the backward difference's discretisations (the algebraic estimator's delay-reduced
+#: kernel has none of its own: at order 1 the backward difference is the same)
+KERNELS = ("trapezoid", "held")
 
 
 def _characteristic(g: float, a: float, b: float, order: int, kernel: str) -> np.ndarray:
@@ -991,7 +993,7 @@ def alpha_warning(controller: Any, plant: Any) -> str | None:
     alpha = 1.0 / c[gain_law.INV_ALPHA]
     if not (math.isfinite(beta) and math.isfinite(alpha)):
         return None  # a plant or gain beyond floating point: the run itself says so
-    kernel = estimators.kernel_name(c[intelligent.KERNEL])
+    kernel = "trapezoid" if c[intelligent.KERNEL] == estimators.TRAPEZOID else "held"
     model = "y' = beta u" if order == 1 else "y'' = beta u"
     where = (f"on the plant's fast part {model}, beta = {beta:.4g} (its high-frequency "
              "gain at x0)")

@@ -143,8 +143,13 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.kernel", "str", "held", "positional laws, algebraic estimator or n = 2: "
        "the estimator's discretisation; held: exact for a constant F under the held "
        "input (the i-P then has no steady-state error); trapezoid: the literature's "
-       "trapezoid / Simpson rule and alpha u_{k-1}, half a sample out of line",
-       ("held", "trapezoid")),
+       "trapezoid / Simpson rule and alpha u_{k-1}, half a sample out of line; "
+       "delay-reduced (algebraic, n = 1): the held relations' weighted line at "
+       "controller.lag samples back, exact for F affine in time",
+       ("held", "trapezoid", "delay-reduced")),
+    _o("controller.lag", "float", None, "delay-reduced kernel: the sample time the estimate "
+       "belongs to, samples back from the newest (0, the default: none, for F affine in "
+       "time; M/2: the held kernel's), from 0 to M/2"),
     _o("controller.delay", "int", 0, "positional laws: the loop's input delay the law "
        "compensates (samples; the actuator's and sensor's together): F is estimated with "
        "the input the plant received", check="nonnegative"),

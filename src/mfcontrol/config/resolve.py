@@ -409,6 +409,17 @@ def _check_consistency(v: dict[str, Any]) -> None:
                                                v["controller.kernel"]):
         raise ConfigError("controller.window", v["controller.window"],
                           estimators.EVEN_FOR_SIMPSON)
+    if positional and v["controller.kernel"] == "delay-reduced":
+        if not algebraic:
+            raise ConfigError("controller.kernel", "delay-reduced", "weighs the algebraic "
+                              "estimator's window: set controller.estimator = algebraic")
+        lag = v["controller.lag"]
+        problem = estimators.kernel_problem(v["controller.order"], v["controller.window"],
+                                            "delay-reduced", 0.0 if lag is None else lag)
+        if problem:
+            key, allowed = problem
+            raise ConfigError(f"controller.{key}",
+                              "delay-reduced" if key == "kernel" else lag, allowed)
     n = round(v["sim.t_end"] / v["sim.h"])
     if algebraic and v["controller.window"] >= min(n, estimators.MAX_WINDOW + 1):
         # a window the run never fills estimates nothing (and would allocate its ring)

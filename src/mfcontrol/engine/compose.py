@@ -548,8 +548,9 @@ def _estimator_lanes(D, M, order, kernel, live):
         cs[u_row + slot, i] = cs[intelligent.U1, i]
     half = 0.5 * M
     par_in, par_out = n % 2, (n + M + 1) % 2
-    # the moments the order carries, constants in each branch
-    if order == 1:
+    # the moments the order and kernel carry, constants in each branch
+    moments = int(estimators.moment_order(float(order), kernel))
+    if moments == 1:
         n_y, n_u = estimators.moments_of(1)
         _moments_parities(D, half, par_in, par_out, n_y, n_u)
     else:
@@ -559,17 +560,22 @@ def _estimator_lanes(D, M, order, kernel, live):
     for i in range(LANES):
         cs[base + estimators.COUNT, i] = count
     if estimators.resync_due(n, M):
-        estimators.resync_members(cs, 0, LANES, base, M, order)
+        estimators.resync_members(cs, 0, LANES, base, M, moments)
     full, oldest, newest, parity = estimators.window(cs, live, base, M)
     # the kernel a literal in each loop (the block's members share it)
     if full and kernel == estimators.HELD:
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
-                                                      parity, estimators.HELD)
+                                                      parity, estimators.HELD, 0.0)
+    elif full and kernel == estimators.DELAY_REDUCED:
+        for i in range(LANES):
+            D[_SY, i], D[_SU, i] = estimators.sums_at(
+                cs, i, base, M, order, oldest, newest, parity, estimators.DELAY_REDUCED,
+                D[_CP0 + intelligent.LAG, i])
     elif full:
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
-                                                      parity, estimators.TRAPEZOID)
+                                                      parity, estimators.TRAPEZOID, 0.0)
     else:
         for i in range(LANES):
             D[_SY, i] = np.nan

@@ -21,7 +21,9 @@ F_hat, selectable:
   beta/2.
 * algebraic: the integral estimator of :mod:`mfcontrol.laws.estimators` over the last M
   samples (its value belongs to t - M dt / 2), with the same ``kernel`` choice (exact
-  under a held input, or the literature's trapezoid / Simpson rule). Until its window is
+  under a held input, or the literature's trapezoid / Simpson rule), or for n = 1 the
+  ``delay-reduced`` kernel, whose value belongs to t - lag dt (exact for F affine in
+  time). Until its window is
   full the ``startup`` decides: ``hold`` holds the output (u_init, or the bumpless start)
   for the first M samples, so the loop first runs on a full window; ``backward-difference``
   lets the backward difference stand in, whose stability bound (alpha > beta (2 + K_P h)
@@ -64,11 +66,12 @@ OUT_MAX = variational_gain.N_PARAMS + 7
 AW = variational_gain.N_PARAMS + 8  # 0 none, 1 clamp, 2 back-calculation
 K_AW = variational_gain.N_PARAMS + 9
 U_INIT = variational_gain.N_PARAMS + 10
-KERNEL = variational_gain.N_PARAMS + 11  # estimators.TRAPEZOID or HELD
+KERNEL = variational_gain.N_PARAMS + 11  # estimators.TRAPEZOID, HELD or DELAY_REDUCED
 STARTUP = variational_gain.N_PARAMS + 12  # START_BACKWARD or START_HOLD
 DELAY = variational_gain.N_PARAMS + 13  # the loop's known input delay d, samples
 PREDICT = variational_gain.N_PARAMS + 14  # 1: the error predicted over the delay
-N_PARAMS = variational_gain.N_PARAMS + 15
+LAG = variational_gain.N_PARAMS + 15  # the delay-reduced kernel's lag, samples
+N_PARAMS = variational_gain.N_PARAMS + 16
 #: the longest delay a law compensates, samples: a queue of that many outputs per member
 #: (0.8 MB each; the loop elements' own delays go to 1,000,000, in a ring per thread)
 MAX_DELAY = 100_000
@@ -340,7 +343,8 @@ def step(CP, CS, j, y, r, dt):
     if d > 0.0:
         u1, u2, s_u = in_flight(CP, CS, j, k, d)
     if algebraic:
-        estimators.push(CS, j, EST_BASE, int(CP[M_WIN, j]), y, u1, n)
+        estimators.push(CS, j, EST_BASE, int(CP[M_WIN, j]), y, u1,
+                        estimators.moment_order(n, CP[KERNEL, j]))
     if k < held(CP, j, n, algebraic):
         u = CS[U1, j]
         CS[C_UNLIM, j] = u
@@ -350,7 +354,7 @@ def step(CP, CS, j, y, r, dt):
         su = 0.0
         if algebraic:
             sy, su = estimators.sums(CS, j, EST_BASE, int(CP[M_WIN, j]), int(n),
-                                     CP[KERNEL, j])
+                                     CP[KERNEL, j], CP[LAG, j])
         predict = d > 0.0 and CP[PREDICT, j] != 0.0
         u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic, sy, su, u1, u2,
                            predict, s_u, d)

@@ -424,7 +424,7 @@ class IntelligentController(_Sampled):
         it). Set it to keep a finite outlier out of the law's memory.
     estimator : {"backward-difference", "algebraic"}
         How F is estimated; ``window`` (samples) for the algebraic one.
-    kernel : {"held", "trapezoid"}, optional
+    kernel : {"held", "trapezoid", "delay-reduced"}, optional
         How the estimator is discretised (:mod:`mfcontrol.laws.estimators`), for the
         algebraic estimator and the order-2 backward difference (the order-1 backward
         difference has one, exact: giving it one is refused). ``"held"``
@@ -435,7 +435,14 @@ class IntelligentController(_Sampled):
         literature's discretisation (trapezoid / Simpson rule, ``alpha u_{k-1}``): off by
         about ``0.8 alpha |du| / M`` under a moving input, and the order-1 i-P keeps a
         steady-state error ``-alpha u / (kp M^2)``; the algebraic order-2 window must then
-        be even.
+        be even. ``"delay-reduced"`` (algebraic, order 1; Mboup, Join and Fliess's affine
+        Jacobi estimator): the weighted least-squares line through the held relations,
+        evaluated ``lag`` samples back, so F_hat = F(t_k - lag h) exactly for F affine in
+        time under any held input; the noise it passes grows as lag shrinks.
+    lag : float, optional
+        The delay-reduced kernel's point, samples back from the newest: 0 (its default) to
+        window/2 (the held kernel's weights, whose estimate belongs to the window's
+        centre). Only that kernel has one.
     startup : {"hold", "backward-difference"}, optional
         The algebraic estimator's start, until its window is full (only it has one):
         ``"hold"`` (the default) holds ``starting_output`` for the first ``window`` samples;
@@ -499,7 +506,8 @@ class IntelligentController(_Sampled):
                  output_limits: tuple[float | None, float | None] = (None, None),
                  input_limits: tuple[float | None, float | None] = (None, None),
                  estimator: str = "backward-difference", window: int | None = None,
-                 kernel: str | None = None, startup: str | None = None, delay: int = 0,
+                 kernel: str | None = None, lag: float | None = None,
+                 startup: str | None = None, delay: int = 0,
                  predict: bool = False, anti_windup: str = "clamp", k_aw: float | None = None,
                  gain: str = "constant",
                  gamma0: float | None = None, Gamma: float = 5e-8, eps_M: float = 0.1,
@@ -547,6 +555,17 @@ class IntelligentController(_Sampled):
                 raise ValueError(f"window = {shown(window)}: {estimators.EVEN_FOR_SIMPSON}")
         elif window is not None:
             raise ValueError(f"window = {shown(window)}: only the algebraic estimator has one")
+        if kernel == "delay-reduced" and estimator != "algebraic":
+            raise ValueError("kernel = 'delay-reduced': weighs the algebraic estimator's "
+                             "window: set estimator='algebraic'")
+        if lag is not None:
+            lag = _number("lag", lag)
+        if kernel == "delay-reduced" and lag is None:
+            lag = 0.0  # the default: no delay for F affine in time
+        problem = estimators.kernel_problem(order, window or 0, kernel or "held", lag)
+        if problem:
+            key, allowed = problem
+            raise ValueError(f"{key} = {shown(kernel if key == 'kernel' else lag)}: {allowed}")
         # the options of a choice not taken would be dropped in silence: refused
         if k_aw is not None and anti_windup != "back-calculation":
             raise ValueError(f"k_aw = {shown(k_aw)}: only back-calculation anti-windup reads it: "
@@ -565,6 +584,7 @@ class IntelligentController(_Sampled):
                                                             positive=True),
             "order": int(order), "output_limits": [lo, hi], "estimator": estimator,
             "window": window, "kernel": (kernel or "held") if kernel_applies else None,
+            "lag": lag,
             "delay": int(delay),
             "predict": bool(predict),
             "startup": (startup or "hold") if estimator == "algebraic" else None,
@@ -597,6 +617,7 @@ class IntelligentController(_Sampled):
         cp[intelligent.EST] = intelligent.ESTIMATORS[estimator]
         cp[intelligent.M_WIN] = m
         cp[intelligent.KERNEL] = intelligent.KERNELS[params["kernel"] or "held"]
+        cp[intelligent.LAG] = 0.0 if lag is None else lag
         cp[intelligent.STARTUP] = intelligent.STARTUPS[params["startup"] or "hold"]
         cp[intelligent.DELAY] = params["delay"]
         cp[intelligent.PREDICT] = 1.0 if params["predict"] else 0.0
@@ -631,6 +652,7 @@ class IntelligentController(_Sampled):
             return snap
         params = dict(snap["params"])
         params.setdefault("adapt_every", 1)
+        params.setdefault("lag", None)  # (before the delay-reduced kernel)
         if "kernel" in params:
             return {**snap, "params": params}
         algebraic = params.get("estimator") == "algebraic"

@@ -66,6 +66,8 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
     # mfcontrol show and a run's config.toml print these keys)
     if options["estimator"] == "algebraic" or options["order"] == 2:
         options["kernel"] = cfg["controller.kernel"]
+        if options["kernel"] == "delay-reduced":
+            options["lag"] = cfg["controller.lag"]
     if options["estimator"] == "algebraic":
         options["startup"] = cfg["controller.startup"]
     options["delay"] = cfg["controller.delay"]
