@@ -925,3 +925,20 @@ def test_the_delay_reduced_kernels_rules_in_a_case(keys, message):
     newest = run_case("first-order-ip-algebraic", {"controller.kernel": "delay-reduced"})
     assert newest.config["controller.lag"] is None  # the kernel's default, 0
     assert abs(newest.metrics["iae"] / held - 1.0) > 0.1
+
+
+def test_the_rls_gain_in_a_case():
+    base = {"plant.model": "first-order", "controller.law": "i-P", "controller.adapt": "rls"}
+    with pytest.raises(ConfigError, match=r"^controller.forgetting = 1.5: must be in \(0, 1\]"):
+        resolve({**base, "controller.forgetting": 1.5})
+    with pytest.raises(ConfigError, match="^controller.alpha_max = 0.5: must be at least the "
+                       "starting alpha"):
+        resolve({**base, "controller.alpha": 1.0, "controller.alpha_max": 0.5})
+    with pytest.raises(ConfigError, match="^controller.forgetting = 0.9: not read"):
+        resolve_case("first-order-ip-algebraic", {"controller.forgetting": 0.9},
+                     command="run")
+    with pytest.raises(ConfigError, match="^controller.adapt = 'rls': the exact estimate "
+                       "alpha = beta"):
+        resolve({**base, "controller.kp": 1e3, "sim.h": 0.01, "sim.t_end": 1.0})
+    r = mfcontrol.simulate(resolve({**base, "controller.forgetting": 0.98}))
+    assert r.config["controller.adapt"] == "rls" and not r.metrics["diverged"]

@@ -45,6 +45,9 @@ CONTROLLERS = {
     "IPI-delay-reduced": lambda h: mfcontrol.IPI(
         alpha=2.0, kp=6.0, ki=4.0, sample_time=h, estimator="algebraic", window=12,
         kernel="delay-reduced", lag=2.5),
+    "IPI-rls": lambda h: mfcontrol.IPI(alpha=2.0, kp=6.0, ki=4.0, sample_time=h,
+                                       output_limits=(-1.2, 1.2), gain="rls",
+                                       forgetting=0.98),
 }
 PLANTS = {
     "first-order": lambda: FirstOrder(a=-1.0, b=1.0, w=0.3),
@@ -371,6 +374,9 @@ VECTORISED_LAWS = {
         window=8, output_limits=(-24, 24), kernel="trapezoid", startup="backward-difference"),
     "IPI-delay": lambda kp: mfcontrol.IPI(alpha=50.0, kp=kp, ki=50.0, sample_time=1e-3,
                                           output_limits=(-24, 24), delay=2),
+    "IPI-rls": lambda kp: mfcontrol.IPI(alpha=50.0, kp=kp, ki=20.0, sample_time=1e-3,
+                                        output_limits=(-24, 24), gain="rls",
+                                        forgetting=0.95 + 0.0004 * (kp + 40.0)),
     # each member its own lag (a block shares the kernel, not the lag)
     "IPI-delay-reduced": lambda kp: mfcontrol.IPI(
         alpha=50.0, kp=kp, ki=20.0, sample_time=1e-3, estimator="algebraic", window=8,

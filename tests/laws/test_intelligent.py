@@ -10,6 +10,8 @@
   loop the full estimator holds, where the backward difference standing in blows it up.
 """
 
+import math
+
 import control
 import numpy as np
 import pytest
@@ -192,7 +194,7 @@ def test_a_snapshot_from_before_the_multi_rate_rows_continues_bit_for_bit():
         ctrl = cls.from_snapshot(case["snapshot"])
         out = [ctrl(y, setpoint=1.0) for y in case["measurements"]]
         assert out == case["outputs"], name
-        assert ctrl.snapshot()["layout"] == 2
+        assert ctrl.snapshot()["layout"] == 3
 
 
 def test_multi_rate_gamma_holds_between_updates_in_the_intelligent_law():
@@ -258,3 +260,81 @@ def test_the_delay_reduced_kernel_is_refused_where_it_cannot_run():
     with pytest.raises(ValueError, match="lag = 1.0: only the delay-reduced kernel has a lag"):
         mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
                      lag=1.0)
+
+
+def _first_order_run(ctrl, n, beta=50.0, h=1e-3, period=500):
+    """y' = -y + beta u under the held input, a square-wave setpoint; the alphas used."""
+    y, alphas = 0.0, []
+    for k in range(n):
+        ctrl(y, setpoint=1.0 if (k // period) % 2 == 0 else -1.0)
+        alphas.append(1.0 / ctrl.gamma)
+        y = y * math.exp(-h) + beta * ctrl.last_output * (1.0 - math.exp(-h))
+    return np.array(alphas)
+
+
+def test_the_rls_gain_is_least_squares_with_its_prior():
+    # forgetting 1: the recursion is the batch least-squares fit of y'_k = F + alpha u_{k-1}
+    # with the prior (F, alpha) = (0, alpha0), variances RLS_P0_F, RLS_P0_ALPHA (the
+    # regression divided by alpha0), to rounding
+    from mfcontrol.laws import intelligent as law
+    from mfcontrol.laws import variational_gain as vg
+
+    h, a0 = 1e-3, 10.0
+    ctrl = mfcontrol.IPI(alpha=a0, kp=20.0, ki=50.0, sample_time=h, gain="rls",
+                         forgetting=1.0)
+    ys, us = [], []
+    y = 0.0
+    for k in range(300):
+        ys.append(y)
+        us.append(ctrl(y, setpoint=1.0 if k < 150 else -1.0))
+        y = y * math.exp(-h) + 50.0 * us[-1] * (1.0 - math.exp(-h))
+    ys, us = np.array(ys), np.array(us)
+    z = (ys[1:] - ys[:-1]) / h / a0  # from sample 1 on, y'_k with u_{k-1}
+    phi = np.column_stack([np.ones(z.size), us[:-1]])
+    prior = np.diag([1 / vg.RLS_P0_F, 1 / vg.RLS_P0_ALPHA])
+    theta = np.linalg.solve(phi.T @ phi + prior, phi.T @ z + prior @ [0.0, 1.0])
+    cs = ctrl._CS[:, 0]
+    np.testing.assert_allclose([cs[law.RLS_F], cs[law.RLS_A]], theta, rtol=1e-9)
+    assert 1.0 / ctrl.gamma == pytest.approx(a0 * theta[1], rel=1e-12)
+
+
+def test_the_rls_gain_finds_the_plants_gain_and_keeps_its_limits():
+    h, beta = 1e-3, 50.0
+    # the held input's exact discrete gain of y' = -y + beta u: beta (1 - e^-h) / h
+    exact = beta * (1.0 - math.exp(-h)) / h
+    alphas = _first_order_run(mfcontrol.IPI(alpha=10.0, kp=20.0, ki=50.0, sample_time=h,
+                                            gain="rls"), 3000)
+    # F = -y moves with the loop: the forgetting window sees it, within 0.2 %
+    assert alphas[-1] == pytest.approx(exact, rel=2e-3)
+    assert alphas[0] == 10.0  # the start, before the first derivative
+    clipped = _first_order_run(mfcontrol.IPI(alpha=10.0, kp=20.0, ki=50.0, sample_time=h,
+                                             gain="rls", alpha_limits=(5.0, 20.0)), 3000)
+    assert clipped.max() == 20.0 and clipped.min() >= 5.0
+
+
+def test_the_rls_gain_does_not_wind_up_at_rest():
+    # a constant input excites nothing: the covariance stops at its cap instead of
+    # growing by 1/lambda per sample
+    from mfcontrol.laws import intelligent as law
+    from mfcontrol.laws import variational_gain as vg
+
+    ctrl = mfcontrol.IP(alpha=10.0, kp=5.0, sample_time=1e-3, gain="rls", forgetting=0.9)
+    for _ in range(5000):
+        ctrl(0.0, setpoint=0.0)
+    cs = ctrl._CS[:, 0]
+    assert cs[law.RLS_P11] + cs[law.RLS_P22] <= (vg.RLS_P0_F + vg.RLS_P0_ALPHA) / 0.9
+    assert 1.0 / ctrl.gamma == 10.0
+
+
+def test_the_rls_gain_is_refused_where_its_exact_estimate_breaks_the_bound():
+    # the backward difference on y' = beta u with alpha = beta needs kp h < 2
+    with pytest.raises(ValueError, match=r"gain = 'rls': the exact estimate alpha = beta"):
+        mfcontrol.IP(alpha=1.0, kp=300.0, sample_time=0.01, gain="rls")
+    mfcontrol.IP(alpha=1.0, kp=150.0, sample_time=0.01, gain="rls")
+    with pytest.raises(ValueError, match=r"forgetting = 1.5: must be in \(0, 1\]"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01, gain="rls", forgetting=1.5)
+    with pytest.raises(ValueError, match=r"alpha_limits = \[2.0, 10.0\]: must be > 0 and at "
+                       "most the starting alpha = 1"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01, gain="rls", alpha_limits=(2, 10))
+    with pytest.raises(ValueError, match="forgetting = 0.9: only the rls gain reads it"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.01, forgetting=0.9)

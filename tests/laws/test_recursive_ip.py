@@ -124,8 +124,9 @@ def test_from_STEADY_on_the_law_depends_on_k_only_through_its_state(
         k, y, r, state, count, mode, order, every, use_gamma, rate_coef):
     # the sweep kernel passes STEADY for every later sample: that must change nothing
     from mfcontrol.laws.recursive_ip import STEADY, advance
-    params = (mode, 0.1, 1.0, 1e-6, 0.01, order, every, 2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef,
-              use_gamma, 1 / 2000, 1e-3, 0.9, 0.0)
+    # the gain adaptation's rows (mode .. every, then the rls gain's three), the law's
+    params = (mode, 0.1, 1.0, 1e-6, 0.01, order, every, 0.99, 0.01, 10.0,
+              2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef, use_gamma, 1 / 2000, 1e-3, 0.9, 0.0)
     state = (*state, float(count))
     assert advance(float(k), y, r, *state, params) == advance(STEADY, y, r, *state, params)
 

@@ -943,6 +943,34 @@ def backward_difference_bound(beta: float, kp: float, dt: float, order: int = 1,
     return AlphaBounds(beta / g_hi, beta / g_lo)
 
 
+def rls_bound_problem(kp: Any, kd: Any, dt: Any, order: int, estimator: str,
+                      startup: str | None, kernel: str) -> str | None:
+    """Why an rls gain cannot run with these gains, or None. The rls gain drives alpha to
+    the plant's own high-frequency gain beta; where the estimator of F is the backward
+    difference (at least at its start), the loop must then be stable at alpha = beta,
+    the exact estimate (:func:`backward_difference_bound` at beta = 1). The one statement
+    of the rule: the live controllers and the configuration refuse it in their keys'
+    names."""
+    backward = estimator != "algebraic" or startup == "backward-difference"
+    try:
+        kp, kd, dt = float(kp), float(kd), float(dt)
+    except (TypeError, ValueError):
+        return None  # refused by name where the gains are read
+    if not backward or not kp > 0.0 or not dt > 0.0 or not kd >= 0.0:
+        return None
+    bound = backward_difference_bound(1.0, kp, dt, order, kd=kd,
+                                      kernel="trapezoid" if kernel == "trapezoid" else "held")
+    where = (f"at kp = {kp:g}, kd = {kd:g}, sample time {dt:g}: lower kp (and kd) or the "
+             "sample time")
+    if bound is None:
+        return f"no alpha keeps the backward-difference loop stable {where}"
+    if not bound.lower < 1.0 < bound.upper:
+        return (f"the exact estimate alpha = beta (the plant's own gain) is outside the "
+                f"backward-difference loop's stable range, {bound.lower:.4g} beta < alpha "
+                f"< {bound.upper:.4g} beta, {where}")
+    return None
+
+
 def alpha_warning(controller: Any, plant: Any) -> str | None:
     """Why an intelligent controller's alpha breaks the backward-difference bound on a
     plant, or None: the check a single run makes before it starts (it warns, then runs).

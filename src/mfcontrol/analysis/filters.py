@@ -149,12 +149,13 @@ def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) ->
     rows) at sample period ``dt``, as a :class:`LinearFilter`.
 
     ``gamma``: the gain the filter holds. Default 1/alpha for a constant gain; required
-    for the variational and the external gain, whose gamma moves (the filter is then the
-    law frozen at that gamma)."""
+    for the variational, external and rls gains, whose gamma moves (the filter is then
+    the law frozen at that gamma)."""
     mode = CP[gain_law.MODE]
     if gamma is None:
         if mode != gain_law.CONSTANT:
-            kind = "variational" if mode == gain_law.VARIATIONAL else "external"
+            kind = {gain_law.VARIATIONAL: "variational", gain_law.RLS: "rls"}.get(
+                mode, "external")
             raise ValueError(f"gamma = None: a {kind} gain moves; give the gamma (1/alpha) "
                              "at which to analyse the law")
         gamma = CP[gain_law.INV_ALPHA]

@@ -167,7 +167,15 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.k_aw", "float", None, "back-calculation gain (1/s); absent: 1/sim.h",
        check="positive"),
     _o("controller.adapt", "str", "constant", "positional laws: gain adaptation (variational "
-       "uses gamma0, Gamma, eps_M, integrator)", ("constant", "variational")),
+       "uses gamma0, Gamma, eps_M, integrator, adapt_every; rls estimates alpha online from "
+       "controller.alpha, with forgetting, alpha_min, alpha_max)",
+       ("constant", "variational", "rls")),
+    _o("controller.forgetting", "float", 0.99, "rls: forgetting factor in (0, 1] (0.99 "
+       "weighs about the last 100 samples, 1 all of them)"),
+    _o("controller.alpha_min", "float", None, "rls: the estimate's lower clip (default "
+       "controller.alpha / 10)"),
+    _o("controller.alpha_max", "float", None, "rls: the estimate's upper clip (default "
+       "10 controller.alpha)"),
     _o("controller.gamma0", "float", 1.0, "variational: initial gamma"),
     _o("controller.Gamma", "float", 5e-8, "variational: integrator gain Gamma (the paper "
        "states 5e-8; code v1.0.1 uses h^2/K_gamma = 1e-12 for single runs)"),

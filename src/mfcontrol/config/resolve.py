@@ -18,7 +18,7 @@ import numpy as np
 
 from ..elements import noise
 from ..errors import ConfigError, as_float
-from ..laws import estimators, intelligent
+from ..laws import estimators, intelligent, variational_gain
 from ..numerics import grid
 from .options import (
     BY_KEY,
@@ -409,7 +409,33 @@ def _check_consistency(v: dict[str, Any]) -> None:
                                                v["controller.kernel"]):
         raise ConfigError("controller.window", v["controller.window"],
                           estimators.EVEN_FOR_SIMPSON)
-    if positional and v["controller.kernel"] == "delay-reduced":
+    if positional and v["controller.adapt"] == "rls":
+        alpha = v["controller.alpha"]
+        lo, hi = v["controller.alpha_min"], v["controller.alpha_max"]
+        lo = alpha / 10.0 if lo is None else lo
+        hi = alpha * 10.0 if hi is None else hi
+        problem = variational_gain.rls_problem(alpha, v["controller.forgetting"], lo, hi)
+        if problem:
+            key, allowed = problem
+            value = {"forgetting": v["controller.forgetting"], "alpha_min": lo,
+                     "alpha_max": hi}[key]
+            raise ConfigError(f"controller.{key}", value, allowed)
+        from ..analysis.alpha import rls_bound_problem
+
+        order = v["controller.order"]
+        kernel = v["controller.kernel"] if algebraic or order == 2 else "held"
+        # each key read only where the law reads it (a key read here counts as read)
+        kd = v["controller.kd"] if v["controller.law"] in ("i-PD", "i-PID") else 0.0
+        text = rls_bound_problem(v["controller.kp"], kd, v["sim.h"], order,
+                                 v["controller.estimator"],
+                                 v["controller.startup"] if algebraic else None, kernel)
+        if text:
+            raise ConfigError("controller.adapt", "rls", text)
+    # (the kernel is read by the algebraic estimator and the order-2 backward difference;
+    # elsewhere the reads refuse it as unread)
+    # (read only where it is: a key read here counts as read by the run)
+    if positional and (algebraic or v["controller.order"] == 2) \
+            and v["controller.kernel"] == "delay-reduced":
         if not algebraic:
             raise ConfigError("controller.kernel", "delay-reduced", "weighs the algebraic "
                               "estimator's window: set controller.estimator = algebraic")

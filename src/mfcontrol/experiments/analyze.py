@@ -247,7 +247,8 @@ def _loop(ctrl: Any, plant: Any, gamma: float | None, delay: int, substeps: int,
 
 def _held_gamma(ctrl: Any, gamma: float | None) -> float | None:
     """The gamma at which to hold a law whose gain moves: the one given, else the
-    variational law's start gamma0; None for a law whose gain is constant."""
+    variational law's start gamma0 or the rls law's 1/alpha; None for a law whose gain is
+    constant."""
     from ..laws import variational_gain as gain_law
 
     CP = getattr(ctrl, "_CP", None)
@@ -258,6 +259,8 @@ def _held_gamma(ctrl: Any, gamma: float | None) -> float | None:
         return gamma
     if mode == gain_law.VARIATIONAL:
         return float(CP[gain_law.GAMMA0, 0])
+    if mode == gain_law.RLS:  # where its estimate starts
+        return float(CP[gain_law.INV_ALPHA, 0])
     raise ValueError("gamma = None: this controller's gain is given from outside at every "
                      "call (gain='external'); give the gamma (1/alpha) to analyse it at")
 
@@ -307,8 +310,8 @@ def analyze(case_or_controller: Any, plant: Any = None,
     overrides : mapping, optional
         Dotted keys set on the case first (as ``--set``).
     gamma : float, optional
-        The gain at which to hold a law whose gain moves (variational, external); default
-        the variational law's gamma0.
+        The gain at which to hold a law whose gain moves (variational, external, rls);
+        default the variational law's gamma0, the rls law's starting 1/alpha.
     operating_point : float, optional
         The output level at which to linearise a nonlinear plant: the steady state with
         that output. Default: the reference at the end of the case's run (with a

@@ -6,7 +6,8 @@ Ultra-local model of order n = 1 or 2, ``y^(n) = F + alpha u``, error ``e = y - 
 
 i-P has K_I = K_D = 0, i-PI adds the integral, i-PD (n = 2) the derivative, i-PID all
 three. ``1/alpha`` is the gain gamma of :mod:`mfcontrol.laws.variational_gain` (constant, the
-variational update of the paper driven by the error derivative, or supplied by the caller).
+variational update of the paper driven by the error derivative, supplied by the caller,
+or estimated online by recursive least squares: :func:`_rls`).
 
 F_hat, selectable:
 
@@ -119,7 +120,13 @@ C_I = variational_gain.N_STATE + 11
 C_D = variational_gain.N_STATE + 12
 C_UNLIM = variational_gain.N_STATE + 13
 U2 = variational_gain.N_STATE + 14  # applied u_{k-2}
-EST_BASE = variational_gain.N_STATE + 15
+# the rls gain's estimate (F / alpha0, alpha / alpha0) and covariance P (11, 12, 22)
+RLS_F = variational_gain.N_STATE + 15
+RLS_A = variational_gain.N_STATE + 16
+RLS_P11 = variational_gain.N_STATE + 17
+RLS_P12 = variational_gain.N_STATE + 18
+RLS_P22 = variational_gain.N_STATE + 19
+EST_BASE = variational_gain.N_STATE + 20
 #: the terms of the bracket by signal name: a live controller's ``components`` and the
 #: engine's recorded trajectory rows both read these
 COMPONENTS = (("F_hat", C_F), ("feedforward", C_FF), ("P", C_P), ("I", C_I), ("D", C_D))
@@ -169,6 +176,10 @@ def reset(CP, CS, j):
         CS[row, j] = 0.0
     CS[U1, j] = CP[U_INIT, j]
     CS[U2, j] = CP[U_INIT, j]
+    # rls: the prior, alpha = alpha0 (the regression is normalised by it)
+    CS[RLS_A, j] = 1.0
+    CS[RLS_P11, j] = variational_gain.RLS_P0_F
+    CS[RLS_P22, j] = variational_gain.RLS_P0_ALPHA
     if CP[EST, j] == ALGEBRAIC:
         estimators.reset(CS, j, EST_BASE, int(CP[M_WIN, j]))
     fill_queue(CP, CS, j, CP[U_INIT, j])
@@ -240,6 +251,37 @@ def output(f_hat, rn, gamma, e, integ1, e1, dt, kp, ki, kd, lo, hi, aw, k_aw):
 
 
 @step_jit
+def held_input(CP, j, n, u1, u2):
+    """The input the ultra-local model pairs with y^(n)_k under the held input: u_{k-1}
+    (n = 1), or (u_{k-1} + u_{k-2}) / 2 with the held kernel at n = 2 (the second
+    difference of y over two held samples); the literature's u_{k-1} with the trapezoid
+    kernel. (u1, u2): the inputs the plant received over the last two samples."""
+    if n == 2.0 and CP[KERNEL, j] == estimators.HELD:
+        return 0.5 * (u1 + u2)
+    return u1
+
+
+@step_jit
+def _rls(CP, CS, j, yn, v):
+    """The rls gain's step at a sample with y^(n) = yn and held input v: the estimate of
+    (F, alpha) moved (:func:`mfcontrol.laws.variational_gain.rls_step`, on the relation
+    divided by the starting alpha0), and alpha, clipped, written where the gain reads
+    it (``ALPHA_EXT``)."""
+    inv0 = CP[variational_gain.INV_ALPHA, j]
+    f, a, p11, p12, p22 = variational_gain.rls_step(
+        CS[RLS_F, j], CS[RLS_A, j], CS[RLS_P11, j], CS[RLS_P12, j], CS[RLS_P22, j],
+        yn * inv0, v, CP[variational_gain.FORGET, j],
+        variational_gain.RLS_P0_F + variational_gain.RLS_P0_ALPHA)
+    CS[RLS_F, j] = f
+    CS[RLS_A, j] = a
+    CS[RLS_P11, j] = p11
+    CS[RLS_P12, j] = p12
+    CS[RLS_P22, j] = p22
+    CS[variational_gain.ALPHA_EXT, j] = _limit(a / inv0, CP[variational_gain.ALPHA_LO, j],
+                                                CP[variational_gain.ALPHA_HI, j])
+
+
+@step_jit
 def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su, u1, u2, predict, s_u, d):
     """Sample k >= n past the hold: the derivatives, gamma, F_hat, the bracket and its
     terms into the state; returns (u_k applied, u unlimited, gamma_k). With ``algebraic``,
@@ -249,6 +291,8 @@ def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su, u1, u2, predict, 
     predicted over the delay d, s_u the sum of the inputs sent and not yet received
     (:func:`in_flight`)."""
     yd, rd, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
+    if CP[variational_gain.MODE, j] == variational_gain.RLS:
+        _rls(CP, CS, j, yn, held_input(CP, j, n, u1, u2))
     gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
     alpha = 1.0 / gamma
     c_y = 0.0
@@ -280,11 +324,7 @@ def _terms(CP, CS, j, y, r, dt, n, aw, algebraic, sy, su, yn, rn, gamma, alpha, 
     state; returns (u_k applied, u unlimited, gamma_k). (u1, u2, predict, s_u, d): as
     :func:`_bracket` takes them."""
     e = y - r
-    u_model = u1
-    if n == 2.0 and CP[KERNEL, j] == estimators.HELD:
-        # the held input's exact second difference (the module's docstring)
-        u_model = 0.5 * (u1 + u2)
-    f_hat = yn - alpha * u_model
+    f_hat = yn - alpha * held_input(CP, j, n, u1, u2)
     if algebraic:
         f_alg = estimators.combine_with(sy, su, c_y, c_u)
         if not math.isnan(f_alg):

@@ -26,6 +26,14 @@ variational
         gamma_{K+1} = m^order Gamma mean(f over the last m samples) + 2 gamma_K - second
 
     ``second`` as above, at the macro steps. m = 1 is the per-sample law, bit for bit.
+rls
+    ``gamma_k = 1/alpha_k`` with alpha_k estimated online by recursive least squares on
+    the ultra-local model's exact relation under the held input, ``y^(n)_k = F + alpha
+    v_k`` (v the input the plant received, :func:`mfcontrol.laws.intelligent.held_input`),
+    F and alpha both unknown, with exponential forgetting ``FORGET`` and the estimate
+    clipped to [``ALPHA_LO``, ``ALPHA_HI``] (:func:`rls_step`; the intelligent laws run
+    it and write alpha_k to ``ALPHA_EXT``, which this mode then reads as the external
+    one does).
 
 Columns are SoA: ``CP[row, j]`` holds parameters and ``CS[row, j]`` state of member j.
 """
@@ -40,7 +48,10 @@ GAMMA_RATE = 3  # the paper's Gamma
 EPS_M = 4
 ORDER = 5
 EVERY = 6  # the multi-rate update: gamma moves every EVERY control samples (1: each)
-N_PARAMS = 7
+FORGET = 7  # rls: the forgetting factor lambda, 0 < lambda <= 1
+ALPHA_LO = 8  # rls: the estimate's clip
+ALPHA_HI = 9
+N_PARAMS = 10
 
 # state rows
 G1 = 0  # gamma_{k-1}
@@ -57,7 +68,29 @@ STEADY = 3.0
 CONSTANT = 0
 VARIATIONAL = 1
 EXTERNAL = 2
-MODES = {"constant": CONSTANT, "variational": VARIATIONAL, "external": EXTERNAL}
+RLS = 3
+MODES = {"constant": CONSTANT, "variational": VARIATIONAL, "external": EXTERNAL, "rls": RLS}
+#: rls: the prior's variances of F / alpha0 (in u's units) and of alpha / alpha0, the
+#: regression being normalised by the starting alpha0: a standard deviation of 100 u
+#: for F and of 10 alpha0 for alpha, weak against any few samples of data. Their sum
+#: caps the covariance's trace (forgetting stops there: no wind-up without excitation)
+RLS_P0_F = 1e4
+RLS_P0_ALPHA = 1e2
+
+
+def rls_problem(alpha: float, forgetting: float, lo: float, hi: float
+                ) -> tuple[str, str] | None:
+    """What the rls gain cannot take, as (the option at fault: "forgetting", "alpha_min"
+    or "alpha_max", what is allowed), or None: 0 < forgetting <= 1 and a clip
+    0 < lo <= alpha <= hi around the starting alpha. The one statement of these rules:
+    the live controllers and the configuration refuse them in their own keys' names."""
+    if not 0.0 < forgetting <= 1.0:
+        return "forgetting", "must be in (0, 1]: 1 remembers every sample, 0.99 about 100"
+    if not 0.0 < lo <= alpha:
+        return "alpha_min", f"must be > 0 and at most the starting alpha = {alpha:g}"
+    if not hi >= alpha:
+        return "alpha_max", f"must be at least the starting alpha = {alpha:g}"
+    return None
 
 
 @step_jit
@@ -100,7 +133,7 @@ def next_gamma(mode, k, e_dot, g1, g2, acc, cnt, inv_alpha, gamma0, rate, eps_m,
         scale = every * every if order == 2.0 else every
         g = ((acc / every) * (rate * scale) + 2.0 * g1) - second
         return g, g, g1, 0.0, 0.0
-    if mode == EXTERNAL:
+    if mode == EXTERNAL or mode == RLS:
         g = 1.0 / alpha_ext
         return g, g, g1, acc, cnt
     return inv_alpha, inv_alpha, g1, acc, cnt
@@ -127,3 +160,29 @@ def update_constant(CP, CS, j):
     CS[G2, j] = g1
     CS[G1, j] = g
     return g, g1
+
+
+@step_jit
+def rls_step(f, a, p11, p12, p22, z, v, lam, p_max):
+    """One step of recursive least squares for ``z = f + a v`` (theta = (f, a), regressor
+    (1, v)) with forgetting ``lam``, from plain floats: the one place it is written.
+    Returns the new (f, a, p11, p12, p22), P the symmetric covariance. Forgetting divides
+    P by lam only while its trace stays below ``p_max``: without excitation (v constant)
+    P would otherwise grow without bound in the direction the data does not see, and the
+    first excitation after a long rest would throw the estimate."""
+    q1 = p11 + p12 * v  # P (1, v)
+    q2 = p12 + p22 * v
+    den = lam + (q1 + q2 * v)
+    e = z - (f + a * v)
+    k1 = q1 / den
+    k2 = q2 / den
+    f = f + k1 * e
+    a = a + k2 * e
+    p11 = p11 - k1 * q1
+    p12 = p12 - k1 * q2
+    p22 = p22 - k2 * q2
+    if p11 + p22 < p_max:
+        p11 = p11 / lam
+        p12 = p12 / lam
+        p22 = p22 / lam
+    return f, a, p11, p12, p22

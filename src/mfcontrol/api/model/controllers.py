@@ -78,8 +78,9 @@ def _choice(name: str, value: Any, allowed) -> Any:
 
 
 #: the state rows' layout a snapshot records: 2 since the gain adaptation's multi-rate rows
-#: (a snapshot without it is older; :func:`_with_multi_rate_rows`)
-STATE_LAYOUT = 2
+#: (a snapshot without it is older; :func:`_with_multi_rate_rows`), 3 since the intelligent
+#: laws' rls rows
+STATE_LAYOUT = 3
 
 
 def _with_multi_rate_rows(snap: Any) -> Any:
@@ -90,8 +91,19 @@ def _with_multi_rate_rows(snap: Any) -> Any:
             or snap.get("layout", 1) >= 2:
         return snap
     state = list(snap["state"])
-    state[gain_law.ACC:gain_law.ACC] = [0.0] * (gain_law.N_STATE - gain_law.ACC)
-    return {**snap, "state": state, "layout": STATE_LAYOUT}
+    state[gain_law.ACC:gain_law.ACC] = [0.0, 0.0]
+    return {**snap, "state": state, "layout": 2}
+
+
+def _with_rls_rows(snap: Mapping[str, Any]) -> Mapping[str, Any]:
+    """An intelligent law's snapshot of layout 2, with the rls gain's rows put in (zeros:
+    only that gain reads them, and it did not exist), as layout 3."""
+    if snap.get("layout", 1) >= 3:
+        return snap
+    state = list(snap["state"])
+    state[intelligent.RLS_F:intelligent.RLS_F] = [0.0] * (intelligent.EST_BASE
+                                                        - intelligent.RLS_F)
+    return {**snap, "state": state, "layout": 3}
 
 
 def _whole(name: str, value: Any) -> int:
@@ -464,9 +476,11 @@ class IntelligentController(_Sampled):
         Integral anti-windup when the output is limited; ``k_aw`` is the back-calculation
         gain (1/s), by default 1/sample_time: the integral sheds the whole excess of the
         unlimited output over the limit at each sample.
-    gain : {"constant", "variational", "external"}
+    gain : {"constant", "variational", "external", "rls"}
         Gain adaptation: constant alpha, the paper's variational update (``gamma0``,
-        ``Gamma``, ``eps_M``, ``integrator``, ``adapt_every``), or alpha passed to every call
+        ``Gamma``, ``eps_M``, ``integrator``, ``adapt_every``), alpha estimated online by
+        recursive least squares (``"rls"``: ``forgetting``, ``alpha_limits``), or alpha
+        passed to every call
         (``simulate_loop`` and ``sweep`` take it as ``alpha=``). With an external alpha
         the constructor's ``alpha`` only shows as ``gamma`` before the first derivative
         exists, and the algebraic estimator weighs its window's past inputs by the
@@ -475,6 +489,19 @@ class IntelligentController(_Sampled):
         The variational update (:mod:`mfcontrol.laws.variational_gain`): initial gamma
         (default 1/alpha), its gain, the level eps_M, and ``"first-order"`` (the published
         code's) or ``"second-order"`` (eq. 32 as printed).
+    forgetting : float, optional
+        The rls gain's forgetting factor, in (0, 1]: 0.99 (the default) weighs the last
+        hundred or so samples; 1 remembers them all. The gain fits y^(n)_k = F + alpha v
+        (v the input the plant received: exact under the held input) for F and alpha at
+        every sample, starting from ``alpha`` with a weak prior, and uses the estimated
+        alpha. Without excitation (a constant input) it stops forgetting rather than wind
+        up. In closed loop, sensor noise biases the estimate (the input depends on the
+        noise through the law): keep the forgetting slow against the noise.
+    alpha_limits : (low, high), optional
+        The rls estimate is clipped to this range; default (alpha / 10, 10 alpha). With a
+        backward-difference estimator the constructor checks that an exact estimate,
+        alpha = beta (the plant's own gain), lies inside the stable range of
+        :func:`mfcontrol.backward_difference_bound` for these kp, kd and sample time.
     adapt_every : int
         Variational gain: gamma moves every m control samples and holds between (the
         multi-rate integrator the paper points to: macro step m h, the force averaged
@@ -512,6 +539,8 @@ class IntelligentController(_Sampled):
                  gain: str = "constant",
                  gamma0: float | None = None, Gamma: float = 5e-8, eps_M: float = 0.1,
                  integrator: str = "first-order", adapt_every: int = 1,
+                 forgetting: float | None = None,
+                 alpha_limits: tuple[float | None, float | None] | None = None,
                  setpoint: float = 0.0, starting_output: float = 0.0):
         alpha = _number("alpha", alpha, positive=True)
         _choice("order", order, (1, 2))
@@ -578,6 +607,33 @@ class IntelligentController(_Sampled):
                 if value != default:
                     raise ValueError(f"{name} = {shown(value)}: only the variational gain reads "
                                      "it: set gain='variational', or remove it")
+        rls = gain == "rls"
+        if not rls:
+            rls_options: tuple[tuple[str, Any], ...] = (("forgetting", forgetting),
+                                                        ("alpha_limits", alpha_limits))
+            for name, value in rls_options:
+                if value is not None:
+                    raise ValueError(f"{name} = {shown(value)}: only the rls gain reads it: "
+                                     "set gain='rls', or remove it")
+        else:
+            forgetting = _number("forgetting", 0.99 if forgetting is None else forgetting)
+            a_lo, a_hi = _limits((None, None) if alpha_limits is None else alpha_limits,
+                                 "alpha_limits")
+            a_lo = alpha / 10.0 if a_lo is None else a_lo
+            a_hi = alpha * 10.0 if a_hi is None else a_hi
+            problem = gain_law.rls_problem(alpha, forgetting, a_lo, a_hi)
+            if problem:
+                key, allowed = problem
+                shown_value = forgetting if key == "forgetting" else [a_lo, a_hi]
+                name = "forgetting" if key == "forgetting" else "alpha_limits"
+                raise ValueError(f"{name} = {shown(shown_value)}: {allowed}")
+            alpha_limits = (a_lo, a_hi)
+            from ...analysis.alpha import rls_bound_problem
+
+            problem_text = rls_bound_problem(kp, kd, sample_time, order, estimator, startup,
+                                             kernel or "held")
+            if problem_text:
+                raise ValueError(f"gain = 'rls': {problem_text}")
         params: dict[str, Any] = {
             "alpha": alpha, "kp": _number("kp", kp), "ki": _number("ki", ki),
             "kd": _number("kd", kd), "sample_time": _number("sample_time", sample_time,
@@ -596,6 +652,8 @@ class IntelligentController(_Sampled):
             "gamma0": _number("gamma0", gamma0, allow_none=True),
             "Gamma": _number("Gamma", Gamma), "eps_M": _number("eps_M", eps_M),
             "integrator": integrator, "adapt_every": _whole("adapt_every", adapt_every),
+            "forgetting": forgetting,
+            "alpha_limits": None if alpha_limits is None else list(alpha_limits),
             "setpoint": _number("setpoint", setpoint),
             "starting_output": _number("starting_output", starting_output),
         }
@@ -610,6 +668,9 @@ class IntelligentController(_Sampled):
         cp[gain_law.EPS_M] = params["eps_M"]
         cp[gain_law.ORDER] = 2.0 if integrator == "second-order" else 1.0
         cp[gain_law.EVERY] = params["adapt_every"]
+        if rls:
+            cp[gain_law.FORGET] = params["forgetting"]
+            cp[gain_law.ALPHA_LO], cp[gain_law.ALPHA_HI] = params["alpha_limits"]
         cp[intelligent.N_ORDER] = order
         cp[intelligent.KP] = params["kp"]
         cp[intelligent.KI] = params["ki"]
@@ -653,8 +714,11 @@ class IntelligentController(_Sampled):
         params = dict(snap["params"])
         params.setdefault("adapt_every", 1)
         params.setdefault("lag", None)  # (before the delay-reduced kernel)
+        params.setdefault("forgetting", None)  # (before the rls gain)
+        params.setdefault("alpha_limits", None)
+        snap = {**snap, "params": params}
         if "kernel" in params:
-            return {**snap, "params": params}
+            return _with_rls_rows(snap)
         algebraic = params.get("estimator") == "algebraic"
         params["kernel"] = "trapezoid" if algebraic or params.get("order") == 2 else None
         params["startup"] = "backward-difference" if algebraic else None
@@ -662,7 +726,7 @@ class IntelligentController(_Sampled):
         state = list(snap["state"])
         state.insert(intelligent.U2, state[intelligent.U1] if len(state) > intelligent.U1
                      else 0.0)
-        return {**snap, "params": params, "state": state}
+        return _with_rls_rows({**snap, "params": params, "state": state})
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         cp = state.get("_CP")

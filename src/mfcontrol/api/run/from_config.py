@@ -79,6 +79,9 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
         options.update(gamma0=cfg["controller.gamma0"], Gamma=cfg["controller.Gamma"],
                        eps_M=cfg["controller.eps_M"], integrator=cfg["controller.integrator"],
                        adapt_every=cfg["controller.adapt_every"])
+    if options["gain"] == "rls":
+        options.update(forgetting=cfg["controller.forgetting"],
+                       alpha_limits=(cfg["controller.alpha_min"], cfg["controller.alpha_max"]))
     # each law reads only its own gains (a translator's reads say what a key affects);
     # an adapting gain starts from gamma0, alpha then unused (the option's default stands
     # in, unread)
