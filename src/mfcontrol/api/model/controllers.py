@@ -496,7 +496,9 @@ class IntelligentController(_Sampled):
         every sample, starting from ``alpha`` with a weak prior, and uses the estimated
         alpha. Without excitation (a constant input) it stops forgetting rather than wind
         up. In closed loop, sensor noise biases the estimate (the input depends on the
-        noise through the law): keep the forgetting slow against the noise.
+        noise through the law), and a step in F (a load step) is partly taken for a
+        change of alpha: keep ``alpha_limits`` tight around what you know of the plant's
+        gain (``docs/theory.md`` measures it).
     alpha_limits : (low, high), optional
         The rls estimate is clipped to this range; default (alpha / 10, 10 alpha). With a
         backward-difference estimator the constructor checks that an exact estimate,
