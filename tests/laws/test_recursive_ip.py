@@ -181,3 +181,20 @@ def test_multi_rate_follows_the_per_sample_law_under_a_constant_force():
                                1.0 + m * m * 1e-6 * 0.5 * np.arange(1, K + 1)
                                * np.arange(2, K + 2) / 2, rtol=1e-12)
     assert abs(macro[-1] - per_sample[-1]) / abs(per_sample[-1] - 1.0) < 2 * m / n
+
+
+def test_a_pickle_of_the_older_layout_is_refused_in_words():
+    # the gain adaptation's rows grew (multi-rate, rls): a pickle from before would have
+    # the compiled step read past its shorter columns
+    import pickle
+
+    ctrl = mfcontrol.RecursiveIP(alpha=10.0, kp=2.0, law="variational", sample_time=1e-6)
+    ctrl(0.0, setpoint=1.0)
+    again = pickle.loads(pickle.dumps(ctrl))
+    assert again(1e-3, setpoint=1.0) == ctrl(1e-3, setpoint=1.0)
+    for name in ("_CP", "_CS"):
+        state = ctrl.__getstate__()
+        state[name] = state[name][:-2]
+        fresh = mfcontrol.RecursiveIP.__new__(mfcontrol.RecursiveIP)
+        with pytest.raises(ValueError, match="pickled by an older mfcontrol"):
+            fresh.__setstate__(state)

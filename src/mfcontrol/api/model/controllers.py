@@ -1047,6 +1047,17 @@ class RecursiveIP(_Controller):
         """A snapshot taken before the multi-rate gain update, with its rows."""
         return _with_multi_rate_rows(snap)
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        cp, cs = state.get("_CP"), state.get("_CS")
+        if (cp is not None and cp.shape[0] != recursive_ip.N_PARAMS) or (
+                cs is not None and cs.shape[0] != recursive_ip.N_STATE):
+            # the compiled step would read past a shorter column
+            raise ValueError("this RecursiveIP was pickled by an older mfcontrol (its "
+                             "parameter and state layout changed): rebuild it from a "
+                             "snapshot, RecursiveIP.from_snapshot(snap), which carries "
+                             "older snapshots over")
+        super().__setstate__(state)
+
     def _snapshot_extra(self) -> dict[str, Any]:
         # the first raw output after a bumpless start lives in the parameter column
         return {"start": float(self._CP[recursive_ip.U0, 0])}
