@@ -32,6 +32,10 @@ def test_sensor_noise_moves_gamma_boundedly_once_and_without_bound_twice(noise):
     np.testing.assert_allclose(slow["gamma_dev_100pct"].to_numpy(),
                                second["gamma_dev_100pct"].to_numpy(), rtol=0.05)
     assert (slow["growth"] > 0.7).all()
+    # the optimisation's distance from its stationary point: finite, and larger under
+    # noise (whose derivative enters the force) than without
+    assert np.isfinite(noise["adaptation_error_clean"]).all()
+    assert (noise["adaptation_error_noisy_mean"] > noise["adaptation_error_clean"]).all()
 
 
 def test_the_frozen_loop_explains_the_load_change():

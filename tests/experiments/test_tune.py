@@ -153,6 +153,7 @@ def test_bad_parameters_are_named(items, log, needle):
     ({"budget": 9}, "--budget"),
     ({"params": ["controller.window=2.2:2.8"]}, "whole number"),
     ({"objective": "iae_load"}, "load step"),
+    ({"objective": "iae + adaptation_error"}, "needs the variational gain"),
     ({"objective": "iae + overshoot", "overrides": {"reference.kind": "ramp-hold-ramp"}},
      "step reference"),
     ({"params": ["controller.alpha=0:2"]}, "controller.alpha"),

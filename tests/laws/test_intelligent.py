@@ -194,7 +194,32 @@ def test_a_snapshot_from_before_the_multi_rate_rows_continues_bit_for_bit():
         ctrl = cls.from_snapshot(case["snapshot"])
         out = [ctrl(y, setpoint=1.0) for y in case["measurements"]]
         assert out == case["outputs"], name
-        assert ctrl.snapshot()["layout"] == 3
+        assert ctrl.snapshot()["layout"] == 4
+
+
+def test_a_snapshot_from_before_the_adaptation_error_row_continues_bit_for_bit():
+    # snapshots of layout 3, taken at 192082f before the gain adaptation's adaptation
+    # error row (a state row after its multi-rate rows, which moves every law row after
+    # it): from_snapshot puts it in, and every law continues exactly, the rls gain's rows
+    # and the delay queue included
+    import json
+    from pathlib import Path
+
+    data = json.loads((Path(__file__).parents[1] / "data"
+                       / "snapshots-before-adaptation-error.json").read_text())
+    for name, case in data.items():
+        assert case["snapshot"]["layout"] == 3
+        cls = getattr(mfcontrol, case["snapshot"]["controller"])
+        ctrl = cls.from_snapshot(case["snapshot"])
+        out = [ctrl(y, setpoint=1.0) for y in case["measurements"]]
+        assert out == case["outputs"], name
+        assert ctrl.snapshot()["layout"] == 4
+        # the error counts from the snapshot on, for the gains that adapt
+        params = case["snapshot"]["params"]
+        if "variational" in (params.get("gain"), params.get("law")):
+            assert ctrl.adaptation_error > 0, name
+        else:
+            assert math.isnan(ctrl.adaptation_error), name
 
 
 def test_multi_rate_gamma_holds_between_updates_in_the_intelligent_law():

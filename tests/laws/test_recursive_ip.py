@@ -126,8 +126,9 @@ def test_from_STEADY_on_the_law_depends_on_k_only_through_its_state(
     from mfcontrol.laws.recursive_ip import STEADY, advance
     # the gain adaptation's rows (mode .. every, then the rls gain's three), the law's
     params = (mode, 0.1, 1.0, 1e-6, 0.01, order, every, 0.99, 0.01, 10.0,
-              2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef, use_gamma, 1 / 2000, 1e-3, 0.9, 0.0)
-    state = (*state, float(count))
+              2.0, 1e-3, 1.0, 1.0, 0.0, rate_coef, use_gamma, 1 / 2000, 1e-3, 0.9, 0.0,
+              1e-6)
+    state = (*state, float(count), 0.25)  # ... the multi-rate count, the adaptation error
     assert advance(float(k), y, r, *state, params) == advance(STEADY, y, r, *state, params)
 
 
@@ -169,8 +170,9 @@ def test_multi_rate_follows_the_per_sample_law_under_a_constant_force():
         acc = cnt = 0.0
         out = []
         for k in range(3, 3 + n):
-            g, g1, g2, acc, cnt = next_gamma(VARIATIONAL, float(k), 0.6, g1, g2, acc, cnt,
-                                             1.0, 1.0, 1e-6, 0.1, 2.0, float(every), 1.0)
+            g, g1, g2, acc, cnt, _ = next_gamma(VARIATIONAL, float(k), 0.6, g1, g2, acc,
+                                                cnt, 0.0, 1.0, 1.0, 1e-6, 0.1, 2.0,
+                                                float(every), 1.0, 1.0)
             out.append(g)
         return np.array(out)
 

@@ -127,7 +127,7 @@ def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
     """The recursive law's parameter column (rows of :mod:`mfcontrol.laws.recursive_ip`):
     the one translator of its options, for cases, sweeps and the live
     :class:`~mfcontrol.api.model.controllers.RecursiveIP` alike. ``h``: the sample period
-    back-calculation uses (default ``sim.h``)."""
+    back-calculation and the variational law's adaptation error use (default ``sim.h``)."""
     col = np.zeros((recursive_ip.N_PARAMS, _width(cfg)))
     variational = cfg["controller.law"] == "variational"
     col[variational_gain.MODE] = (variational_gain.VARIATIONAL if variational
@@ -150,6 +150,8 @@ def recursive_law_column(cfg: Config, h: float | None = None) -> np.ndarray:
                                        else 1.0)
         col[variational_gain.EVERY] = cfg["controller.adapt_every"]
         col[recursive_ip.USE_GAMMA] = 1.0 if cfg["controller.gain"] == "gamma" else 0.0
+        # the adaptation error's time step: read by the law that adapts
+        col[recursive_ip.H] = cfg["sim.h"] if h is None else h
     col[recursive_ip.KP] = cfg["controller.kp"]
     col[recursive_ip.HD] = cfg["controller.deriv_scale"]
     col[recursive_ip.U0] = cfg["controller.u0"]

@@ -377,6 +377,14 @@ PLANT_PARAMETERS = {"buck": ("E", "L", "R", "C"), "boost": ("E", "L", "R", "C"),
 POSITIONAL = ("i-P", "i-PI", "i-PD", "i-PID")
 
 
+def gain_adapts(cfg: Mapping[str, Any]) -> bool:
+    """Whether a configuration's gain adapts by the variational law (the paper's
+    variational law, or a positional law with ``controller.adapt = "variational"``): where
+    gamma moves and the metric ``adaptation_error`` applies."""
+    return cfg["controller.law"] == "variational" or (
+        cfg["controller.law"] in POSITIONAL and cfg["controller.adapt"] == "variational")
+
+
 def options_markdown() -> str:
     """The option table of the user guide (``docs/guide/options.md``), generated from
     :data:`OPTIONS`."""

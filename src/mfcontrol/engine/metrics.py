@@ -8,6 +8,7 @@ Rows: ``M[M_*, j]`` member j's running metrics; ``S[S_*]`` the settings they use
 import numpy as np
 
 from .._jit import kernel_jit, step_jit
+from ..laws import variational_gain
 
 # metric rows
 M_IAE = 0
@@ -39,7 +40,11 @@ M_STEP_T0 = 20  # the reference step's time (a step from STEP_FROM to STEP_TO)
 M_STEP_FROM = 21
 M_STEP_TO = 22  # NaN: the reference is no step
 M_LOAD_T0 = 23  # the load (disturbance) step's time; inf: none
-N_METRICS = 24
+# the variational gain's adaptation error integrated up to the last sample run (the
+# state row variational_gain.ADAPT, copied by the drivers; NaN for another gain or law:
+# :func:`adaptation`)
+M_ADAPT = 24
+N_METRICS = 25
 
 # metric settings
 S_SETTLE = 0
@@ -85,6 +90,23 @@ def accumulate(iae, ise, itae, max_e_s, max_e_f, max_r, tv, k, t, h, y, r, a, a_
     max_e_f = np.fmax(ae * (1.0 if t >= final_start else 0.0), max_e_f)
     max_r = np.fmax(abs(r), max_r)
     return iae, ise, itae, max_e_s, max_e_f, max_r, tv
+
+
+def adaptation_of(value, mode):
+    """The adaptation error ``value`` of a member whose gain adaptation is ``mode``
+    (floats, or arrays element-wise): NaN unless the gain is variational, where the
+    metric does not apply (a constant, external or rls gain). The one statement of
+    where it applies: the drivers (:func:`adaptation`) and the live controllers'
+    ``adaptation_error`` call it."""
+    return np.where(mode == variational_gain.VARIATIONAL, value, np.nan)
+
+
+def adaptation(M: np.ndarray, CP: np.ndarray, law_has_gain: bool) -> None:
+    """The adaptation error's row of M, copied by the drivers from the law's state, made
+    NaN where it does not apply (:func:`adaptation_of`; ``law_has_gain`` False: a law
+    without the gain adaptation's rows, the PID)."""
+    M[M_ADAPT] = (adaptation_of(M[M_ADAPT], CP[variational_gain.MODE]) if law_has_gain
+                  else np.nan)
 
 
 def start(M: np.ndarray, step_t0, step_from, step_to, load_t0) -> None:

@@ -20,6 +20,7 @@ from ..laws import recursive_ip, reference, variational_gain
 from ..numerics import grid
 from ..plants import buck
 from .metrics import (
+    M_ADAPT,
     M_DIVERGED,
     M_E_FINAL,
     M_ENERGY,
@@ -94,6 +95,8 @@ def _single_loop(fast):
                                   CS[recursive_ip.R_PREV, 0])
         g1, g2, k0 = CS[variational_gain.G1, 0], CS[variational_gain.G2, 0], CS[recursive_ip.K, 0]
         acc, cnt = CS[variational_gain.ACC, 0], CS[variational_gain.CNT, 0]
+        adapt = CS[variational_gain.ADAPT, 0]
+        adapt_final = M[M_ADAPT, 0]
         alive, t_div, n_done = 1.0 - M[M_DIVERGED, 0], M[M_T_DIVERGE, 0], M[M_N_SAMPLES, 0]
         iae, ise, itae = M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0]
         max_e_s, max_e_f, max_r = M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0]
@@ -125,8 +128,8 @@ def _single_loop(fast):
                 p_ev += 1
             y = buck.measure(i, v, out_sel)
             r = reference.evaluate(ref_kind, ref1, ref2, ref3, ref4, t)
-            u, a, g, gamma, u_prev, g1, g2, acc, cnt = recursive_ip.advance(
-                k0 + k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, law)
+            u, a, g, gamma, u_prev, g1, g2, acc, cnt, adapt = recursive_ip.advance(
+                k0 + k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, adapt, law)
             y_prev, r_prev = y, r
             n_run = k + 1
             (alive, t_div, n_done, iae, ise, itae, max_e_s, max_e_f, max_r, tv,
@@ -135,6 +138,7 @@ def _single_loop(fast):
                                      settle, final_start, bound)
             if alive == 0.0:
                 break
+            adapt_final = adapt  # as the final gamma: up to the last live sample
             (energy, peak, t10, t90, t_in, t_last, e_fin, n_fin, iae_load) = loop_sums(
                 energy, peak, t10, t90, t_in, t_last, e_fin, n_fin, iae_load, t, h, y, r, a,
                 step_t0, step_from, step_to, load_t0, final_start)
@@ -151,10 +155,11 @@ def _single_loop(fast):
         CS[recursive_ip.R_PREV, 0], CS[recursive_ip.K, 0] = r_prev, k0 + n_run
         CS[variational_gain.G1, 0], CS[variational_gain.G2, 0] = g1, g2
         CS[variational_gain.ACC, 0], CS[variational_gain.CNT, 0] = acc, cnt
+        CS[variational_gain.ADAPT, 0] = adapt
         M[M_DIVERGED, 0], M[M_T_DIVERGE, 0], M[M_N_SAMPLES, 0] = 1.0 - alive, t_div, n_done
         M[M_IAE, 0], M[M_ISE, 0], M[M_ITAE, 0] = iae, ise, itae
         M[M_MAX_E_SETTLED, 0], M[M_MAX_E_FINAL, 0], M[M_MAX_ABS_R, 0] = max_e_s, max_e_f, max_r
-        M[M_TV, 0], M[M_FINAL_GAMMA, 0] = tv, g_final
+        M[M_TV, 0], M[M_FINAL_GAMMA, 0], M[M_ADAPT, 0] = tv, g_final, adapt_final
         (M[M_ENERGY, 0], M[M_PEAK, 0], M[M_T10, 0], M[M_T90, 0], M[M_T_IN, 0], M[M_T_LAST, 0],
          M[M_E_FINAL, 0], M[M_N_FINAL, 0], M[M_IAE_LOAD, 0]) = (
             energy, peak, t10, t90, t_in, t_last, e_fin, n_fin, iae_load)

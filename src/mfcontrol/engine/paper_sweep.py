@@ -78,13 +78,14 @@ def _row(r):
 
 # offsets of the rows the member loop reads and writes
 _I, _V = _row(P_X + buck.I_L), _row(P_X + buck.V_C)
-_UP, _YP, _RP, _G1, _G2, _ACC, _CNT = (_row(P_CS + r) for r in (
+_UP, _YP, _RP, _G1, _G2, _ACC, _CNT, _AD = (_row(P_CS + r) for r in (
     recursive_ip.U_PREV, recursive_ip.Y_PREV, recursive_ip.R_PREV, variational_gain.G1,
-    variational_gain.G2, variational_gain.ACC, variational_gain.CNT))
-(_DIV, _TDIV, _NS, _IAE, _ISE, _ITAE, _MXS, _MXF, _MXR, _TV, _GF) = (_row(P_M + r) for r in (
-    metrics.M_DIVERGED, metrics.M_T_DIVERGE, metrics.M_N_SAMPLES, metrics.M_IAE, metrics.M_ISE,
-    metrics.M_ITAE, metrics.M_MAX_E_SETTLED, metrics.M_MAX_E_FINAL, metrics.M_MAX_ABS_R,
-    metrics.M_TV, metrics.M_FINAL_GAMMA))
+    variational_gain.G2, variational_gain.ACC, variational_gain.CNT, variational_gain.ADAPT))
+(_DIV, _TDIV, _NS, _IAE, _ISE, _ITAE, _MXS, _MXF, _MXR, _TV, _GF, _ADF) = (
+    _row(P_M + r) for r in (
+        metrics.M_DIVERGED, metrics.M_T_DIVERGE, metrics.M_N_SAMPLES, metrics.M_IAE,
+        metrics.M_ISE, metrics.M_ITAE, metrics.M_MAX_E_SETTLED, metrics.M_MAX_E_FINAL,
+        metrics.M_MAX_ABS_R, metrics.M_TV, metrics.M_FINAL_GAMMA, metrics.M_ADAPT))
 _AP, _BAD, _MXT = _row(P_APREV), _row(P_BAD), _row(P_MXT)
 (_EN, _PK, _T10, _T90, _TIN, _TL, _EF, _NF, _IL, _ST0, _SFR, _STO, _LT0) = (
     _row(P_M + r) for r in (
@@ -258,14 +259,15 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                         r = R[j]
                     i, v = D[_I + j], D[_V + j]
                     y = buck.measure(i, v, output(D, j)[0])
-                    u, a, g, gamma, carried, g1, g2, acc, cnt = recursive_ip.advance(
+                    u, a, g, gamma, carried, g1, g2, acc, cnt, adapt = recursive_ip.advance(
                         kl, y, r, D[_UP + j], D[_YP + j], (r_prev if HOIST else D[_RP + j]),
-                        D[_G1 + j], D[_G2 + j], D[_ACC + j], D[_CNT + j], law(D, j))
+                        D[_G1 + j], D[_G2 + j], D[_ACC + j], D[_CNT + j], D[_AD + j],
+                        law(D, j))
                     D[_UP + j], D[_YP + j] = carried, y
                     if not HOIST:
                         D[_RP + j] = r
                     if checked or not CONSTANT_GAIN:
-                        D[_G1 + j], D[_G2 + j] = g1, g2
+                        D[_G1 + j], D[_G2 + j], D[_AD + j] = g1, g2, adapt
                     if MULTI_RATE:
                         D[_ACC + j], D[_CNT + j] = acc, cnt
                     if checked:
@@ -279,6 +281,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                         D[_DIV + j] = 1.0 - alive
                         if alive != 0.0:
                             loop_fold(D, j, t, h, y, r, a, final_start)
+                            D[_ADF + j] = adapt  # as the final gamma
                     else:
                         # the tile lies wholly inside or outside each metric window
                         # (run_block splits tiles at their starts): one max |e| for the
@@ -316,6 +319,7 @@ def block_kernel(constants: tuple[float, ...] | None = None, reference_shared: b
                     # the law leaves gamma_k in G1 at every k >= 1: the final gamma is
                     # read once per tile instead of stored at every sample
                     D[_GF + j] = D[_G1 + j]
+                    D[_ADF + j] = D[_AD + j]
         _jit.stable_identity(tile, identity, checked)
         return tile
 

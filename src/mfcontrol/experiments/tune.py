@@ -38,7 +38,7 @@ from ..api.results import display
 from ..api.results.objective import AGGREGATES, Objective, aggregate
 from ..api.run import batch, scenario
 from ..api.run.simulate import shown_keys
-from ..config.options import BY_KEY
+from ..config.options import BY_KEY, gain_adapts
 from ..config.resolve import Config, axis_value
 from ..errors import ConfigError
 
@@ -573,6 +573,11 @@ def _refuse_undefined_objective(obj: Objective, base: Config) -> None:
             raise ConfigError("--objective", obj.text, "iae_load is not defined for this "
                               "case: it needs a load step (a step disturbance or a plant "
                               "schedule) within the horizon")
+    if "adaptation_error" in names and not gain_adapts(base):
+        raise ConfigError("--objective", obj.text, "adaptation_error is not defined for "
+                          "this case: it needs the variational gain (controller.law = "
+                          "variational, or controller.adapt = variational on an i-P, i-PI, "
+                          "i-PD or i-PID)")
     step = names & {"overshoot", "rise_time", "settling_time"}
     if step and base["reference.kind"] != "smooth-step":
         raise ConfigError("--objective", obj.text, f"{', '.join(sorted(step))} is not "

@@ -293,7 +293,7 @@ def _bracket(CP, CS, j, y, r, dt, k, n, aw, algebraic, sy, su, u1, u2, predict, 
     yd, rd, yn, rn = derivatives(n, y, r, CS[Y1, j], CS[Y2, j], CS[R1, j], CS[R2, j], dt)
     if CP[variational_gain.MODE, j] == variational_gain.RLS:
         _rls(CP, CS, j, yn, held_input(CP, j, n, u1, u2))
-    gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd)
+    gamma, _ = variational_gain.update(CP, CS, j, k, yd - rd, dt)
     alpha = 1.0 / gamma
     c_y = 0.0
     c_u = 0.0

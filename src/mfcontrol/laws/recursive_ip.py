@@ -40,7 +40,10 @@ OUT_GAIN = vg.N_PARAMS + 7
 OUT_MIN = vg.N_PARAMS + 8
 OUT_MAX = vg.N_PARAMS + 9
 AW_COEF = vg.N_PARAMS + 10  # 0 published (winds up), 1 clamp, k_aw h back-calculation
-N_PARAMS = vg.N_PARAMS + 11
+# the sample period h (s), the time step of the adaptation error's integral (the
+# derivatives' divisor HD is the published scale, not the period)
+H = vg.N_PARAMS + 11
+N_PARAMS = vg.N_PARAMS + 12
 
 # state rows (after the gain adaptation rows)
 U_PREV = vg.N_STATE + 0
@@ -70,13 +73,15 @@ def clip(x, lo, hi):
 
 
 @step_jit
-def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, P):
+def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, adapt, P):
     """One sample from plain floats: the one place the law is written.
 
     ``P`` holds the member's parameters, rows 0 .. N_PARAMS-1 of its column in row order
     (:func:`parameters`); a tuple, so that a sweep kernel may put compile-time constants
     in it. Returns (u_k, applied_k, gain_k, gamma_k, u carried to the next sample, gamma
-    for G1, gamma for G2). Sample 0 gives u_0 and the initial gamma.
+    for G1, gamma for G2, the multi-rate sum and count, the adaptation error: see
+    :func:`mfcontrol.laws.variational_gain.next_gamma`). Sample 0 gives u_0 and the
+    initial gamma.
     """
     mode, inv_alpha, gamma0 = P[vg.MODE], P[vg.INV_ALPHA], P[vg.GAMMA0]
     out_gain, lo, hi, aw_coef = P[OUT_GAIN], P[OUT_MIN], P[OUT_MAX], P[AW_COEF]
@@ -85,13 +90,13 @@ def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, P):
         u0 = P[U0]
         applied = clip(out_gain * u0, lo, hi)
         carried = u0 if aw_coef == 0.0 else u0 + aw_coef * (applied / out_gain - u0)
-        return u0, applied, g0, g0, carried, g1, g2, acc, cnt
+        return u0, applied, g0, g0, carried, g1, g2, acc, cnt, adapt
     hd = P[HD]
     e_dot = (y - y_prev) / hd - (r - r_prev) / hd
     # the recursive law has no external gain: alpha_ext is never read
-    gamma, g1_next, g2_next, acc, cnt = vg.next_gamma(
-        mode, k, e_dot, g1, g2, acc, cnt, inv_alpha, gamma0, P[vg.GAMMA_RATE], P[vg.EPS_M],
-        P[vg.ORDER], P[vg.EVERY], 1.0)
+    gamma, g1_next, g2_next, acc, cnt, adapt = vg.next_gamma(
+        mode, k, e_dot, g1, g2, acc, cnt, adapt, inv_alpha, gamma0, P[vg.GAMMA_RATE],
+        P[vg.EPS_M], P[vg.ORDER], P[vg.EVERY], 1.0, P[H])
     g = gamma if P[USE_GAMMA] != 0.0 else inv_alpha
     y_p = y if P[P_CURRENT] != 0.0 else y_prev
     u = (u_prev - g * e_dot) + P[P_SIGN] * (P[KP] * (r - y_p))
@@ -100,7 +105,7 @@ def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, P):
         u = u + rate_coef * ((gamma - g1) / hd)
     applied = clip(out_gain * u, lo, hi)
     carried = u if aw_coef == 0.0 else u + aw_coef * (applied / out_gain - u)
-    return u, applied, g, gamma, carried, g1_next, g2_next, acc, cnt
+    return u, applied, g, gamma, carried, g1_next, g2_next, acc, cnt, adapt
 
 
 @step_jit
@@ -112,9 +117,9 @@ def parameters(CP, j):
 @step_jit
 def _step_at(CP, CS, j, y, r, k):
     """One sample, the law evaluated as at sample k, its state advanced by one sample."""
-    u, applied, g, gamma, carried, g1, g2, acc, cnt = advance(
+    u, applied, g, gamma, carried, g1, g2, acc, cnt, adapt = advance(
         k, y, r, CS[U_PREV, j], CS[Y_PREV, j], CS[R_PREV, j], CS[vg.G1, j], CS[vg.G2, j],
-        CS[vg.ACC, j], CS[vg.CNT, j], parameters(CP, j))
+        CS[vg.ACC, j], CS[vg.CNT, j], CS[vg.ADAPT, j], parameters(CP, j))
     CS[U_PREV, j] = carried
     CS[Y_PREV, j] = y
     CS[R_PREV, j] = r
@@ -122,6 +127,7 @@ def _step_at(CP, CS, j, y, r, k):
     CS[vg.G2, j] = g2
     CS[vg.ACC, j] = acc
     CS[vg.CNT, j] = cnt
+    CS[vg.ADAPT, j] = adapt
     CS[K, j] = CS[K, j] + 1.0
     return u, applied, g, gamma
 

@@ -26,6 +26,16 @@ variational
         gamma_{K+1} = m^order Gamma mean(f over the last m samples) + 2 gamma_K - second
 
     ``second`` as above, at the macro steps. m = 1 is the per-sample law, bit for bit.
+
+    The adaptation error: the force ``f_k = e_dot_k - eps_M`` is K_p times the model-free
+    Lagrangian's dL/dgamma, the right-hand side of the discrete Euler-Lagrange equation
+    ``K_gamma (gamma_{k+1} - 2 gamma_k + gamma_{k-1}) / h^2 = f_k``: zero where the
+    optimisation is stationary (gamma no longer accelerates; the error dynamics the
+    Lagrangian is built on hold with e_dot = eps_M). Its integral over the run,
+    ``sum |f_k| h`` over the adapting samples k >= 3 (row ``ADAPT``; every sample's force
+    counts, whatever m), measures how far the online optimisation stayed from its
+    stationary point: the metric ``adaptation_error``, in y's unit (a rate of y
+    integrated over time).
 rls
     ``gamma_k = 1/alpha_k`` with alpha_k estimated online by recursive least squares on
     the ultra-local model's exact relation under the held input, ``y^(n)_k = F + alpha
@@ -59,7 +69,8 @@ G2 = 1  # gamma_{k-2}
 ALPHA_EXT = 2  # external mode: alpha for the coming sample
 ACC = 3  # multi-rate: the force f summed over the samples since the last update
 CNT = 4  # multi-rate: those samples' count
-N_STATE = 5
+ADAPT = 5  # variational: the adaptation error integrated since the reset (adaptation_error)
+N_STATE = 6
 
 #: the first sample from which gamma_k no longer depends on k itself (only on the
 #: state): a kernel may pass STEADY for every k >= STEADY and compile out the start-up
@@ -107,46 +118,52 @@ def reset(CP, CS, j):
     CS[ALPHA_EXT, j] = 1.0 / CP[INV_ALPHA, j]
     CS[ACC, j] = 0.0
     CS[CNT, j] = 0.0
+    CS[ADAPT, j] = 0.0
 
 
 @step_jit
-def next_gamma(mode, k, e_dot, g1, g2, acc, cnt, inv_alpha, gamma0, rate, eps_m, order,
-               every, alpha_ext):
+def next_gamma(mode, k, e_dot, g1, g2, acc, cnt, adapt, inv_alpha, gamma0, rate, eps_m,
+               order, every, alpha_ext, h):
     """gamma_k from plain floats: the one place the adaptation is written.
 
     (g1, g2) are gamma at the last two updates (every sample unless multi-rate), (acc,
-    cnt) the multi-rate sum of the force and its count. Returns (gamma_k, g1, g2, acc,
-    cnt) to carry. The branches are uniform or predictable, cost nothing in a single run,
-    and are if-converted where a loop over members is vectorised."""
+    cnt) the multi-rate sum of the force and its count, ``adapt`` the adaptation error
+    integrated so far (``|e_dot - eps_m| h`` a sample, h the law's period). Returns
+    (gamma_k, g1, g2, acc, cnt, adapt) to carry. The branches are uniform or
+    predictable, cost nothing in a single run, and are if-converted where a loop over
+    members is vectorised."""
     if mode == VARIATIONAL:
         if k < STEADY:
-            return gamma0, gamma0, g1, 0.0, 0.0
+            return gamma0, gamma0, g1, 0.0, 0.0, adapt
         second = g2 if order == 2.0 else g1
+        f = e_dot - eps_m
+        adapt = adapt + abs(f) * h
         if every <= 1.0:  # per sample (0: a column built before EVERY existed)
-            g = ((e_dot - eps_m) * rate + 2.0 * g1) - second
-            return g, g, g1, acc, cnt
-        acc = acc + (e_dot - eps_m)
+            g = (f * rate + 2.0 * g1) - second
+            return g, g, g1, acc, cnt, adapt
+        acc = acc + f
         cnt = cnt + 1.0
         if cnt < every:  # between updates gamma holds
-            return g1, g1, g2, acc, cnt
+            return g1, g1, g2, acc, cnt, adapt
         # the macro step's Gamma: m^2 Gamma (second order) or m Gamma, on the mean force
         scale = every * every if order == 2.0 else every
         g = ((acc / every) * (rate * scale) + 2.0 * g1) - second
-        return g, g, g1, 0.0, 0.0
+        return g, g, g1, 0.0, 0.0, adapt
     if mode == EXTERNAL or mode == RLS:
         g = 1.0 / alpha_ext
-        return g, g, g1, acc, cnt
-    return inv_alpha, inv_alpha, g1, acc, cnt
+        return g, g, g1, acc, cnt, adapt
+    return inv_alpha, inv_alpha, g1, acc, cnt, adapt
 
 
 @step_jit
-def update(CP, CS, j, k, e_dot):
-    """Advance to sample k (>= 1) given the error derivative; return (gamma_k, gamma_{k-1})."""
+def update(CP, CS, j, k, e_dot, h):
+    """Advance to sample k (>= 1) given the error derivative and the law's period h;
+    return (gamma_k, gamma_{k-1})."""
     g1 = CS[G1, j]
-    g, CS[G1, j], CS[G2, j], CS[ACC, j], CS[CNT, j] = next_gamma(
-        CP[MODE, j], k, e_dot, g1, CS[G2, j], CS[ACC, j], CS[CNT, j], CP[INV_ALPHA, j],
-        CP[GAMMA0, j], CP[GAMMA_RATE, j], CP[EPS_M, j], CP[ORDER, j], CP[EVERY, j],
-        CS[ALPHA_EXT, j])
+    g, CS[G1, j], CS[G2, j], CS[ACC, j], CS[CNT, j], CS[ADAPT, j] = next_gamma(
+        CP[MODE, j], k, e_dot, g1, CS[G2, j], CS[ACC, j], CS[CNT, j], CS[ADAPT, j],
+        CP[INV_ALPHA, j], CP[GAMMA0, j], CP[GAMMA_RATE, j], CP[EPS_M, j], CP[ORDER, j],
+        CP[EVERY, j], CS[ALPHA_EXT, j], h)
     return g, g1
 
 

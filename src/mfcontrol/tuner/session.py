@@ -27,7 +27,7 @@ from ..api.results.result import Result
 from ..api.run import batch
 from ..api.run.simulate import keys_read_by_run, shown_keys, simulate
 from ..config import options
-from ..config.options import BY_KEY, OPTIONS, PLANT_PARAMETERS, POSITIONAL
+from ..config.options import BY_KEY, OPTIONS, PLANT_PARAMETERS, gain_adapts
 from ..config.resolve import Config, resolve
 from ..config.toml import parse_assignment, toml_value
 from ..errors import ConfigError
@@ -74,7 +74,8 @@ _SWEEP_KEYS = ("sweep.key", "sweep.values", "sweep.grid")
 #: the metrics of the page's table, in order (the loop metrics only where defined);
 #: ``u_at_limit`` is the tuner's own (:func:`control_figures`), beside TV(u)
 TABLE_METRICS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "u_at_limit", "settled",
-                 "iae_load", "overshoot", "rise_time", "settling_time", "final_gamma")
+                 "iae_load", "overshoot", "rise_time", "settling_time", "final_gamma",
+                 "adaptation_error")
 
 #: the metrics' short names: one table for the library (api/results/metrics.py), and the
 #: tuner's figure of the control
@@ -706,9 +707,7 @@ class Session:
     def adapts(self) -> bool:
         """Whether the gain adapts (the variational law, or a positional law's
         variational adaptation): the page then plots gamma."""
-        c = self.cfg
-        return c["controller.law"] == "variational" or (
-            c["controller.law"] in POSITIONAL and c["controller.adapt"] == "variational")
+        return gain_adapts(self.cfg)
 
     # --- runs -------------------------------------------------------------------------
 

@@ -32,6 +32,7 @@ from ..._version import __version__
 from ...analysis import filters
 from ...config import options
 from ...engine import live
+from ...engine import metrics as engine_metrics
 from ...errors import as_float, shown
 from ...laws import estimators, intelligent, pid, recursive_ip
 from ...laws import variational_gain as gain_law
@@ -79,8 +80,12 @@ def _choice(name: str, value: Any, allowed) -> Any:
 
 #: the state rows' layout a snapshot records: 2 since the gain adaptation's multi-rate rows
 #: (a snapshot without it is older; :func:`_with_multi_rate_rows`), 3 since the intelligent
-#: laws' rls rows
-STATE_LAYOUT = 3
+#: laws' rls rows, 4 since the gain adaptation's adaptation-error row
+STATE_LAYOUT = 4
+#: the gain adaptation's state rows up to layout 3 (4 adds ADAPT after them): the older
+#: layouts' offsets of the rows after them are this many fewer
+_GAIN_ROWS_3 = gain_law.ADAPT
+_SHIFT_4 = gain_law.N_STATE - _GAIN_ROWS_3
 
 
 def _with_multi_rate_rows(snap: Any) -> Any:
@@ -101,9 +106,26 @@ def _with_rls_rows(snap: Mapping[str, Any]) -> Mapping[str, Any]:
     if snap.get("layout", 1) >= 3:
         return snap
     state = list(snap["state"])
-    state[intelligent.RLS_F:intelligent.RLS_F] = [0.0] * (intelligent.EST_BASE
-                                                        - intelligent.RLS_F)
+    at = intelligent.RLS_F - _SHIFT_4  # layout 3's offset
+    state[at:at] = [0.0] * (intelligent.EST_BASE - intelligent.RLS_F)
     return {**snap, "state": state, "layout": 3}
+
+
+def _with_adaptation_row(snap: Any) -> Any:
+    """A snapshot of a law on the gain adaptation's rows of layout 3 (or older, carried
+    to 3 first), with the adaptation error's row put in as a reset leaves it (zero: the
+    error is then counted from the snapshot on), as layout 4."""
+    if not isinstance(snap, Mapping) or not isinstance(snap.get("state"), list) \
+            or snap.get("layout", 1) >= 4:
+        return snap
+    state = list(snap["state"])
+    state[_GAIN_ROWS_3:_GAIN_ROWS_3] = [0.0] * _SHIFT_4
+    return {**snap, "state": state, "layout": 4}
+
+
+def _adaptation_error(CP: np.ndarray, CS: np.ndarray) -> float:
+    """A live law's adaptation error from its state (the gain adaptation's rows)."""
+    return float(engine_metrics.adaptation_of(CS[gain_law.ADAPT, 0], CP[gain_law.MODE, 0]))
 
 
 def _whole(name: str, value: Any) -> int:
@@ -720,22 +742,29 @@ class IntelligentController(_Sampled):
         params.setdefault("alpha_limits", None)
         snap = {**snap, "params": params}
         if "kernel" in params:
-            return _with_rls_rows(snap)
+            return _with_adaptation_row(_with_rls_rows(snap))
         algebraic = params.get("estimator") == "algebraic"
         params["kernel"] = "trapezoid" if algebraic or params.get("order") == 2 else None
         params["startup"] = "backward-difference" if algebraic else None
         params["delay"], params["predict"] = 0, False
         state = list(snap["state"])
-        state.insert(intelligent.U2, state[intelligent.U1] if len(state) > intelligent.U1
-                     else 0.0)
-        return _with_rls_rows({**snap, "params": params, "state": state})
+        u1, u2 = intelligent.U1 - _SHIFT_4, intelligent.U2 - _SHIFT_4  # layout 2's
+        state.insert(u2, state[u1] if len(state) > u1 else 0.0)
+        return _with_adaptation_row(_with_rls_rows({**snap, "params": params,
+                                                    "state": state}))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         cp = state.get("_CP")
-        if cp is not None and cp.shape[0] != intelligent.N_PARAMS:
-            # the compiled step would read past a shorter column
+        params, cs = state.get("_params") or {}, state.get("_CS")
+        window = params.get("window") if params.get("estimator") == "algebraic" else 0
+        rows = intelligent.n_state(window or 0, int(params.get("delay") or 0))
+        if (cp is not None and cp.shape[0] != intelligent.N_PARAMS) or (
+                cs is not None and cs.shape[0] != rows):
+            # the compiled step would read past a shorter column, or its state rows at
+            # other offsets (layout 4 put a row in after the gain adaptation's)
             raise ValueError(f"this {type(self).__name__} was pickled by an older mfcontrol "
-                             "(its parameter layout changed): rebuild it from a snapshot, "
+                             "(its parameter or state layout changed): rebuild it from a "
+                             "snapshot, "
                              f"{type(self).__name__}.from_snapshot(snap), which carries "
                              "older snapshots over")
         super().__setstate__(state)
@@ -790,6 +819,14 @@ class IntelligentController(_Sampled):
     def gamma(self) -> float:
         """The gain 1/alpha used at the last sample."""
         return float(self._CS[gain_law.G1, 0])
+
+    @property
+    def adaptation_error(self) -> float:
+        """The variational gain's adaptation error since the reset: ``sum |e_dot - eps_M|
+        h`` over the adapting samples, the integral of the force that drives gamma (zero
+        where the online optimisation is stationary; :mod:`mfcontrol.laws.variational_gain`),
+        in y's unit. NaN for another gain, where it does not apply."""
+        return _adaptation_error(self._CP, self._CS)
 
     def linear_filter(self, gamma: float | None = None) -> filters.LinearFilter:
         """The law as the linear filter it is within its output limits:
@@ -960,8 +997,8 @@ class RecursiveIP(_Controller):
     are in :attr:`components`. Samples are taken to be equally spaced (the law's
     derivative scale is ``deriv_scale``, not the sample time). ``sample_time`` (s) is the
     period of a simulated loop (``simulate_loop``'s default ``h``) and sets
-    back-calculation's share k_aw h; without it, back-calculation uses the paper's 1e-6 s
-    and ``simulate_loop`` needs ``h``.
+    back-calculation's share k_aw h and the time step of :attr:`adaptation_error`; without
+    it, both use the paper's 1e-6 s and ``simulate_loop`` needs ``h``.
 
     Examples
     --------
@@ -1044,8 +1081,9 @@ class RecursiveIP(_Controller):
 
     @classmethod
     def _migrated(cls, snap: Any) -> Any:
-        """A snapshot taken before the multi-rate gain update, with its rows."""
-        return _with_multi_rate_rows(snap)
+        """A snapshot taken before the multi-rate gain update or the adaptation error,
+        with their rows."""
+        return _with_adaptation_row(_with_multi_rate_rows(snap))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         cp, cs = state.get("_CP"), state.get("_CS")
@@ -1084,6 +1122,12 @@ class RecursiveIP(_Controller):
     @property
     def components(self) -> dict[str, float]:
         return dict(zip(("u_raw", "gain", "gamma"), self._components, strict=True))
+
+    @property
+    def adaptation_error(self) -> float:
+        """As :attr:`IntelligentController.adaptation_error`: the variational gain's
+        adaptation error since the reset (NaN for a constant gain)."""
+        return _adaptation_error(self._CP, self._CS)
 
     def linear_filter(self, gamma: float | None = None) -> filters.LinearFilter:
         """The law's applied output as the linear filter it is within its limits

@@ -25,6 +25,11 @@ settling_time      from t0 until y stays within 2 % of |y1 - y0| around y1 (NaN 
                    does not by the end of the step window)
 iae_load           sum |e_k| h from the first load step on: a step disturbance's t0 or
                    the first scheduled plant change (NaN without either)
+adaptation_error   the variational gain's adaptation error: sum |e_dot_k - eps_M| h over
+                   the samples where gamma adapts (k >= 3), the integral of the force of
+                   the discrete Euler-Lagrange equation that moves gamma, zero where the
+                   online optimisation is stationary
+                   (:mod:`mfcontrol.laws.variational_gain`); NaN for another gain
 =================  ===========================================================
 
 The step metrics (overshoot, rise_time, settling_time) need a step reference: a case's
@@ -60,7 +65,8 @@ LOOP_METRICS = ("energy_u", "steady_state_error", "overshoot", "rise_time", "set
                 "iae_load")
 #: the metric columns of a sweep table, in order
 COLUMNS = ("iae", "ise", "itae", "max_abs_e", "tv_u", "final_gamma", "max_abs_e_final",
-           "max_abs_ref", "diverged", "t_diverge", "n_samples", "settled", *LOOP_METRICS)
+           "max_abs_ref", "diverged", "t_diverge", "n_samples", "settled", *LOOP_METRICS,
+           "adaptation_error")
 
 
 #: each metric in words, and its unit: {y} stands for the output's unit, {u} the input's
@@ -79,6 +85,7 @@ LABELS = {
     "rise_time": ("rise time", "s"),
     "settling_time": ("settling time", "s"),
     "iae_load": ("IAE after the load step", "{y} s"),
+    "adaptation_error": ("adaptation error, the integral of |e' - eps_M|", "{y}/s s"),
     "t_diverge": ("time of divergence", "s"),
     "n_samples": ("samples run", "1"),
     "settled": ("settled (1) or not (0)", "1"),
@@ -90,7 +97,8 @@ LABELS = {
 SHORT = {"iae": "IAE", "ise": "ISE", "itae": "ITAE", "max_abs_e": "max |e|", "tv_u": "TV(u)",
          "settled": "settled", "iae_load": "IAE load", "overshoot": "overshoot",
          "rise_time": "rise time", "settling_time": "settling time",
-         "final_gamma": "final gamma", "energy_u": "energy of u"}
+         "final_gamma": "final gamma", "energy_u": "energy of u",
+         "adaptation_error": "adaptation error"}
 
 
 def label(metric: str, y_unit: str = "output unit", u_unit: str = "input unit") -> str:
@@ -147,6 +155,7 @@ def table(M: np.ndarray, tol: float) -> dict[str, np.ndarray]:
     }
     out["settled"] = is_settled(diverged, out["max_abs_e_final"], out["max_abs_ref"], tol)
     out.update(_loop_metrics(M))
+    out["adaptation_error"] = M[engine_metrics.M_ADAPT].copy()
     return out
 
 
@@ -210,5 +219,6 @@ def from_kernel(M: np.ndarray, j: int, tol: float) -> dict:
                       else nan),
         "settling_time": _maximum(t_in, t0) - t0 if step and t_in <= m[em.M_T_LAST] else nan,
         "iae_load": m[em.M_IAE_LOAD] if math.isfinite(m[em.M_LOAD_T0]) else nan,
+        "adaptation_error": m[em.M_ADAPT],
     }
     return {k: nan if isinstance(v, float) and v != v else v for k, v in out.items()}

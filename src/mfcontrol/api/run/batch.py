@@ -322,6 +322,7 @@ def run_range(grid: Grid, start: int, stop: int, changes: dict | None = None, *,
         first = paper_sweep.P_M
         M = D[:, first:first + engine_metrics.N_METRICS].transpose(1, 0, 2).reshape(
             engine_metrics.N_METRICS, -1)[:, :n]
+        engine_metrics.adaptation(M, scn.CP, True)
         met = _metrics.table(M, tol)
     else:  # the general engine, every member of the range in one batch
         met = _metrics.table(_general_batch(grid, start, stop, fast), tol)

@@ -32,7 +32,7 @@ from ...elements import layout
 from ...engine import compose, trajectory
 from ...engine import metrics as engine_metrics
 from ...errors import ConfigError
-from ...laws import intelligent, pid, reference
+from ...laws import intelligent, pid, reference, variational_gain
 from ...laws import reference as reference_law
 from ...numerics import grid
 from ..model.controllers import PID, IntelligentController, RecursiveIP, _Controller
@@ -300,12 +300,17 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
     tol = np.array(p0.tol, dtype=np.float64)
     DT = np.zeros(m)  # <= 0: the adaptive integrator starts each member with a step of h
+    has_gain = l0.kind != compose.PID  # a law on the gain adaptation's rows
+    adapt0 = CS[variational_gain.ADAPT].copy() if has_gain else None
     compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
                 l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),
                 RP, np.zeros((0, n)) if AL is None else np.ascontiguousarray(AL, dtype=np.float64),
                 LP, events, S, M, tol,
                 DT, traj, comp_rows, fast=fast, block=p0.block, vectorise=vectorise,
                 member=p0.member)
+    if has_gain:  # the adaptation error of this run, from the law's state (as it stopped)
+        M[engine_metrics.M_ADAPT] = CS[variational_gain.ADAPT] - adapt0
+    engine_metrics.adaptation(M, CP, has_gain)
     return M, traj, CS, DT
 
 
@@ -605,6 +610,9 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, settled_tol, n
     comps: dict[str, np.ndarray] = {}
     has_components = hasattr(controller, "components")
     bound = S[engine_metrics.S_DIVERGE_ABOVE]
+    # a library law's adaptation error (NaN where it does not apply, or for your own
+    # controller): this run's share of it
+    adapt0 = getattr(controller, "adaptation_error", math.nan)
     with restored(plant):  # a schedule acts on this run only
         for k in range(n):
             for c, k_c in zip(changes, due, strict=True):
@@ -628,6 +636,7 @@ def _python_driver(plant, controller, r, t, changes, h, t_end, S, settled_tol, n
     engine_metrics.start(M, *step_metrics_of(np.zeros((reference_law.N_PARAMS, 1)), step),
                          load_step_of(layout.column(), [changes], t_end, n))
     engine_metrics.trajectory_metrics(t, h, y, r, u, u, gamma, S, M)
+    M[engine_metrics.M_ADAPT] = getattr(controller, "adaptation_error", math.nan) - adapt0
     met = _metrics.from_kernel(M, 0, settled_tol)
     k_end = met["n_samples"]
     # the live controllers' component names, as every result names them

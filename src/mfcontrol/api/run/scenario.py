@@ -152,6 +152,7 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
                    scn.X0.copy(), scn.law_kind, scn.CP, CS, scn.RP, scn.ev_steps,
                    scn.ev_k, scn.ev_row, scn.ev_add, scn.ev_val, scn.S, M, traj[:, 0, :])
         traj[:, 0, int(M[metrics.M_N_SAMPLES, 0]):] = np.nan  # never written: diverged
+        metrics.adaptation(M, scn.CP, True)
         return M, traj
     traj = np.full((n_rows, len(keep_arr), scn.n_steps), np.nan)
     one = np.empty((n_rows, scn.n_steps))
@@ -163,6 +164,7 @@ def execute(scn: Scenario, keep: Sequence[int] | None = None, *, fast: bool = Fa
         if j in keep_arr:
             done = int(Mj[metrics.M_N_SAMPLES, 0])
             traj[:, keep_arr.index(j), :done] = one[:, :done]
+    metrics.adaptation(M, scn.CP, True)
     return M, traj
 
 
