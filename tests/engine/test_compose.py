@@ -24,6 +24,10 @@ class _Opaque:
     def components(self):
         return self.ctrl.components
 
+    @property
+    def adaptation_error(self):  # read by the Python driver, as components are
+        return self.ctrl.adaptation_error
+
 
 CONTROLLERS = {
     "IP": lambda h: mfcontrol.IP(alpha=1.0, kp=8.0, sample_time=h, output_limits=(-5, 5)),

@@ -35,9 +35,11 @@ def test_members_going_bad_in_different_tiles_equal_their_single_runs(specialise
             assert _same(cols[name][m], single[name]), (m, name, cols[name][m], single[name])
 
 
-def test_a_member_dead_early_keeps_its_metrics_through_later_plain_tiles():
-    # blown up within the first tile; 11 more tiles run without the per-sample test
-    base = resolve_case("voltage-stable-standard", {
+@pytest.mark.parametrize("case", ["voltage-stable-standard", "voltage-unstable-variational"])
+def test_a_member_dead_early_keeps_its_metrics_through_later_plain_tiles(case):
+    # blown up within the first tile; 11 more tiles run without the per-sample test (the
+    # variational law's adaptation error too: a state row the tiles copy)
+    base = resolve_case(case, {
         "sim.t_end": 3e-3, "controller.duty_min": -1e300, "controller.duty_max": 1e300,
         "sim.diverge_above": 1e6})[1]
     grid = batch.make_grid(base, {"controller.kp": np.array([2.0, -5e4])})

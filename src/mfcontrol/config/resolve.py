@@ -411,9 +411,8 @@ def _check_consistency(v: dict[str, Any]) -> None:
                           estimators.EVEN_FOR_SIMPSON)
     if positional and v["controller.adapt"] == "rls":
         alpha = v["controller.alpha"]
-        lo, hi = v["controller.alpha_min"], v["controller.alpha_max"]
-        lo = alpha / 10.0 if lo is None else lo
-        hi = alpha * 10.0 if hi is None else hi
+        lo, hi = variational_gain.rls_limits(alpha, v["controller.alpha_min"],
+                                             v["controller.alpha_max"])
         problem = variational_gain.rls_problem(alpha, v["controller.forgetting"], lo, hi)
         if problem:
             key, allowed = problem

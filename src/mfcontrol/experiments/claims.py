@@ -62,6 +62,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..api.results.result import Result
+from ..laws import recursive_ip
 from .analyze import analyze
 from .cases import resolve_case, run_config
 
@@ -619,8 +620,8 @@ def _loop_rows(fidelity: str) -> list[dict[str, Any]]:
     for integrator in INTEGRATORS:
         sig = _run(fidelity, {"controller.integrator": integrator}).signals
         g, y, r = sig["gamma"], sig["y_meas"], sig["y_ref"]
-        # the force as the law computes it, in its floating-point order, at k >= 1
-        e_dot = (y[1:] - y[:-1]) / hd - (r[1:] - r[:-1]) / hd
+        # the force as the law computes it (its own e_dot), at k >= 1
+        e_dot = recursive_ip.error_rate(y[1:], y[:-1], r[1:], r[:-1], hd)
         f = (e_dot - eps_m)[2:]  # f_k for k >= 3, where the recursion starts
         g0, g1, g2 = g[3:], g[2:-1], g[1:-2]  # gamma_k, gamma_{k-1}, gamma_{k-2}
         own = (f * rate + 2.0 * g1) - (g2 if integrator == "second-order" else g1)

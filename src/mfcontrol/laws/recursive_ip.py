@@ -73,6 +73,14 @@ def clip(x, lo, hi):
 
 
 @step_jit
+def error_rate(y, y_prev, r, r_prev, hd):
+    """e_dot_k, the error's backward difference over the derivative scale ``hd``, in the
+    published code's floating-point order (floats, or arrays element-wise: the claims
+    recompute the law's force from a recorded run with it)."""
+    return (y - y_prev) / hd - (r - r_prev) / hd
+
+
+@step_jit
 def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, adapt, P):
     """One sample from plain floats: the one place the law is written.
 
@@ -92,7 +100,7 @@ def advance(k, y, r, u_prev, y_prev, r_prev, g1, g2, acc, cnt, adapt, P):
         carried = u0 if aw_coef == 0.0 else u0 + aw_coef * (applied / out_gain - u0)
         return u0, applied, g0, g0, carried, g1, g2, acc, cnt, adapt
     hd = P[HD]
-    e_dot = (y - y_prev) / hd - (r - r_prev) / hd
+    e_dot = error_rate(y, y_prev, r, r_prev, hd)
     # the recursive law has no external gain: alpha_ext is never read
     gamma, g1_next, g2_next, acc, cnt, adapt = vg.next_gamma(
         mode, k, e_dot, g1, g2, acc, cnt, adapt, inv_alpha, gamma0, P[vg.GAMMA_RATE],

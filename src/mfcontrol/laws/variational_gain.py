@@ -89,6 +89,13 @@ RLS_P0_F = 1e4
 RLS_P0_ALPHA = 1e2
 
 
+def rls_limits(alpha: float, lo: float | None, hi: float | None) -> tuple[float, float]:
+    """The rls estimate's clip: ``lo`` and ``hi`` as given, each by default a decade
+    around the starting alpha (alpha / 10, 10 alpha). The one statement of the default:
+    the live controllers and the configuration take it from here."""
+    return alpha / 10.0 if lo is None else lo, alpha * 10.0 if hi is None else hi
+
+
 def rls_problem(alpha: float, forgetting: float, lo: float, hi: float
                 ) -> tuple[str, str] | None:
     """What the rls gain cannot take, as (the option at fault: "forgetting", "alpha_min"

@@ -643,8 +643,7 @@ class IntelligentController(_Sampled):
             forgetting = _number("forgetting", 0.99 if forgetting is None else forgetting)
             a_lo, a_hi = _limits((None, None) if alpha_limits is None else alpha_limits,
                                  "alpha_limits")
-            a_lo = alpha / 10.0 if a_lo is None else a_lo
-            a_hi = alpha * 10.0 if a_hi is None else a_hi
+            a_lo, a_hi = gain_law.rls_limits(alpha, a_lo, a_hi)
             problem = gain_law.rls_problem(alpha, forgetting, a_lo, a_hi)
             if problem:
                 key, allowed = problem

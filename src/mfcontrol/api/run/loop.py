@@ -441,6 +441,9 @@ def simulate_loop(plant, controller, reference: Reference = 0.0, *, t_end: float
     controller : callable
         A live controller (``u = controller(y, setpoint=r)``), e.g. :class:`mfcontrol.IP`.
         The run continues from its present memory and leaves it as a loop of calls would.
+        A controller of your own may have ``components`` (a dict of floats, recorded as
+        signals every sample) and ``adaptation_error`` (a float, its gain adaptation's
+        error so far: the metric is its change over the run; NaN without it).
     reference : float, callable or array
         Constant, a function of t, or one value per sample.
     t_end, h : float
