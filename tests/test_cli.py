@@ -988,6 +988,17 @@ def test_an_integer_too_long_for_python_is_one_line(tmp_path):
                        "controller.kp = 1111111111", "finite number")
 
 
+@pytest.mark.parametrize("key,value,allowed", [
+    ("controller.kappa", "3", "kappa + mu must be at most 2"),
+    ("controller.mu", "-1", "controller.mu = -1"),
+    ("controller.kappa", "0.5", "controller.kappa"),
+])
+def test_a_jacobi_weight_the_kernel_cannot_take_is_one_line(tmp_path, key, value, allowed):
+    assert_usage_error(cli("run", "first-order-ip-algebraic", "--set",
+                           "controller.kernel=delay-reduced", "--set", f"{key}={value}",
+                           "--out", str(tmp_path / "o")), key, value, allowed)
+
+
 def test_a_dask_transport_we_cannot_use_is_one_line(tmp_path):
     assert_usage_error(cli("sweep", "first-order-ip-algebraic", "--grid",
                            "controller.kp=1,2", "--dask", "ucx://x:1", "--out",

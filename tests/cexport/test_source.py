@@ -106,6 +106,9 @@ VARIANTS = [
     ("first-order-ip-algebraic", {}),
     ("first-order-ip-algebraic", {"controller.kernel": "delay-reduced",
                                   "controller.lag": 3.0}),
+    ("first-order-ip-algebraic", {"controller.kernel": "delay-reduced",
+                                  "controller.lag": 13.0, "controller.kappa": 2,
+                                  "controller.mu": 0}),
 ]
 
 
@@ -191,7 +194,9 @@ def intelligent_controllers(draw):
         if options["kernel"] == "trapezoid" and order == 2:
             window += window % 2  # Simpson's rule
         if options["kernel"] == "delay-reduced":
-            options["lag"] = draw(st.floats(0.0, 0.5 * window))
+            options["lag"] = draw(st.floats(0.0, float(window)))
+            options["kappa"] = draw(st.integers(0, 2))
+            options["mu"] = draw(st.integers(0, 2 - options["kappa"]))
     make = functools.partial(
         mfcontrol.IPID,
         alpha=draw(st.floats(0.1, 100.0)), kp=draw(gains), ki=draw(gains), kd=draw(gains),

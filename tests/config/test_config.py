@@ -909,8 +909,14 @@ def test_the_laws_own_rules_are_refused_in_the_keys_names(keys, message):
     ({"controller.kernel": "delay-reduced", "controller.order": 2},
      "controller.kernel = 'delay-reduced': weighs the algebraic estimator's window"),
     ({"controller.kernel": "delay-reduced", "controller.estimator": "algebraic",
-      "controller.window": 8, "controller.lag": 4.5},
-     "controller.lag = 4.5: must be from 0 to M/2 = 4 samples"),
+      "controller.window": 8, "controller.lag": 8.5},
+     "controller.lag = 8.5: must be from 0 to M = 8 samples"),
+    ({"controller.kernel": "delay-reduced", "controller.estimator": "algebraic",
+      "controller.window": 8, "controller.kappa": 2},
+     r"controller.kappa = 2: kappa \+ mu must be at most 2 \(here kappa = 2, mu = 1\)"),
+    ({"controller.kernel": "delay-reduced", "controller.estimator": "algebraic",
+      "controller.window": 8, "controller.kappa": 0, "controller.mu": 3},
+     r"controller.mu = 3: kappa \+ mu must be at most 2"),
 ])
 def test_the_delay_reduced_kernels_rules_in_a_case(keys, message):
     base = {"plant.model": "first-order", "controller.law": "i-P"}

@@ -355,6 +355,7 @@ def _motor(f=_motor_inplace, g=lambda x, p: x[0]) -> ODE:
     return ODE(f, g, x0=(0.0, 0.0), params=PARAMS)
 
 
+_JACOBI = [(2, 0), (1, 1), (0, 2), (1, 0), (0, 1), (0, 0)]
 VECTORISED_LAWS = {
     "IPI": lambda kp: mfcontrol.IPI(alpha=50.0, kp=kp, ki=50.0, sample_time=1e-3,
                                     output_limits=(-24, 24)),
@@ -385,6 +386,12 @@ VECTORISED_LAWS = {
     "IPI-delay-reduced": lambda kp: mfcontrol.IPI(
         alpha=50.0, kp=kp, ki=20.0, sample_time=1e-3, estimator="algebraic", window=8,
         output_limits=(-24, 24), kernel="delay-reduced", lag=(kp + 40.0) % 4.0),
+    # each member its own Jacobi weight and lag (member j: the weight j % 6 of those the
+    # kernel takes, lag (kp + 40) % 8, any point of the window)
+    "IPI-delay-reduced-jacobi": lambda kp: mfcontrol.IPI(
+        alpha=50.0, kp=kp, ki=20.0, sample_time=1e-3, estimator="algebraic", window=8,
+        output_limits=(-24, 24), kernel="delay-reduced", lag=(kp + 40.0) % 8.0,
+        **dict(zip(("kappa", "mu"), _JACOBI[round((kp + 40.0) / 1.5) % 6], strict=True))),
     # anti-windup differing between the members of a block (round(2 kp) = 3 j - 80: its
     # parity alternates with j)
     "IPI-mixed-anti-windup": lambda kp: mfcontrol.IPI(

@@ -1,7 +1,8 @@
 """The sliding-window algebraic estimator of F, checked against facts.
 
 * its O(1) sliding moments give the direct FIR sum of the integral (``weights``), for
-  both kernels;
+  every kernel (the delay-reduced one for every Jacobi weight it takes, whose weights are
+  also numpy's weighted least-squares line);
 * the held kernel returns F to rounding under any held input; the trapezoid kernel's
   error is its closed form;
 * it recovers a known F from signals that obey the ultra-local model, at t - T/2;
@@ -43,21 +44,34 @@ def make_state(M, base=0, members=1):
     return CS
 
 
-def run(order, M, h, alpha, y, u, base=0, kernel="trapezoid", lag=0.0):
+#: no delay-reduced coefficients (the other kernels read none)
+NO_JACOBI = np.zeros((est.N_JACOBI, 1))
+
+
+def jacobi(M, kappa=1, mu=1, lag=0.0, row=0):
+    """The delay-reduced kernel's coefficients as a law's parameter rows from ``row``."""
+    CP = np.full((row + est.N_JACOBI, 1), np.nan)
+    CP[row:, 0] = est.jacobi_rows(M, kappa, mu, lag)
+    return CP
+
+
+def run(order, M, h, alpha, y, u, base=0, kernel="trapezoid", lag=0.0, kappa=1, mu=1):
     """Push y_k, u_{k-1} one by one; return the estimates (NaN while the window fills)."""
     CS = make_state(M, base)
     f = np.empty(y.size)
     code = est.KERNELS[kernel]
+    CP = jacobi(M, kappa, mu, lag, row=2) if kernel == "delay-reduced" else NO_JACOBI
+    prow = 2 if kernel == "delay-reduced" else 0
     for k in range(y.size):
         est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE,
                  est.moment_order(float(order), code))
-        f[k] = est.estimate(CS, 0, base, M, h, alpha, order, code, lag)
+        f[k] = est.estimate(CS, 0, base, M, h, alpha, order, code, CP, prow)
     return f
 
 
-def direct(order, M, h, alpha, y, u, kernel="trapezoid", lag=None):
+def direct(order, M, h, alpha, y, u, kernel="trapezoid", lag=None, kappa=None, mu=None):
     """The FIR form over every full window (k = M .. N-1), and the size of its terms."""
-    wy, wu = est.weights(order, M, h, alpha, kernel, lag)
+    wy, wu = est.weights(order, M, h, alpha, kernel, lag, kappa, mu)
     Y = sliding_window_view(y, M + 1)
     U = sliding_window_view(u[:-1], M)
     return Y @ wy + U @ wu, np.abs(Y * wy).sum(1) + np.abs(U * wu).sum(1)
@@ -362,8 +376,8 @@ def test_order_one_carries_its_moments_with_the_bits_they_have_beside_all(M):
         assert not one[left].any()
         # (the delay-reduced kernel reads order 2's set: est.moment_order)
         for kernel in (est.HELD, est.TRAPEZOID):
-            np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1, kernel, 0.0),
-                                          est.sums(full, 0, 0, M, 1, kernel, 0.0))
+            np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1, kernel, NO_JACOBI, 0),
+                                          est.sums(full, 0, 0, M, 1, kernel, NO_JACOBI, 0))
 
 
 def test_moments_are_carried_and_recomputed_only_every_M_samples():
@@ -452,30 +466,93 @@ def test_a_spread_push_does_work_independent_of_M():
         assert max(writes) <= 3 + 2 * est.SPREAD_ROWS
 
 
-@pytest.mark.parametrize("M", [2, 5, 20, 64])
-@pytest.mark.parametrize("lag", [0.0, 0.25, 3.0, None])
-def test_the_delay_reduced_kernel_is_exact_for_an_affine_F_at_its_lag(M, lag):
-    # under a held +-1 input, F = 3 + 40 t (a ramp): F_hat = F(t_k - lag h) to rounding,
-    # for every lag from 0 to M/2 (None: M/2, the held kernel's point)
-    lag = 0.5 * M if lag is None else min(lag, 0.5 * M)
-    h, alpha, n = 1e-2, 2.0, 3 * M + 40
-    rng = np.random.default_rng(M)
-    u = rng.choice([-1.0, 1.0], n)
+#: every Jacobi weight the window's moments slide in O(1)
+JACOBI_WEIGHTS = [(kappa, mu) for kappa in range(3) for mu in range(3 - kappa)]
+
+
+def held_ramp(M, n, alpha, seed):
+    """y exactly under y' = 3 + 40 t + alpha u with u = +-1 held (random), and u, t."""
+    h = 1e-2
+    u = np.random.default_rng(seed).choice([-1.0, 1.0], n)
     t = h * np.arange(n)
-    # y' = 3 + 40 t + alpha u_j on [t_j, t_j+1]: exact integral over each interval
+    # the exact integral of y' over each interval
     y = np.concatenate([[0.0], np.cumsum(h * (3.0 + 40.0 * (t[:-1] + 0.5 * h))
                                          + h * alpha * u[:-1])])
-    f = run(1, M, h, alpha, y, u, kernel="delay-reduced", lag=lag)
+    return h, y, u, t
+
+
+@pytest.mark.parametrize("M", [2, 3, 5, 8, 20, 64])
+@pytest.mark.parametrize("kappa,mu", JACOBI_WEIGHTS)
+def test_the_delay_reduced_kernel_is_exact_for_an_affine_F_at_its_lag(M, kappa, mu):
+    # under a held +-1 input, F = 3 + 40 t (a ramp): F_hat = F(t_k - lag h) to rounding,
+    # for every Jacobi weight and every lag from 0 to M (M/2 with kappa = mu = 1: the
+    # held kernel's point, weights and all), and the moments give the FIR form of the
+    # definition over a long run (many resyncs)
+    alpha, n = 2.0, 6 * M + 40
+    h, y, u, t = held_ramp(M, n, alpha, M + 10 * kappa + mu)
     k = np.arange(M, n)
-    np.testing.assert_allclose(f[k], 3.0 + 40.0 * (t[k] - lag * h), rtol=0, atol=1e-9)
-    # the moments give the FIR form of the definition
-    fd, size = direct(1, M, h, alpha, y, u, "delay-reduced", lag)
-    np.testing.assert_allclose(f[M:], fd, rtol=0, atol=RTOL_SCALE * size.max())
-    # at lag M/2 it is the held kernel, weights and all
-    if lag == 0.5 * M:
-        held = est.weights(1, M, h, alpha, "held")
-        for a, b in zip(est.weights(1, M, h, alpha, "delay-reduced", lag), held, strict=True):
-            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max())
+    for lag in (0.0, 0.25, 0.5 * M, 0.8 * M, float(M)):
+        f = run(1, M, h, alpha, y, u, kernel="delay-reduced", lag=lag, kappa=kappa, mu=mu)
+        truth = 3.0 + 40.0 * (t[k] - lag * h)
+        np.testing.assert_allclose(f[k], truth, rtol=1e-10, atol=0)
+        fd, size = direct(1, M, h, alpha, y, u, "delay-reduced", lag, kappa, mu)
+        np.testing.assert_allclose(f[M:], fd, rtol=0, atol=1e-12 * size.max())
+        if (kappa, mu, lag) == (1, 1, 0.5 * M):
+            held = est.weights(1, M, h, alpha, "held")
+            for a, b in zip(est.weights(1, M, h, alpha, "delay-reduced", lag), held,
+                            strict=True):
+                np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max())
+
+
+@pytest.mark.parametrize("kappa,mu", JACOBI_WEIGHTS)
+def test_the_delay_reduced_moments_give_the_fir_form_over_a_long_random_run(kappa, mu):
+    # random y and u (no model): the running moments, resynced every M samples, against
+    # the FIR weights of the definition, relative to the size of the summed terms
+    M, h, alpha = 20, 1e-3, 3.0
+    rng = np.random.default_rng(10 * kappa + mu)
+    y, u = rng.standard_normal((2, 50 * M)) * 5.0
+    for lag in (0.0, 7.3, 16.0):
+        f = run(1, M, h, alpha, y, u, kernel="delay-reduced", lag=lag, kappa=kappa, mu=mu)
+        fd, size = direct(1, M, h, alpha, y, u, "delay-reduced", lag, kappa, mu)
+        err = np.abs(f[M:] - fd) / size
+        assert err.max() < 1e-12, err.max()
+
+
+@pytest.mark.parametrize("M", [2, 3, 8, 20])
+@pytest.mark.parametrize("kappa,mu", JACOBI_WEIGHTS)
+def test_the_delay_reduced_weights_are_numpys_weighted_least_squares_line(M, kappa, mu):
+    # an independent construction: np.polyfit's weighted line (its w multiplies the
+    # residuals, so sqrt of the Jacobi weight) through the relations phi_j at their
+    # centres, read at x* = M/2 - lag; the relations are linear in the samples, so the
+    # line's value at x* over a random window is the FIR form's
+    h, alpha = 1e-2, 1.7
+    rng = np.random.default_rng(M)
+    x = np.arange(M) + 0.5 - 0.5 * M
+    w = (0.5 * M - x) ** kappa * (0.5 * M + x) ** mu
+    for lag in (0.0, 1.5, 0.5 * M, float(M)):
+        wy, wu = est.weights(1, M, h, alpha, "delay-reduced", lag, kappa, mu)
+        for _ in range(3):
+            y, u = rng.standard_normal(M + 1), rng.standard_normal(M)
+            phi = np.diff(y) / h - alpha * u
+            line = np.polyfit(x, phi, 1, w=np.sqrt(w))
+            expected = np.polyval(line, 0.5 * M - lag)
+            got = wy @ y + wu @ u
+            assert got == pytest.approx(expected, rel=1e-11, abs=1e-11 * np.abs(phi).max())
+
+
+def test_the_delay_reduced_weighted_mean_is_the_jacobi_weights_q0_estimator():
+    # lag at the weight's mean position: the slope's term drops out, the relations'
+    # weights are w itself, normalised (the minimal estimator, q = 0); away from it they
+    # are not
+    M = 20
+    x = np.arange(M) + 0.5 - 0.5 * M
+    for kappa, mu in JACOBI_WEIGHTS:
+        w = (0.5 * M - x) ** kappa * (0.5 * M + x) ** mu
+        lag = 0.5 * M - (w * x).sum() / w.sum()
+        wu = est.weights(1, M, 1.0, 1.0, "delay-reduced", lag, kappa, mu)[1]
+        np.testing.assert_allclose(-wu, w / w.sum(), rtol=0, atol=1e-15)
+        off = est.weights(1, M, 1.0, 1.0, "delay-reduced", lag + 1.0, kappa, mu)[1]
+        assert np.abs(off + w / w.sum()).max() > 1e-3
 
 
 def test_the_delay_reduced_kernels_noise_grows_as_its_lag_shrinks():
@@ -493,11 +570,58 @@ def test_the_delay_reduced_kernels_noise_grows_as_its_lag_shrinks():
     assert 2.0 < gain[2] / held < 4.0
 
 
+#: docs/theory.md's table (benchmarks/jacobi_noise.py): the noise std over the held
+#: kernel's at M = 20, (kappa, mu) -> (the weight's mean lag, at lag 0, M/4, M/2, mean)
+NOISE_TABLE = {(1, 1): (10.00, 3.89, 2.13, 1.00, 1.00), (0, 0): (10.00, 6.01, 3.43, 1.90, 1.90),
+               (0, 1): (6.67, 7.93, 3.97, 1.00, 2.68), (1, 0): (13.32, 8.28, 4.31, 1.00, 2.68),
+               (0, 2): (5.01, 10.37, 3.97, 3.02, 3.96),
+               (2, 0): (14.99, 15.84, 9.35, 3.02, 3.96)}
+
+
+def test_the_delay_reduced_noise_table_of_the_docs():
+    M = 20
+    x = np.arange(M) + 0.5 - 0.5 * M
+    held = np.sqrt(np.sum(est.weights(1, M, 1.0, 1.0, "held")[0] ** 2))
+    assert sorted(NOISE_TABLE) == sorted(JACOBI_WEIGHTS)
+    for (kappa, mu), (mean, *ratios) in NOISE_TABLE.items():
+        w = (0.5 * M - x) ** kappa * (0.5 * M + x) ** mu
+        lag = 0.5 * M - (w * x).sum() / w.sum()
+        assert lag == pytest.approx(mean, abs=0.005)
+        for at, ratio in zip((0.0, 0.25 * M, 0.5 * M, lag), ratios, strict=True):
+            wy = est.weights(1, M, 1.0, 1.0, "delay-reduced", at, kappa, mu)[0]
+            assert np.sqrt(np.sum(wy**2)) / held == pytest.approx(ratio, abs=0.005)
+    # the affine (q = 1) reading of (0, 1) or (1, 0) at the centre is the held kernel
+    for M in (3, 8, 64):
+        held_w = est.weights(1, M, 1.0, 1.0, "held")
+        for kappa, mu in ((0, 1), (1, 0)):
+            for a, b in zip(est.weights(1, M, 1.0, 1.0, "delay-reduced", 0.5 * M, kappa, mu),
+                            held_w, strict=True):
+                np.testing.assert_allclose(a, b, rtol=0, atol=1e-14 * np.abs(b).max())
+
+
 def test_the_delay_reduced_kernels_rules():
     est.check_window(1, 8, "delay-reduced", 0.0)
     est.check_window(1, 8, "delay-reduced", 4.0)
-    with pytest.raises(ValueError, match=r"lag = 4.5: must be from 0 to M/2 = 4 samples"):
-        est.check_window(1, 8, "delay-reduced", 4.5)
+    est.check_window(1, 8, "delay-reduced", 8.0, 2, 0)
+    est.check_window(1, 8, "delay-reduced", 0.0, 0, 0)
+    with pytest.raises(ValueError, match=r"lag = 8.5: must be from 0 to M = 8 samples"):
+        est.check_window(1, 8, "delay-reduced", 8.5)
+    with pytest.raises(ValueError, match=r"lag = -0.5: must be from 0 to M = 8 samples"):
+        est.check_window(1, 8, "delay-reduced", -0.5)
+    with pytest.raises(ValueError, match=r"mu = 2: kappa \+ mu must be at most 2 \(here "
+                       r"kappa = 1, mu = 2\)"):
+        est.check_window(1, 8, "delay-reduced", 0.0, 1, 2)
+    with pytest.raises(ValueError, match=r"kappa = 3: kappa \+ mu must be at most 2"):
+        est.check_window(1, 8, "delay-reduced", 0.0, 3)
+    for bad in (-1, 1.0, 0.5, True):
+        with pytest.raises(ValueError, match=f"kappa = {bad!r}: must be a whole number from "
+                           "0 to 2"):
+            est.check_window(1, 8, "delay-reduced", 0.0, bad, 0)
+        with pytest.raises(ValueError, match=f"mu = {bad!r}: must be a whole number"):
+            est.check_window(1, 8, "delay-reduced", 0.0, 0, bad)
+    with pytest.raises(ValueError, match="kappa = 1: only the delay-reduced kernel has a "
+                       "kappa"):
+        est.check_window(1, 8, "held", None, 1)
     with pytest.raises(ValueError, match="kernel = 'delay-reduced': the delay-reduced kernel "
                        "is of model order 1"):
         est.check_window(2, 8, "delay-reduced", 0.0)

@@ -252,15 +252,18 @@ def test_kernel_and_startup_are_refused_where_they_change_nothing():
         is None
 
 
-@pytest.mark.parametrize("kernel,lag", [("held", None), ("delay-reduced", 0.0),
-                                        ("delay-reduced", 2.0), ("delay-reduced", 5.0)])
-def test_the_estimates_delay_sets_the_i_ps_error_on_a_ramp_in_F(kernel, lag):
+@pytest.mark.parametrize("kernel,lag,jacobi", [
+    ("held", None, {}), ("delay-reduced", 0.0, {}), ("delay-reduced", 2.0, {}),
+    ("delay-reduced", 5.0, {}), ("delay-reduced", 0.0, {"kappa": 2, "mu": 0}),
+    ("delay-reduced", 7.5, {"kappa": 0, "mu": 1}), ("delay-reduced", 10.0, {"kappa": 0,
+                                                                           "mu": 0})])
+def test_the_estimates_delay_sets_the_i_ps_error_on_a_ramp_in_F(kernel, lag, jacobi):
     # y' = b t + alpha u, held input: F_hat_k = F(t_k - tau) exactly (tau = lag h, or
     # M h / 2 for the held kernel), and the i-P settles where the plant's mean F over the
     # coming interval, F(t_k + h/2), exceeds F_hat_k by kp e: e = b (h/2 + tau) / kp
     M, h, alpha, kp, b = 10, 1e-2, 2.0, 5.0, 3.0
     ctrl = mfcontrol.IP(alpha=alpha, kp=kp, sample_time=h, estimator="algebraic", window=M,
-                        kernel=kernel, **({} if lag is None else {"lag": lag}))
+                        kernel=kernel, **({} if lag is None else {"lag": lag}), **jacobi)
     y, e = 0.0, []
     for k in range(600):
         u = ctrl(y, setpoint=0.0)
@@ -269,7 +272,14 @@ def test_the_estimates_delay_sets_the_i_ps_error_on_a_ramp_in_F(kernel, lag):
         y += h * (b * (t + 0.5 * h) + alpha * u)
     tau = (0.5 * M if lag is None else lag) * h
     assert e[-1] == pytest.approx(b * (0.5 * h + tau) / kp, rel=1e-6)
-    assert ctrl.snapshot()["params"]["lag"] == lag
+    params = ctrl.snapshot()["params"]
+    assert params["lag"] == lag
+    if kernel == "delay-reduced":
+        assert (params["kappa"], params["mu"]) == (jacobi.get("kappa", 1), jacobi.get("mu", 1))
+        again = type(ctrl).from_snapshot(ctrl.snapshot())
+        np.testing.assert_array_equal(again._CP, ctrl._CP)
+    else:
+        assert params["kappa"] is None and params["mu"] is None
 
 
 def test_the_delay_reduced_kernel_is_refused_where_it_cannot_run():
@@ -279,9 +289,22 @@ def test_the_delay_reduced_kernel_is_refused_where_it_cannot_run():
                        "is of model order 1"):
         mfcontrol.IPD(alpha=1.0, kp=1.0, kd=1.0, sample_time=0.1, estimator="algebraic",
                       window=8, kernel="delay-reduced")
-    with pytest.raises(ValueError, match=r"lag = 4.5: must be from 0 to M/2 = 4 samples"):
+    with pytest.raises(ValueError, match=r"lag = 8.5: must be from 0 to M = 8 samples"):
         mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
-                     kernel="delay-reduced", lag=4.5)
+                     kernel="delay-reduced", lag=8.5)
+    with pytest.raises(ValueError, match=r"mu = 2: kappa \+ mu must be at most 2 \(here "
+                       r"kappa = 1, mu = 2\)"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
+                     kernel="delay-reduced", mu=2)
+    with pytest.raises(ValueError, match="kappa = 1.5: must be a whole number from 0 to 2"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
+                     kernel="delay-reduced", kappa=1.5)
+    with pytest.raises(ValueError, match="kappa = -1: must be a whole number from 0 to 2"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
+                     kernel="delay-reduced", kappa=-1, mu=0)
+    with pytest.raises(ValueError, match="mu = 0: only the delay-reduced kernel has a mu"):
+        mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
+                     mu=0)
     with pytest.raises(ValueError, match="lag = 1.0: only the delay-reduced kernel has a lag"):
         mfcontrol.IP(alpha=1.0, kp=1.0, sample_time=0.1, estimator="algebraic", window=8,
                      lag=1.0)

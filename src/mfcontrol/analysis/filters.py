@@ -168,8 +168,11 @@ def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) ->
     if CP[intelligent.EST] == intelligent.ALGEBRAIC:
         m = int(CP[intelligent.M_WIN])
         kernel = estimators.kernel_name(CP[intelligent.KERNEL])
-        lag = float(CP[intelligent.LAG]) if kernel == "delay-reduced" else None
-        wy, wu = estimators.weights(n, m, dt, 1.0 / gamma, kernel, lag)
+        jacobi: dict = {}
+        if kernel == "delay-reduced":
+            jacobi = {"lag": float(CP[intelligent.LAG]), "kappa": int(CP[intelligent.KAPPA]),
+                      "mu": int(CP[intelligent.MU])}
+        wy, wu = estimators.weights(n, m, dt, 1.0 / gamma, kernel, **jacobi)
         # oldest first: y_{k-M} .. y_k and u_{k-M} .. u_{k-1}; q^i is i samples back
         f_y = wy[::-1]
         f_u = np.concatenate([[0.0], wu[::-1]])

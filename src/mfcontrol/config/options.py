@@ -149,7 +149,12 @@ OPTIONS: tuple[Option, ...] = (
        ("held", "trapezoid", "delay-reduced")),
     _o("controller.lag", "float", None, "delay-reduced kernel: the sample time the estimate "
        "belongs to, samples back from the newest (0, the default: none, for F affine in "
-       "time; M/2: the held kernel's), from 0 to M/2"),
+       "time; M/2 with kappa = mu = 1: the held kernel's), from 0 to M"),
+    _o("controller.kappa", "int", 1, "delay-reduced kernel: the Jacobi weight's exponent "
+       "at the newest end, w = (M/2 - x)^kappa (M/2 + x)^mu; whole, kappa + mu <= 2",
+       check="nonnegative"),
+    _o("controller.mu", "int", 1, "delay-reduced kernel: the Jacobi weight's exponent at "
+       "the oldest end (controller.kappa)", check="nonnegative"),
     _o("controller.delay", "int", 0, "positional laws: the loop's input delay the law "
        "compensates (samples; the actuator's and sensor's together): F is estimated with "
        "the input the plant received", check="nonnegative"),

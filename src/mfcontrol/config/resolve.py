@@ -439,12 +439,14 @@ def _check_consistency(v: dict[str, Any]) -> None:
             raise ConfigError("controller.kernel", "delay-reduced", "weighs the algebraic "
                               "estimator's window: set controller.estimator = algebraic")
         lag = v["controller.lag"]
+        kappa, mu = v["controller.kappa"], v["controller.mu"]
         problem = estimators.kernel_problem(v["controller.order"], v["controller.window"],
-                                            "delay-reduced", 0.0 if lag is None else lag)
+                                            "delay-reduced", 0.0 if lag is None else lag,
+                                            kappa, mu)
         if problem:
             key, allowed = problem
-            raise ConfigError(f"controller.{key}",
-                              "delay-reduced" if key == "kernel" else lag, allowed)
+            value = {"kernel": "delay-reduced", "lag": lag, "kappa": kappa, "mu": mu}[key]
+            raise ConfigError(f"controller.{key}", value, allowed)
     n = round(v["sim.t_end"] / v["sim.h"])
     if algebraic and v["controller.window"] >= min(n, estimators.MAX_WINDOW + 1):
         # a window the run never fills estimates nothing (and would allocate its ring)

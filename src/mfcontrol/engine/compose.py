@@ -535,7 +535,7 @@ def _estimator_lanes(D, M, order, kernel, live):
     pushed one sample fewer); the ring's moves, the moments, the count, the resync every
     M samples and the sums run as loops of their own over the members: O(1) per
     member-sample."""
-    _, cs = _law_views(D, intelligent.N_PARAMS, _EST_VIEW_ROWS)
+    cp, cs = _law_views(D, intelligent.N_PARAMS, _EST_VIEW_ROWS)
     base = intelligent.EST_BASE
     n = int(cs[base + estimators.COUNT, live])
     slot, after = estimators.slots(n, M)
@@ -566,16 +566,19 @@ def _estimator_lanes(D, M, order, kernel, live):
     if full and kernel == estimators.HELD:
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
-                                                      parity, estimators.HELD, 0.0)
+                                                      parity, estimators.HELD, cp,
+                                                      intelligent.JACOBI)
     elif full and kernel == estimators.DELAY_REDUCED:
+        # each member its own (kappa, mu, lag): its coefficient rows
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(
-                cs, i, base, M, order, oldest, newest, parity, estimators.DELAY_REDUCED,
-                D[_CP0 + intelligent.LAG, i])
+                cs, i, base, M, order, oldest, newest, parity, estimators.DELAY_REDUCED, cp,
+                intelligent.JACOBI)
     elif full:
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
-                                                      parity, estimators.TRAPEZOID, 0.0)
+                                                      parity, estimators.TRAPEZOID, cp,
+                                                      intelligent.JACOBI)
     else:
         for i in range(LANES):
             D[_SY, i] = np.nan

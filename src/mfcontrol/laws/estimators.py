@@ -34,22 +34,30 @@ Three kernels, the discretisations of the integral and a delay-reduced one (``ke
 Both weigh the window symmetrically about its centre: for F linear in time the estimate
 is F(t - T/2), delayed by half a window. Both need only u up to u_{k-1}.
 
-``delay-reduced`` (n = 1; Mboup, Join and Fliess's affine Jacobi estimator on the held
+``delay-reduced`` (n = 1; Mboup, Join and Fliess's affine Jacobi estimators on the held
 relations)
     Under a held input each relation ``phi_j = (y_{j+1} - y_j) / h - alpha u_j`` is the
     mean of F over its interval, which for F affine in time is F at the interval's centre
-    x_j exactly. The held kernel is the weighted mean of the phi_j, weights
-    ``v_j ~ w(x_j)`` (the Jacobi weight of kappa = mu = 1); this kernel is the weighted
-    least-squares line through them, evaluated at ``x* = M/2 - lag`` (centred sample
-    units): weights ``v_j (1 + lambda x_j)`` with ``lambda = x* / sigma^2``,
-    ``sigma^2 = sum v x^2 / sum v = (M^2 - 1)(2 M^2 + 7) / (20 (2 M^2 + 1))`` (the
-    truncation q = 1 of the Jacobi expansion: the first Jacobi polynomial of this weight is
-    x). F_hat = F(t_k - lag h) exactly for F affine in time, under any held input; ``lag =
-    M/2`` is the held kernel, ``lag = 0`` has no delay for a ramp in F and pays for it in
-    noise: the estimate's standard deviation under white sensor noise (the root sum of
-    squares of the y weights) is 2.1 times the held kernel's at lag M/4 and 3.9 times at
-    lag 0 (M = 20; the ratio tends to 4 as M grows). The weights are one degree up from
-    the held kernel's, so the window carries order 2's moments (:func:`moment_order`).
+    x_j exactly (x_j = j + 1/2 - M/2, centred sample units, +M/2 the newest end). The
+    kernel is the w-weighted least-squares line through them, evaluated at
+    ``x* = M/2 - lag``, with the Jacobi weight ``w(x) = (M/2 - x)^kappa (M/2 + x)^mu``:
+    phi_j weighs ``w_j [1/W + (x* - xbar)(x_j - xbar)/S]`` (W = sum w, xbar = sum w x / W,
+    S = sum w (x - xbar)^2), the truncation q = 1 of the weight's Jacobi expansion. In
+    the local time tau = (t_k - t)/T of Mboup, Join and Fliess (as Liu, Gibaru and
+    Perruquetti write it) the weight is tau^kappa (1 - tau)^mu: kappa at the newest end,
+    mu at the oldest. kappa = mu = 1 (the default) is the held kernel's weight, and
+    ``lag = M/2`` then gives the held kernel; ``lag = M/2 - xbar`` drops the slope (the
+    weighted mean, q = 0). F_hat = F(t_k - lag h) exactly for F affine in time, under any
+    held input, for any lag from 0 to M (any point of the window). The u weights are of
+    degree kappa + mu + 1 in the centred index and the y weights of kappa + mu, so with
+    order 2's moments (:func:`moment_order`) the kernel slides in O(1) for
+    kappa + mu <= 2 (:data:`MAX_JACOBI`). Its coefficients of the moments are computed
+    once, in exact rationals, where the parameters are built (:func:`jacobi_rows`), and
+    kept in the law's parameter rows: each member of a sweep has its own. The noise it
+    passes (white sensor noise: the root sum of squares of the y weights) is 2.1 times
+    the held kernel's at lag M/4 and 3.9 times at lag 0 for kappa = mu = 1 (M = 20; it
+    tends to 4 as M grows), more for the other weights (docs/theory.md's table,
+    ``benchmarks/jacobi_noise.py``).
 
 Sliding moments
 ---------------
@@ -94,7 +102,9 @@ State rows (``CS[base + row, j]``)
 ``Y_MOM + N_YMOM * parity + p`` and ``U_MOM + N_UMOM * parity + p`` the moments over
 samples of that index parity; ``RING`` then M + 1 rows of y history and M + 1 rows of u
 history. Sample m lives in slot m % (M + 1): y_m, and the u pushed with it, u_{m-1}. The
-estimator has no parameter rows: the law embedding it passes M, h, alpha and n.
+estimator has no parameter rows of its own: the law embedding it passes M, h, alpha and n,
+and for the delay-reduced kernel its parameter array and the first of the
+:data:`N_JACOBI` rows holding :func:`jacobi_rows`.
 """
 
 import numpy as np
@@ -141,33 +151,132 @@ def parity_problem(order: int, M: int, kernel: str) -> bool:
     return order == 2 and M % 2 == 1 and kernel == "trapezoid"
 
 
-def kernel_problem(order: int, M: int, kernel: str, lag: float | None
+#: the largest kappa + mu: the delay-reduced kernel's u weights are of degree kappa + mu
+#: + 1 and its y weights of kappa + mu, within the moments the window carries (U_3, Y_2)
+MAX_JACOBI = 2
+
+
+def _whole(value) -> bool:
+    return bool(isinstance(value, int | np.integer) and not isinstance(value, bool)
+                and value >= 0)
+
+
+def kernel_problem(order: int, M: int, kernel: str, lag: float | None,
+                   kappa: int | None = None, mu: int | None = None
                    ) -> tuple[str, str] | None:
-    """What the delay-reduced kernel and its ``lag`` cannot take, as (the parameter at
-    fault, "kernel" or "lag", what is allowed), or None: the kernel is of model order 1,
-    and lag (samples) runs from 0 to M/2 (where it is the held kernel); the other
-    kernels have no lag. The one statement of these rules: the live controllers and the
-    configuration refuse them in their own keys' names."""
+    """What the delay-reduced kernel and its ``lag``, ``kappa`` and ``mu`` cannot take,
+    as (the parameter at fault, "kernel", "lag", "kappa" or "mu", what is allowed), or
+    None: the kernel is of model order 1; kappa and mu (None: 1) are whole numbers >= 0
+    with kappa + mu <= 2 (:data:`MAX_JACOBI`: the moments the window carries); lag
+    (samples back from the newest) runs from 0 to M, any point of the window; the other
+    kernels have none of the three. The one statement of these rules: the live
+    controllers and the configuration refuse them in their own keys' names."""
     if kernel == "delay-reduced":
         if order != 1:
             return "kernel", "the delay-reduced kernel is of model order 1: use held"
-        if lag is None or not 0.0 <= lag <= 0.5 * M:
-            return "lag", f"must be from 0 to M/2 = {0.5 * M:g} samples (the window's half)"
-    elif lag is not None:
-        return "lag", ("only the delay-reduced kernel has a lag: set the kernel to "
-                       "delay-reduced, or remove it")
+        weights = {"kappa": 1 if kappa is None else kappa, "mu": 1 if mu is None else mu}
+        for key, value in weights.items():
+            if not _whole(value):
+                return key, (f"must be a whole number from 0 to {MAX_JACOBI} (a Jacobi "
+                             "weight's exponent)")
+        if weights["kappa"] + weights["mu"] > MAX_JACOBI:
+            key = "mu" if mu is not None else "kappa"
+            return key, (f"kappa + mu must be at most {MAX_JACOBI} (here kappa = "
+                         f"{weights['kappa']}, mu = {weights['mu']}): the window's moments "
+                         "slide the kernel in O(1) only up to that degree")
+        if lag is None or not 0.0 <= lag <= M:
+            return "lag", f"must be from 0 to M = {M:g} samples (a point of the window)"
+        return None
+    for key, given in (("lag", lag), ("kappa", kappa), ("mu", mu)):
+        if given is not None:
+            return key, (f"only the delay-reduced kernel has a {key}: set the kernel to "
+                         "delay-reduced, or remove it")
     return None
 
 
-@step_jit
-def slope(M, lag):
-    """lambda of the delay-reduced kernel: its weights are the held kernel's times
-    ``1 + lambda x`` (x the relation's centred position), ``lambda = x* / sigma^2`` with
-    ``x* = M/2 - lag`` and sigma^2 the held weights' variance of x (the module's
-    docstring)."""
-    m = float(M)
-    sigma2 = (m * m - 1.0) * (2.0 * m * m + 7.0) / (20.0 * (2.0 * m * m + 1.0))
-    return (0.5 * m - lag) / sigma2
+#: the delay-reduced kernel's coefficients, rows of the law embedding it
+#: (:func:`jacobi_rows`): those of Y_0 .. Y_2, of U_0 .. U_3, of y_{k-M} and of y_k
+J_Y = 0
+J_U = J_Y + N_YMOM
+J_OLD = J_U + 4
+J_NEW = J_OLD + 1
+N_JACOBI = J_NEW + 1
+
+
+def _times(a: list, b: list) -> list:
+    """The product of two polynomials (coefficients in ascending powers)."""
+    out = [0 * a[0]] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        for k, z in enumerate(b):
+            out[i + k] += x * z
+    return out
+
+
+def _at(p: list, x):
+    """Polynomial p at x (Horner)."""
+    out = 0 * x
+    for c in reversed(p):
+        out = out * x + c
+    return out
+
+
+def _shifted(p: list, s) -> list:
+    """The coefficients of q(c) = p(c + s)."""
+    out = [0 * s] * len(p)
+    power = [1 + 0 * s]  # (c + s)^i, ascending
+    for i, c in enumerate(p):
+        if i:
+            power = _times(power, [s, 1])
+        for k, z in enumerate(power):
+            out[k] += c * z
+    return out
+
+
+def jacobi_rows(M: int, kappa: int, mu: int, lag: float) -> np.ndarray:
+    """The delay-reduced kernel's :data:`N_JACOBI` coefficients for window M, Jacobi
+    weight (kappa, mu) and lag: the one place the kernel's formula is written for the law
+    (:func:`weights` writes it again from its definition, as the check).
+
+    The relation phi_j at centred position x_j = j + 1/2 - M/2 (x = +M/2 the newest end)
+    weighs ``V(x_j) = w(x_j) [1/W + (x* - xbar)(x_j - xbar)/S]``, the w-weighted
+    least-squares line through the phi_j read at x* = M/2 - lag, with
+    ``w(x) = (M/2 - x)^kappa (M/2 + x)^mu``, W = sum w, xbar = sum w x / W and
+    S = sum w (x - xbar)^2 over the M relations (sums of powers of x to the 4th, in
+    closed form). Then F_hat = sy / h - alpha su with ``su = sum_p a_p U_p`` (u_j at its
+    centred index c = j - M/2 weighs V(c + 1/2)) and ``sy = sum_p b_p Y_p + e_old y_{k-M}
+    + e_new y_k`` (y at c weighs D(c) = V(c - 1/2) - V(c + 1/2), of one degree less, and
+    the ends lack the relation one sample past them: e_old = -V(-(M + 1)/2), e_new =
+    V((M + 1)/2)). Computed in exact rationals, each coefficient rounded once. Call it
+    where parameters are built (:func:`check_window`'s rules hold)."""
+    from fractions import Fraction
+
+    m = Fraction(M)
+    half = m / 2
+    w = [Fraction(1)]
+    for _ in range(kappa):
+        w = _times(w, [half, Fraction(-1)])
+    for _ in range(mu):
+        w = _times(w, [half, Fraction(1)])
+    # sum over the relations' centres of x^p, p = 0 .. 4 (the odd ones vanish)
+    powers = [m, 0, m * (m * m - 1) / 12, 0, m * (m * m - 1) * (3 * m * m - 7) / 240]
+
+    def total(p: list) -> Fraction:
+        return sum((c * powers[i] for i, c in enumerate(p)), Fraction(0))
+
+    W = total(w)
+    xbar = total(_times(w, [0, 1])) / W
+    S = total(_times(w, [xbar * xbar, -2 * xbar, Fraction(1)]))
+    tilt = (half - Fraction(lag) - xbar) / S
+    V = _times(w, [1 / W - tilt * xbar, tilt])
+    a = _shifted(V, Fraction(1, 2))
+    b = [p - q for p, q in zip(_shifted(V, Fraction(-1, 2)), a, strict=True)]
+    assert not any(b[N_YMOM:]) and len(a) <= J_OLD - J_U
+    rows = [Fraction(0)] * N_JACOBI
+    rows[J_Y:J_Y + min(len(b), N_YMOM)] = b[:N_YMOM]
+    rows[J_U:J_U + len(a)] = a
+    rows[J_OLD] = -_at(V, -(m + 1) / 2)
+    rows[J_NEW] = _at(V, (m + 1) / 2)
+    return np.array([float(r) for r in rows])
 
 
 @step_jit
@@ -179,10 +288,12 @@ def moment_order(order, kernel):
     return 2.0 if kernel == DELAY_REDUCED else order
 
 
-def check_window(order: int, M: int, kernel: str = "held", lag: float | None = None) -> None:
-    """Raise ValueError unless (order, M, kernel, lag) is a valid estimator: n = 1 or 2,
-    M >= 2, even for n = 2 with the trapezoid kernel (Simpson's rule), the delay-reduced
-    kernel of order 1 with 0 <= lag <= M/2 (:func:`kernel_problem`).
+def check_window(order: int, M: int, kernel: str = "held", lag: float | None = None,
+                 kappa: int | None = None, mu: int | None = None) -> None:
+    """Raise ValueError unless (order, M, kernel, lag, kappa, mu) is a valid estimator:
+    n = 1 or 2, M >= 2, even for n = 2 with the trapezoid kernel (Simpson's rule), the
+    delay-reduced kernel of order 1 with 0 <= lag <= M and whole kappa, mu >= 0 with
+    kappa + mu <= 2 (:func:`kernel_problem`).
 
     Call it where parameters are built: the compiled functions cannot raise and return NaN
     for an invalid pair instead.
@@ -195,10 +306,11 @@ def check_window(order: int, M: int, kernel: str = "held", lag: float | None = N
         raise ValueError(f"kernel = {kernel!r}: must be one of {', '.join(KERNELS)}")
     if parity_problem(order, M, kernel):
         raise ValueError(f"M = {M!r}: {EVEN_FOR_SIMPSON}")
-    problem = kernel_problem(order, M, kernel, lag)
+    problem = kernel_problem(order, M, kernel, lag, kappa, mu)
     if problem:
         key, allowed = problem
-        raise ValueError(f"{key} = {kernel if key == 'kernel' else lag!r}: {allowed}")
+        value = {"kernel": kernel, "lag": lag, "kappa": kappa, "mu": mu}[key]
+        raise ValueError(f"{key} = {value!r}: {allowed}")
 
 
 @step_jit
@@ -463,10 +575,18 @@ def window(CS, j, base, M):
 
 
 @step_jit
-def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, lag):
+def _both(CS, j, row, n_mom, p):
+    """Moment p over both index parities (rows from ``row``, n_mom of each parity): the
+    kernels without Simpson's pattern read these."""
+    return CS[row + p, j] + CS[row + n_mom + p, j]
+
+
+@step_jit
+def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP, prow):
     """The window's weighted sums (sy, su) of y and u, the slots given (:func:`window`):
-    F_hat = :func:`combine` (sy, su, ...). ``lag``: the delay-reduced kernel's (samples;
-    read by it alone). NaN for an invalid (order, M, kernel)."""
+    F_hat = :func:`combine` (sy, su, ...). ``CP[prow .. prow + N_JACOBI - 1, j]``: the
+    delay-reduced kernel's coefficients (:func:`jacobi_rows`; read by it alone). NaN for
+    an invalid (order, M, kernel)."""
     y_old = CS[base + RING + oldest, j]  # y_{k-M}
     y_new = CS[base + RING + newest, j]
     fm = float(M)
@@ -475,56 +595,39 @@ def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, lag):
     y0 = base + Y_MOM
     u0 = base + U_MOM
     if kernel == DELAY_REDUCED and order == 1:
-        # the held kernel's weights times 1 + lam x, x = c + 1/2 the relation's centre
-        # (u_j at its own centred index c): y weight D(c) = V(c - 1/2) - V(c + 1/2) with
-        # V(x) = (h2 - x^2)(1 + lam x), less V one sample past each end (where the
-        # relations stop); u weight V(c + 1/2)
-        yy0 = CS[y0, j] + CS[y0 + N_YMOM, j]
-        yy1 = CS[y0 + 1, j] + CS[y0 + N_YMOM + 1, j]
-        yy2 = CS[y0 + 2, j] + CS[y0 + N_YMOM + 2, j]
-        uu0 = CS[u0, j] + CS[u0 + N_UMOM, j]
-        uu1 = CS[u0 + 1, j] + CS[u0 + N_UMOM + 1, j]
-        uu2 = CS[u0 + 2, j] + CS[u0 + N_UMOM + 2, j]
-        uu3 = CS[u0 + 3, j] + CS[u0 + N_UMOM + 3, j]
-        lam = slope(fm, lag)
-        end = half + 0.25  # -V(+-(M/2 + 1/2)) / (1 +- lam (M/2 + 1/2))
-        tilt = lam * (half + 0.5)
-        sy = (2.0 * yy1 + lam * (3.0 * yy2 + (0.25 - h2) * yy0)
-              + end * ((1.0 - tilt) * y_old - (1.0 + tilt) * y_new))
-        su = ((h2 - 0.25) * uu0 - uu1 - uu2
-              + lam * (0.5 * (h2 - 0.25) * uu0 + (h2 - 0.75) * uu1 - 1.5 * uu2 - uu3))
+        # the moments times the coefficients of the member's (kappa, mu, lag), the ends
+        # corrected (jacobi_rows)
+        sy = CP[prow + J_OLD, j] * y_old + CP[prow + J_NEW, j] * y_new
+        for p in range(N_YMOM):
+            sy += CP[prow + J_Y + p, j] * _both(CS, j, y0, N_YMOM, p)
+        su = 0.0
+        for p in range(4):
+            su += CP[prow + J_U + p, j] * _both(CS, j, u0, N_UMOM, p)
         return sy, su
     if kernel == HELD:
-        # the moments over both parities: these kernels have no Simpson pattern
-        yy0 = CS[y0, j] + CS[y0 + N_YMOM, j]
-        yy1 = CS[y0 + 1, j] + CS[y0 + N_YMOM + 1, j]
-        yy2 = CS[y0 + 2, j] + CS[y0 + N_YMOM + 2, j]
-        uu0 = CS[u0, j] + CS[u0 + N_UMOM, j]
-        uu1 = CS[u0 + 1, j] + CS[u0 + N_UMOM + 1, j]
-        uu2 = CS[u0 + 2, j] + CS[u0 + N_UMOM + 2, j]
         if order == 1:
             # y weight 2c inside; at the ends -v_0 (y_{k-M}) and +v_{M-1} (y_k), both
             # M/2 - 1/4 in size; u weight v_j ~ M^2/4 - (c + 1/2)^2
-            return (2.0 * yy1 + (half + 0.25) * (y_old - y_new),
-                    (h2 - 0.25) * uu0 - uu1 - uu2)
+            return (2.0 * _both(CS, j, y0, N_YMOM, 1) + (half + 0.25) * (y_old - y_new),
+                    (h2 - 0.25) * _both(CS, j, u0, N_UMOM, 0) - _both(CS, j, u0, N_UMOM, 1)
+                    - _both(CS, j, u0, N_UMOM, 2))
         if order == 2:
-            uu3 = CS[u0 + 3, j] + CS[u0 + N_UMOM + 3, j]
-            uu4 = CS[u0 + 4, j] + CS[u0 + N_UMOM + 4, j]
             # y weight: the second difference of g(c) = (h2 - c^2)^2, 12 c^2 + 2 - 4 h2,
             # less g's polynomial value (M + 1)^2 one sample past each end, where the
             # weights are zero; u weight g(c) + g(c + 1)
             m1 = fm + 1.0
-            sy = 12.0 * yy2 + (2.0 - 4.0 * h2) * yy0 - m1 * m1 * (y_old + y_new)
-            su = (2.0 * uu4 + 4.0 * uu3 + (6.0 - 4.0 * h2) * uu2 + (4.0 - 4.0 * h2) * uu1
-                  + (1.0 - 2.0 * h2 + 2.0 * h2 * h2) * uu0)
+            sy = (12.0 * _both(CS, j, y0, N_YMOM, 2) + (2.0 - 4.0 * h2)
+                  * _both(CS, j, y0, N_YMOM, 0) - m1 * m1 * (y_old + y_new))
+            su = (2.0 * _both(CS, j, u0, N_UMOM, 4) + 4.0 * _both(CS, j, u0, N_UMOM, 3)
+                  + (6.0 - 4.0 * h2) * _both(CS, j, u0, N_UMOM, 2)
+                  + (4.0 - 4.0 * h2) * _both(CS, j, u0, N_UMOM, 1)
+                  + (1.0 - 2.0 * h2 + 2.0 * h2 * h2) * _both(CS, j, u0, N_UMOM, 0))
             return sy, su
         return np.nan, np.nan
     if order == 1:
-        y1 = CS[y0 + 1, j] + CS[y0 + N_YMOM + 1, j]
-        uu0 = CS[u0, j] + CS[u0 + N_UMOM, j]
-        uu2 = CS[u0 + 2, j] + CS[u0 + N_UMOM + 2, j]
         # trapezoid: y weight -2c, ends halved (c = -M/2 and +M/2)
-        return 2.0 * y1 + half * (y_old - y_new), h2 * uu0 - uu2
+        return (2.0 * _both(CS, j, y0, N_YMOM, 1) + half * (y_old - y_new),
+                h2 * _both(CS, j, u0, N_UMOM, 0) - _both(CS, j, u0, N_UMOM, 2))
     if order == 2 and M % 2 == 0:
         e = parity  # absolute parity of the even window positions (M even)
         o = 1 - e
@@ -543,12 +646,13 @@ def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, lag):
 
 
 @step_jit
-def sums(CS, j, base, M, order, kernel, lag):
-    """(sy, su) of the window ending at the newest sample; NaN until it is full."""
+def sums(CS, j, base, M, order, kernel, CP, prow):
+    """(sy, su) of the window ending at the newest sample; NaN until it is full. (CP,
+    prow): the delay-reduced kernel's coefficients (:func:`sums_at`)."""
     full, oldest, newest, parity = window(CS, j, base, M)
     if not full:
         return np.nan, np.nan
-    return sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, lag)
+    return sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP, prow)
 
 
 @step_jit
@@ -557,9 +661,12 @@ def coefficients(M, h, alpha, order, kernel):
     whose alpha is, which a loop over members computes once, not at every sample (each
     is a division). M, the order and the kernel are whole numbers, as integers or floats:
     the weights' normalisations (the integral of w, or the sum of the held kernel's
-    v_j: M (2 M^2 + 1) / 12 for n = 1, M (M^4 - 1) / 30 for n = 2)."""
+    v_j: M (2 M^2 + 1) / 12 for n = 1, M (M^4 - 1) / 30 for n = 2; the delay-reduced
+    kernel's coefficients are normalised already, :func:`jacobi_rows`)."""
     fm = float(M)
-    if kernel == HELD or kernel == DELAY_REDUCED:  # the same normalisation (sum v_j)
+    if kernel == DELAY_REDUCED:
+        return 1.0 / h, alpha
+    if kernel == HELD:  # sum v_j
         if order == 1:
             s1 = fm * (2.0 * fm * fm + 1.0)
             return 12.0 / (h * s1), 12.0 * alpha / s1
@@ -588,21 +695,23 @@ def combine_with(sy, su, c_y, c_u):
 
 
 @step_jit
-def estimate(CS, j, base, M, h, alpha, order, kernel, lag=0.0):
+def estimate(CS, j, base, M, h, alpha, order, kernel, CP, prow):
     """F_hat for the window ending at the newest sample; it belongs to t_k - M h / 2
-    (t_k - lag h with the delay-reduced kernel).
+    (t_k - lag h with the delay-reduced kernel, whose coefficients are
+    ``CP[prow:prow + N_JACOBI, j]``, :func:`jacobi_rows`).
 
     NaN until the window is full (fewer than M + 1 samples) and for an invalid
     (order, M, kernel).
     """
-    sy, su = sums(CS, j, base, M, order, kernel, lag)
+    sy, su = sums(CS, j, base, M, order, kernel, CP, prow)
     return combine(sy, su, M, h, alpha, order, kernel)
 
 
 def weights(order: int, M: int, h: float, alpha: float, kernel: str = "held",
-            lag: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+            lag: float | None = None, kappa: int | None = None, mu: int | None = None
+            ) -> tuple[np.ndarray, np.ndarray]:
     """The estimator as FIR kernels, straight from their definitions (no moments);
-    ``lag`` (samples) for the delay-reduced kernel.
+    ``lag`` (samples), ``kappa`` and ``mu`` (None: 1) for the delay-reduced kernel.
 
     Returns ``(wy, wu)``, oldest sample first, of lengths M + 1 and M, such that
     ``F_hat = wy @ [y_{k-M}, ..., y_k] + wu @ [u_{k-M}, ..., u_{k-1}]``.
@@ -620,16 +729,19 @@ def weights(order: int, M: int, h: float, alpha: float, kernel: str = "held",
     >>> round(float(wy @ y + wu @ u), 12)
     3.0
     """
-    check_window(order, M, kernel, lag)
+    check_window(order, M, kernel, lag, kappa, mu)
     T = M * h
     i = np.arange(M + 1)
     s = h * i
     if kernel == "delay-reduced":
-        # the held relations' weighted least-squares line, at lag samples back: weights
-        # v_j (1 + lam x_j) over the relations' centres x_j (centred sample units)
+        # the held relations' w-weighted least-squares line, read at lag samples back:
+        # the relations' centres x_j (centred sample units, +M/2 the newest end)
         x = np.arange(M) + 0.5 - 0.5 * M
-        v = 0.25 * M * M - x * x
-        v = v * (1.0 + slope(float(M), float(lag or 0.0)) * x) / v.sum()
+        w = (0.5 * M - x) ** (1 if kappa is None else kappa) * (0.5 * M + x) ** (
+            1 if mu is None else mu)
+        xbar = (w * x).sum() / w.sum()
+        tilt = (0.5 * M - float(lag or 0.0) - xbar) / (w * (x - xbar) ** 2).sum()
+        v = w * (1.0 / w.sum() + tilt * (x - xbar))
         wy = (np.concatenate([[0.0], v]) - np.concatenate([v, [0.0]])) / h
         return wy, -alpha * v
     if kernel == "held":

@@ -23,8 +23,8 @@ F_hat, selectable:
 * algebraic: the integral estimator of :mod:`mfcontrol.laws.estimators` over the last M
   samples (its value belongs to t - M dt / 2), with the same ``kernel`` choice (exact
   under a held input, or the literature's trapezoid / Simpson rule), or for n = 1 the
-  ``delay-reduced`` kernel, whose value belongs to t - lag dt (exact for F affine in
-  time). Until its window is
+  ``delay-reduced`` kernel of Jacobi weight (kappa, mu), whose value belongs to
+  t - lag dt (exact for F affine in time). Until its window is
   full the ``startup`` decides: ``hold`` holds the output (u_init, or the bumpless start)
   for the first M samples, so the loop first runs on a full window; ``backward-difference``
   lets the backward difference stand in, whose stability bound (alpha > beta (2 + K_P h)
@@ -72,7 +72,13 @@ STARTUP = variational_gain.N_PARAMS + 12  # START_BACKWARD or START_HOLD
 DELAY = variational_gain.N_PARAMS + 13  # the loop's known input delay d, samples
 PREDICT = variational_gain.N_PARAMS + 14  # 1: the error predicted over the delay
 LAG = variational_gain.N_PARAMS + 15  # the delay-reduced kernel's lag, samples
-N_PARAMS = variational_gain.N_PARAMS + 16
+# its Jacobi weight's exponents, kept as given (the law reads the coefficients below)
+KAPPA = variational_gain.N_PARAMS + 16
+MU = variational_gain.N_PARAMS + 17
+# estimators.N_JACOBI rows: the delay-reduced kernel's coefficients of the window's
+# moments, from (M, kappa, mu, lag) where the parameters are built (estimators.jacobi_rows)
+JACOBI = variational_gain.N_PARAMS + 18
+N_PARAMS = JACOBI + estimators.N_JACOBI
 #: the longest delay a law compensates, samples: a queue of that many outputs per member
 #: (0.8 MB each; the loop elements' own delays go to 1,000,000, in a ring per thread)
 MAX_DELAY = 100_000
@@ -394,7 +400,7 @@ def step(CP, CS, j, y, r, dt):
         su = 0.0
         if algebraic:
             sy, su = estimators.sums(CS, j, EST_BASE, int(CP[M_WIN, j]), int(n),
-                                     CP[KERNEL, j], CP[LAG, j])
+                                     CP[KERNEL, j], CP, JACOBI)
         predict = d > 0.0 and CP[PREDICT, j] != 0.0
         u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic, sy, su, u1, u2,
                            predict, s_u, d)

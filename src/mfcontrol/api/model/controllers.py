@@ -475,8 +475,17 @@ class IntelligentController(_Sampled):
         time under any held input; the noise it passes grows as lag shrinks.
     lag : float, optional
         The delay-reduced kernel's point, samples back from the newest: 0 (its default) to
-        window/2 (the held kernel's weights, whose estimate belongs to the window's
-        centre). Only that kernel has one.
+        window, any point of the window (with kappa = mu = 1, window/2 gives the held
+        kernel's weights, whose estimate belongs to the window's centre). Only that kernel
+        has one.
+    kappa, mu : int, optional
+        The delay-reduced kernel's Jacobi weight ``w(x) = (M/2 - x)^kappa (M/2 + x)^mu``
+        over the relations' centred positions x (+M/2 the newest end: kappa weighs down
+        the newest samples, mu the oldest), whole numbers >= 0 with kappa + mu <= 2
+        (the window's moments slide no higher degree in O(1)); 1 and 1 by default. With
+        ``lag`` at the weight's mean (window (kappa + 1) / (kappa + mu + 2) for a long
+        window) the line's slope drops out: the weighted mean of the relations, the
+        minimal (q = 0) estimator. Only that kernel has them.
     startup : {"hold", "backward-difference"}, optional
         The algebraic estimator's start, until its window is full (only it has one):
         ``"hold"`` (the default) holds ``starting_output`` for the first ``window`` samples;
@@ -558,6 +567,7 @@ class IntelligentController(_Sampled):
                  input_limits: tuple[float | None, float | None] = (None, None),
                  estimator: str = "backward-difference", window: int | None = None,
                  kernel: str | None = None, lag: float | None = None,
+                 kappa: int | None = None, mu: int | None = None,
                  startup: str | None = None, delay: int = 0,
                  predict: bool = False, anti_windup: str = "clamp", k_aw: float | None = None,
                  gain: str = "constant",
@@ -615,10 +625,14 @@ class IntelligentController(_Sampled):
             lag = _number("lag", lag)
         if kernel == "delay-reduced" and lag is None:
             lag = 0.0  # the default: no delay for F affine in time
-        problem = estimators.kernel_problem(order, window or 0, kernel or "held", lag)
+        problem = estimators.kernel_problem(order, window or 0, kernel or "held", lag,
+                                            kappa, mu)
         if problem:
             key, allowed = problem
-            raise ValueError(f"{key} = {shown(kernel if key == 'kernel' else lag)}: {allowed}")
+            at_fault = {"kernel": kernel, "lag": lag, "kappa": kappa, "mu": mu}[key]
+            raise ValueError(f"{key} = {shown(at_fault)}: {allowed}")
+        if kernel == "delay-reduced":  # the defaults: the held kernel's weight
+            kappa, mu = int(1 if kappa is None else kappa), int(1 if mu is None else mu)
         # the options of a choice not taken would be dropped in silence: refused
         if k_aw is not None and anti_windup != "back-calculation":
             raise ValueError(f"k_aw = {shown(k_aw)}: only back-calculation anti-windup reads it: "
@@ -663,7 +677,7 @@ class IntelligentController(_Sampled):
                                                             positive=True),
             "order": int(order), "output_limits": [lo, hi], "estimator": estimator,
             "window": window, "kernel": (kernel or "held") if kernel_applies else None,
-            "lag": lag,
+            "lag": lag, "kappa": kappa, "mu": mu,
             "delay": int(delay),
             "predict": bool(predict),
             "startup": (startup or "hold") if estimator == "algebraic" else None,
@@ -702,6 +716,10 @@ class IntelligentController(_Sampled):
         cp[intelligent.M_WIN] = m
         cp[intelligent.KERNEL] = intelligent.KERNELS[params["kernel"] or "held"]
         cp[intelligent.LAG] = 0.0 if lag is None else lag
+        if kappa is not None and mu is not None and lag is not None:  # delay-reduced
+            cp[intelligent.KAPPA], cp[intelligent.MU] = kappa, mu
+            cp[intelligent.JACOBI:intelligent.N_PARAMS] = estimators.jacobi_rows(
+                m, kappa, mu, lag)
         cp[intelligent.STARTUP] = intelligent.STARTUPS[params["startup"] or "hold"]
         cp[intelligent.DELAY] = params["delay"]
         cp[intelligent.PREDICT] = 1.0 if params["predict"] else 0.0
@@ -737,6 +755,10 @@ class IntelligentController(_Sampled):
         params = dict(snap["params"])
         params.setdefault("adapt_every", 1)
         params.setdefault("lag", None)  # (before the delay-reduced kernel)
+        # (before its Jacobi weights: the kernel had kappa = mu = 1)
+        delay_reduced = params.get("kernel") == "delay-reduced"
+        params.setdefault("kappa", 1 if delay_reduced else None)
+        params.setdefault("mu", 1 if delay_reduced else None)
         params.setdefault("forgetting", None)  # (before the rls gain)
         params.setdefault("alpha_limits", None)
         snap = {**snap, "params": params}

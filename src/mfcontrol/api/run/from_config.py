@@ -68,6 +68,8 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
         options["kernel"] = cfg["controller.kernel"]
         if options["kernel"] == "delay-reduced":
             options["lag"] = cfg["controller.lag"]
+            options["kappa"] = cfg["controller.kappa"]
+            options["mu"] = cfg["controller.mu"]
     if options["estimator"] == "algebraic":
         options["startup"] = cfg["controller.startup"]
     options["delay"] = cfg["controller.delay"]
