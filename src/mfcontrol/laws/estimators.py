@@ -180,7 +180,8 @@ def kernel_problem(order: int, M: int, kernel: str, lag: float | None,
                 return key, (f"must be a whole number from 0 to {MAX_JACOBI} (a Jacobi "
                              "weight's exponent)")
         if weights["kappa"] + weights["mu"] > MAX_JACOBI:
-            key = "mu" if mu is not None else "kappa"
+            # the larger exponent is at fault (mu on a tie): a config always gives both
+            key = "kappa" if weights["kappa"] > weights["mu"] else "mu"
             return key, (f"kappa + mu must be at most {MAX_JACOBI} (here kappa = "
                          f"{weights['kappa']}, mu = {weights['mu']}): the window's moments "
                          "slide the kernel in O(1) only up to that degree")
