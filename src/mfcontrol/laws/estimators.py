@@ -43,9 +43,10 @@ relations)
     ``x* = M/2 - lag``, with the Jacobi weight ``w(x) = (M/2 - x)^kappa (M/2 + x)^mu``:
     phi_j weighs ``w_j [1/W + (x* - xbar)(x_j - xbar)/S]`` (W = sum w, xbar = sum w x / W,
     S = sum w (x - xbar)^2), the truncation q = 1 of the weight's Jacobi expansion. In
-    the local time tau = (t_k - t)/T of Mboup, Join and Fliess (as Liu, Gibaru and
-    Perruquetti write it) the weight is tau^kappa (1 - tau)^mu: kappa at the newest end,
-    mu at the oldest. kappa = mu = 1 (the default) is the held kernel's weight, and
+    the local time tau = (t_k - t)/T, back from the newest sample, the weight is
+    tau^kappa (1 - tau)^mu: kappa at the newest end, mu at the oldest (the literature
+    writes the family with either end first: compare a published choice by its
+    weight). kappa = mu = 1 (the default) is the held kernel's weight, and
     ``lag = M/2`` then gives the held kernel; ``lag = M/2 - xbar`` drops the slope (the
     weighted mean, q = 0). F_hat = F(t_k - lag h) exactly for F affine in time, under any
     held input, for any lag from 0 to M (any point of the window). The u weights are of
