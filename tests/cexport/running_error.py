@@ -112,6 +112,9 @@ class Carried:
     def __neg__(self):
         return Carried(-self.v, TAPE.node(-self.v, False, (self.i, -1.0)))
 
+    def __abs__(self):  # exact, as a negation: no rounding of its own
+        return -self if self.v < 0.0 else self
+
     def __float__(self):
         return self.v
 

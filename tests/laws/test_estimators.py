@@ -48,10 +48,11 @@ def make_state(M, base=0, members=1):
 NO_JACOBI = np.zeros((est.N_JACOBI, 1))
 
 
-def jacobi(M, kappa=1, mu=1, lag=0.0, row=0):
-    """The delay-reduced kernel's coefficients as a law's parameter rows from ``row``."""
-    CP = np.full((row + est.N_JACOBI, 1), np.nan)
-    CP[row:, 0] = est.jacobi_rows(M, kappa, mu, lag)
+def jacobi(M, kappa=1, mu=1, lag=0.0):
+    """The delay-reduced kernel's coefficients in a law's parameter rows (from
+    est.JACOBI; the rows before it NaN: the kernel must not read them)."""
+    CP = np.full((est.JACOBI + est.N_JACOBI, 1), np.nan)
+    CP[est.JACOBI:, 0] = est.jacobi_rows(M, kappa, mu, lag)
     return CP
 
 
@@ -60,12 +61,11 @@ def run(order, M, h, alpha, y, u, base=0, kernel="trapezoid", lag=0.0, kappa=1, 
     CS = make_state(M, base)
     f = np.empty(y.size)
     code = est.KERNELS[kernel]
-    CP = jacobi(M, kappa, mu, lag, row=2) if kernel == "delay-reduced" else NO_JACOBI
-    prow = 2 if kernel == "delay-reduced" else 0
+    CP = jacobi(M, kappa, mu, lag) if kernel == "delay-reduced" else NO_JACOBI
     for k in range(y.size):
         est.push(CS, 0, base, M, y[k], u[k - 1] if k else U_BEFORE,
                  est.moment_order(float(order), code))
-        f[k] = est.estimate(CS, 0, base, M, h, alpha, order, code, CP, prow)
+        f[k] = est.estimate(CS, 0, base, M, h, alpha, order, code, CP)
     return f
 
 
@@ -376,8 +376,8 @@ def test_order_one_carries_its_moments_with_the_bits_they_have_beside_all(M):
         assert not one[left].any()
         # (the delay-reduced kernel reads order 2's set: est.moment_order)
         for kernel in (est.HELD, est.TRAPEZOID):
-            np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1, kernel, NO_JACOBI, 0),
-                                          est.sums(full, 0, 0, M, 1, kernel, NO_JACOBI, 0))
+            np.testing.assert_array_equal(est.sums(one, 0, 0, M, 1, kernel, NO_JACOBI),
+                                          est.sums(full, 0, 0, M, 1, kernel, NO_JACOBI))
 
 
 def test_moments_are_carried_and_recomputed_only_every_M_samples():

@@ -201,7 +201,9 @@ def test_a_snapshot_from_before_the_adaptation_error_row_continues_bit_for_bit()
     # snapshots of layout 3, taken at 192082f before the gain adaptation's adaptation
     # error row (a state row after its multi-rate rows, which moves every law row after
     # it): from_snapshot puts it in, and every law continues exactly, the rls gain's rows
-    # and the delay queue included
+    # and the delay queue included. The delay-reduced kernel's coefficients have been
+    # computed in exact rationals since (its Jacobi weights): the same kernel to
+    # rounding, so that snapshot continues within rounding, not bit for bit
     import json
     from pathlib import Path
 
@@ -212,7 +214,11 @@ def test_a_snapshot_from_before_the_adaptation_error_row_continues_bit_for_bit()
         cls = getattr(mfcontrol, case["snapshot"]["controller"])
         ctrl = cls.from_snapshot(case["snapshot"])
         out = [ctrl(y, setpoint=1.0) for y in case["measurements"]]
-        assert out == case["outputs"], name
+        if case["snapshot"]["params"].get("kernel") == "delay-reduced":
+            np.testing.assert_allclose(out, case["outputs"], rtol=1e-12, err_msg=name)
+            assert out != case["outputs"]  # (if equal, this case may say bit for bit)
+        else:
+            assert out == case["outputs"], name
         assert ctrl.snapshot()["layout"] == 4
         # the error counts from the snapshot on, for the gains that adapt
         params = case["snapshot"]["params"]

@@ -566,19 +566,16 @@ def _estimator_lanes(D, M, order, kernel, live):
     if full and kernel == estimators.HELD:
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
-                                                      parity, estimators.HELD, cp,
-                                                      intelligent.JACOBI)
+                                                      parity, estimators.HELD, cp)
     elif full and kernel == estimators.DELAY_REDUCED:
         # each member its own (kappa, mu, lag): its coefficient rows
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(
-                cs, i, base, M, order, oldest, newest, parity, estimators.DELAY_REDUCED, cp,
-                intelligent.JACOBI)
+                cs, i, base, M, order, oldest, newest, parity, estimators.DELAY_REDUCED, cp)
     elif full:
         for i in range(LANES):
             D[_SY, i], D[_SU, i] = estimators.sums_at(cs, i, base, M, order, oldest, newest,
-                                                      parity, estimators.TRAPEZOID, cp,
-                                                      intelligent.JACOBI)
+                                                      parity, estimators.TRAPEZOID, cp)
     else:
         for i in range(LANES):
             D[_SY, i] = np.nan

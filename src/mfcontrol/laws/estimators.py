@@ -111,6 +111,7 @@ and for the delay-reduced kernel its parameter array and the first of the
 import numpy as np
 
 from .._jit import step_jit
+from . import variational_gain
 
 # state rows, relative to the caller's base row
 COUNT = 0  # samples pushed since reset (wrapped, see push); the newest is k = COUNT - 1
@@ -196,13 +197,22 @@ def kernel_problem(order: int, M: int, kernel: str, lag: float | None,
     return None
 
 
-#: the delay-reduced kernel's coefficients, rows of the law embedding it
-#: (:func:`jacobi_rows`): those of Y_0 .. Y_2, of U_0 .. U_3, of y_{k-M} and of y_k
-J_Y = 0
-J_U = J_Y + N_YMOM
-J_OLD = J_U + 4
-J_NEW = J_OLD + 1
-N_JACOBI = J_NEW + 1
+#: the delay-reduced kernel's coefficients (:func:`jacobi_rows`), parameter rows of the
+#: law embedding the estimator: those of Y_0 .. Y_2, of U_0 .. U_3, of y_{k-M} and of y_k,
+#: from row JACOBI on. The law places them right after the gain adaptation's rows, so
+#: that a step reads each at a constant row (the C export names every parameter it
+#: reads by its row)
+JACOBI = variational_gain.N_PARAMS
+J_Y0 = JACOBI + 0
+J_Y1 = JACOBI + 1
+J_Y2 = JACOBI + 2
+J_U0 = JACOBI + 3
+J_U1 = JACOBI + 4
+J_U2 = JACOBI + 5
+J_U3 = JACOBI + 6
+J_OLD = JACOBI + 7
+J_NEW = JACOBI + 8
+N_JACOBI = 9
 
 
 def _times(a: list, b: list) -> list:
@@ -272,12 +282,13 @@ def jacobi_rows(M: int, kappa: int, mu: int, lag: float) -> np.ndarray:
     V = _times(w, [1 / W - tilt * xbar, tilt])
     a = _shifted(V, Fraction(1, 2))
     b = [p - q for p, q in zip(_shifted(V, Fraction(-1, 2)), a, strict=True)]
-    assert not any(b[N_YMOM:]) and len(a) <= J_OLD - J_U
-    rows = [Fraction(0)] * N_JACOBI
-    rows[J_Y:J_Y + min(len(b), N_YMOM)] = b[:N_YMOM]
-    rows[J_U:J_U + len(a)] = a
-    rows[J_OLD] = -_at(V, -(m + 1) / 2)
-    rows[J_NEW] = _at(V, (m + 1) / 2)
+    assert not any(b[N_YMOM:]) and len(a) <= J_OLD - J_U0
+    rows = [Fraction(0)] * N_JACOBI  # rows JACOBI .. JACOBI + N_JACOBI - 1
+    y, u = J_Y0 - JACOBI, J_U0 - JACOBI
+    rows[y:y + min(len(b), N_YMOM)] = b[:N_YMOM]
+    rows[u:u + len(a)] = a
+    rows[J_OLD - JACOBI] = -_at(V, -(m + 1) / 2)
+    rows[J_NEW - JACOBI] = _at(V, (m + 1) / 2)
     return np.array([float(r) for r in rows])
 
 
@@ -584,11 +595,11 @@ def _both(CS, j, row, n_mom, p):
 
 
 @step_jit
-def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP, prow):
+def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP):
     """The window's weighted sums (sy, su) of y and u, the slots given (:func:`window`):
-    F_hat = :func:`combine` (sy, su, ...). ``CP[prow .. prow + N_JACOBI - 1, j]``: the
-    delay-reduced kernel's coefficients (:func:`jacobi_rows`; read by it alone). NaN for
-    an invalid (order, M, kernel)."""
+    F_hat = :func:`combine` (sy, su, ...). ``CP[JACOBI .., j]``: the delay-reduced
+    kernel's coefficients (:func:`jacobi_rows`; read by it alone). NaN for an invalid
+    (order, M, kernel)."""
     y_old = CS[base + RING + oldest, j]  # y_{k-M}
     y_new = CS[base + RING + newest, j]
     fm = float(M)
@@ -599,12 +610,15 @@ def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP, prow):
     if kernel == DELAY_REDUCED and order == 1:
         # the moments times the coefficients of the member's (kappa, mu, lag), the ends
         # corrected (jacobi_rows)
-        sy = CP[prow + J_OLD, j] * y_old + CP[prow + J_NEW, j] * y_new
-        for p in range(N_YMOM):
-            sy += CP[prow + J_Y + p, j] * _both(CS, j, y0, N_YMOM, p)
-        su = 0.0
-        for p in range(4):
-            su += CP[prow + J_U + p, j] * _both(CS, j, u0, N_UMOM, p)
+        # (each row written out: a row computed in a loop is not one the C export names)
+        sy = (CP[J_OLD, j] * y_old + CP[J_NEW, j] * y_new
+              + CP[J_Y0, j] * _both(CS, j, y0, N_YMOM, 0)
+              + CP[J_Y1, j] * _both(CS, j, y0, N_YMOM, 1)
+              + CP[J_Y2, j] * _both(CS, j, y0, N_YMOM, 2))
+        su = (CP[J_U0, j] * _both(CS, j, u0, N_UMOM, 0)
+              + CP[J_U1, j] * _both(CS, j, u0, N_UMOM, 1)
+              + CP[J_U2, j] * _both(CS, j, u0, N_UMOM, 2)
+              + CP[J_U3, j] * _both(CS, j, u0, N_UMOM, 3))
         return sy, su
     if kernel == HELD:
         if order == 1:
@@ -648,13 +662,14 @@ def sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP, prow):
 
 
 @step_jit
-def sums(CS, j, base, M, order, kernel, CP, prow):
-    """(sy, su) of the window ending at the newest sample; NaN until it is full. (CP,
-    prow): the delay-reduced kernel's coefficients (:func:`sums_at`)."""
+def sums(CS, j, base, M, order, kernel, CP):
+    """(sy, su) of the window ending at the newest sample; NaN until it is full. CP: the
+    law's parameters, the delay-reduced kernel's coefficients among them
+    (:func:`sums_at`)."""
     full, oldest, newest, parity = window(CS, j, base, M)
     if not full:
         return np.nan, np.nan
-    return sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP, prow)
+    return sums_at(CS, j, base, M, order, oldest, newest, parity, kernel, CP)
 
 
 @step_jit
@@ -697,15 +712,15 @@ def combine_with(sy, su, c_y, c_u):
 
 
 @step_jit
-def estimate(CS, j, base, M, h, alpha, order, kernel, CP, prow):
+def estimate(CS, j, base, M, h, alpha, order, kernel, CP):
     """F_hat for the window ending at the newest sample; it belongs to t_k - M h / 2
     (t_k - lag h with the delay-reduced kernel, whose coefficients are
-    ``CP[prow:prow + N_JACOBI, j]``, :func:`jacobi_rows`).
+    ``CP[JACOBI:JACOBI + N_JACOBI, j]``, :func:`jacobi_rows`).
 
     NaN until the window is full (fewer than M + 1 samples) and for an invalid
     (order, M, kernel).
     """
-    sy, su = sums(CS, j, base, M, order, kernel, CP, prow)
+    sy, su = sums(CS, j, base, M, order, kernel, CP)
     return combine(sy, su, M, h, alpha, order, kernel)
 
 

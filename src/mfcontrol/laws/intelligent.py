@@ -55,30 +55,31 @@ import math
 from .._jit import step_jit
 from . import estimators, variational_gain
 
-# parameter rows (after the gain adaptation rows)
-N_ORDER = variational_gain.N_PARAMS + 0  # ultra-local model order n (1 or 2)
-KP = variational_gain.N_PARAMS + 1
-KI = variational_gain.N_PARAMS + 2
-KD = variational_gain.N_PARAMS + 3
-EST = variational_gain.N_PARAMS + 4  # 0 backward difference, 1 algebraic
-M_WIN = variational_gain.N_PARAMS + 5  # algebraic window, samples
-OUT_MIN = variational_gain.N_PARAMS + 6
-OUT_MAX = variational_gain.N_PARAMS + 7
-AW = variational_gain.N_PARAMS + 8  # 0 none, 1 clamp, 2 back-calculation
-K_AW = variational_gain.N_PARAMS + 9
-U_INIT = variational_gain.N_PARAMS + 10
-KERNEL = variational_gain.N_PARAMS + 11  # estimators.TRAPEZOID, HELD or DELAY_REDUCED
-STARTUP = variational_gain.N_PARAMS + 12  # START_BACKWARD or START_HOLD
-DELAY = variational_gain.N_PARAMS + 13  # the loop's known input delay d, samples
-PREDICT = variational_gain.N_PARAMS + 14  # 1: the error predicted over the delay
-LAG = variational_gain.N_PARAMS + 15  # the delay-reduced kernel's lag, samples
-# its Jacobi weight's exponents, kept as given (the law reads the coefficients below)
-KAPPA = variational_gain.N_PARAMS + 16
-MU = variational_gain.N_PARAMS + 17
-# estimators.N_JACOBI rows: the delay-reduced kernel's coefficients of the window's
-# moments, from (M, kappa, mu, lag) where the parameters are built (estimators.jacobi_rows)
-JACOBI = variational_gain.N_PARAMS + 18
-N_PARAMS = JACOBI + estimators.N_JACOBI
+# parameter rows: the gain adaptation's, then the delay-reduced kernel's coefficients of
+# the window's moments (estimators.N_JACOBI rows from estimators.JACOBI, from (M, kappa,
+# mu, lag) where the parameters are built: estimators.jacobi_rows), then these
+JACOBI = estimators.JACOBI
+_P0 = estimators.JACOBI + estimators.N_JACOBI
+N_ORDER = _P0 + 0  # ultra-local model order n (1 or 2)
+KP = _P0 + 1
+KI = _P0 + 2
+KD = _P0 + 3
+EST = _P0 + 4  # 0 backward difference, 1 algebraic
+M_WIN = _P0 + 5  # algebraic window, samples
+OUT_MIN = _P0 + 6
+OUT_MAX = _P0 + 7
+AW = _P0 + 8  # 0 none, 1 clamp, 2 back-calculation
+K_AW = _P0 + 9
+U_INIT = _P0 + 10
+KERNEL = _P0 + 11  # estimators.TRAPEZOID, HELD or DELAY_REDUCED
+STARTUP = _P0 + 12  # START_BACKWARD or START_HOLD
+DELAY = _P0 + 13  # the loop's known input delay d, samples
+PREDICT = _P0 + 14  # 1: the error predicted over the delay
+LAG = _P0 + 15  # the delay-reduced kernel's lag, samples
+# its Jacobi weight's exponents, kept as given (the law reads the coefficients)
+KAPPA = _P0 + 16
+MU = _P0 + 17
+N_PARAMS = _P0 + 18
 #: the longest delay a law compensates, samples: a queue of that many outputs per member
 #: (0.8 MB each; the loop elements' own delays go to 1,000,000, in a ring per thread)
 MAX_DELAY = 100_000
@@ -400,7 +401,7 @@ def step(CP, CS, j, y, r, dt):
         su = 0.0
         if algebraic:
             sy, su = estimators.sums(CS, j, EST_BASE, int(CP[M_WIN, j]), int(n),
-                                     CP[KERNEL, j], CP, JACOBI)
+                                     CP[KERNEL, j], CP)
         predict = d > 0.0 and CP[PREDICT, j] != 0.0
         u, _, _ = _bracket(CP, CS, j, y, r, dt, k, n, CP[AW, j], algebraic, sy, su, u1, u2,
                            predict, s_u, d)

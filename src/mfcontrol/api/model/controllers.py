@@ -718,8 +718,8 @@ class IntelligentController(_Sampled):
         cp[intelligent.LAG] = 0.0 if lag is None else lag
         if kappa is not None and mu is not None and lag is not None:  # delay-reduced
             cp[intelligent.KAPPA], cp[intelligent.MU] = kappa, mu
-            cp[intelligent.JACOBI:intelligent.N_PARAMS] = estimators.jacobi_rows(
-                m, kappa, mu, lag)
+            rows = slice(intelligent.JACOBI, intelligent.JACOBI + estimators.N_JACOBI)
+            cp[rows] = estimators.jacobi_rows(m, kappa, mu, lag)
         cp[intelligent.STARTUP] = intelligent.STARTUPS[params["startup"] or "hold"]
         cp[intelligent.DELAY] = params["delay"]
         cp[intelligent.PREDICT] = 1.0 if params["predict"] else 0.0
