@@ -46,6 +46,8 @@ CONTROLLERS = {
     "PID weighted": (lambda: mfcontrol.PID(kp=3.0, ki=2.0, kd=0.4, N=8.0, b=0.5,
                                            sample_time=H), 2),
     "P": (lambda: mfcontrol.PID(kp=2.0, sample_time=H), 2),
+    "PID filtered": (lambda: mfcontrol.PID(kp=3.0, ki=2.0, kd=0.4, N=8.0, b=0.5, c=0.3,
+                                           Tf=0.05, sample_time=H), 2),
     # the paper's recursive i-P: a PI in velocity form (kp 2, ki 2 / s with hd = 1 s),
     # its P term on y_{k-1} as published, and as printed on y_k
     "recursive i-P": (lambda: mfcontrol.RecursiveIP(

@@ -11,8 +11,10 @@ import mfcontrol
 from mfcontrol import PID, FirstOrder
 
 
-def reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, lo, hi):
-    """Astrom and Hagglund's discrete PID, as the issue writes it, in plain Python."""
+def reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, lo, hi, c=0.0, Tf=0.0):
+    """Astrom and Hagglund's discrete PID, as the issue writes it, in plain Python; with
+    the measurement filter 1 / (1 + s Tf + (s Tf)^2 / 2) written as the implicit
+    (backward-difference) step of its two states, solved by numpy, not in closed form."""
     Td = kd / kp if kp != 0 else 0.0
     if Tt is None and ki != 0:
         Ti = kp / ki
@@ -20,15 +22,22 @@ def reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, lo, hi):
     ad = Td / (Td + N * h)
     bd = kp * Td * N / (Td + N * h)
     I = D = 0.0  # noqa: E741
-    y_old = ys[0]
+    y_old, r_old = ys[0], rs[0]
+    x = np.array([ys[0], 0.0])  # (y_f, y_f') at rest at the first measurement
+    if Tf > 0:
+        A = np.array([[0.0, 1.0], [-2.0 / Tf**2, -2.0 / Tf]])
+        B = np.array([0.0, 2.0 / Tf**2])
     out = []
-    for y, r in zip(ys, rs, strict=True):
+    for y_raw, r in zip(ys, rs, strict=True):
+        if Tf > 0:  # x_k = x_{k-1} + h (A x_k + B y_k)
+            x = np.linalg.solve(np.eye(2) - h * A, x + h * B * y_raw)
+        y = x[0] if Tf > 0 else y_raw
         P = kp * (b * r - y)
-        D = ad * D - bd * (y - y_old)
+        D = ad * D + bd * ((c * r - y) - (c * r_old - y_old))
         v = P + I + D
         u = min(max(v, lo), hi)
         I = I + ki * h * (r - y) + ((h / Tt) * (u - v) if ki != 0 else 0.0)  # noqa: E741
-        y_old = y
+        y_old, r_old = y, r
         out.append(u)
     return np.array(out)
 
@@ -38,21 +47,25 @@ def reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, lo, hi):
     ((2.0, 1.5, 0.0, 10.0, 0.5, None), (-1.0, 1.0)),  # PI: Tt = Ti, setpoint weight
     ((1.0, 0.0, 0.2, 5.0, 1.0, None), (-np.inf, np.inf)),  # PD, no limits
     ((3.0, 2.0, 0.1, 8.0, 1.0, 0.05), (-0.5, 2.0)),  # a given tracking time
+    # the measurement filter and the derivative's setpoint weight
+    ((2.0, 1.5, 0.3, 10.0, 0.7, None, 0.5, 0.02), (-1.0, 1.0)),
+    ((1.0, 0.0, 0.2, 5.0, 1.0, None, 1.0, 0.005), (-np.inf, np.inf)),
 ])
 def test_the_live_pid_is_its_difference_equations(gains, limits):
-    kp, ki, kd, N, b, Tt = gains
+    kp, ki, kd, N, b, Tt, *more = gains
+    c, Tf = more or (0.0, 0.0)
     h = 0.01
     rng = np.random.default_rng(3)
     ys = np.cumsum(rng.normal(0, 0.05, 400))
     rs = np.where(np.arange(400) < 200, 1.0, -0.5)
-    ctrl = PID(kp, ki, kd, sample_time=h, N=N, b=b, Tt=Tt,
+    ctrl = PID(kp, ki, kd, sample_time=h, N=N, b=b, Tt=Tt, c=c, Tf=Tf,
                output_limits=tuple(None if math.isinf(x) else x for x in limits))
     got, limited = [], 0
     for y, r in zip(ys, rs, strict=True):
         got.append(ctrl(y, setpoint=r))
         limited += ctrl.components["unlimited"] != got[-1]
-    want = reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, *limits)
-    np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
+    want = reference_pid(ys, rs, h, kp, ki, kd, N, b, Tt, *limits, c=c, Tf=Tf)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
     # the limits bind (and back-calculation acts) where there are limits
     assert (limited > 20) == (not math.isinf(limits[0]))
 
@@ -126,7 +139,43 @@ def test_live_api_snapshot_bumpless_nan_and_components():
     assert ctrl(0.9, setpoint=1.0) != 3.0
 
 
+def test_the_measurement_filter_follows_its_continuous_step_response():
+    # 1 / (1 + s Tf + (s Tf)^2 / 2): poles (-1 +- i) / Tf, step response
+    # 1 - e^(-t/Tf) (cos(t/Tf) + sin(t/Tf)); the backward difference is O(h) from it.
+    # A P controller with b = 0 outputs -kp y_f: the filter's output itself
+    Tf, h = 0.5, 1e-4
+    ctrl = PID(kp=1.0, b=0.0, Tf=Tf, sample_time=h)
+    t = h * np.arange(30_000)
+    y = np.where(t > 0, 1.0, 0.0)  # at rest at 0, a unit step from the second sample
+    out = -np.array([ctrl(v, setpoint=0.0) for v in y])
+    tau = (t - h) / Tf
+    exact = np.where(t > 0, 1.0 - np.exp(-tau) * (np.cos(tau) + np.sin(tau)), 0.0)
+    assert np.max(np.abs(out - exact)) < 2 * h / Tf
+    # and the linear analysis' filter is the law's: the same outputs to rounding, and a
+    # unit DC gain
+    f = ctrl.linear_filter()
+    # (to 1e-6: its coefficients are of order (Tf / h)^2, and their sums cancel)
+    assert -np.sum(f.b_y) / np.sum(f.a) == pytest.approx(1.0, rel=1e-6)
+    rebuilt = scipy.signal.lfilter(f.b_y, f.a, y)
+    np.testing.assert_allclose(-rebuilt, out, atol=1e-12)
+
+
+def test_a_snapshot_from_before_the_filter_rows_continues_bit_for_bit():
+    # its state had the nine rows up to the terms; the filter's and r_old's follow
+    ctrl = PID(kp=2.0, ki=1.0, kd=0.2, sample_time=0.01)
+    ys = np.cumsum(np.random.default_rng(5).normal(0, 0.1, 60))
+    for y in ys[:30]:
+        ctrl(y, setpoint=1.0)
+    snap = ctrl.snapshot()
+    old = {**snap, "state": snap["state"][:9], "layout": 3}
+    again = PID.from_snapshot(old)
+    assert [again(y, setpoint=1.0) for y in ys[30:]] == [ctrl(y, setpoint=1.0)
+                                                          for y in ys[30:]]
+    assert "Tf" not in snap["params"] and "c" not in snap["params"]
+
+
 @pytest.mark.parametrize(("kwargs", "message"), [
+    (dict(kp=1.0, Tf=-0.1), "Tf = -0.1: must be a finite number >= 0"),
     (dict(kp=0.0, kd=1.0), "kd = 1.0: must have the sign of kp"),
     (dict(kp=1.0, ki=-1.0), "ki = -1.0: must have the sign of kp"),
     (dict(kp=1.0, N=0.0), "N = 0.0: must be a finite number > 0"),

@@ -18,9 +18,11 @@ with the algebraic estimator's FIR weights (:func:`mfcontrol.laws.estimators.wei
 exact arithmetic: the law slides moments that sum to the same thing, up to rounding).
 Multiplied by D when there is an integral term (ki != 0), to clear its denominator.
 
-PID (:mod:`mfcontrol.laws.pid`), ``a_d = Td / (Td + N h)``, ``b_d = kp Td N / (Td + N h)``::
+PID (:mod:`mfcontrol.laws.pid`), ``a_d = Td / (Td + N h)``, ``b_d = kp Td N / (Td + N h)``,
+y_f = y / F(q) the filtered measurement (F = 1 without the filter, else the filter's
+denominator at s = (1 - q) / h: ``1 + Tf s + Tf^2 s^2 / 2``)::
 
-    u = kp (b r - y) + ki h q (r - y) / D - b_d D y / (1 - a_d q)
+    u = kp (b r - y_f) + ki h q (r - y_f) / D + b_d D (c r - y_f) / (1 - a_d q)
 
 (the integral is updated after the output, with the sample's error: it reaches u one
 sample later).
@@ -208,7 +210,8 @@ def intelligent_filter(CP: np.ndarray, dt: float, gamma: float | None = None) ->
 def pid_filter(CP: np.ndarray, dt: float) -> LinearFilter:
     """The PID of parameter column ``CP`` (:mod:`mfcontrol.laws.pid`'s rows) at sample
     period ``dt``, as a :class:`LinearFilter`."""
-    kp, ki, kd, n, b = (CP[pid.KP], CP[pid.KI], CP[pid.KD], CP[pid.N], CP[pid.B])
+    kp, ki, kd, n, b, c, tf = (CP[pid.KP], CP[pid.KI], CP[pid.KD], CP[pid.N], CP[pid.B],
+                               CP[pid.C], CP[pid.TF])
     delta = np.array([1.0, -1.0])
     # each term over the common denominator D (1 - a_d q): D when there is an integral,
     # (1 - a_d q) when there is a derivative
@@ -223,9 +226,16 @@ def pid_filter(CP: np.ndarray, dt: float) -> LinearFilter:
         den_d = np.array([1.0])
     a = _mul(den_i, den_d)
     integral = _mul([0.0, ki * dt], den_d)  # ki h q / D, over the common denominator
+    derivative = _mul(bd * delta, den_i)
     b_y = _add(-kp * a, -integral)
-    b_y = _add(b_y, -_mul(bd * delta, den_i))
+    b_y = _add(b_y, -derivative)
     b_r = _add(kp * b * a, integral)
+    b_r = _add(b_r, c * derivative)
+    if tf > 0.0:
+        # u = (b_y y_f + b_r r) / a with y_f = y / F(q): a F u = b_y y + b_r F r
+        e, g = tf / dt, tf * tf / (2.0 * dt * dt)
+        f = np.array([1.0 + e + g, -e - 2.0 * g, g])
+        a, b_r = _mul(a, f), _mul(b_r, f)
     return _normalised(a, b_y, b_r, dt)
 
 

@@ -214,6 +214,11 @@ OPTIONS: tuple[Option, ...] = (
     _o("controller.N", "float", 10.0, "pid: derivative filter, time constant Td / N",
        check="positive"),
     _o("controller.b", "float", 1.0, "pid: setpoint weight of the proportional term"),
+    _o("controller.c", "float", 0.0, "pid: setpoint weight of the derivative (0: the "
+       "derivative of the measurement alone)"),
+    _o("controller.Tf", "float", 0.0, "pid: time constant of Astrom and Hagglund's "
+       "second-order measurement filter 1 / (1 + s Tf + (s Tf)^2 / 2), s; 0: none",
+       check="nonnegative"),
     _o("controller.Tt", "float", None, "pid: tracking time of back-calculation (s); absent: "
        "sqrt(Ti Td) with an integral and a derivative, else Ti", check="positive"),
     # sensor, actuator, disturbance
@@ -314,6 +319,8 @@ LABELS: dict[str, str] = {
     "controller.k_aw": "anti-windup gain k_aw (1/s)",
     "controller.N": "PID derivative filter N",
     "controller.b": "PID setpoint weight b",
+    "controller.c": "PID derivative setpoint weight c",
+    "controller.Tf": "PID measurement filter Tf (s)",
     "controller.Tt": "PID tracking time Tt (s)",
     "sensor.noise_std": "sensor noise, standard deviation (output unit)",
     "sensor.delay": "measurement delay (samples)",

@@ -3,19 +3,33 @@ baseline every comparison needs.
 
 Per sample, in this order (``Ti = kp / ki``, ``Td = kd / kp``)::
 
-    P = kp (b r - y)
-    D = ad D - bd (y - y_old),   ad = Td / (Td + N h),  bd = kp Td N / (Td + N h)
+    y_f = F(y)                   the measurement filter (y itself for Tf = 0)
+    P = kp (b r - y_f)
+    D = ad D + bd ((c r - y_f) - (c r_old - y_old)),
+                                 ad = Td / (Td + N h),  bd = kp Td N / (Td + N h)
     v = P + I + D
     u = sat(v)
-    I = I + ki h (r - y) + (h / Tt) (u - v)
-    y_old = y
+    I = I + ki h (r - y_f) + (h / Tt) (u - v)
+    y_old = y_f, r_old = r
 
-a setpoint weight b on the proportional term, a derivative on the measurement filtered with time
-constant Td / N (backward difference: stable for every h; the coefficients are computed from h at
-every sample, so a live call may pass its own dt), and back-calculation anti-windup with tracking
-time Tt. ``y_old`` starts at the first measurement (no derivative kick); ``I`` and ``D`` start at 0,
-or, after a bumpless switch to automatic,
+setpoint weights b on the proportional term and c on the derivative (0: the derivative of
+the measurement alone), a derivative filtered with time constant Td / N (backward
+difference: stable for every h; the coefficients are computed from h at every sample, so a
+live call may pass its own dt), and back-calculation anti-windup with tracking time Tt.
+``y_old`` starts at the first measurement and ``r_old`` at the first setpoint (no
+derivative kick); ``I`` and ``D`` start at 0, or, after a bumpless switch to automatic,
 ``I`` starts so that the first output equals the output held in manual.
+
+The measurement filter is Astrom and Hagglund's second-order one (Advanced PID Control,
+the filter they recommend on every PID's measurement, so that the derivative and the
+proportional term do not pass the noise on)::
+
+    F(s) = 1 / (1 + s Tf + (s Tf)^2 / 2)
+
+(damping 1/sqrt(2), unit DC gain), discretised by the backward difference, as the
+derivative is: its transfer function in the backward shift q is F at s = (1 - q) / h,
+stable for every h. Its state (y_f, y_f') starts at (y_0, 0): at rest at the first
+measurement, so that the filter adds no transient of its own.
 """
 
 import math
@@ -31,7 +45,9 @@ B = 4  # setpoint weight
 TT = 5  # tracking time of back-calculation (s); inf: none
 OUT_MIN = 6
 OUT_MAX = 7
-N_PARAMS = 8
+TF = 8  # the measurement filter's time constant (s); 0: none
+C = 9  # setpoint weight of the derivative
+N_PARAMS = 10
 
 # state rows
 K = 0  # samples seen
@@ -44,7 +60,12 @@ C_P = 5
 C_I = 6
 C_D = 7
 C_UNLIM = 8
-N_STATE = 9
+# after the terms (rows a snapshot from before them lacks at its end): the measurement
+# filter's state and the last setpoint
+YF = 9  # the filtered measurement y_f
+YF_D = 10  # its derivative y_f'
+R_OLD = 11
+N_STATE = 12
 #: the terms of the last output by signal name (a live controller's ``components`` and
 #: the engine's recorded trajectory rows read these)
 COMPONENTS = (("P", C_P), ("I", C_I), ("D", C_D))
@@ -76,19 +97,42 @@ STEADY = 1.0
 
 
 @step_jit
+def filter_step(x, xd, y, h, tf):
+    """The measurement filter's backward-difference step from its state (y_f, y_f') =
+    (x, xd) on the sample y: the new state. The implicit step of
+    ``(Tf^2 / 2) x'' + Tf x' + x = y`` solved in closed form:
+    ``xd+ = (xd + c (y - x)) / (1 + c (h + Tf))``, ``x+ = x + h xd+``, c = 2 h / Tf^2."""
+    c = 2.0 * h / (tf * tf)
+    xd = (xd + c * (y - x)) / (1.0 + c * (h + tf))
+    return x + h * xd, xd
+
+
+@step_jit
+def _filtered(CP, CS, j, y, h):
+    """y_f of this sample, the filter's state advanced (y itself without a filter)."""
+    tf = CP[TF, j]
+    if tf > 0.0:
+        y, CS[YF_D, j] = filter_step(CS[YF, j], CS[YF_D, j], y, h, tf)
+    CS[YF, j] = y
+    return y
+
+
+@step_jit
 def _terms(CP, CS, j, y, r, h):
-    """The proportional and derivative terms of this sample."""
-    kp, kd, n = CP[KP, j], CP[KD, j], CP[N, j]
+    """The proportional and derivative terms of this sample, on the filtered y."""
+    kp, kd, n, c = CP[KP, j], CP[KD, j], CP[N, j], CP[C, j]
     p = kp * (CP[B, j] * r - y)
     # the state read whatever kd: a load under the branch keeps a loop over members
     # from vectorising (the branch's arithmetic becomes a select)
-    d_old, y_old = CS[D, j], CS[Y_OLD, j]
+    d_old, y_old, r_old = CS[D, j], CS[Y_OLD, j], CS[R_OLD, j]
     d = 0.0
     if kd != 0.0:
         td = kd / kp
         ad = td / (td + n * h)
         bd = kp * td * n / (td + n * h)
-        d = ad * d_old - bd * (y - y_old)
+        # c = 0: the measurement's difference alone (c r would be NaN for an infinite r)
+        de = (y - y_old) if c == 0.0 else ((y - c * r) - (y_old - c * r_old))
+        d = ad * d_old - bd * de
     return p, d
 
 
@@ -106,6 +150,7 @@ def _output(CP, CS, j, y, r, h, p, i, d):
     CS[I, j] = i + CP[KI, j] * h * (r - y) + (h / CP[TT, j]) * (u - v)
     CS[D, j] = d
     CS[Y_OLD, j] = y
+    CS[R_OLD, j] = r
     CS[K, j] = CS[K, j] + 1.0
     return u
 
@@ -113,8 +158,12 @@ def _output(CP, CS, j, y, r, h, p, i, d):
 @step_jit
 def step(CP, CS, j, y, r, h):
     """One sample: measurement y, setpoint r and period h in; the limited output out."""
-    if CS[K, j] == 0.0:
+    if CS[K, j] == 0.0:  # at rest at the first sample: no kick, no filter transient
         CS[Y_OLD, j] = y
+        CS[R_OLD, j] = r
+        CS[YF, j] = y
+        CS[YF_D, j] = 0.0
+    y = _filtered(CP, CS, j, y, h)
     p, d = _terms(CP, CS, j, y, r, h)
     i = CS[I, j]
     start = CS[START, j]
@@ -129,5 +178,6 @@ def steady_step(CP, CS, j, y, r, h):
     """:func:`step` for a sample from :data:`STEADY` on, the bumpless start used (START
     NaN): its first-sample branches compiled out, so that a loop over members
     vectorises. Returns (u limited, u unlimited)."""
+    y = _filtered(CP, CS, j, y, h)
     p, d = _terms(CP, CS, j, y, r, h)
     return _output(CP, CS, j, y, r, h, p, CS[I, j], d), CS[C_UNLIM, j]

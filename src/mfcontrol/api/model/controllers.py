@@ -1210,6 +1210,13 @@ class PID(_Sampled):
         Derivative filter: time constant Td / N (default 10).
     b : float
         Setpoint weight of the proportional term (default 1).
+    c : float
+        Setpoint weight of the derivative (default 0: the derivative of the measurement
+        alone, no kick from a setpoint step).
+    Tf : float
+        Time constant (s) of Astrom and Hagglund's second-order measurement filter
+        ``1 / (1 + s Tf + (s Tf)^2 / 2)`` on y, which every term then sees (default 0:
+        none); they suggest Tf about Td / N, or Ti / N for a PI.
     Tt : float, optional
         Tracking time (s); default sqrt(Ti Td) with an integral and a derivative, else Ti.
     output_limits : (low, high)
@@ -1235,7 +1242,8 @@ class PID(_Sampled):
     _KERNEL = ("pid_step", 3)
 
     def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, *, sample_time: float,
-                 N: float = 10.0, b: float = 1.0, Tt: float | None = None,
+                 N: float = 10.0, b: float = 1.0, c: float = 0.0, Tf: float = 0.0,
+                 Tt: float | None = None,
                  output_limits: tuple[float | None, float | None] = (None, None),
                  input_limits: tuple[float | None, float | None] = (None, None),
                  setpoint: float = 0.0):
@@ -1249,6 +1257,13 @@ class PID(_Sampled):
             "N": _number("N", N, positive=True), "b": _number("b", b),
             "Tt": _number("Tt", Tt, positive=True, allow_none=True),
             "output_limits": [lo, hi], "setpoint": _number("setpoint", setpoint)}
+        # the measurement filter and the derivative's setpoint weight join the parameters
+        # only when set, so that snapshots of PIDs without them stay as they were
+        c, Tf = _number("c", c), _number("Tf", Tf, nonneg=True)
+        if c != 0.0:
+            params["c"] = c
+        if Tf != 0.0:
+            params["Tf"] = Tf
         try:
             _check_pid(params["kp"], params["ki"], params["kd"], params["Tt"])
         except ConfigError as exc:
@@ -1258,6 +1273,7 @@ class PID(_Sampled):
         cp = self._CP[:, 0]
         cp[pid.KP], cp[pid.KI], cp[pid.KD] = params["kp"], params["ki"], params["kd"]
         cp[pid.N], cp[pid.B] = params["N"], params["b"]
+        cp[pid.C], cp[pid.TF] = c, Tf
         cp[pid.TT] = pid.tracking_time(params["kp"], params["ki"], params["kd"], params["Tt"])
         cp[pid.OUT_MIN] = -_INF if lo is None else lo
         cp[pid.OUT_MAX] = _INF if hi is None else hi
@@ -1268,6 +1284,26 @@ class PID(_Sampled):
     def _reset_state(self) -> None:
         live.pid_reset(self._CS, math.nan)
         self._last_output = 0.0
+
+    @classmethod
+    def _migrated(cls, snap: Any) -> Any:
+        """A snapshot taken before the measurement filter and the derivative's setpoint
+        weight, with their state rows put in at the end as zeros: its PID has neither
+        (Tf = c = 0), and reads none of them, so it continues bit for bit."""
+        if isinstance(snap, Mapping) and isinstance(snap.get("state"), list) \
+                and len(snap["state"]) == pid.YF:
+            return {**snap, "state": [*snap["state"], *[0.0] * (pid.N_STATE - pid.YF)]}
+        return snap
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        cp, cs = state.get("_CP"), state.get("_CS")
+        if (cp is not None and cp.shape[0] != pid.N_PARAMS) or (
+                cs is not None and cs.shape[0] != pid.N_STATE):
+            # the compiled step would read past a shorter column
+            raise ValueError("this PID was pickled by an older mfcontrol (its parameter and "
+                             "state layout changed): rebuild it from a snapshot, "
+                             "PID.from_snapshot(snap), which carries older snapshots over")
+        super().__setstate__(state)
 
     def _bumpless_start(self, start: float) -> None:
         lo, hi = self._CP[pid.OUT_MIN, 0], self._CP[pid.OUT_MAX, 0]

@@ -45,7 +45,8 @@ def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
     if law == "pid":
         return PID(cfg["controller.kp"], cfg["controller.ki"], cfg["controller.kd"],
                    sample_time=cfg["sim.h"], N=cfg["controller.N"], b=cfg["controller.b"],
-                   Tt=cfg["controller.Tt"], output_limits=limits)
+                   c=cfg["controller.c"], Tf=cfg["controller.Tf"], Tt=cfg["controller.Tt"],
+                   output_limits=limits)
     if law not in POSITIONAL:
         # the controller keys its parameter column reads, given to the live controller
         # (which builds the same column from them)
