@@ -431,10 +431,9 @@ def series_to_parallel(Kc: float, Ti: float, Td: float) -> tuple[float, float, f
 Kind = Literal["PI", "PID"]
 
 
-def _kind(kind: Any) -> str:
+def _check_kind(kind: Any) -> None:
     if kind not in ("PI", "PID"):
         raise ConfigError("kind", kind, 'must be "PI" or "PID"')
-    return str(kind)
 
 
 def simc(model: Fopdt | Sopdt, tau_c: float | None = None, kind: Kind = "PI") -> Gains:
@@ -476,7 +475,7 @@ def simc(model: Fopdt | Sopdt, tau_c: float | None = None, kind: Kind = "PI") ->
     >>> simc(Fopdt(K=1.0, T=2.5, L=1.47))
     Gains(kp=0.8503..., ki=0.3401..., kd=0.0, b=1.0)
     """
-    kind = _kind(kind)
+    _check_kind(kind)
     if not isinstance(model, (Fopdt, Sopdt)):
         raise ConfigError("model", model, "must be a Fopdt or a Sopdt")
     if kind == "PID" and isinstance(model, Fopdt):
@@ -534,7 +533,7 @@ def amigo(model: Fopdt, kind: Kind = "PI") -> Gains:
     >>> [round(g, 6) for g in amigo(Fopdt(K=1.0, T=1.0, L=1.0))]  # tau 0.5: b 0
     [0.25, 0.25, 0.0, 0.0]
     """
-    kind = _kind(kind)
+    _check_kind(kind)
     if not isinstance(model, Fopdt):
         raise ConfigError("model", model, "must be a Fopdt (AMIGO is written for K, T, L)")
     K, T, L = model.K, model.T, model.L
