@@ -730,7 +730,7 @@ def test_a_reviewer_reads_the_rows_by_their_names():
     assert "MFC_PID_KP" in src.source and "mfc_params[MFC_PID_OUT_MIN]" in src.source
     assert "cs[MFC_PID_Y_OLD]" in src.source
     # a number in brackets only where the table is declared
-    assert re.findall(r"mfc_params\[\d", src.source) == ["mfc_params[10"]
+    assert re.findall(r"mfc_params\[\d+", src.source) == ["mfc_params[10"]
     algebraic = c_source(mfcontrol.make_controller(INTELLIGENT)).source
     assert "MFC_ESTIMATORS_COUNT" in algebraic and "MFC_INTELLIGENT_U1" in algebraic
     assert len(re.findall(r"mfc_params\[\d", algebraic)) == 1
