@@ -178,6 +178,23 @@ def test_a_snapshot_from_before_the_kernel_continues_bit_for_bit():
     with pytest.raises(ValueError, match="pickled by an older mfcontrol"):
         fresh.__setstate__(state)
     assert pickle.loads(pickle.dumps(ctrl)).snapshot()["params"] == ctrl.snapshot()["params"]
+    # layout 4 put a state row in and kept the parameter count: a pickle of layout 3 has
+    # every parameter row and one state row fewer, and its step would read the rows at
+    # the wrong offsets; refused by its state rows (an algebraic one's too)
+    for law in (ctrl, mfcontrol.IPI(alpha=1.0, kp=10.0, ki=1.0, sample_time=0.01,
+                                    estimator="algebraic", window=8)):
+        state = law.__getstate__()
+        state["_CS"] = state["_CS"][:-1]
+        fresh = type(law).__new__(type(law))
+        with pytest.raises(ValueError, match="its parameter or state layout changed"):
+            fresh.__setstate__(state)
+    pid = mfcontrol.PID(kp=1.0, ki=1.0, sample_time=0.01)
+    state = pid.__getstate__()
+    state["_CP"] = state["_CP"][:-2]  # a PID from before its filter's rows
+    fresh = mfcontrol.PID.__new__(mfcontrol.PID)
+    with pytest.raises(ValueError, match="PID was pickled by an older mfcontrol"):
+        fresh.__setstate__(state)
+    assert pickle.loads(pickle.dumps(pid)).snapshot()["params"] == pid.snapshot()["params"]
 
 
 def test_a_snapshot_from_before_the_multi_rate_rows_continues_bit_for_bit():
