@@ -197,6 +197,19 @@ class _Controller:
         state.pop("_step", None)  # compiled code: bound again on its first use
         return state
 
+    @classmethod
+    def _refuse_older_layout(cls, state: Mapping[str, Any], n_params: int,
+                             n_state: int) -> None:
+        """Refuse a pickle whose parameter or state rows are not this version's: the
+        compiled step would read past a shorter column, or rows at other offsets."""
+        cp, cs = state.get("_CP"), state.get("_CS")
+        if (cp is not None and cp.shape[0] != n_params) or (
+                cs is not None and cs.shape[0] != n_state):
+            raise ValueError(f"this {cls.__name__} was pickled by an older mfcontrol (its "
+                             "parameter or state layout changed): rebuild it from a "
+                             f"snapshot, {cls.__name__}.from_snapshot(snap), which carries "
+                             "older snapshots over")
+
     def __setstate__(self, state: dict[str, Any]) -> None:
         state.pop("_kernel", None)  # pickles of 0.1.0 before the class held it
         if "setpoint" in state:
@@ -775,19 +788,12 @@ class IntelligentController(_Sampled):
                                                     "state": state}))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        cp = state.get("_CP")
-        params, cs = state.get("_params") or {}, state.get("_CS")
+        # the state rows its parameters give (layout 4 put a row in after the gain
+        # adaptation's and kept the parameter count: only the state rows tell)
+        params = state.get("_params") or {}
         window = params.get("window") if params.get("estimator") == "algebraic" else 0
-        rows = intelligent.n_state(window or 0, int(params.get("delay") or 0))
-        if (cp is not None and cp.shape[0] != intelligent.N_PARAMS) or (
-                cs is not None and cs.shape[0] != rows):
-            # the compiled step would read past a shorter column, or its state rows at
-            # other offsets (layout 4 put a row in after the gain adaptation's)
-            raise ValueError(f"this {type(self).__name__} was pickled by an older mfcontrol "
-                             "(its parameter or state layout changed): rebuild it from a "
-                             "snapshot, "
-                             f"{type(self).__name__}.from_snapshot(snap), which carries "
-                             "older snapshots over")
+        self._refuse_older_layout(state, intelligent.N_PARAMS, intelligent.n_state(
+            window or 0, int(params.get("delay") or 0)))
         super().__setstate__(state)
 
     def _reset_state(self) -> None:
@@ -1107,14 +1113,7 @@ class RecursiveIP(_Controller):
         return _with_adaptation_row(_with_multi_rate_rows(snap))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        cp, cs = state.get("_CP"), state.get("_CS")
-        if (cp is not None and cp.shape[0] != recursive_ip.N_PARAMS) or (
-                cs is not None and cs.shape[0] != recursive_ip.N_STATE):
-            # the compiled step would read past a shorter column
-            raise ValueError("this RecursiveIP was pickled by an older mfcontrol (its "
-                             "parameter and state layout changed): rebuild it from a "
-                             "snapshot, RecursiveIP.from_snapshot(snap), which carries "
-                             "older snapshots over")
+        self._refuse_older_layout(state, recursive_ip.N_PARAMS, recursive_ip.N_STATE)
         super().__setstate__(state)
 
     def _snapshot_extra(self) -> dict[str, Any]:
@@ -1296,13 +1295,7 @@ class PID(_Sampled):
         return snap
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        cp, cs = state.get("_CP"), state.get("_CS")
-        if (cp is not None and cp.shape[0] != pid.N_PARAMS) or (
-                cs is not None and cs.shape[0] != pid.N_STATE):
-            # the compiled step would read past a shorter column
-            raise ValueError("this PID was pickled by an older mfcontrol (its parameter and "
-                             "state layout changed): rebuild it from a snapshot, "
-                             "PID.from_snapshot(snap), which carries older snapshots over")
+        self._refuse_older_layout(state, pid.N_PARAMS, pid.N_STATE)
         super().__setstate__(state)
 
     def _bumpless_start(self, start: float) -> None:
