@@ -42,6 +42,9 @@ CONTROLLERS = [
     ("paper's recursive i-P", "voltage-stable-standard", {}),
     ("paper's variational i-P", "voltage-stable-variational", {}),
     ("PID", "motor-noise-pid", {}),
+    ("ADRC, order 1", "motor-noise-adrc", {}),
+    ("ADRC, order 2", "motor-noise-adrc", {"controller.order": 2, "controller.wc": 15.0,
+                                           "controller.wo": 60.0}),
 ]
 
 _MAIN = r"""

@@ -1,6 +1,6 @@
 """Realistic loops in sweeps: mfcontrol against the paper's exact sweep and against JAX.
 
-Three loops, each swept over 1,024 members (32 x 32 values of two parameters, the last
+Four loops, each swept over 1,024 members (32 x 32 values of two parameters, the last
 key fastest) of 10,000 samples:
 
 1. ``motor i-PI``: the DC motor of ``bench_engine.py`` (a numba ODE in the in-place form,
@@ -11,7 +11,11 @@ key fastest) of 10,000 samples:
    ``controller.kp`` x ``plant.J`` through ``mfcontrol.sweep``;
 2. ``motor PID``: the same loop under ``mfcontrol.PID`` (the PI of ``motor-noise-pid``,
    kp 0.2, ki 0.54), kp x J;
-3. ``bench-lag3 i-PI``: the built-in case ``bench-lag3`` (1/(s+1)^3 stepped by its exact
+3. ``motor ADRC``: the built-in case ``motor-noise-adrc`` (the library's DC motor, the
+   sensor and actuator of loop 1, the ADRC of order 1: b0 50, wo 40 rad/s),
+   ``controller.wc`` x ``plant.J`` through the case API (no JAX twin: timed against the
+   paper's sweep only);
+4. ``bench-lag3 i-PI``: the built-in case ``bench-lag3`` (1/(s+1)^3 stepped by its exact
    zero-order hold, 1 % sensor noise, an input load step at 20 s) with
    ``controller.law = "i-PI"`` (its algebraic estimator, window 10; alpha 30, ki 0.3,
    output +-10), run for 200 s (10,000 samples of 20 ms); ``controller.kp`` x
@@ -93,6 +97,12 @@ LAG3 = ("bench-lag3", {"controller.law": "i-PI", "controller.alpha": 30.0,
                        "sim.t_end": 200.0})
 LAG3_AXES = {"controller.kp": np.linspace(1.0, 2.0, SIDE),
              "plant.time_scale": np.linspace(0.8, 1.25, SIDE)}
+#: the built-in DC motor under the ADRC of order 1 (``motor-noise-adrc``) behind the motor
+#: loops' sensor and actuator: its observer and law over the block, as the PID's
+ADRC = ("motor-noise-adrc", {"sensor.delay": 2, "actuator.delay": 3,
+                             "actuator.rate_limit": 2000.0})
+ADRC_AXES = {"controller.wc": np.linspace(5.0, 20.0, SIDE),
+             "plant.J": np.linspace(3e-4, 8e-4, SIDE)}
 #: the baseline: the paper's case and the sweep of the issue's example
 PAPER = ("voltage-stable-standard", {})
 PAPER_AXES = {"controller.alpha": np.logspace(0, 2, SIDE * SIDE)}
@@ -493,7 +503,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=7, help="interleaved rounds (default 7)")
     args = ap.parse_args()
-    loops = {"ipi": motor_loop("ipi"), "pid": motor_loop("pid"), "lag3": lag3_loop()}
+    loops = {"ipi": motor_loop("ipi"), "pid": motor_loop("pid"), "lag3": lag3_loop(),
+             "adrc": case_loop("motor ADRC (order 1; no JAX twin)", *ADRC, ADRC_AXES)}
     paper = paper_loop()
     t0 = time.perf_counter()
     # the vectorised loop, compiled once per machine (about 2 min) or loaded: a sweep of

@@ -38,7 +38,8 @@ ALL_CASES = (
     "sweep-epsM",
     "buck-ipi", "boost-ipd", "first-order-ip-algebraic",
     "map-alpha-dR-standard", "map-alpha-dR-variational", "map-Gamma-epsM",
-    "motor-noise-ipi", "motor-noise-ipi-algebraic", "motor-noise-pid", "buck-50khz-noise",
+    "motor-noise-ipi", "motor-noise-ipi-algebraic", "motor-noise-pid", "motor-noise-adrc",
+    "buck-50khz-noise",
     "bench-boost", "bench-buck", "bench-dc-motor", "bench-delay-lag-t1", "bench-delay-lag-t10",
     "bench-fourpole", "bench-integrating-delay", "bench-lag3", "bench-lag8", "bench-nonminimum",
 )

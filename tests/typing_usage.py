@@ -48,8 +48,13 @@ def live_controllers() -> None:
     rip_period: float | None = rip.sample_time
     raw: dict[str, float] = rip.components
 
-    ctrl: mfcontrol.IntelligentController | mfcontrol.RecursiveIP | mfcontrol.PID = (
-        mfcontrol.make_controller("motor-noise-ipi-algebraic", {"sim.h": 1e-3}))
+    ctrl: (mfcontrol.IntelligentController | mfcontrol.RecursiveIP | mfcontrol.PID
+           | mfcontrol.ADRC) = mfcontrol.make_controller("motor-noise-ipi-algebraic",
+                                                         {"sim.h": 1e-3})
+    adrc = mfcontrol.ADRC(order=2, b0=1.0, wc=2.0, wo=10.0, sample_time=0.01)
+    f_hat: float = adrc.components["F_hat"]
+    estimate: np.ndarray = adrc.estimate
+    print(f_hat, estimate)
     print(u, terms, gamma, setpoint, limits, period, n_nan, last, rip_period, raw, ctrl)
 
 

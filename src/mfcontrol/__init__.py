@@ -21,8 +21,8 @@ _EXPORTS = {
                         "plant_alpha"),
     ".analysis.filters": ("LinearFilter",),
     ".analysis.loop": ("LinearLoop",),
-    ".api.model.controllers": ("IP", "IPD", "IPI", "IPID", "PID", "IntelligentController",
-                               "RecursiveIP"),
+    ".api.model.controllers": ("ADRC", "IP", "IPD", "IPI", "IPID", "PID",
+                               "IntelligentController", "RecursiveIP"),
     ".api.model.elements": ("Actuator", "Disturbance", "Sensor"),
     ".api.model.plants": ("LTI", "ODE", "Boost", "Buck", "DCMotor", "FirstOrder", "Plant"),
     ".api.model.schedule": ("Change",),
@@ -77,7 +77,16 @@ if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eage
     )
     from .analysis.filters import LinearFilter
     from .analysis.loop import LinearLoop
-    from .api.model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
+    from .api.model.controllers import (
+        ADRC,
+        IP,
+        IPD,
+        IPI,
+        IPID,
+        PID,
+        IntelligentController,
+        RecursiveIP,
+    )
     from .api.model.elements import Actuator, Disturbance, Sensor
     from .api.model.plants import LTI, ODE, Boost, Buck, DCMotor, FirstOrder, Plant
     from .api.model.schedule import Change

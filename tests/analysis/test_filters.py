@@ -48,6 +48,14 @@ CONTROLLERS = {
     "P": (lambda: mfcontrol.PID(kp=2.0, sample_time=H), 2),
     "PID filtered": (lambda: mfcontrol.PID(kp=3.0, ki=2.0, kd=0.4, N=8.0, b=0.5, c=0.3,
                                            Tf=0.05, sample_time=H), 2),
+    # ADRC: the plant's y'' = u - 3 y' - 2 y gives b0 = 1 for the second order; the first
+    # order's b0 is a rough guess, as in practice
+    "ADRC order 1": (lambda: mfcontrol.ADRC(order=1, b0=0.5, wc=1.0, wo=5.0,
+                                            sample_time=H), 1),
+    "ADRC order 2": (lambda: mfcontrol.ADRC(order=2, b0=1.0, wc=5.0, wo=25.0,
+                                            sample_time=H), 1),
+    "ADRC order 2 delay": (lambda: mfcontrol.ADRC(order=2, b0=1.0, wc=3.0, wo=15.0,
+                                                  sample_time=H, delay=2), 1),
     # the paper's recursive i-P: a PI in velocity form (kp 2, ki 2 / s with hd = 1 s),
     # its P term on y_{k-1} as published, and as printed on y_k
     "recursive i-P": (lambda: mfcontrol.RecursiveIP(

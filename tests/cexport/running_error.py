@@ -142,6 +142,20 @@ class Carried:
     __hash__ = None
 
 
+class _Math:
+    """The math module with exp on carried values (one rounding of the C library's exp,
+    whose float version is within about half an ulp)."""
+
+    def __getattr__(self, name):
+        return getattr(math, name)
+
+    @staticmethod
+    def exp(x):
+        x = Carried.of(x)
+        v = math.exp(x.v)
+        return Carried(v, TAPE.node(v, True, (x.i, v)))
+
+
 class _Module:
     """A law module whose compiled functions are replaced by their carried Python."""
 
@@ -157,6 +171,8 @@ def _replace(value):
         return python_of(value)
     if isinstance(value, types.ModuleType) and value.__name__.startswith("mfcontrol."):
         return _Module(value)
+    if value is math:
+        return _Math()
     return value
 
 
@@ -189,6 +205,8 @@ def carried_outputs(ctrl, law, y, r, every: int = 1) -> tuple[np.ndarray, np.nda
     reset = python_of(law.reset)
     if law.name == "pid":
         reset(CS, 0, math.nan)
+    elif law.name == "adrc":
+        reset(CP, CS, 0, math.nan)
     else:
         reset(CP, CS, 0)
     step = python_of(law.step)

@@ -101,6 +101,10 @@ VARIANTS = [
     ("motor-noise-pid", {"controller.kd": 0.05, "controller.N": 5.0, "controller.b": 0.5,
                          "controller.Tt": 0.2, "controller.duty_min": -2.0,
                          "controller.duty_max": 2.0}),
+    ("motor-noise-adrc", {}),
+    ("motor-noise-adrc", {"controller.order": 2, "controller.wc": 15.0,
+                          "controller.wo": 60.0, "controller.delay": 3,
+                          "controller.duty_min": -2.0, "controller.duty_max": 2.0}),
     ("buck-ipi", {}),
     ("boost-ipd", {}),
     ("first-order-ip-algebraic", {}),
@@ -147,7 +151,9 @@ def test_a_controller_built_in_python_exports_too(tmp_path):
                                gain="variational", output_limits=(-24, 24), **kw),
     lambda **kw: mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01, **kw),
     lambda **kw: mfcontrol.RecursiveIP(law="variational", **kw),
-], ids=["i-PI", "PID", "recursive"])
+    lambda **kw: mfcontrol.ADRC(order=2, b0=3.0, wc=5.0, wo=30.0, sample_time=0.01,
+                                output_limits=(-24, 24), **kw),
+], ids=["i-PI", "PID", "recursive", "ADRC"])
 def test_input_limits_and_outliers_export_bit_for_bit(make, tmp_path):
     # outliers inside and outside the limits, overflows and a memory restart
     rng = np.random.default_rng(3)
@@ -237,6 +243,9 @@ FLOAT_VARIANTS = [
                    "controller.adapt": "variational", "controller.gamma0": 0.02,
                    "controller.Gamma": 1e-9}),
     ("motor-noise-pid", {"controller.kd": 0.05}),
+    ("motor-noise-adrc", {}),
+    ("motor-noise-adrc", {"controller.order": 2, "controller.wc": 15.0,
+                          "controller.wo": 60.0, "controller.delay": 2}),
 ]
 N_FLOAT = 600  # samples; the bound is checked at every CHECK-th
 CHECK = 25
@@ -483,6 +492,7 @@ def test_the_banner_names_the_law_as_the_command_line_does(tmp_path):
 
     assert _law_label(mfcontrol.IPI(alpha=10, kp=2, ki=1, sample_time=1e-3)) == "i-PI"
     assert _law_label(mfcontrol.PID(kp=1, ki=1, sample_time=1e-3)) == "pid"
+    assert _law_label(mfcontrol.ADRC(sample_time=1e-3)) == "adrc"
     assert _law_label(mfcontrol.RecursiveIP(alpha=10, kp=2)) == "ip"
     h, _ = mfcontrol.export_c(mfcontrol.IPD(alpha=10, kp=2, kd=0.1, sample_time=1e-3),
                               out=tmp_path)

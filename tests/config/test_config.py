@@ -159,7 +159,7 @@ MALFORMED = [
     ("sweep.key", 3.0, "must be a string"),
     ("fidelity", "wrong", "must be one of published, paper"),
     ("fidelity", "Paper", "must be one of published, paper"),
-    ("controller.law", "PID", "must be one of ip, variational, i-P, i-PI, i-PD, i-PID, pid"),
+    ("controller.law", "PID", "must be one of ip, variational, i-P, i-PI, i-PD, i-PID, pid, adrc"),
     ("plant.output", "current", "must be one of voltage, power"),
     ("plant.coupling", "loose", "must be one of published, textbook"),
     ("controller.integrator", "third-order", "must be one of first-order, second-order"),
@@ -615,9 +615,9 @@ CASE_NAMES = sorted(p.stem for p in CASES_DIR.glob("*.toml"))
 
 def test_builtin_cases():
     assert CASE_NAMES == sorted(mfcontrol.case_names())
-    # the paper's eight, three toolkit cases, three maps, four realistic loops, the ten
+    # the paper's eight, three toolkit cases, three maps, five realistic loops, the ten
     # plants of the benchmark set
-    assert len(CASE_NAMES) == 28
+    assert len(CASE_NAMES) == 29
     assert sum(n.startswith("bench-") for n in CASE_NAMES) == 10
 
 

@@ -82,6 +82,33 @@ def test_compiled_loop_equals_the_live_controller_in_a_python_loop(plant, law):
     assert fast.metrics == slow.metrics
 
 
+ADRCS = {
+    "order 1 limited": lambda h: mfcontrol.ADRC(order=1, b0=1.0, wc=3.0, wo=15.0,
+                                                sample_time=h, output_limits=(-1.5, 1.5)),
+    "order 2": lambda h: mfcontrol.ADRC(order=2, b0=2.0, wc=4.0, wo=25.0, sample_time=h),
+    "order 2 delay": lambda h: mfcontrol.ADRC(order=2, b0=2.0, wc=3.0, wo=20.0,
+                                              sample_time=h, output_limits=(-3, 3), delay=2),
+    "PID": lambda h: mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, Tf=0.02, b=0.7, sample_time=h,
+                                   output_limits=(-3, 3)),
+}
+
+
+@pytest.mark.parametrize("plant", ["first-order", "lti-exact"])
+@pytest.mark.parametrize("law", list(ADRCS))
+def test_compiled_adrc_and_pid_equal_the_live_controller_in_a_python_loop(plant, law):
+    h, n = 0.01, 300
+    changes = [Change(1.5, {"first-order": "a", "lti-exact": "A[1,0]"}[plant], 0.5, add=True)]
+    fast = simulate_loop(PLANTS[plant](), ADRCS[law](h), 1.0, t_end=n * h, changes=changes)
+    slow = simulate_loop(PLANTS[plant](), _Opaque(ADRCS[law](h)), 1.0, t_end=n * h,
+                         changes=changes, h=h)
+    assert (fast.engine, slow.engine) == ("compiled", "python")
+    keys = ("y", "u", "P", "D") + (("F_hat",) if law != "PID" else ("I",))
+    for key in keys:
+        np.testing.assert_array_equal(fast.signals[key], slow.signals[key], err_msg=key)
+    assert fast.metrics == slow.metrics
+    assert np.isnan(fast.signals["gamma"]).all()  # no adaptive gain
+
+
 @pytest.mark.parametrize("alpha", [2.0, lambda t: 1.0 + 0.5 * np.sin(3 * t),
                                    np.linspace(0.5, 3.0, 300)])
 def test_external_gain_runs_compiled_and_equals_live_calls_given_alpha(alpha):
@@ -884,6 +911,14 @@ REALISTIC_SWEEPS = {
         "sensor.delay": 2, "actuator.delay": 3, "actuator.rate_limit": 2000.0,
         "disturbance.kind": "step", "disturbance.t0": 0.6 + 0.1 * (j % 4),
         "disturbance.amplitude": 2.0, "controller.kp": 0.05 + 0.1 * j}),
+    # the ADRC of both orders in one block, with the loop's elements
+    "motor-adrc-elements": ("motor-noise-adrc", lambda j: {
+        "sim.t_end": 1.5, "sim.diverge_above": 60.2, "sensor.seed": 200 + j,
+        "sensor.delay": j % 2, "actuator.delay": (j // 2) % 3,
+        "actuator.rate_limit": 3000.0 if j % 3 else 0.0, "disturbance.kind": "step",
+        "disturbance.at": "output", "disturbance.t0": 0.9, "disturbance.amplitude": 2.0,
+        "controller.order": 1 + j % 2, "controller.wc": 5.0 + 0.5 * j,
+        "controller.wo": 30.0 + 2.0 * j}),
     "lag3-ipi-algebraic": ("bench-lag3", lambda j: {
         "sim.t_end": 30.0, "sim.diverge_above": 5.0, "sensor.seed": j,
         "controller.law": "i-PI", "controller.alpha": 0.5 + 0.1 * j, "controller.kp": 1.0,
@@ -1012,6 +1047,7 @@ def _block_laws_asm():
             n += compose._intelligent_gain(D, 0.01, False, True, fixed)
             n += compose._intelligent_gain(D, 0.01, False, False, fixed)
         n += compose._pid_lanes(D, 0.01) + compose._recursive_lanes(D)
+        n += compose._adrc_lanes(D, 0.01)
         compose._fold_lanes(D, k, 0.01 * k, 0.01, 0.5, 0.8)
         compose._fold_windows(D, k, 0.01 * k, 0.01, 0.5, 0.8, k > 2, k > 3, k > 4)
         return n

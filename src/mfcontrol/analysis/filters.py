@@ -27,6 +27,18 @@ denominator at s = (1 - q) / h: ``1 + Tf s + Tf^2 s^2 / 2``)::
 (the integral is updated after the output, with the sample's error: it reaches u one
 sample later).
 
+ADRC (:mod:`mfcontrol.laws.adrc`), the observer's prediction z, its correction
+``x = (I - L C) z + L y``, the law ``u = k_r r - K x`` (``k_r = kp / b0``, ``K = (kp, kd,
+1) / b0``; ``(kp, 1) / b0`` for n = 1) and the prediction ``z = q (Ad x + Bd q^d u)``
+give, with ``Phi = Ad (I - L C)`` and ``Delta(q) = det(I - q Phi) = (1 - beta q)^(n+1)``
+(every eigenvalue at beta = exp(-wo h))::
+
+    (Delta + q^(d+1) N_u) u = -(q N_y + K L Delta) y + k_r Delta r
+
+where ``N_v(q) = Delta(q) K (I - L C) (I - q Phi)^-1 v`` for v = Bd (N_u) and v = Ad L
+(N_y), polynomials of degree n (the series ``sum_i q^i K (I - L C) Phi^i v`` times Delta,
+cut at degree n: exact by Cayley-Hamilton).
+
 The paper's recursive i-P (:mod:`mfcontrol.laws.recursive_ip`), derivative scale hd,
 output gain G, ``s`` the sign of its proportional term and ``y_p`` = q y (published) or
 y (as printed)::
@@ -48,7 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..laws import estimators, intelligent, pid, recursive_ip
+from ..laws import adrc, estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
 
 
@@ -236,6 +248,45 @@ def pid_filter(CP: np.ndarray, dt: float) -> LinearFilter:
         e, g = tf / dt, tf * tf / (2.0 * dt * dt)
         f = np.array([1.0 + e + g, -e - 2.0 * g, g])
         a, b_r = _mul(a, f), _mul(b_r, f)
+    return _normalised(a, b_y, b_r, dt)
+
+
+def adrc_filter(CP: np.ndarray, dt: float) -> LinearFilter:
+    """The ADRC of parameter column ``CP`` (:mod:`mfcontrol.laws.adrc`'s rows) at sample
+    period ``dt``, as a :class:`LinearFilter`."""
+    order, b0, wc, wo = CP[adrc.ORDER], CP[adrc.B0], CP[adrc.WC], CP[adrc.WO]
+    n = int(order)
+    m = n + 1
+    d = int(CP[adrc.DELAY])
+    kp, kd = adrc.gains(order, wc)
+    L = np.array(adrc.observer_gains(order, wo, dt)[:m])
+    # the zero-order hold of the chain of integrators (the law's prediction)
+    Ad = np.eye(m)
+    for i in range(1, m):
+        Ad += np.diag(np.full(m - i, dt ** i / math.factorial(i)), i)
+    Bd = np.array([dt ** (n - i) / math.factorial(n - i) * b0 if i < n else 0.0
+                   for i in range(m)])
+    K = (np.array([kp, 1.0]) if n == 1 else np.array([kp, kd, 1.0])) / b0
+    corr = np.eye(m)
+    corr[:, 0] -= L  # I - L C
+    phi = Ad @ corr
+    beta = math.exp(-wo * dt)
+    delta = np.ones(1)
+    for _ in range(m):
+        delta = _mul(delta, [1.0, -beta])
+    row = K @ corr
+
+    def numerator(v: np.ndarray) -> np.ndarray:
+        series, w = [], v
+        for _ in range(m):
+            series.append(row @ w)
+            w = phi @ w
+        return _mul(delta, series)[:m]
+
+    n_u, n_y = numerator(Bd), numerator(Ad @ L)
+    a = _add(delta, np.concatenate([np.zeros(d + 1), n_u]))
+    b_y = -_add(np.concatenate([[0.0], n_y]), (K @ L) * delta)
+    b_r = kp / b0 * delta
     return _normalised(a, b_y, b_r, dt)
 
 

@@ -30,7 +30,7 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
     ----------
     case : str, Path, Config or live controller
         A built-in case, a case file, a resolved configuration, or a controller built in
-        Python (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID``, ``RecursiveIP``).
+        Python (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID``, ``ADRC``, ``RecursiveIP``).
     overrides : mapping, optional
         Dotted keys set on the case first (as ``--set``); not for a controller.
     out : str or Path

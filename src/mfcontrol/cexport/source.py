@@ -19,9 +19,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._version import __version__
-from ..api.model.controllers import PID, RESTART_AFTER, IntelligentController, RecursiveIP
+from ..api.model.controllers import ADRC, PID, RESTART_AFTER, IntelligentController, RecursiveIP
 from ..errors import ConfigError
-from ..laws import estimators, intelligent, pid, recursive_ip
+from ..laws import adrc, estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
 from .translate import CP, CS, REAL, J, Options, Translator
 
@@ -108,8 +108,8 @@ def _check_float_range(ctrl, cp, key_prefix: str) -> None:
 
 def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: str = "",
              key_prefix: str = "") -> CSource:
-    """Translate a live controller (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID`` or
-    ``RecursiveIP``) into C99. The C starts as the controller would if built afresh with
+    """Translate a live controller (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID``, ``ADRC``
+    or ``RecursiveIP``) into C99. The C starts as the controller would if built afresh with
     its parameters (a manual/automatic switch the object went through is not exported).
 
     ``description`` goes into the files' leading comment (the case it came from);
@@ -212,8 +212,10 @@ def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
         return _recursive()
     if isinstance(ctrl, PID):
         return _pid()
+    if isinstance(ctrl, ADRC):
+        return _adrc()
     raise TypeError(f"cannot export a {type(ctrl).__name__}: export an IP, IPI, IPD, IPID, "
-                    "PID or RecursiveIP")
+                    "PID, ADRC or RecursiveIP")
 
 
 @dataclass
@@ -342,6 +344,20 @@ def _pid() -> _Law:
         call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
 
 
+def _adrc() -> _Law:
+    limits = (adrc.OUT_MIN, adrc.OUT_MAX)
+    return _Law(
+        "adrc", adrc.step, (CP, CS, J, REAL, REAL, REAL), adrc.reset, (CP, CS, J, REAL),
+        init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
+        # the start row is NaN once used (or when there is none)
+        finite=(f"    for (i = 0; i < @NS@; i++)\n"
+                f"        if (!isfinite(s->cs[i]) && !(i == {adrc.START} && s->cs[i] != "
+                "s->cs[i])) return 0;\n"),
+        bumpless=(f"{_clamp(limits)}    @RESET@(s->cs, start);\n"
+                  "    s->last_output = start;\n"),
+        call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
+
+
 def _fill(text: str, subs: dict) -> str:
     for key, value in subs.items():
         text = text.replace(f"@{key}@", value)
@@ -374,8 +390,8 @@ def _law_label(ctrl) -> str:
     name = type(ctrl).__name__
     if name in _LAW_NAMES:
         return _LAW_NAMES[name]
-    if name == "PID":
-        return "pid"
+    if name in ("PID", "ADRC"):
+        return name.lower()
     if name == "RecursiveIP":
         return ("variational" if ctrl._CP[gain_law.MODE, 0] == gain_law.VARIATIONAL
                 else "ip")

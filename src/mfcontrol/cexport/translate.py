@@ -681,6 +681,11 @@ class _FunctionTranslator:
         if fn in (math.sqrt, np.sqrt):
             suffix = "f" if self.opt.real == "float" else ""
             return f"sqrt{suffix}({self.expr(args[0])[0]})", REAL
+        if fn in (math.exp, np.exp):
+            # the C library's exp, as numba calls the process's: the same bits where both
+            # are the same library (glibc's is correctly rounded in nearly every case)
+            suffix = "f" if self.opt.real == "float" else ""
+            return f"exp{suffix}({self.expr(args[0])[0]})", REAL
         if fn in (abs, math.fabs, np.abs):
             suffix = "f" if self.opt.real == "float" else ""
             code, kind = self.expr(args[0])

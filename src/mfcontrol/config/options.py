@@ -127,15 +127,16 @@ OPTIONS: tuple[Option, ...] = (
     # controller
     _o("controller.law", "str", "ip", "ip: the paper's recursive i-P (eq. 8); variational: "
        "with the symplectic gamma update (eq. 33); i-P, i-PI, i-PD, i-PID: positional "
-       "intelligent controllers; pid: the discrete PID of Astrom and Hagglund",
-       ("ip", "variational", "i-P", "i-PI", "i-PD", "i-PID", "pid")),
+       "intelligent controllers; pid: the discrete PID of Astrom and Hagglund; adrc: "
+       "linear active disturbance rejection control (extended state observer)",
+       ("ip", "variational", "i-P", "i-PI", "i-PD", "i-PID", "pid", "adrc")),
     _o("controller.alpha", "float", 10.0, "key gain alpha of the ultra-local model (a "
        "variational gain starts from gamma0 instead)", check="positive"),
     _o("controller.kp", "float", 2.0, "proportional gain K_P"),
     _o("controller.ki", "float", 0.0, "i-PI, i-PID, pid: integral gain K_I"),
     _o("controller.kd", "float", 0.0, "i-PD, i-PID, pid: derivative gain K_D"),
-    _o("controller.order", "int", 1, "positional laws: order n of y^(n) = F + alpha u",
-       ("1", "2")),
+    _o("controller.order", "int", 1, "positional laws: order n of y^(n) = F + alpha u; "
+       "adrc: of y^(n) = f + b0 u", ("1", "2")),
     _o("controller.estimator", "str", "backward-difference", "positional laws: estimator of "
        "F", ("backward-difference", "algebraic")),
     _o("controller.window", "int", 20, "algebraic estimator: window M (samples; even for "
@@ -155,9 +156,9 @@ OPTIONS: tuple[Option, ...] = (
        check="nonnegative"),
     _o("controller.mu", "int", 1, "delay-reduced kernel: the Jacobi weight's exponent at "
        "the oldest end (controller.kappa)", check="nonnegative"),
-    _o("controller.delay", "int", 0, "positional laws: the loop's input delay the law "
-       "compensates (samples; the actuator's and sensor's together): F is estimated with "
-       "the input the plant received", check="nonnegative"),
+    _o("controller.delay", "int", 0, "positional laws, adrc: the loop's input delay the "
+       "law compensates (samples; the actuator's and sensor's together): F (adrc: its "
+       "observer) is fed the input the plant received", check="nonnegative"),
     _o("controller.predict", "bool", False, "positional laws of order 1 with a "
        "compensated delay: the error predicted over the delay by the ultra-local model"),
     _o("controller.startup", "str", "hold", "algebraic estimator, until its window is "
@@ -221,6 +222,12 @@ OPTIONS: tuple[Option, ...] = (
        check="nonnegative"),
     _o("controller.Tt", "float", None, "pid: tracking time of back-calculation (s); absent: "
        "sqrt(Ti Td) with an integral and a derivative, else Ti", check="positive"),
+    _o("controller.b0", "float", 1.0, "adrc: the input gain b0 of y^(n) = f + b0 u (a "
+       "rough value; its sign the plant's)"),
+    _o("controller.wc", "float", 1.0, "adrc: the controller's bandwidth (rad/s): the loop's "
+       "n poles at -wc", check="positive"),
+    _o("controller.wo", "float", 10.0, "adrc: the observer's bandwidth (rad/s): its n + 1 "
+       "poles at -wo (commonly 3 to 10 wc)", check="positive"),
     # sensor, actuator, disturbance
     _o("sensor.noise", "str", "none", "measurement noise added to y (gaussian when "
        "sensor.noise_std is given without it)", ("none", "gaussian", "uniform")),

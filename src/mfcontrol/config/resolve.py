@@ -18,7 +18,7 @@ import numpy as np
 
 from ..elements import noise
 from ..errors import ConfigError, as_float
-from ..laws import estimators, intelligent, variational_gain
+from ..laws import adrc, estimators, intelligent, variational_gain
 from ..numerics import grid
 from .options import (
     BY_KEY,
@@ -459,6 +459,11 @@ def _check_consistency(v: dict[str, Any]) -> None:
                           "drives a converter's duty cycle: use i-P .. i-PID or pid for "
                           f"{v['plant.model']}")
     check_elements(v, n)
+    if v["controller.law"] == "adrc":
+        problem = adrc.problem(v["controller.b0"], v["controller.delay"])
+        if problem:
+            key, allowed = problem
+            raise ConfigError(f"controller.{key}", v[f"controller.{key}"], allowed)
     if v["controller.law"] == "pid":
         _check_pid(v["controller.kp"], v["controller.ki"], v["controller.kd"],
                    v["controller.Tt"], "controller.")

@@ -49,7 +49,7 @@ from numba.core import config as numba_config
 
 from .. import _jit
 from ..elements import actuator, delay, disturbance, layout, noise, sensor
-from ..laws import estimators, intelligent, pid, recursive_ip, reference, variational_gain
+from ..laws import adrc, estimators, intelligent, pid, recursive_ip, reference, variational_gain
 from ..numerics import blocks, dopri45, grid, rk4
 from ..numerics import signatures as sig
 from . import metrics as engine_metrics
@@ -59,6 +59,7 @@ from . import paper_single, trajectory
 RECURSIVE_IP = paper_single.RECURSIVE_IP
 INTELLIGENT = 1
 PID = 2
+ADRC = 3
 # integrators
 RK4 = 0
 DP45 = 1
@@ -73,8 +74,8 @@ T_COMP = trajectory.T_X0
 def _law(law_kind, cp, cs, lane, ym, r, law_dt, external, alpha):
     """The law of the member in column ``lane`` on its measurement ym (what the sensor
     delivered): returns (u, a, g, gamma): the output the metrics see (before the
-    limits), the applied output, the gain and gamma (NaN for the PID: no adaptive
-    gain)."""
+    limits), the applied output, the gain and gamma (NaN for the PID and the ADRC: no
+    adaptive gain)."""
     if law_kind == INTELLIGENT:
         if external:  # as the live controller writes it (engine.live)
             cs[variational_gain.ALPHA_EXT, lane] = alpha
@@ -85,6 +86,9 @@ def _law(law_kind, cp, cs, lane, ym, r, law_dt, external, alpha):
     if law_kind == PID:
         a = pid.step(cp, cs, lane, ym, r, law_dt)
         return cs[pid.C_UNLIM, lane], a, np.nan, np.nan
+    if law_kind == ADRC:
+        a = adrc.step(cp, cs, lane, ym, r, law_dt)
+        return cs[adrc.C_UNLIM, lane], a, np.nan, np.nan
     return recursive_ip.step(cp, cs, lane, ym, r)
 
 
@@ -445,7 +449,7 @@ def _prepare_lanes(prepare, pb, ps, raw, h, n_x):
 # metrics fold touch lies a compile-time constant distance from the buffer's start, so
 # the compiler needs no run-time alias checks to vectorise the loops over members.
 _CP0 = 0  # the law's parameters, any law's rows
-_N_CP = max(intelligent.N_PARAMS, recursive_ip.N_PARAMS, pid.N_PARAMS)
+_N_CP = max(intelligent.N_PARAMS, recursive_ip.N_PARAMS, pid.N_PARAMS, adrc.N_PARAMS)
 _Y = _CP0 + _N_CP  # y_k of every member (the plant's output, with an output disturbance)
 _R = _Y + 1  # r_k
 _U = _R + 1  # the law's applied output at sample k
@@ -632,6 +636,18 @@ def _pid_lanes(D, dt):
     n_bad = 0
     for i in range(LANES):
         u, v = pid.steady_step(cp, cs, i, D[_YM, i], D[_R, i], dt)
+        n_bad += _law_out(D, i, u, v, np.nan)
+    return n_bad
+
+
+@_jit.step_jit
+def _adrc_lanes(D, dt):
+    """As :func:`_intelligent_lanes`, for the ADRC (:func:`mfcontrol.laws.adrc.steady_step`;
+    no adaptive gain: gamma NaN)."""
+    cp, cs = _law_views(D, adrc.N_PARAMS, adrc.N_STATE)
+    n_bad = 0
+    for i in range(LANES):
+        u, v = adrc.steady_step(cp, cs, i, D[_YM, i], D[_R, i], dt)
         n_bad += _law_out(D, i, u, v, np.nan)
     return n_bad
 
@@ -981,10 +997,18 @@ def _make_block_loop(fast):
             steady = intelligent.STEADY
         elif law_kind == PID:
             steady = pid.STEADY
+        elif law_kind == ADRC:
+            steady = adrc.STEADY
         else:
             steady = recursive_ip.STEADY
-        k_row = (intelligent.K if law_kind == INTELLIGENT
-                 else (pid.K if law_kind == PID else recursive_ip.K))
+        if law_kind == INTELLIGENT:
+            k_row = intelligent.K
+        elif law_kind == PID:
+            k_row = pid.K
+        elif law_kind == ADRC:
+            k_row = adrc.K
+        else:
+            k_row = recursive_ip.K
         # one number of substeps for every member (the caller's condition): the plant
         # steps over the block at the times of the grid of h / sub
         sub = int(LP[layout.SUBSTEPS, j0])
@@ -1143,6 +1167,11 @@ def _make_block_loop(fast):
                     # a bumpless start is taken at the first sample, member by member
                     start = cs[pid.START, lane]
                     lanes_law &= law_k0 == 0.0 or start != start
+                elif law_kind == ADRC:
+                    start = cs[adrc.START, lane]
+                    lanes_law &= law_k0 == 0.0 or start != start
+                    # the delay's ring lies past the rows the block's buffer holds
+                    lanes_law &= cp[adrc.DELAY, lane] == 0.0
             # a constant gain in every member: its divisions made once, here
             fixed = law_kind == INTELLIGENT
             if fixed:
@@ -1237,6 +1266,8 @@ def _make_block_loop(fast):
                         n_bad = _intelligent_gain(D, law_dt, False, False, fixed)
                     elif law_kind == PID:
                         n_bad = _pid_lanes(D, law_dt)
+                    elif law_kind == ADRC:
+                        n_bad = _adrc_lanes(D, law_dt)
                     else:
                         n_bad = _recursive_lanes(D)
                     if n_bad == 0 and windows_shared:
@@ -1482,6 +1513,8 @@ def _check_block(block, X, P, CP, CS, M, law_kind) -> None:
         law_rows = intelligent.n_state(int(windows.max()) if windows.size else 0)
     elif law_kind == PID:
         n_cp, law_rows = pid.N_PARAMS, pid.N_STATE
+    elif law_kind == ADRC:
+        n_cp, law_rows = adrc.N_PARAMS, adrc.n_state(int(CP[adrc.DELAY].max(initial=0)))
     else:
         n_cp, law_rows = recursive_ip.N_PARAMS, recursive_ip.N_STATE
     if (X.shape[1], P.shape[1]) != (n_x, n_p) or CP.shape[0] != n_cp \

@@ -8,7 +8,7 @@ import numba
 import numpy as np
 
 from .._jit import kernel_jit, step_jit
-from ..laws import intelligent, pid, recursive_ip, variational_gain
+from ..laws import adrc, intelligent, pid, recursive_ip, variational_gain
 
 _ENTRY_POINTS: dict = {}
 
@@ -103,6 +103,19 @@ def pid_step(CP, CS, backup, y, r, dt):
 @kernel_jit
 def pid_reset(CS, start):
     pid.reset(CS, 0, start)
+
+
+@kernel_jit
+def adrc_step(CP, CS, backup, y, r, dt):
+    """One sample of an ADRC (member 0); a step that overflows restores the state and
+    returns NaN, as above."""
+    _copy(CS[:, 0], backup)
+    return _kept_if_finite(adrc.step(CP, CS, 0, y, r, dt), CS, backup, adrc.START)
+
+
+@kernel_jit
+def adrc_reset(CP, CS, start):
+    adrc.reset(CP, CS, 0, start)
 
 
 @kernel_jit

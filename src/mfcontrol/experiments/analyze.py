@@ -25,7 +25,7 @@ from .._version import __version__
 from ..analysis import linearise
 from ..analysis.filters import LinearFilter
 from ..analysis.loop import LinearLoop
-from ..api.model.controllers import PID, RecursiveIP
+from ..api.model.controllers import ADRC, PID, RecursiveIP
 from ..config.resolve import Config
 
 #: the margins' keys in the order they are printed, with their words
@@ -208,13 +208,13 @@ def _law(ctrl: Any, gamma: float | None, notes: list[str]) -> LinearFilter:
     """The controller's filter, its gain held where it moves (said in ``notes``)."""
     if not hasattr(ctrl, "linear_filter"):
         raise TypeError(f"controller: an mfcontrol controller (IP, IPI, IPD, IPID, PID, "
-                        f"RecursiveIP), not {type(ctrl).__name__}")
+                        f"ADRC, RecursiveIP), not {type(ctrl).__name__}")
     if getattr(ctrl, "sample_time", None) is None:
         raise ValueError("sample_time = None: the controller needs the sample time of "
                          "the loop to be analysed")
-    if isinstance(ctrl, PID):
+    if isinstance(ctrl, PID | ADRC):
         if gamma is not None:
-            raise ValueError(f"gamma = {gamma!r}: a PID has no gain gamma")
+            raise ValueError(f"gamma = {gamma!r}: a {type(ctrl).__name__} has no gain gamma")
         return ctrl.linear_filter()
     held = _held_gamma(ctrl, gamma)
     if held is not None:
@@ -252,7 +252,7 @@ def _held_gamma(ctrl: Any, gamma: float | None) -> float | None:
     from ..laws import variational_gain as gain_law
 
     CP = getattr(ctrl, "_CP", None)
-    if CP is None or CP.shape[0] <= gain_law.MODE or isinstance(ctrl, PID):
+    if CP is None or CP.shape[0] <= gain_law.MODE or isinstance(ctrl, PID | ADRC):
         return gamma
     mode = CP[gain_law.MODE, 0]
     if mode == gain_law.CONSTANT or gamma is not None:
@@ -298,7 +298,7 @@ def analyze(case_or_controller: Any, plant: Any = None,
     ----------
     case_or_controller : str, Path, Config or controller
         A built-in case name, a case file, a resolved configuration, or a live controller
-        (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID``, ``RecursiveIP`` with its
+        (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID``, ``ADRC``, ``RecursiveIP`` with its
         ``sample_time``).
     plant : python-control system or mfcontrol.Plant
         Required with a controller (a case has its own). A python-control system (a

@@ -15,7 +15,7 @@ from ..config.toml import flatten
 from ..errors import CaseError, ConfigError
 
 if TYPE_CHECKING:
-    from ..api.model.controllers import PID, IntelligentController, RecursiveIP
+    from ..api.model.controllers import ADRC, PID, IntelligentController, RecursiveIP
 
 CASES_DIR = Path(__file__).parent / "cases"
 
@@ -176,7 +176,7 @@ def run_config(cfg: Config, name: str = "", *, fast: bool = False) -> Result | S
 
 
 def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | None = None
-                    ) -> IntelligentController | RecursiveIP | PID:
+                    ) -> IntelligentController | RecursiveIP | PID | ADRC:
     """The live controller of a case: the object a sampling loop (or exported C) runs, built
     by the translator every run of the case uses
     (:func:`mfcontrol.api.run.from_config.controller`).
@@ -191,7 +191,7 @@ def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | No
 
     Returns
     -------
-    IP, IPI, IPD, IPID, PID or RecursiveIP
+    IP, IPI, IPD, IPID, PID, ADRC or RecursiveIP
         A fresh controller with the case's gains, limits, estimator and sample time
         (``sim.h``); call it with each measurement and setpoint.
 

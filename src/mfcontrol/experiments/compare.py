@@ -165,11 +165,14 @@ def controller_label(cfg: Config) -> str:
     law = cfg["controller.law"]
     # the gains the law's translator reads (each law reads only its own)
     read = keys_read(controller, cfg)
-    keys = [k for k in ("alpha", "kp", "ki", "kd") if f"controller.{k}" in read]
+    keys = [k for k in ("alpha", "kp", "ki", "kd", "b0", "wc", "wo")
+            if f"controller.{k}" in read]
     gains = ", ".join(f"{k} {cfg[f'controller.{k}']:.4g}" for k in keys
                       if not (law == "pid" and k != "kp" and cfg[f"controller.{k}"] == 0))
     name = {"pid": "PID" if cfg["controller.kd"] else "PI" if cfg["controller.ki"] else "P",
             "ip": "paper's i-P", "variational": "variational i-P"}.get(law, law)
+    if law == "adrc":
+        name = f"ADRC of order {cfg['controller.order']}"
     if "controller.estimator" in read:  # two i-PIs told apart by their estimators of F
         name += (f", algebraic F (M {cfg['controller.window']})"
                  if cfg["controller.estimator"] == "algebraic" else ", backward-difference F")

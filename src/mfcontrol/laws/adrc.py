@@ -55,6 +55,7 @@ dt.
 import math
 
 from .._jit import step_jit
+from .intelligent import MAX_DELAY as MAX_COMPENSATED_DELAY
 
 # parameter rows
 ORDER = 0  # n: 1 or 2
@@ -82,8 +83,21 @@ N_STATE = 10  # the ring's d slots follow: n_state(d) rows in all
 #: the terms of the last output by signal name (a live controller's ``components`` and
 #: the engine's recorded trajectory rows read these)
 COMPONENTS = (("P", C_P), ("D", C_D), ("F_hat", C_F))
-#: the longest delay the law compensates, samples (a ring of that many outputs)
-MAX_DELAY = 100_000
+#: the longest delay the law compensates, samples (a ring of that many outputs), as the
+#: intelligent laws' queue
+MAX_DELAY = MAX_COMPENSATED_DELAY
+
+
+def problem(b0: float, delay: int) -> tuple[str, str] | None:
+    """What the law cannot run of an input gain and a compensated delay (a whole number
+    of samples >= 0): (the option at fault, "b0" or "delay", what is allowed), or None.
+    The one statement of these rules: the live controller and the configuration refuse
+    them in their own keys' names."""
+    if b0 == 0.0 or not math.isfinite(b0):
+        return "b0", "must be a finite nonzero number (the plant's input gain, of its sign)"
+    if delay > MAX_DELAY:
+        return "delay", f"must be a whole number of samples from 0 to {MAX_DELAY:,}"
+    return None
 
 
 def n_state(delay: int) -> int:

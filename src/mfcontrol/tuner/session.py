@@ -56,7 +56,8 @@ NOT_SPANNED = ("sensor.seed", "plant.i0", "plant.v0", "plant.y0", "controller.u0
 
 #: a law's gains: what a switch of controller.law loads anew (those the new law reads)
 GAINS = ("controller.alpha", "controller.kp", "controller.ki", "controller.kd",
-         "controller.gamma0", "controller.Gamma", "controller.eps_M", "controller.k_gamma")
+         "controller.gamma0", "controller.Gamma", "controller.eps_M", "controller.k_gamma",
+         "controller.b0", "controller.wc", "controller.wo")
 
 #: the output limits, named by the plant's input (a motor's volts, a converter's duty)
 LIMITS = {"controller.duty_min": "lower limit", "controller.duty_max": "upper limit"}

@@ -265,6 +265,9 @@ finite_measurements = st.floats(-1e3, 1e3)
 
 def _controller(kind, lo, width, aw, h):
     common = {"sample_time": h, "output_limits": (lo, lo + width), "anti_windup": aw}
+    if kind.startswith("adrc"):  # its observer is its anti-windup: no option for it
+        return mfcontrol.ADRC(order=1 if kind == "adrc" else 2, b0=1.5, wc=3.0, wo=15.0,
+                              sample_time=h, output_limits=(lo, lo + width))
     return {"ip": lambda: IP(1.5, 3.0, **common),
             "ipi": lambda: IPI(1.5, 3.0, 2.0, **common),
             "ipd": lambda: IPD(1.5, 3.0, 0.2, **common),
@@ -272,7 +275,7 @@ def _controller(kind, lo, width, aw, h):
             "alg": lambda: IPI(1.5, 3.0, 2.0, estimator="algebraic", window=4, **common)}[kind]()
 
 
-kinds = st.sampled_from(["ip", "ipi", "ipd", "ipid", "alg"])
+kinds = st.sampled_from(["ip", "ipi", "ipd", "ipid", "alg", "adrc", "adrc2"])
 aws = st.sampled_from(["clamp", "back-calculation", "none"])
 
 
@@ -332,7 +335,8 @@ def test_anti_windup_recovers_within_a_bounded_number_of_samples(aw, sat, ki):
 
 
 @settings(max_examples=40, deadline=None)
-@given(kind=st.sampled_from(["ip", "ipid", "alg", "pid", "recursive", "variational"]),
+@given(kind=st.sampled_from(["ip", "ipid", "alg", "pid", "recursive", "variational",
+                             "adrc2"]),
        ys=st.lists(measurements, max_size=40), switch=st.integers(0, 40))
 def test_the_in_line_call_equals_the_general_one(kind, ys, switch):
     """Plain finite floats at the nominal period take a shorter path (issue 14 item 11);
@@ -529,6 +533,8 @@ _OUTLIER_LAWS = {
     "i-PID": lambda **kw: IPID(alpha=1.0, kp=4.0, ki=1.0, kd=0.05, sample_time=0.01,
                                order=1, output_limits=(-24, 24), **kw),
     "recursive variational": lambda **kw: RecursiveIP(law="variational", **kw),
+    "ADRC": lambda **kw: mfcontrol.ADRC(order=2, b0=1.0, wc=3.0, wo=15.0, sample_time=0.01,
+                                        output_limits=(-24, 24), **kw),
 }
 
 
@@ -616,3 +622,42 @@ def test_a_controller_with_input_limits_simulates_in_python_and_is_refused_by_sw
     assert res.metrics["settled"]
     with pytest.raises(mfcontrol.ConfigError, match="without input_limits"):
         mfcontrol.sweep(plant, ctrl, 1.0, t_end=0.5, grid={"controller.kp": [1.0, 2.0]})
+
+
+# --- ADRC --------------------------------------------------------------------------------
+
+def test_adrc_bumpless_switch_starts_from_the_manual_output():
+    """Back in automatic, the disturbance estimate is set so that the first output is the
+    one held in manual (f = -b0 u holds a plant at rest), and the loop goes on from it."""
+    ctrl = mfcontrol.ADRC(order=1, b0=2.0, wc=4.0, wo=20.0, sample_time=0.01,
+                          output_limits=(-10, 10))
+    for y in (0.0, 0.1, 0.2):
+        ctrl(y, setpoint=1.0)
+    ctrl.set_auto_mode(False, last_output=3.0)
+    ctrl.set_auto_mode(True)
+    assert ctrl(0.5, setpoint=1.0) == pytest.approx(3.0, abs=1e-12)
+    assert ctrl.components["F_hat"] == pytest.approx(2.0 * (4.0 * (1.0 - 0.5) / 2.0 - 3.0))
+    assert ctrl(0.5, setpoint=1.0) != 3.0  # and the law runs on
+
+
+@pytest.mark.parametrize(("kwargs", "needle"), [
+    ({"order": 3}, "order = 3: must be one of 1, 2"),
+    ({"b0": 0.0}, "b0 = 0.0: must be a finite nonzero number"),
+    ({"wc": -1.0}, "wc = -1.0"),
+    ({"wo": 0.0}, "wo = 0.0"),
+    ({"delay": -1}, "delay = -1: must be a whole number of samples from 0 to 100,000"),
+    ({"delay": 1.5}, "delay = 1.5"),
+])
+def test_adrc_refuses_bad_parameters_naming_them(kwargs, needle):
+    with pytest.raises(ValueError, match=needle):
+        mfcontrol.ADRC(**{"sample_time": 0.01, **kwargs})
+
+
+def test_adrc_estimate_and_components():
+    ctrl = mfcontrol.ADRC(order=2, b0=1.0, wc=2.0, wo=10.0, sample_time=0.01)
+    u = ctrl(0.3, setpoint=1.0)
+    c = ctrl.components
+    assert c["unlimited"] == u == pytest.approx(c["P"] + c["D"] - c["F_hat"])
+    assert c["P"] == pytest.approx(4.0 * (1.0 - 0.3))  # at rest on y_0: y_hat = y_0
+    assert ctrl.estimate.shape == (3,)
+    assert "ADRC(order=2, b0=1.0" in repr(ctrl)

@@ -34,7 +34,7 @@ from ...config import options
 from ...engine import live
 from ...engine import metrics as engine_metrics
 from ...errors import as_float, shown
-from ...laws import estimators, intelligent, pid, recursive_ip
+from ...laws import adrc, estimators, intelligent, pid, recursive_ip
 from ...laws import variational_gain as gain_law
 from ..params import recursive_law_column
 
@@ -126,6 +126,15 @@ def _with_adaptation_row(snap: Any) -> Any:
 def _adaptation_error(CP: np.ndarray, CS: np.ndarray) -> float:
     """A live law's adaptation error from its state (the gain adaptation's rows)."""
     return float(engine_metrics.adaptation_of(CS[gain_law.ADAPT, 0], CP[gain_law.MODE, 0]))
+
+
+def _samples(name: str, value: Any, most: int) -> int:
+    """A whole number of samples from 0 to ``most`` (a delay)."""
+    if (not isinstance(value, int | np.integer) or isinstance(value, bool)
+            or not 0 <= value <= most):
+        raise ValueError(f"{name} = {shown(value)}: must be a whole number of samples from "
+                         f"0 to {most:,}")
+    return int(value)
 
 
 def _whole(name: str, value: Any) -> int:
@@ -608,9 +617,7 @@ class IntelligentController(_Sampled):
         _choice("gain", gain, tuple(gain_law.MODES))
         _choice("integrator", integrator, ("first-order", "second-order"))
         lo, hi = _limits(output_limits)
-        if not isinstance(delay, int | np.integer) or isinstance(delay, bool) or delay < 0:
-            raise ValueError(f"delay = {shown(delay)}: must be a whole number of samples "
-                             f"from 0 to {intelligent.MAX_DELAY:,}")
+        delay = _samples("delay", delay, intelligent.MAX_DELAY)
         if not isinstance(predict, bool | np.bool_):
             raise ValueError(f"predict = {shown(predict)}: must be True or False")
         if predict and delay == 0:
@@ -1191,7 +1198,51 @@ input_limits : (low, high)
     The measurement's valid range, None for none: a sample outside is rejected as a NaN
     is (see :class:`IntelligentController`).""")
 
-class PID(_Sampled):
+class _TermsLaw(_Sampled):
+    """A sampled law called with (y, setpoint, dt) whose memory records the terms of its
+    last output (the PID, the ADRC): the call, the restarts and ``components``, once."""
+
+    #: the law's module (:mod:`mfcontrol.laws`): its COMPONENTS and C_UNLIM rows
+    _LAW: Any
+
+    def _restart(self, start: float) -> None:  # pragma: no cover
+        """Reset the law's memory; ``start`` (NaN: none) is its first output."""
+        raise NotImplementedError
+
+    def _reset_state(self) -> None:
+        self._restart(math.nan)
+        self._last_output = 0.0
+
+    def _bumpless_start(self, start: float) -> None:
+        start = self._limited(start)
+        self._restart(start)
+        self._last_output = start
+
+    def __call__(self, y: float, setpoint: float | None = None,
+                 dt: float | None = None) -> float:
+        """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
+        since the previous call, by default ``sample_time``; after a rejected sample the
+        law spans both periods (the PID's integral and derivative, the ADRC's
+        prediction)."""
+        if dt is None and self._plain(y, setpoint):
+            return self._output(self._step(self._CP, self._CS, self._backup, y, self._setpoint,
+                                           self._dt + self._skipped), self._dt)
+        dt = self._period(dt)
+        if not self._measurement_ok(y, setpoint, dt):
+            return self._last_output
+        u = self._step(self._CP, self._CS, self._backup, float(y), self._setpoint,
+                       dt + self._skipped)
+        return self._output(u, dt)
+
+    @property
+    def components(self) -> dict[str, float]:
+        """The terms of the last output by name, and the output before limiting."""
+        s = self._CS[:, 0]
+        return {**{name: float(s[row]) for name, row in self._LAW.COMPONENTS},
+                "unlimited": float(s[self._LAW.C_UNLIM])}
+
+
+class PID(_TermsLaw):
     """The discrete PID of Astrom and Hagglund, the baseline of every comparison
     (:mod:`mfcontrol.laws.pid`): ``P = kp (b r - y)``, a derivative on the measurement
     filtered with time constant Td / N, back-calculation anti-windup with tracking time
@@ -1239,6 +1290,7 @@ class PID(_Sampled):
 
     _OUT_ROWS = (pid.OUT_MIN, pid.OUT_MAX)
     _KERNEL = ("pid_step", 3)
+    _LAW = pid
 
     def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, *, sample_time: float,
                  N: float = 10.0, b: float = 1.0, c: float = 0.0, Tf: float = 0.0,
@@ -1280,9 +1332,8 @@ class PID(_Sampled):
         self._bind()
         self._reset_state()
 
-    def _reset_state(self) -> None:
-        live.pid_reset(self._CS, math.nan)
-        self._last_output = 0.0
+    def _restart(self, start: float) -> None:
+        live.pid_reset(self._CS, start)
 
     @classmethod
     def _migrated(cls, snap: Any) -> Any:
@@ -1298,33 +1349,10 @@ class PID(_Sampled):
         self._refuse_older_layout(state, pid.N_PARAMS, pid.N_STATE)
         super().__setstate__(state)
 
-    def _bumpless_start(self, start: float) -> None:
-        lo, hi = self._CP[pid.OUT_MIN, 0], self._CP[pid.OUT_MAX, 0]
-        start = min(max(start, lo), hi)
-        live.pid_reset(self._CS, start)
-        self._last_output = start
-
-    def __call__(self, y: float, setpoint: float | None = None,
-                 dt: float | None = None) -> float:
-        """One sample: the measurement in, the (limited) control out. ``dt`` (s): the time
-        since the previous call, by default ``sample_time``; after a rejected sample the
-        integral and the derivative span both periods."""
-        if dt is None and self._plain(y, setpoint):
-            return self._output(self._step(self._CP, self._CS, self._backup, y, self._setpoint,
-                                           self._dt + self._skipped), self._dt)
-        dt = self._period(dt)
-        if not self._measurement_ok(y, setpoint, dt):
-            return self._last_output
-        u = self._step(self._CP, self._CS, self._backup, float(y), self._setpoint,
-                       dt + self._skipped)
-        return self._output(u, dt)
-
     @property
     def components(self) -> dict[str, float]:
         """The terms of the last output: P, I, D and the output before limiting."""
-        s = self._CS[:, 0]
-        return {**{name: float(s[row]) for name, row in pid.COMPONENTS},
-                "unlimited": float(s[pid.C_UNLIM])}
+        return super().components
 
     def linear_filter(self) -> filters.LinearFilter:
         """The PID as the linear filter it is within its output limits:
@@ -1339,3 +1367,122 @@ class PID(_Sampled):
         ([1.0, -1.0], [-2.0, 1.9], [2.0, -1.9])
         """
         return filters.pid_filter(self._CP[:, 0], self.sample_time)
+
+
+class ADRC(_TermsLaw):
+    """Linear active disturbance rejection control of order 1 or 2
+    (:mod:`mfcontrol.laws.adrc`): an extended state observer estimates the plant's output,
+    its derivative (order 2) and the "total disturbance" f of ``y^(n) = f + b0 u`` (the
+    counterpart of the intelligent controllers' F, b0 of their alpha); the law cancels f
+    and places the loop's n poles at -wc. The observer is the zero-order-hold discretised
+    ESO run as a current observer (the sample's measurement corrects it before the output
+    is computed), its n + 1 poles at -wo, fed the applied (limited) output.
+
+    Parameters
+    ----------
+    order : {1, 2}
+        The order n of the model y^(n) = f + b0 u.
+    b0 : float
+        The plant's input gain, roughly (nonzero, of the plant's sign: positive for a plant
+        whose output rises with its input).
+    wc : float
+        The controller's bandwidth (rad/s): kp = wc (n = 1); kp = wc^2, kd = 2 wc (n = 2).
+    wo : float
+        The observer's bandwidth (rad/s); commonly 3 to 10 times wc.
+    sample_time : float
+        Sample period h (s); a call may pass another ``dt``.
+    output_limits : (low, high)
+        Output limits, None for none.
+    delay : int
+        The loop's input delay (samples) the observer is told of: it is fed the input the
+        plant receives, u_{k-d} (default 0).
+    input_limits : (low, high)
+        The measurement's valid range, None for none: a sample outside is rejected as a NaN
+        is (see :class:`IntelligentController`).
+    setpoint : float
+        Initial setpoint.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> ctrl = mfcontrol.ADRC(order=1, b0=2.0, wc=4.0, wo=20.0, sample_time=0.01,
+    ...                       output_limits=(-5, 5))
+    >>> ctrl(0.0, setpoint=1.0)
+    2.0
+
+    At rest on the first measurement the disturbance estimate is 0: the output is
+    ``wc (r - y) / b0 = 4 (1 - 0) / 2``. On a plant ``y' = b0 u + f`` the loop follows
+    the setpoint as ``1 / (1 + s / wc)`` once the observer has found f.
+    """
+
+    _OUT_ROWS = (adrc.OUT_MIN, adrc.OUT_MAX)
+    _KERNEL = ("adrc_step", 3)
+    _LAW = adrc
+
+    def __init__(self, order: int = 1, b0: float = 1.0, wc: float = 1.0, wo: float = 10.0,
+                 *, sample_time: float,
+                 output_limits: tuple[float | None, float | None] = (None, None),
+                 delay: int = 0,
+                 input_limits: tuple[float | None, float | None] = (None, None),
+                 setpoint: float = 0.0):
+        lo, hi = _limits(output_limits)
+        params: dict[str, Any] = {
+            "order": _choice("order", order, (1, 2)), "b0": _number("b0", b0),
+            "wc": _number("wc", wc, positive=True), "wo": _number("wo", wo, positive=True),
+            "sample_time": _number("sample_time", sample_time, positive=True),
+            "output_limits": [lo, hi], "delay": _samples("delay", delay, adrc.MAX_DELAY),
+            "setpoint": _number("setpoint", setpoint)}
+        found = adrc.problem(params["b0"], params["delay"])
+        if found:
+            key, allowed = found
+            raise ValueError(f"{key} = {params[key]!r}: {allowed}")
+        super().__init__(params, adrc.N_PARAMS, adrc.n_state(params["delay"]))
+        self._take_input_limits(input_limits)
+        cp = self._CP[:, 0]
+        cp[adrc.ORDER], cp[adrc.B0] = params["order"], params["b0"]
+        cp[adrc.WC], cp[adrc.WO] = params["wc"], params["wo"]
+        cp[adrc.DELAY] = params["delay"]
+        cp[adrc.OUT_MIN] = -_INF if lo is None else lo
+        cp[adrc.OUT_MAX] = _INF if hi is None else hi
+        self._dt = params["sample_time"]
+        self._bind()
+        self._reset_state()
+
+    def _restart(self, start: float) -> None:
+        live.adrc_reset(self._CP, self._CS, start)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        delay = state.get("_params", {}).get("delay", 0)
+        self._refuse_older_layout(state, adrc.N_PARAMS, adrc.n_state(delay))
+        super().__setstate__(state)
+
+    @property
+    def components(self) -> dict[str, float]:
+        """The last output's terms: P = kp (r - y_hat) / b0, D = -kd y_hat' / b0 (order 2),
+        F_hat (the total disturbance's estimate f; its term is -f / b0) and the output
+        before limiting."""
+        return super().components
+
+    @property
+    def estimate(self) -> np.ndarray:
+        """The observer's present estimate of (y, .., y^(n-1), f), the prediction for the
+        next sample (y_hat, y_hat' for order 2, f_hat)."""
+        rows = (adrc.Z1, adrc.Z2) if self._params["order"] == 1 else (adrc.Z1, adrc.Z2,
+                                                                         adrc.Z3)
+        return np.array([self._CS[r, 0] for r in rows])
+
+    def linear_filter(self) -> filters.LinearFilter:
+        """The ADRC as the linear filter it is within its output limits:
+        ``A(q) u = B_y(q) y + B_r(q) r`` (:mod:`mfcontrol.analysis.filters`), at its
+        sample time; ``.transfer_functions()`` gives u's transfer functions from y and r
+        (the two-degree-of-freedom form of the discrete ADRC).
+
+        Examples
+        --------
+        >>> import mfcontrol
+        >>> f = mfcontrol.ADRC(order=1, b0=1.0, wc=2.0, wo=10.0, sample_time=0.1
+        ...                    ).linear_filter()
+        >>> f.order, abs(float(sum(f.a))) < 1e-12   # an integrator: A(1) = 0
+        (2, True)
+        """
+        return filters.adrc_filter(self._CP[:, 0], self.sample_time)

@@ -13,7 +13,7 @@ from ...config.options import BY_KEY, POSITIONAL
 from ...config.resolve import Config, keys_read
 from ...elements import layout
 from ...errors import ConfigError
-from ..model.controllers import IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
+from ..model.controllers import ADRC, IP, IPD, IPI, IPID, PID, IntelligentController, RecursiveIP
 from ..model.elements import Actuator, Disturbance, Sensor, column, unread
 from ..model.plants import LTI, Boost, Buck, DCMotor, FirstOrder
 from ..model.schedule import Change, _check_changes
@@ -39,9 +39,13 @@ def plant(cfg: Config):
                 x0=x0, integrator=integ)
 
 
-def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID:
+def controller(cfg: Config) -> IntelligentController | RecursiveIP | PID | ADRC:
     law = cfg["controller.law"]
     limits = (cfg["controller.duty_min"], cfg["controller.duty_max"])
+    if law == "adrc":
+        return ADRC(cfg["controller.order"], cfg["controller.b0"], cfg["controller.wc"],
+                    cfg["controller.wo"], sample_time=cfg["sim.h"], output_limits=limits,
+                    delay=cfg["controller.delay"])
     if law == "pid":
         return PID(cfg["controller.kp"], cfg["controller.ki"], cfg["controller.kd"],
                    sample_time=cfg["sim.h"], N=cfg["controller.N"], b=cfg["controller.b"],

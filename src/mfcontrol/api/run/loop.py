@@ -32,10 +32,10 @@ from ...elements import layout
 from ...engine import compose, trajectory
 from ...engine import metrics as engine_metrics
 from ...errors import ConfigError
-from ...laws import intelligent, pid, reference, variational_gain
+from ...laws import adrc, intelligent, pid, reference, variational_gain
 from ...laws import reference as reference_law
 from ...numerics import grid
-from ..model.controllers import PID, IntelligentController, RecursiveIP, _Controller
+from ..model.controllers import ADRC, PID, IntelligentController, RecursiveIP, _Controller
 from ..model.elements import Actuator, Disturbance, Sensor, column
 from ..model.plants import LTI
 from ..model.schedule import Change, _check_changes, restored
@@ -114,7 +114,7 @@ ReferenceStep = tuple[float, float, float] | tuple[np.ndarray, ...]
 
 #: each law's recorded components: (signal names, CS rows)
 _COMPONENTS = {law: (tuple(name for name, _ in law.COMPONENTS),
-                     tuple(row for _, row in law.COMPONENTS)) for law in (pid, intelligent)}
+                     tuple(row for _, row in law.COMPONENTS)) for law in (pid, intelligent, adrc)}
 
 
 def law_arrays(controller) -> LawArrays | None:
@@ -127,6 +127,9 @@ def law_arrays(controller) -> LawArrays | None:
     if isinstance(controller, PID):
         return LawArrays(compose.PID, controller._CP.copy(), controller._CS.copy(),
                          controller.sample_time, *_COMPONENTS[pid])
+    if isinstance(controller, ADRC):
+        return LawArrays(compose.ADRC, controller._CP.copy(), controller._CS.copy(),
+                         controller.sample_time, *_COMPONENTS[adrc])
     if isinstance(controller, IntelligentController):
         return LawArrays(compose.INTELLIGENT, controller._CP.copy(), controller._CS.copy(),
                          controller.sample_time, *_COMPONENTS[intelligent])
@@ -300,7 +303,7 @@ def run_members(plants: Sequence[Any], laws: Sequence[LawArrays], R: np.ndarray,
     traj = np.full((compose.T_COMP + comp_rows.size + X.shape[1], n if record else 0), np.nan)
     tol = np.array(p0.tol, dtype=np.float64)
     DT = np.zeros(m)  # <= 0: the adaptive integrator starts each member with a step of h
-    has_gain = l0.kind != compose.PID  # a law on the gain adaptation's rows
+    has_gain = l0.kind not in (compose.PID, compose.ADRC)  # a law on the gain's rows
     adapt0 = CS[variational_gain.ADAPT].copy() if has_gain else None
     compose.run(l0.kind, compose.INTEGRATORS[p0.integrator], p0.functions, n, h, t_end,
                 l0.dt, X, P, CP, CS, np.ascontiguousarray(R, dtype=np.float64),

@@ -260,7 +260,7 @@ def sweep(plant, controller, reference: Reference = 0.0, *,
     if law_arrays(controller) is None:
         raise ConfigError("controller", type(controller).__name__, "a sweep runs in the "
                           "compiled engine: a library controller (IP, IPI, IPD, IPID, "
-                          "PID, RecursiveIP) in automatic mode, without input_limits")
+                          "PID, ADRC, RecursiveIP) in automatic mode, without input_limits")
     given = {"sensor": sensor, "actuator": actuator, "disturbance": disturbance}
     axes = _axes(grid, plant, controller, given)
     R = r[None, :]
