@@ -294,3 +294,10 @@ def test_a_bad_constraint_is_one_line(text, needle):
     with pytest.raises(mfcontrol.ConfigError, match=f"^--constraint = '{text}': {needle}"):
         mfcontrol.tune("bench-lag3", ["controller.kp=0.1:3"], budget=12,
                        constraints=[text])
+
+
+def test_the_adrc_tunes_its_bandwidths():
+    """The ADRC's keys tune as any law's: the best point beats the case's own."""
+    r = mfcontrol.tune("motor-noise-adrc", ["controller.wc=2:40", "controller.wo=10:200"],
+                       budget=40, seed=1, overrides={"sim.t_end": 2.0})
+    assert r.value <= r.start_value and set(r.best) >= {"controller.wc", "controller.wo"}

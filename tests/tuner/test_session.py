@@ -108,6 +108,11 @@ def test_a_law_switch_loads_that_laws_gains_and_says_so():
     assert [s.value(f"controller.{k}") for k in ("alpha", "kp", "ki")] == [50.0, 20.0, 50.0]
     assert s.note.endswith("alpha = 50.0, kp = 20.0, ki = 50.0, from the case")
     assert s.changed() == {}
+    # to the ADRC: its bandwidths and b0, the library's defaults, the PID's gains unset
+    a = Session("motor-noise-pid")
+    assert a.set("controller.law", "adrc") is None
+    assert [a.value(f"controller.{k}") for k in ("b0", "wc", "wo")] == [1.0, 1.0, 10.0]
+    assert "kp" not in a.toml() and a.run().metrics["n_samples"] > 0
     # from the PID case to an i-P: the i-P's defaults
     p = Session("motor-noise-pid")
     assert p.set("controller.law", "i-P") is None
