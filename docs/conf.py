@@ -74,6 +74,8 @@ SECTIONS = {  # the order and the words of the reference's sections
     ".config.resolve": "Configuration",
     ".experiments.tune": "Tuning",
     ".experiments.compare": "Comparing controllers",
+    ".experiments.statistics": "Statistics of a comparison: paired differences, restarts",
+    ".analysis.tuning_rules": "Rule-tuned PIDs: FOPDT models, SIMC and AMIGO",
     ".cexport": "C export",
     ".errors": "Errors",
 }

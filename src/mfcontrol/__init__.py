@@ -21,6 +21,8 @@ _EXPORTS = {
                         "plant_alpha"),
     ".analysis.filters": ("LinearFilter",),
     ".analysis.loop": ("LinearLoop",),
+    ".analysis.tuning_rules": ("Fopdt", "Sopdt", "amigo", "fit_fopdt", "fopdt_of", "simc",
+                               "sopdt_of"),
     ".api.model.controllers": ("ADRC", "IP", "IPD", "IPI", "IPID", "PID",
                                "IntelligentController", "RecursiveIP"),
     ".api.model.elements": ("Actuator", "Disturbance", "Sensor"),
@@ -37,8 +39,12 @@ _EXPORTS = {
     ".experiments.analyze": ("Analysis", "Region", "analyze", "analyze_region"),
     ".experiments.compare": ("Comparison", "compare"),
     ".experiments.tune": ("TuneResult", "tune"),
+    ".experiments.statistics": ("PairedComparison", "Restarts", "paired_comparison",
+                                "restart_summary"),
 }
-_RENAMED = {"case_names": "names", "analyze_region": "region"}  # public: in its module
+# public name: name in its module
+_RENAMED = {"case_names": "names", "analyze_region": "region", "paired_comparison": "paired",
+            "restart_summary": "restarts"}
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
 
 __all__ = ["__version__", *_MODULE_OF]
@@ -77,6 +83,15 @@ if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eage
     )
     from .analysis.filters import LinearFilter
     from .analysis.loop import LinearLoop
+    from .analysis.tuning_rules import (
+        Fopdt,
+        Sopdt,
+        amigo,
+        fit_fopdt,
+        fopdt_of,
+        simc,
+        sopdt_of,
+    )
     from .api.model.controllers import (
         ADRC,
         IP,
@@ -102,4 +117,7 @@ if TYPE_CHECKING:  # what a type checker and an editor see: the same names, eage
     from .experiments.cases import make_controller, run_case
     from .experiments.cases import names as case_names
     from .experiments.compare import Comparison, compare
+    from .experiments.statistics import PairedComparison, Restarts
+    from .experiments.statistics import paired as paired_comparison
+    from .experiments.statistics import restarts as restart_summary
     from .experiments.tune import TuneResult, tune

@@ -98,6 +98,15 @@ class Sopdt:
     """A second-order-plus-dead-time model ``K e^(-L s) / ((T1 s + 1) (T2 s + 1))``,
     ``T1 >= T2 >= 0`` (the model SIMC's PID rule is written for).
 
+    Parameters
+    ----------
+    K : float
+        Static gain (output unit per input unit), nonzero.
+    T1, T2 : float
+        The two time constants (s), ``T1 >= T2 >= 0``.
+    L : float
+        Dead time (s), >= 0.
+
     Examples
     --------
     >>> Sopdt(K=1.0, T1=2.0, T2=1.2, L=0.77).T2
@@ -401,6 +410,13 @@ def sopdt_of(plant_tf: Any, delay: float = 0.0) -> Sopdt:
     """The second-order-plus-dead-time model of a transfer function by Skogestad's half rule:
     as :func:`fopdt_of`, with ``T1 = tau_1``, ``T2 = tau_2 + tau_3 / 2`` and
     ``L = delay + tau_3 / 2 + sum(tau_i, i >= 4) + sum(T0j of right-half-plane zeros)``.
+
+    Parameters
+    ----------
+    plant_tf : python-control TransferFunction
+        A stable continuous plant with real poles (and real zeros), as :func:`fopdt_of`.
+    delay : float
+        The plant's own dead time (s), added to the one the half rule finds.
 
     Examples
     --------
