@@ -22,6 +22,10 @@ def _plant_sys(plant, h):
     lambda h: mfcontrol.IPI(alpha=2.0, kp=5.0, ki=2.0, sample_time=h, output_limits=(-2, 2)),
     lambda h: mfcontrol.IPID(alpha=1.0, kp=20.0, ki=5.0, kd=0.05, sample_time=h, order=1,
                              estimator="algebraic", window=10),
+    lambda h: mfcontrol.PID(kp=2.0, ki=3.0, kd=0.05, Tf=0.02, sample_time=h,
+                            output_limits=(-2, 2)),
+    lambda h: mfcontrol.ADRC(order=2, b0=1.0, wc=4.0, wo=20.0, sample_time=h,
+                             output_limits=(-2, 2)),
 ])
 def test_interconnected_response_equals_simulate_loop(make):
     h, n = 0.01, 300

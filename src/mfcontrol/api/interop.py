@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import live
-from .model.controllers import IntelligentController, RecursiveIP
+from .model.controllers import ADRC, PID, IntelligentController, RecursiveIP
 
 
 def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
@@ -23,7 +23,7 @@ def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
 
     Parameters
     ----------
-    controller : IntelligentController or RecursiveIP
+    controller : IntelligentController, PID, ADRC or RecursiveIP
         Its parameters define the law; its current state is the system's initial state
         (``x0 = as_nlsys_state(controller)``). The live object itself is not modified.
     dt : float, optional
@@ -51,6 +51,12 @@ def as_nlsys(controller, dt: float | None = None, name: str = "mfcontrol"):
         def law(x, u):
             return live.intelligent_pure(CP, np.asarray(x, dtype=float), float(u[0]),
                                          float(u[1]), h, float(u[2]) if len(u) > 2 else 1.0)
+    elif isinstance(controller, PID | ADRC):
+        h = controller.sample_time if dt is None else float(dt)
+        pure = live.pid_pure if isinstance(controller, PID) else live.adrc_pure
+
+        def law(x, u):
+            return pure(CP, np.asarray(x, dtype=float), float(u[0]), float(u[1]), h)
     elif isinstance(controller, RecursiveIP):
         h = controller.sample_time if dt is None else float(dt)
         if h is None:

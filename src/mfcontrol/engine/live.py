@@ -129,6 +129,20 @@ def intelligent_pure(CP, state, y, r, dt, alpha):
 
 
 @kernel_jit
+def pid_pure(CP, state, y, r, dt):
+    CS = state.copy().reshape((state.size, 1))
+    u = pid.step(CP, CS, 0, y, r, dt)
+    return u, CS[:, 0]
+
+
+@kernel_jit
+def adrc_pure(CP, state, y, r, dt):
+    CS = state.copy().reshape((state.size, 1))
+    u = adrc.step(CP, CS, 0, y, r, dt)
+    return u, CS[:, 0]
+
+
+@kernel_jit
 def recursive_pure(CP, state, y, r):
     CS = state.copy().reshape((state.size, 1))
     _, applied, _, _ = recursive_ip.step(CP, CS, 0, y, r)
