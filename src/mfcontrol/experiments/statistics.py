@@ -293,6 +293,39 @@ def restarts(scores: ArrayLike) -> Restarts:
                     spread=spread, relative_spread=relative, best_index=int(np.argmin(x)))
 
 
+def mean_interval(scores: ArrayLike, *, confidence: float = 0.95, n_resamples: int = 10_000,
+                  seed: int = 0) -> tuple[float, float, float]:
+    """The mean of one controller's scores over seeds and its bootstrap interval, by the
+    same bootstrap as :func:`paired` (BCa; the scores themselves where they are all equal).
+
+    Parameters
+    ----------
+    scores : array_like of float
+        At least :data:`MIN_PAIRS` finite scores.
+    confidence, n_resamples, seed
+        As :func:`paired` takes them.
+
+    Returns
+    -------
+    (mean, low, high) : tuple of float
+
+    Examples
+    --------
+    >>> from mfcontrol.experiments.statistics import mean_interval
+    >>> m, low, high = mean_interval([3.0, 3.2, 2.9, 3.1, 3.3, 3.0, 3.1, 2.8, 3.2, 3.0])
+    >>> round(m, 2), bool(low < m < high)
+    (3.06, True)
+    """
+    x = _scores("scores", scores, MIN_PAIRS)
+    if isinstance(confidence, bool) or not isinstance(confidence, int | float) \
+            or not 0 < confidence < 1:
+        raise ConfigError("confidence", confidence, "must be a number between 0 and 1, "
+                          "e.g. 0.95")
+    _whole("n_resamples", n_resamples, MIN_RESAMPLES)
+    low, high, _ = _interval(x, float(confidence), n_resamples, seed)
+    return float(np.mean(x)), low, high
+
+
 def _scores(name: str, values: ArrayLike, minimum: int) -> np.ndarray:
     """``values`` as a 1-D float array of at least ``minimum`` finite scores, or a
     ConfigError naming ``name`` (and the index of the first non-finite score)."""
