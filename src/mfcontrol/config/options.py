@@ -282,6 +282,8 @@ OPTIONS: tuple[Option, ...] = (
     _o("benchmark.pid", "strs", None, "benchmark: the PID's search space, KEY=LO:HI each"),
     _o("benchmark.ip", "strs", None, "benchmark: the i-P's search space, KEY=LO:HI each"),
     _o("benchmark.ipi", "strs", None, "benchmark: the i-PI's search space, KEY=LO:HI each"),
+    _o("benchmark.adrc", "strs", None, "benchmark: the ADRC's search space, KEY=LO:HI each "
+       "(none: the plant's benchmark has no ADRC)"),
     _o("benchmark.log", "strs", [], "benchmark: tuned keys searched on a log scale"),
     _o("benchmark.robustness", "strs", None, "benchmark: the plant changes of the robustness "
        "map, two KEY=SPEC axes (as mfcontrol sweep --grid)"),
