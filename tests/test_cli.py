@@ -144,6 +144,12 @@ ERRORS = [
                  id="benchmark-plant-without-table"),
     pytest.param(["benchmark", "--plants", "nope"], ["'nope'", "unknown case"],
                  id="benchmark-unknown-plant"),
+    pytest.param(["benchmark", "--plants", "bench-lag3", "--ms", "0.5"],
+                 ["--ms = 0.5: must be a finite number > 1"], id="benchmark-ms-below-1"),
+    pytest.param(["benchmark", "--plants", "bench-lag3", "--ms", "two"],
+                 ["--ms = 'two': must be a finite number > 1"], id="benchmark-ms-not-a-number"),
+    pytest.param(["benchmark", "--quick", "--restarts", "1"],
+                 ["--restarts = 1: must be a whole number >= 2"], id="benchmark-one-restart"),
     # issue 14: faults found by fuzzing
     pytest.param([S, "{d}/deep.toml"], ["deep.toml", "nested too deeply"], id="deep-file"),
     pytest.param([S, CASE, "--set", "controller.alpha=" + "[" * 3000 + "]" * 3000],

@@ -304,21 +304,24 @@ def _cmd_compare(args) -> int:
 
 
 def _cmd_benchmark(args) -> int:
-    from .experiments.benchmark import DEFAULT_BUDGET, benchmark, print_progress
+    from .experiments.benchmark import DEFAULT_MS, benchmark, print_progress
 
     out = _writable(_out_dir(args.out, Path("results") / "benchmark"))
-    budget = DEFAULT_BUDGET if args.budget is None else args.budget
     bar = print_progress()
     try:
-        benchmark(args.plants, budget=budget, seed=args.seed, out=out, progress=bar)
+        benchmark(args.plants, budget=args.budget, seed=args.seed, restarts=args.restarts,
+                  ms=DEFAULT_MS if args.ms is None else _number_flag(
+                      "--ms", args.ms, allowed="must be a finite number > 1, e.g. 2.0"),
+                  quick=args.quick, out=out, progress=bar)
     except KeyboardInterrupt:
-        print(f"\nmfcontrol: interrupted; finished tunings are kept in {out}: run the same "
-              "command again to resume", file=sys.stderr)
+        print(f"\nmfcontrol: interrupted; finished tunings and scorings are kept in {out}: "
+              "run the same command again to resume", file=sys.stderr)
         return 130
     finally:
         if bar.drawn:  # type: ignore[attr-defined]
             sys.stderr.write("\n")
-    print(f"wrote {out}/report.md, results.csv, robustness.png and a folder per plant")
+    print(f"wrote {out}/report.md, results.csv, pareto.png, robustness.png and a folder per "
+          "plant")
     return 0
 
 
@@ -494,13 +497,22 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", help="output folder (default results/compare)")
     s.set_defaults(func=_cmd_compare)
 
-    s = sub.add_parser("benchmark", help="tune a PID, an i-P and an i-PI alike on every plant "
-                       "of the benchmark set (bench-* cases) and write report.md")
+    s = sub.add_parser("benchmark", help="tune PIDs, an i-P and an i-PI alike on every plant "
+                       "of the benchmark set (bench-* cases), score them on held-out noise "
+                       "seeds and write report.md")
     s.add_argument("--plants", nargs="+", metavar="CASE",
-                   help="benchmark cases to run (default: every bench-* case)")
-    s.add_argument("--budget", type=int, help="points per tuning, the same for every "
-                   "controller (default 3000)")
-    s.add_argument("--seed", type=int, default=0, help="the tuner's seed (default 0)")
+                   help="benchmark cases to run (default: every bench-* case; two with "
+                        "--quick)")
+    s.add_argument("--budget", type=int, help="points per restart, the same for every "
+                   "searched controller (default 1200; 150 with --quick)")
+    s.add_argument("--restarts", type=int, help="optimiser seeds per searched controller "
+                   "(default 3)")
+    s.add_argument("--seed", type=int, default=0, help="the first restart's optimiser seed "
+                   "(default 0)")
+    s.add_argument("--ms", help="the bound on every searched loop's peak sensitivity Ms "
+                   "(default 2.0)")
+    s.add_argument("--quick", action="store_true", help="two plants, fewer points and seeds, "
+                   "the same report (a few minutes)")
     s.add_argument("--out", help="output folder (default results/benchmark)")
     s.set_defaults(func=_cmd_benchmark)
 
