@@ -412,7 +412,7 @@ def _rule_rows(plant: _Plant) -> list[tuple[str, Config | None, dict[str, float]
         fo, so, how = _fopdt_models(cfg)
     except ConfigError as exc:
         return [(name, None, {}, f"no model: {exc.allowed}") for name in RULES]
-    out = []
+    out: list[tuple[str, Config | None, dict[str, float], str]] = []
     for name in RULES:
         try:
             if name == "PID SIMC":
@@ -683,7 +683,7 @@ def _plant_figure(plant: str, entries: list[Entry], out: Path) -> None:
     shown = [e for e in entries if e.config is not None]
     if len(shown) < 2:
         return
-    comp = compare([e.config for e in shown])
+    comp = compare([e.config for e in shown if e.config is not None])
     comp.names = [e.controller for e in shown]
     comp.save(out, title=f"{plant}: the tuned controllers on the plant's scenario "
               "(noise seed of the case)")
@@ -753,11 +753,12 @@ def _pareto_figure(entries: list[Entry], out: Path, labels: list[str],
             if e.scores:
                 ax.plot(e.mean("tv_u"), e.mean("servo") + np.nan_to_num(e.mean("regulator")),
                         "*" if e.kind == "searched" else "D", color=colour, ms=11,
-                        mec="black", label=f"{e.controller}: kept, held-out mean")
+                        mec="black", label=f"{e.controller}: "
+                        f"{'kept' if e.kind == 'searched' else 'rule'}, held-out mean")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(f"TV(u), total variation of the control ({u_unit})")
-        ax.set_ylabel(f"IAE ({y_unit} s)")
+        ax.set_ylabel("IAE (s)" if y_unit == "1" else f"IAE ({y_unit} s)")
         ax.set_title(p, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=6.5, loc="best")
@@ -882,14 +883,14 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
               "| plant | controller | linear | Ms | gain margin | phase margin (deg) | "
               "delay margin (s) | noise gain | map |", "|---|---|---|---|---|---|---|---|---|"]
     for e in entries:
-        m = e.linear
-        if not m:
+        lin = e.linear
+        if not lin:
             lines.append(f"| {e.plant} | {e.controller} | n/a | | | | | | |")
             continue
         lines.append(f"| {e.plant} | {e.controller} | "
-                     f"{'stable' if m['stable'] else 'unstable'} | {num(m['Ms'])} | "
-                     f"{num(m['gain_margin'])} | {num(m['phase_margin_deg'])} | "
-                     f"{num(m['delay_margin_s'])} | {num(m['noise_gain_h2'])} | "
+                     f"{'stable' if lin['stable'] else 'unstable'} | {num(lin['Ms'])} | "
+                     f"{num(lin['gain_margin'])} | {num(lin['phase_margin_deg'])} | "
+                     f"{num(lin['delay_margin_s'])} | {num(lin['noise_gain_h2'])} | "
                      f"{e.n_settled}/{e.n_map} |")
     spaces = {p: plants_[p].spaces for p in labels}
     lines += ["", "## What the numbers support", "", *_findings(entries, spaces), "",
