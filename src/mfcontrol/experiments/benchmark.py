@@ -726,6 +726,7 @@ def _searched_points(out: Path, plant: str, name: str) -> tuple[np.ndarray, np.n
 def _pareto_figure(entries: list[Entry], out: Path, labels: list[str],
                    plants_: dict[str, _Plant]) -> Path:
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     from ..api.results.plotting import save_figure, units
 
@@ -761,9 +762,22 @@ def _pareto_figure(entries: list[Entry], out: Path, labels: list[str],
         ax.set_ylabel("IAE (s)" if y_unit == "1" else f"IAE ({y_unit} s)")
         ax.set_title(p, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=6.5, loc="best")
+        for axis, (low, high) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+            # labels at 1, 2, 5 of each decade on a short axis, the decades on a long one
+            # (matplotlib's minor labels collide on an axis of one or two decades)
+            short = math.log10(high / low) < 2.2 if low > 0 else False
+            axis.set_major_locator(LogLocator(10, subs=(1.0, 2.0, 5.0) if short else (1.0,)))
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            axis.set_minor_formatter(NullFormatter())
     for ax in axes[n:]:
         ax.set_visible(False)
+    # one legend for all: the colours are the controllers' on every plant
+    shown: dict[str, Any] = {}
+    for ax in axes[:n]:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            shown.setdefault(label, handle)
+    fig.legend(list(shown.values()), list(shown), loc="outside lower center",
+               ncol=min(len(shown), 4), fontsize=8)
     fig.suptitle("Performance against noise sensitivity: IAE over TV(u) of every searched "
                  "point that met the Ms bound\n(mean over the training seeds; stars and "
                  "diamonds: the kept tunings on the held-out seeds)")
@@ -777,7 +791,7 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
     """report.md, results.csv, pareto.png and robustness.png from the entries."""
     import pandas as pd
 
-    from ..api.results.plotting import robustness_maps
+    from ..api.results.plotting import robustness_maps, save_figure
     from .compare import format_number as num
 
     out.mkdir(parents=True, exist_ok=True)
@@ -787,10 +801,23 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
     by = {(e.plant, e.controller): e for e in entries}
     empty = {p: np.full(tuple(v.size for v in plants_[p].robustness.values()), np.inf)
              for p in labels}
-    robustness_maps(
+    fig = robustness_maps(
         [[by[p, c].map_scores if (p, c) in by else empty[p] for c in names] for p in labels],
         labels, names, [plants_[p].robustness for p in labels],
-        [plants_[p].config["benchmark.objective"] for p in labels], out / "robustness.png")
+        [plants_[p].config["benchmark.objective"] for p in labels])
+    # a controller with no tuning on a plant has no map: said, not drawn as 25 failures
+    for i, p in enumerate(labels):
+        for j, c in enumerate(names):
+            e = by.get((p, c))
+            if e is None or e.config is None:
+                ax = fig.axes[i * len(names) + j]
+                ax.clear()
+                ax.set_axis_off()
+                ax.set_title(f"{p}: {c}", fontsize=9)
+                ax.text(0.5, 0.5, "no tuning" if e is None or e.kind == "searched" else
+                        "no rule-tuned gains:\nno FOPDT model", ha="center", va="center",
+                        fontsize=9, transform=ax.transAxes)
+    save_figure(fig, out / "robustness.png")
     _pareto_figure(entries, out, labels, plants_)
     made = [e.comparison for e in entries if e.comparison is not None]
     level = made[0].confidence if made else 1 - ALPHA
