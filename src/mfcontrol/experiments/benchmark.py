@@ -807,13 +807,13 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
         [plants_[p].config["benchmark.objective"] for p in labels])
     # a controller with no tuning on a plant has no map: said, not drawn as 25 failures
     for i, p in enumerate(labels):
-        for j, c in enumerate(names):
-            e = by.get((p, c))
+        for j, name in enumerate(names):
+            e = by.get((p, name))
             if e is None or e.config is None:
                 ax = fig.axes[i * len(names) + j]
                 ax.clear()
                 ax.set_axis_off()
-                ax.set_title(f"{p}: {c}", fontsize=9)
+                ax.set_title(f"{p}: {name}", fontsize=9)
                 ax.text(0.5, 0.5, "no tuning" if e is None or e.kind == "searched" else
                         "no rule-tuned gains:\nno FOPDT model", ha="center", va="center",
                         fontsize=9, transform=ax.transAxes)
@@ -824,9 +824,10 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
     searched = ", ".join(f"`{k}`" for _, _, k in CONTROLLERS)
     lines = [
         "# Benchmark: PIDs, i-P and i-PI on the benchmark set", "",
-        f"mfcontrol {__version__}; {len(labels)} plants. Whole run: {seconds:.0f} s "
+        f"mfcontrol {__version__}; {len(labels)} plants. This run: {seconds:.0f} s "
         "(compilation included when the cache was cold; tunings and scorings found "
-        "finished in the folder are not run again).", "",
+        "finished in the folder are not run again); the searches themselves: "
+        f"{sum(e.tuning_seconds for e in entries):.0f} s (their summary.json).", "",
         "## How the controllers were tuned and scored", "",
         f"- **Searched** ({', '.join(c for c, _, _ in CONTROLLERS)}): differential "
         f"evolution, {scale.restarts} restarts (optimiser seeds {seed} to "
@@ -982,12 +983,14 @@ def _findings(entries: list[Entry],
             if v is None or not v > 0 and par.log:
                 continue
             for bound, side in ((par.low, "lower"), (par.high, "upper")):
-                if (abs(math.log(v / bound)) < 0.01 if par.log
-                        else abs(v - bound) <= 0.001 * (par.high - par.low)):
+                # near: within a factor 1.25 on a log scale (ki 0.0011 against 0.001 says
+                # the search wanted less), within 1 % of the range on a linear one
+                if (abs(math.log10(v / bound)) < 0.1 if par.log
+                        else abs(v - bound) <= 0.01 * (par.high - par.low)):
                     at_bound.append(f"{e.controller} {par.key.removeprefix('controller.')} on "
                                     f"{e.plant} ({side}, {bound:g})")
-    out.append("- Searched values at a bound of their search space (the best may lie beyond "
-               "it): " + (", ".join(at_bound) if at_bound else "none") + ".")
+    out.append("- Searched values at or near a bound of their search space (the best may lie "
+               "beyond it): " + (", ".join(at_bound) if at_bound else "none") + ".")
     fragile = [f"{e.controller} on {e.plant} ({e.n_settled}/{e.n_map})" for e in entries
                if e.config is not None and e.n_settled < e.n_map]
     out.append("- Not settled somewhere on the robustness map: "
