@@ -837,10 +837,11 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
         f"every point's linear loop had to meet **Ms <= {ms:g}** (`mfcontrol analyze`; "
         "Astrom and Hagglund's usual range is 1.2 to 2, and Ms <= 2 guarantees a gain "
         "margin of 2 and a phase margin of 29 degrees). The search spaces are each case's "
-        f"{searched}: the PID tunes kp, ki, kd and its measurement filter Tf, the i-P "
-        "alpha, kp and its estimator's window, the i-PI alpha, kp, ki and the window. "
-        "The restart with the best training value is kept; *restarts* gives its value "
-        "and the restarts' spread (worst minus best).",
+        f"{searched}: " + "; ".join(
+            f"the {c} tunes {', '.join(keys)}" for c, keys in _searched_keys(plants_).items())
+        + " (Tf: the PID's measurement filter; window: the estimator's, in samples). The "
+        "restart with the best training value is kept; *restarts* gives its value and the "
+        "restarts' spread (worst minus best).",
         f"- **Rule-tuned** ({', '.join(RULES)}): SIMC (a PID from the half rule's "
         "second-order model where it has a second lag, else a PI; tau_c = L) and AMIGO's "
         "PID, from a FOPDT model of the plant (the half rule on its transfer function "
@@ -858,7 +859,8 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
         "the seeds; *servo* the IAE before the load step, *regulator* the IAE from it "
         "(n/a: no load step), *TV(u)* the total variation of the control. *h/2*, *2h*: "
         "the objective's mean at half and twice the sample time (the delays and the "
-        "estimator's window kept in seconds); *delay+1*: with one more sample of actuator "
+        "estimator's window kept in seconds, the noise's standard deviation per sample "
+        "unchanged); *delay+1*: with one more sample of actuator "
         "delay. inf: some seed did not settle.",
         f"- **Significance**: each controller against the searched PID on the same "
         f"held-out seeds (`statistics.paired`: the bootstrap BCa interval of the mean "
@@ -936,6 +938,16 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
     path = out / "report.md"
     path.write_text("\n".join(lines))
     return path
+
+
+def _searched_keys(plants_: dict[str, _Plant]) -> dict[str, dict[str, None]]:
+    """Each searched controller's tuned keys (short names, in order) over the plants."""
+    keys: dict[str, dict[str, None]] = {}
+    for plant in plants_.values():
+        for name, (params, log) in plant.spaces.items():
+            for par in parse_parameters(params, log):
+                keys.setdefault(name, {})[par.key.removeprefix("controller.")] = None
+    return keys
 
 
 def _restart_cell(e: Entry) -> str:
