@@ -248,6 +248,32 @@ def test_a_second_call_resumes_the_finished_tunings_and_scorings(run, monkeypatc
             np.testing.assert_array_equal(a.scores[k], b.scores[k])
 
 
+def test_an_interrupted_benchmark_resumes_after_its_last_finished_tuning(tmp_path,
+                                                                          monkeypatch):
+    plant = _user_plant(tmp_path)
+    kwargs = {"budget": 12, "restarts": 2, "quick": True, "out": tmp_path / "out"}
+
+    def ctrl_c(fraction, text):
+        if text.startswith("my-plant i-P restart 1/2"):
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        bm.benchmark([str(plant)], progress=ctrl_c, **kwargs)
+    assert not (tmp_path / "out" / "report.md").exists()
+    real = mfcontrol.experiments.tune.tune
+    tuned = []
+
+    def counted(base, params, **kw):
+        tuned.append((base["controller.law"], kw["seed"]))
+        return real(base, params, **kw)
+
+    monkeypatch.setattr("mfcontrol.experiments.tune.tune", counted)
+    bm.benchmark([str(plant)], **kwargs)
+    # the PID's two restarts were finished: only the interrupted and the later ones run
+    assert tuned == [("i-P", 0), ("i-P", 1), ("i-PI", 0), ("i-PI", 1)]
+    assert (tmp_path / "out" / "report.md").is_file()
+
+
 def test_a_controller_a_plant_does_not_search_is_skipped(monkeypatch):
     # the ADRC row another engineer adds, ("ADRC", "adrc", "benchmark.adrc"): one line
     # there, benchmark.adrc in the cases that search it (an existing law stands for the
