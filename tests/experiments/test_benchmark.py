@@ -16,7 +16,7 @@ from mfcontrol.analysis import tuning_rules as rules
 from mfcontrol.experiments import benchmark as bm
 from mfcontrol.experiments import cases, statistics
 
-BUDGET = 24
+BUDGET = 60  # with seed 1, every searched controller finds a point meeting the bound
 RESTARTS = 2
 
 
@@ -87,6 +87,7 @@ def test_same_budget_objective_bound_and_seeds_for_every_search(run):
 
 def test_the_kept_tuning_is_the_best_restart(run):
     entries, out = run
+    assert all(e.config is not None for e in entries[:3])
     for e in entries[:3]:
         values = [json.loads((out / "my-plant" / e.controller / f"restart-{s}" /
                               "summary.json").read_text()) for s in (1, 2)]
@@ -95,7 +96,8 @@ def test_the_kept_tuning_is_the_best_restart(run):
         if e.config is None:
             continue
         assert e.tuned == best["parameters"]
-        assert e.restart_values == [v["best"] for v in values]
+        assert e.restart_values == [v["best"] if isinstance(v["best"], float) else math.inf
+                                    for v in values]
 
 
 def test_the_table_is_the_kept_tunings_runs_on_the_held_out_seeds(run):
@@ -158,13 +160,18 @@ def test_a_plant_without_a_model_has_no_rule_tuned_row_but_says_why():
 def test_comparisons_are_paired_and_widened_by_bonferroni(run):
     entries, out = run
     pid = entries[0]
-    made = [e for e in entries[1:] if e.comparison is not None]
-    for e in made:
-        confidence, n_resamples = bm.bonferroni(len(made))
-        assert confidence == 1 - bm.ALPHA / len(made)
-        c = statistics.paired(e.scores["objective"], pid.scores["objective"],
-                              confidence=confidence, n_resamples=n_resamples)
-        assert c == e.comparison
+    made = [(e, "objective", e.comparison) for e in entries[1:] if e.comparison] + [
+        (e, k, c) for e in entries[1:] for k, c in e.parts.items()]
+    # the objective, the servo and the regulator IAE of each controller whose held-out
+    # runs all settled (the rule-tuned PIDs' do not on this short horizon)
+    assert len(made) == 3 * sum(1 for e in entries[1:] if e.comparison) > 0
+    assert all(e.comparison_note.endswith("did not settle") for e in entries[1:]
+               if e.scores and not e.comparison)
+    confidence, n_resamples = bm.bonferroni(len(made))
+    assert confidence == 1 - bm.ALPHA / len(made)
+    for e, key, c in made:
+        assert c == statistics.paired(e.scores[key], pid.scores[key], confidence=confidence,
+                                      n_resamples=n_resamples)
     md = (out / "report.md").read_text()
     assert "Bonferroni" in md and f"{len(made)} comparisons" in md
 

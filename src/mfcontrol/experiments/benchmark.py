@@ -126,6 +126,9 @@ QUICK = Scale(budget=150, restarts=3, train_seeds=(1, 2),
               held_out=tuple(range(1001, 1013)), plants=("bench-lag3", "bench-dc-motor"))
 #: the held-out re-scorings beside the nominal one
 VARIANTS = ("h/2", "2h", "delay+1")
+#: the scores compared with the searched PID's, one Bonferroni family: the objective,
+#: then the servo IAE (before the load step) and the regulator IAE (from it)
+COMPARED = ("objective", "servo", "regulator")
 
 
 def plants() -> list[str]:
@@ -157,9 +160,12 @@ class Entry:
     map_scores: np.ndarray = field(default_factory=lambda: np.zeros(0))
     n_map: int = 0
     n_settled: int = 0
-    #: against the searched PID (None: this is it, or no comparison could be made)
+    #: against the searched PID on the objective (None: this is it, or no comparison
+    #: could be made: ``comparison_note`` says why)
     comparison: statistics.PairedComparison | None = None
     comparison_note: str = ""
+    #: against the searched PID on the servo and the regulator IAE apart (where made)
+    parts: dict[str, statistics.PairedComparison] = field(default_factory=dict)
 
     def mean(self, key: str = "objective") -> float:
         s = self.scores.get(key)
@@ -189,6 +195,8 @@ class Entry:
                 "vs_pid_high": c.high if c else math.nan,
                 "vs_pid_wilcoxon_p": c.wilcoxon_p if c else math.nan,
                 "vs_pid_verdict": c.verdict if c else self.comparison_note,
+                **{f"vs_pid_{k}_verdict": self.parts[k].verdict if k in self.parts else ""
+                   for k in COMPARED[1:]},
                 "tuning_s": round(self.tuning_seconds, 1)}
 
 
@@ -629,8 +637,9 @@ def benchmark(plant_names: Sequence[str | Path] | None = None, *,
 
 
 def _compare_all(entries: list[Entry]) -> int:
-    """Each entry against the searched PID of its plant on the held-out seeds, the
-    intervals widened by Bonferroni over every comparison made; the number made."""
+    """Each entry against the searched PID of its plant on the held-out seeds, on each
+    score of :data:`COMPARED`, the intervals widened by Bonferroni over every comparison
+    made (of every score); the number made."""
     ref = CONTROLLERS[0][0]
     pids = {e.plant: e for e in entries if e.controller == ref}
     pairs = []
@@ -642,16 +651,27 @@ def _compare_all(entries: list[Entry]) -> int:
             e.comparison_note = "not compared: " + ("no tuning" if not e.scores
                                                     else f"no tuned {ref}")
             continue
-        bad = ~(np.isfinite(e.scores["objective"]) & np.isfinite(pid.scores["objective"]))
-        if bad.any():
-            e.comparison_note = (f"not compared: {int(bad.sum())} of {bad.size} held-out "
-                                 "seeds did not settle")
-            continue
-        pairs.append((e, pid))
+        for key in COMPARED:
+            if key not in e.scores or key not in pid.scores:
+                continue
+            bad = ~(np.isfinite(e.scores[key]) & np.isfinite(pid.scores[key]))
+            if key == "regulator" and bad.all():
+                continue  # no load step: no regulator score
+            if bad.any():
+                if key == "objective":  # nor on its parts: a run that failed has no score
+                    e.comparison_note = (f"not compared: {int(bad.sum())} of {bad.size} "
+                                         "held-out seeds did not settle")
+                    break
+                continue
+            pairs.append((e, pid, key))
     confidence, n_resamples = bonferroni(len(pairs))
-    for e, pid in pairs:
-        e.comparison = statistics.paired(e.scores["objective"], pid.scores["objective"],
-                                         confidence=confidence, n_resamples=n_resamples)
+    for e, pid, key in pairs:
+        c = statistics.paired(e.scores[key], pid.scores[key], confidence=confidence,
+                              n_resamples=n_resamples)
+        if key == "objective":
+            e.comparison = c
+        else:
+            e.parts[key] = c
     return len(pairs)
 
 
@@ -819,7 +839,8 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
                         fontsize=9, transform=ax.transAxes)
     save_figure(fig, out / "robustness.png")
     _pareto_figure(entries, out, labels, plants_)
-    made = [e.comparison for e in entries if e.comparison is not None]
+    made = [c for e in entries for c in ([e.comparison] if e.comparison else [])
+            + list(e.parts.values())]
     level = made[0].confidence if made else 1 - ALPHA
     searched = ", ".join(f"`{k}`" for _, _, k in CONTROLLERS)
     lines = [
@@ -864,10 +885,11 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
         "delay. inf: some seed did not settle.",
         f"- **Significance**: each controller against the searched PID on the same "
         f"held-out seeds (`statistics.paired`: the bootstrap BCa interval of the mean "
-        f"difference of the objective). Multiple comparisons: **Bonferroni**, the "
-        f"intervals widened to {100 * level:.3g} % ({len(made)} comparisons, family-wise "
-        f"error {ALPHA:g}). A win is written only where the widened interval excludes "
-        "zero; otherwise *no significant difference*.", "",
+        f"difference) on the objective, and on the servo and the regulator IAE apart. "
+        f"Multiple comparisons: **Bonferroni** over all of them, the intervals widened to "
+        f"{100 * level:.4g} % ({len(made)} comparisons, family-wise error {ALPHA:g}). A win "
+        "is written only where the widened interval excludes zero; otherwise *no "
+        "significant difference* (n.s.).", "",
         "What is known beforehand: with backward differences the i-P is a PI controller "
         "and the i-PI a PI plus a double integral (d'Andrea-Novel, Fliess, Join, Mounier, "
         "Steux, 2010); the comparison measures how well each parametrisation is found by "
@@ -875,8 +897,8 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
         "## Held-out scores", "",
         "| plant | controller | tuning | objective, mean [95 % interval] | servo IAE | "
         "regulator IAE | TV(u) | h/2 | 2h | delay+1 | restarts: best, spread | "
-        "against the searched PID |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        "against the searched PID | servo, regulator against it |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for e in entries:
         obj = e.scores.get("objective")
         if obj is None:
@@ -903,7 +925,7 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
                      f"{num(e.mean('servo'))} | {num(e.mean('regulator'))} | "
                      f"{num(e.mean('tv_u'))} | "
                      + " | ".join(num(e.mean(k)) for k in VARIANTS)
-                     + f" | {rs} | {against} |")
+                     + f" | {rs} | {against} | {_parts_cell(e)} |")
     lines += ["", "## Robustness of each loop", "",
               "`mfcontrol analyze` of each kept loop (the law's filter on the plant, "
               "linearised at the reference where it is nonlinear, no noise, no saturation): "
@@ -950,6 +972,13 @@ def _searched_keys(plants_: dict[str, _Plant]) -> dict[str, dict[str, None]]:
     return keys
 
 
+def _parts_cell(e: Entry) -> str:
+    """Who is better on the servo and on the regulator IAE, where compared."""
+    words = {"A better": e.controller, "B better": CONTROLLERS[0][0],
+             "no significant difference": "n.s."}
+    return "; ".join(f"{k}: {words[c.verdict]}" for k, c in e.parts.items())
+
+
 def _restart_cell(e: Entry) -> str:
     """The restarts' best value and spread, or how many found a point."""
     from .compare import format_number as num
@@ -985,6 +1014,16 @@ def _findings(entries: list[Entry],
                  f"no significant difference on {', '.join(same)}" if same else "",
                  f"not compared on {', '.join(none)}" if none else ""]
         out.append("- " + "; ".join(p for p in parts if p) + ".")
+        for key, what in (("servo", "servo IAE"), ("regulator", "regulator IAE")):
+            won = [e.plant for e in mine if key in e.parts
+                   and e.parts[key].verdict == "A better"]
+            lost = [e.plant for e in mine if key in e.parts
+                    and e.parts[key].verdict == "B better"]
+            if any(key in e.parts for e in mine):
+                out.append(f"  - On the {what} alone: better on "
+                           f"{', '.join(won) if won else 'no plant'}, worse on "
+                           f"{', '.join(lost) if lost else 'none'}, no significant "
+                           "difference elsewhere it was compared.")
     at_bound = []
     for e in entries:
         if e.kind != "searched" or e.plant not in spaces or e.controller not in spaces[e.plant]:
