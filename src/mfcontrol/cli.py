@@ -497,14 +497,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", help="output folder (default results/compare)")
     s.set_defaults(func=_cmd_compare)
 
-    s = sub.add_parser("benchmark", help="tune PIDs, an i-P and an i-PI alike on every plant "
-                       "of the benchmark set (bench-* cases), score them on held-out noise "
-                       "seeds and write report.md")
+    s = sub.add_parser("benchmark", help="tune PIDs, an i-P, an i-PI and an ADRC alike on "
+                       "every plant of the benchmark set (bench-* cases), score them on "
+                       "held-out noise seeds and write report.md")
     s.add_argument("--plants", nargs="+", metavar="CASE",
                    help="benchmark cases to run (default: every bench-* case; two with "
                         "--quick)")
     s.add_argument("--budget", type=int, help="points per restart, the same for every "
-                   "searched controller (default 1200; 150 with --quick)")
+                   "searched controller (default 2000; 150 with --quick)")
     s.add_argument("--restarts", type=int, help="optimiser seeds per searched controller "
                    "(default 3)")
     s.add_argument("--seed", type=int, default=0, help="the first restart's optimiser seed "

@@ -58,7 +58,9 @@ def test_every_benchmark_case_is_complete():
             "controller.kp", "controller.ki", "controller.kd", "controller.Tf"]
         assert all(p.log for p in spaces["benchmark.pid"])
         assert [len(spaces[k]) for k in ("benchmark.pid", "benchmark.ip",
-                                         "benchmark.ipi")] == [4, 3, 4]
+                                         "benchmark.ipi", "benchmark.adrc")] == [4, 3, 4, 3]
+        assert [p.key for p in spaces["benchmark.adrc"]] == [
+            "controller.b0", "controller.wc", "controller.wo"]
         assert len(mfcontrol.api.run.batch.parse_grid(cfg["benchmark.robustness"])) == 2
 
 
@@ -71,8 +73,9 @@ def test_held_out_seeds_are_not_training_seeds():
 
 def test_same_budget_objective_bound_and_seeds_for_every_search(run):
     entries, out = run
-    assert [e.controller for e in entries] == ["PID", "i-P", "i-PI", "PID SIMC", "PID AMIGO"]
-    for e in entries[:3]:
+    assert [e.controller for e in entries] == ["PID", "i-P", "i-PI", "ADRC", "PID SIMC",
+                                               "PID AMIGO"]
+    for e in entries[:4]:
         assert e.kind == "searched" and len(e.restart_values) == RESTARTS
         for seed in (1, 2):
             s = json.loads((out / "my-plant" / e.controller / f"restart-{seed}" /
@@ -87,8 +90,8 @@ def test_same_budget_objective_bound_and_seeds_for_every_search(run):
 
 def test_the_kept_tuning_is_the_best_restart(run):
     entries, out = run
-    assert all(e.config is not None for e in entries[:3])
-    for e in entries[:3]:
+    assert all(e.config is not None for e in entries[:4])
+    for e in entries[:4]:
         values = [json.loads((out / "my-plant" / e.controller / f"restart-{s}" /
                               "summary.json").read_text()) for s in (1, 2)]
         best = min(values, key=lambda v: v["best"] if isinstance(v["best"], float)
@@ -133,7 +136,7 @@ def test_the_sample_time_variants_keep_delays_and_windows_in_seconds():
 def test_the_rule_tuned_pids_are_the_rules_gains(run):
     entries, _ = run
     model = rules.fopdt_of(_lag3_tf(), delay=0.01)
-    simc, amigo = entries[3], entries[4]
+    simc, amigo = entries[4], entries[5]
     assert simc.tuned == pytest.approx(
         dict(zip(("controller.kp", "controller.ki", "controller.kd"),
                  rules.simc(model, kind="PI")[:3], strict=True)))
@@ -277,17 +280,19 @@ def test_an_interrupted_benchmark_resumes_after_its_last_finished_tuning(tmp_pat
     monkeypatch.setattr("mfcontrol.experiments.tune.tune", counted)
     bm.benchmark([str(plant)], **kwargs)
     # the PID's two restarts were finished: only the interrupted and the later ones run
-    assert tuned == [("i-P", 0), ("i-P", 1), ("i-PI", 0), ("i-PI", 1)]
+    assert tuned == [("i-P", 0), ("i-P", 1), ("i-PI", 0), ("i-PI", 1), ("adrc", 0),
+                     ("adrc", 1)]
     assert (tmp_path / "out" / "report.md").is_file()
 
 
-def test_a_controller_a_plant_does_not_search_is_skipped(monkeypatch):
-    # the ADRC row another engineer adds, ("ADRC", "adrc", "benchmark.adrc"): one line
-    # there, benchmark.adrc in the cases that search it (an existing law stands for the
-    # ADRC's until it is written)
-    monkeypatch.setattr(bm, "CONTROLLERS", (*bm.CONTROLLERS, ("ADRC", "i-PD",
-                                                              "benchmark.adrc")))
-    plant = bm._check_plant("bench-lag3", bm.QUICK)
+def test_a_controller_a_plant_does_not_search_is_skipped(tmp_path):
+    # a row of CONTROLLERS (here the ADRC's) whose key a plant leaves unset
+    line = next(x for x in (cases.CASES_DIR / "bench-lag3.toml").read_text().splitlines()
+                if x.startswith("adrc = "))
+    assert list(bm._check_plant("bench-lag3", bm.QUICK).spaces) == ["PID", "i-P", "i-PI",
+                                                                       "ADRC"]
+    logged = ', "controller.b0", "controller.wc", "controller.wo"'
+    plant = bm._check_plant(str(_user_plant(tmp_path, **{line: "", logged: ""})), bm.QUICK)
     assert list(plant.spaces) == ["PID", "i-P", "i-PI"]
 
 

@@ -1,5 +1,5 @@
-"""``mfcontrol benchmark``: PIDs (searched and rule-tuned), an i-P and an i-PI on every
-plant of the benchmark set, scored on held-out noise seeds and compared by paired
+"""``mfcontrol benchmark``: PIDs (searched and rule-tuned), an i-P, an i-PI and an ADRC on
+every plant of the benchmark set, scored on held-out noise seeds and compared by paired
 statistics.
 
 The benchmark set is the built-in cases named ``bench-*``: the Astrom-Hagglund PID
@@ -12,10 +12,11 @@ How the comparison is made fair (issue 32):
 * **Same freedom, budget and objective.** The searched controllers are the rows of
   :data:`CONTROLLERS`: the PID tunes kp, ki, kd and its measurement filter Tf (four keys),
   the i-P alpha, kp and its estimator's window (three), the i-PI alpha, kp, ki and the
-  window (four); each case's ``benchmark.pid``, ``benchmark.ip``, ``benchmark.ipi``
-  give the bounds. Every search (:func:`mfcontrol.tune`) has the same budget, the same
-  objective (``benchmark.objective``), starts from a random population (not from the
-  case's gains) and spends its whole budget.
+  window (four), the ADRC of order 1 its input gain b0 and its two bandwidths wc and wo
+  (three); each case's ``benchmark.pid``, ``benchmark.ip``, ``benchmark.ipi``,
+  ``benchmark.adrc`` give the bounds. Every search (:func:`mfcontrol.tune`) has the
+  same budget, the same objective (``benchmark.objective``), starts from a random
+  population (not from the case's gains) and spends its whole budget.
 * **Same robustness.** Every searched point must meet ``Ms <= ms`` (default
   :data:`DEFAULT_MS`) on its linear loop (:func:`mfcontrol.analyze`); a point that misses
   it fails.
@@ -80,11 +81,11 @@ from .tune import check_search, parse_parameters
 #: search space). A row whose key a case leaves unset is skipped on that plant; the
 #: first row is the reference every other controller is compared with
 CONTROLLERS = (("PID", "pid", "benchmark.pid"), ("i-P", "i-P", "benchmark.ip"),
-               ("i-PI", "i-PI", "benchmark.ipi"))
+               ("i-PI", "i-PI", "benchmark.ipi"), ("ADRC", "adrc", "benchmark.adrc"))
 #: the rule-tuned references (no search): their names in the report
 RULES = ("PID SIMC", "PID AMIGO")
 #: points per restart when no budget is given
-DEFAULT_BUDGET = 1200
+DEFAULT_BUDGET = 2000
 #: the bound on every searched loop's peak sensitivity. Astrom and Hagglund's usual range
 #: is 1.2 to 2; 2 is its loose end, which still guarantees a gain margin of 2 and a phase
 #: margin of 29 degrees, and leaves the searches room for performance
@@ -460,6 +461,8 @@ def _variants(cfg: Config) -> dict[str, Config]:
             ch[key] = int(round(cfg[key] / f))
         if "controller.window" in read:
             ch["controller.window"] = max(2, int(round(cfg["controller.window"] / f)))
+        if "controller.delay" in read:  # a compensated delay, in samples too
+            ch["controller.delay"] = int(round(cfg["controller.delay"] / f))
         return cfg.with_overrides(ch)
 
     return {"h/2": resampled(0.5), "2h": resampled(2.0),
@@ -844,7 +847,7 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
     level = made[0].confidence if made else 1 - ALPHA
     searched = ", ".join(f"`{k}`" for _, _, k in CONTROLLERS)
     lines = [
-        "# Benchmark: PIDs, i-P and i-PI on the benchmark set", "",
+        "# Benchmark: PIDs, i-P, i-PI and ADRC on the benchmark set", "",
         f"mfcontrol {__version__}; {len(labels)} plants. This run: {seconds:.0f} s "
         "(compilation included when the cache was cold; tunings and scorings found "
         "finished in the folder are not run again); the searches themselves: "
@@ -872,7 +875,7 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
         "- **The setpoint** enters every controller the same way: each case's own "
         "reference (a step on the Astrom-Hagglund processes, a smooth step on the motor, "
         "buck and boost) and the full error; the PIDs' setpoint weight b is 1 (the rule's "
-        "b of AMIGO is dropped): the i-P and i-PI have no counterpart to it, and a tuned "
+        "b of AMIGO is dropped): the i-P, i-PI and ADRC have no counterpart to it, and a tuned "
         "b would give the PID a freedom the others lack.",
         f"- **Scores**: every kept tuning on {len(scale.held_out)} held-out noise seeds "
         f"({scale.held_out[0]} to {scale.held_out[-1]}, none a training seed), one batch "
@@ -892,8 +895,11 @@ def write_report(entries: list[Entry], out: Path, *, scale: Scale, seed: int, ms
         "significant difference* (n.s.).", "",
         "What is known beforehand: with backward differences the i-P is a PI controller "
         "and the i-PI a PI plus a double integral (d'Andrea-Novel, Fliess, Join, Mounier, "
-        "Steux, 2010); the comparison measures how well each parametrisation is found by "
-        "the same search, not a different kind of control.", "",
+        "Steux, 2010), and the first-order ADRC, within its limits, a PI with a first-order "
+        "low-pass on its feedback (Herbst 2013's transfer-function form; "
+        "`ADRC.linear_filter()` gives the discrete one exactly); the comparison measures "
+        "how well each parametrisation is found by the same search, not a different kind "
+        "of control.", "",
         "## Held-out scores", "",
         "| plant | controller | tuning | objective, mean [95 % interval] | servo IAE | "
         "regulator IAE | TV(u) | h/2 | 2h | delay+1 | restarts: best, spread | "
