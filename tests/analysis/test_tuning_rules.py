@@ -271,3 +271,15 @@ def test_half_rule_refusals():
     _refused(r"^delay = -1.0: must be a finite dead time >= 0", fopdt_of, 1 / (s + 1),
              delay=-1.0)
     _refused(r"^plant_tf = 'G': must be a python-control or scipy.signal", fopdt_of, "G")
+
+
+def test_sopdt_of_equal_lags_orders_them():
+    """The half rule on 1/(s+1)^3 keeps the lags 1 and 1 + 1/2: the second is the larger.
+    The model is symmetric in its lags; it was refused (T2 > T1), and the benchmark's
+    SIMC fell back to a PI on 1/(s+1)^3, 1/(s+1)^8 and the non-minimum-phase process."""
+    import control
+
+    m = sopdt_of(control.tf([1.0], [1.0, 3.0, 3.0, 1.0]))
+    assert (m.K, m.T1, m.T2, m.L) == pytest.approx((1.0, 1.5, 1.0, 0.5))
+    gains = simc(m, kind="PID")
+    assert gains.kd > 0

@@ -408,8 +408,10 @@ def fopdt_of(plant_tf: Any, delay: float = 0.0) -> Fopdt:
 
 def sopdt_of(plant_tf: Any, delay: float = 0.0) -> Sopdt:
     """The second-order-plus-dead-time model of a transfer function by Skogestad's half rule:
-    as :func:`fopdt_of`, with ``T1 = tau_1``, ``T2 = tau_2 + tau_3 / 2`` and
+    as :func:`fopdt_of`, with the lags ``tau_1`` and ``tau_2 + tau_3 / 2`` and
     ``L = delay + tau_3 / 2 + sum(tau_i, i >= 4) + sum(T0j of right-half-plane zeros)``.
+    The model is the same whichever lag is called T1: T1 is the larger (with equal lags,
+    1 / (s + 1)^3, the second is the larger, 1.5 against 1).
 
     Parameters
     ----------
@@ -427,7 +429,8 @@ def sopdt_of(plant_tf: Any, delay: float = 0.0) -> Sopdt:
     >>> round(m.T1, 6), round(m.T2, 6), round(m.L, 6)
     (2.0, 1.2, 0.77)
     """
-    K, (T1, T2), L = _half_rule(plant_tf, delay, 2)
+    K, (a, b), L = _half_rule(plant_tf, delay, 2)
+    T1, T2 = max(a, b), min(a, b)
     return Sopdt(K=K, T1=T1, T2=T2, L=L)
 
 
