@@ -224,7 +224,8 @@ def test_a_seed_that_did_not_settle_is_not_compared():
     a[4] = math.inf
     entries = [_entry("p", "PID", b), _entry("p", "i-P", a)]
     assert bm._compare_all(entries) == 0
-    assert bm.verdict(entries[1]) == "not compared: 1 of 12 held-out seeds did not settle"
+    assert bm.verdict(entries[1]) == ("i-P on p: not compared: 1 of 12 held-out seeds did "
+                                      "not settle")
 
 
 def test_the_report_and_its_figures(run):

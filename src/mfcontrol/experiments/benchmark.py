@@ -696,7 +696,7 @@ def verdict(e: Entry) -> str:
     """What the report says of an entry against the searched PID: a sentence naming a
     winner only where the (widened) interval excludes zero."""
     if e.comparison is None:
-        return e.comparison_note
+        return f"{e.controller} on {e.plant}: {e.comparison_note}"
     return e.comparison.sentence(e.controller, CONTROLLERS[0][0], e.plant)
 
 
