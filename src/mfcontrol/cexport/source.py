@@ -211,9 +211,9 @@ def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
     if isinstance(ctrl, RecursiveIP):
         return _recursive()
     if isinstance(ctrl, PID):
-        return _pid()
+        return _terms_law("pid", pid, (CS, J, REAL))
     if isinstance(ctrl, ADRC):
-        return _adrc()
+        return _terms_law("adrc", adrc, (CP, CS, J, REAL))
     raise TypeError(f"cannot export a {type(ctrl).__name__}: export an IP, IPI, IPD, IPID, "
                     "PID, ADRC or RecursiveIP")
 
@@ -330,28 +330,17 @@ def _recursive() -> _Law:
         state_rows={recursive_ip.U0: u0}, limits=(recursive_ip.OUT_MIN, recursive_ip.OUT_MAX))
 
 
-def _pid() -> _Law:
-    limits = (pid.OUT_MIN, pid.OUT_MAX)
+def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
+    """A law whose reset takes the first output (NaN: none) and whose START row holds it
+    until used (:mod:`mfcontrol.laws.pid`, :mod:`mfcontrol.laws.adrc`): the C around it
+    is the same, restarted bumplessly through that reset."""
+    limits = (law.OUT_MIN, law.OUT_MAX)
     return _Law(
-        "pid", pid.step, (CP, CS, J, REAL, REAL, REAL), pid.reset, (CS, J, REAL),
+        name, law.step, (CP, CS, J, REAL, REAL, REAL), law.reset, reset_kinds,
         init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
         # the start row is NaN once used (or when there is none)
         finite=(f"    for (i = 0; i < @NS@; i++)\n"
-                f"        if (!isfinite(s->cs[i]) && !(i == {pid.START} && s->cs[i] != "
-                "s->cs[i])) return 0;\n"),
-        bumpless=(f"{_clamp(limits)}    @RESET@(s->cs, start);\n"
-                  "    s->last_output = start;\n"),
-        call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
-
-
-def _adrc() -> _Law:
-    limits = (adrc.OUT_MIN, adrc.OUT_MAX)
-    return _Law(
-        "adrc", adrc.step, (CP, CS, J, REAL, REAL, REAL), adrc.reset, (CP, CS, J, REAL),
-        init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
-        # the start row is NaN once used (or when there is none)
-        finite=(f"    for (i = 0; i < @NS@; i++)\n"
-                f"        if (!isfinite(s->cs[i]) && !(i == {adrc.START} && s->cs[i] != "
+                f"        if (!isfinite(s->cs[i]) && !(i == {law.START} && s->cs[i] != "
                 "s->cs[i])) return 0;\n"),
         bumpless=(f"{_clamp(limits)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),

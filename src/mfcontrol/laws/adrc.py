@@ -55,7 +55,7 @@ dt.
 import math
 
 from .._jit import step_jit
-from .intelligent import MAX_DELAY as MAX_COMPENSATED_DELAY
+from .intelligent import MAX_DELAY
 
 # parameter rows
 ORDER = 0  # n: 1 or 2
@@ -83,9 +83,8 @@ N_STATE = 10  # the ring's d slots follow: n_state(d) rows in all
 #: the terms of the last output by signal name (a live controller's ``components`` and
 #: the engine's recorded trajectory rows read these)
 COMPONENTS = (("P", C_P), ("D", C_D), ("F_hat", C_F))
-#: the longest delay the law compensates, samples (a ring of that many outputs), as the
-#: intelligent laws' queue
-MAX_DELAY = MAX_COMPENSATED_DELAY
+# MAX_DELAY (imported): the longest delay the law compensates, samples, the intelligent
+# laws' own bound (a ring of that many outputs here)
 
 
 def problem(b0: float, delay: int) -> tuple[str, str] | None:
