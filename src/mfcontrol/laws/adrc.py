@@ -55,6 +55,7 @@ dt.
 import math
 
 from .._jit import step_jit
+from . import tunable as _tunable
 from .intelligent import MAX_DELAY
 
 # parameter rows
@@ -85,6 +86,34 @@ N_STATE = 10  # the ring's d slots follow: n_state(d) rows in all
 COMPONENTS = (("P", C_P), ("D", C_D), ("F_hat", C_F))
 # MAX_DELAY (imported): the longest delay the law compensates, samples, the intelligent
 # laws' own bound (a ring of that many outputs here)
+#: the rows a running controller may retune, (field, row, what); the order and the delay
+#: fix the law's structure (:mod:`mfcontrol.laws.tunable`)
+TUNABLE = (
+    ("b0", B0, "input gain b0 of y^(n) = f + b0 u, nonzero, of the plant's sign"),
+    ("wc", WC, "controller bandwidth (rad/s), > 0"),
+    ("wo", WO, "observer bandwidth (rad/s), > 0"),
+    ("out_min", OUT_MIN, "lower output limit (-INFINITY: none)"),
+    ("out_max", OUT_MAX, "upper output limit (INFINITY: none), >= out_min"),
+)
+
+
+def tunable(cp) -> tuple[tuple[str, int, str], ...]:
+    """:data:`TUNABLE`, whatever the parameter column ``cp`` (the laws' common form)."""
+    return TUNABLE
+
+
+def invalid_row(CP, j):
+    """The first row of :data:`TUNABLE` whose value the law is not defined for, or -1."""
+    b0 = CP[B0, j]
+    if not (math.isfinite(b0) and b0 != 0.0):
+        return B0
+    if not _tunable.positive(CP[WC, j]):
+        return WC
+    if not _tunable.positive(CP[WO, j]):
+        return WO
+    if not _tunable.limits_ok(CP[OUT_MIN, j], CP[OUT_MAX, j]):
+        return OUT_MAX
+    return -1
 
 
 def problem(b0: float, delay: int) -> tuple[str, str] | None:

@@ -35,6 +35,7 @@ measurement, so that the filter adds no transient of its own.
 import math
 
 from .._jit import step_jit
+from . import tunable as _tunable
 
 # parameter rows
 KP = 0
@@ -69,6 +70,51 @@ N_STATE = 12
 #: the terms of the last output by signal name (a live controller's ``components`` and
 #: the engine's recorded trajectory rows read these)
 COMPONENTS = (("P", C_P), ("I", C_I), ("D", C_D))
+#: the rows a running controller may retune, (field, row, what): every row
+#: (:mod:`mfcontrol.laws.tunable`)
+TUNABLE = (
+    ("kp", KP, "proportional gain"),
+    ("ki", KI, "integral gain (1/s)"),
+    ("kd", KD, "derivative gain (s); 0, or of kp's sign"),
+    ("n", N, "derivative filter: time constant Td / N, N > 0"),
+    ("b", B, "setpoint weight of the proportional term"),
+    ("c", C, "setpoint weight of the derivative"),
+    ("tf", TF, "measurement filter's time constant (s), >= 0 (0: none)"),
+    ("tt", TT, "anti-windup tracking time (s), > 0 (INFINITY: none); kept as given"),
+    ("out_min", OUT_MIN, "lower output limit (-INFINITY: none)"),
+    ("out_max", OUT_MAX, "upper output limit (INFINITY: none), >= out_min"),
+)
+
+
+def tunable(cp) -> tuple[tuple[str, int, str], ...]:
+    """:data:`TUNABLE`, whatever the parameter column ``cp`` (the laws' common form)."""
+    return TUNABLE
+
+
+def invalid_row(CP, j):
+    """The first row of :data:`TUNABLE` whose value the law is not defined for, or -1."""
+    kp = CP[KP, j]
+    if not math.isfinite(kp):
+        return KP
+    if not math.isfinite(CP[KI, j]):
+        return KI
+    kd = CP[KD, j]
+    if not (math.isfinite(kd) and _tunable.same_sign_or_zero(kd, kp)):
+        return KD
+    if not _tunable.positive(CP[N, j]):
+        return N
+    if not math.isfinite(CP[B, j]):
+        return B
+    if not math.isfinite(CP[C, j]):
+        return C
+    tf = CP[TF, j]
+    if not (math.isfinite(tf) and tf >= 0.0):
+        return TF
+    if not CP[TT, j] > 0.0:
+        return TT
+    if not _tunable.limits_ok(CP[OUT_MIN, j], CP[OUT_MAX, j]):
+        return OUT_MAX
+    return -1
 
 
 def tracking_time(kp: float, ki: float, kd: float, Tt: float | None) -> float:

@@ -19,9 +19,12 @@ recursion to the limit, 0 < c < 1 is back-calculation (c = k_aw h).
 The operation order follows the published code so that results match it bit for bit.
 """
 
+import math
+
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from .._jit import step_jit
+from . import tunable as _tunable
 from . import variational_gain as vg
 
 # The law's parameters: the gain adaptation's rows, then these. The row constants are the
@@ -44,6 +47,25 @@ AW_COEF = vg.N_PARAMS + 10  # 0 published (winds up), 1 clamp, k_aw h back-calcu
 # derivatives' divisor HD is the published scale, not the period)
 H = vg.N_PARAMS + 11
 N_PARAMS = vg.N_PARAMS + 12
+
+
+def tunable(cp) -> tuple[tuple[str, int, str], ...]:
+    """The rows a running controller may retune, (field, row, what), of a law with the
+    parameter column ``cp`` (:mod:`mfcontrol.laws.tunable`): K_P, the limits and the
+    gain's own (:func:`mfcontrol.laws.variational_gain.tunable`)."""
+    return (("kp", KP, "proportional gain K_P"),
+            ("out_min", OUT_MIN, "lower output limit"),
+            ("out_max", OUT_MAX, "upper output limit, >= out_min"),
+            *vg.tunable(cp[vg.MODE]))
+
+
+def invalid_row(CP, j):
+    """The first row of :func:`tunable` whose value the law is not defined for, or -1."""
+    if not math.isfinite(CP[KP, j]):
+        return KP
+    if not _tunable.limits_ok(CP[OUT_MIN, j], CP[OUT_MAX, j]):
+        return OUT_MAX
+    return vg.invalid_row(CP, j)
 
 # state rows (after the gain adaptation rows)
 U_PREV = vg.N_STATE + 0

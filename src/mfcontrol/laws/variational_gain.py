@@ -48,7 +48,10 @@ rls
 Columns are SoA: ``CP[row, j]`` holds parameters and ``CS[row, j]`` state of member j.
 """
 
+import math
+
 from .._jit import step_jit
+from . import tunable as _tunable
 
 # parameter rows
 MODE = 0
@@ -81,6 +84,39 @@ VARIATIONAL = 1
 EXTERNAL = 2
 RLS = 3
 MODES = {"constant": CONSTANT, "variational": VARIATIONAL, "external": EXTERNAL, "rls": RLS}
+
+
+def tunable(mode: float) -> tuple[tuple[str, int, str], ...]:
+    """The rows of the gain a running controller may retune under ``mode``, (field, row,
+    what) (:mod:`mfcontrol.laws.tunable`): 1/alpha for a constant gain, the adaptation's
+    rows for the variational one; the external gain has none, and the rls gain's alpha,
+    forgetting and clip are checked together where it is built (:func:`rls_problem`), so
+    they stay as built."""
+    if mode == CONSTANT:
+        return (("inv_alpha", INV_ALPHA, "1 / alpha, the constant gain (> 0)"),)
+    if mode == VARIATIONAL:
+        return (("gamma0", GAMMA0, "the variational gain's start"),
+                ("gamma_rate", GAMMA_RATE, "the variational gain's rate Gamma"),
+                ("eps_m", EPS_M, "the variational gain's bound eps_M"))
+    return ()
+
+
+def invalid_row(CP, j):
+    """The first row of :func:`tunable` whose value the gain is not defined for, or -1."""
+    mode = CP[MODE, j]
+    if mode == CONSTANT:
+        inv = CP[INV_ALPHA, j]
+        # alpha itself finite: 1 / inv, tested only once inv > 0
+        if not (_tunable.positive(inv) and math.isfinite(1.0 / inv)):
+            return INV_ALPHA
+    elif mode == VARIATIONAL:
+        if not math.isfinite(CP[GAMMA0, j]):
+            return GAMMA0
+        if not math.isfinite(CP[GAMMA_RATE, j]):
+            return GAMMA_RATE
+        if not math.isfinite(CP[EPS_M, j]):
+            return EPS_M
+    return -1
 #: rls: the prior's variances of F / alpha0 (in u's units) and of alpha / alpha0, the
 #: regression being normalised by the starting alpha0: a standard deviation of 100 u
 #: for F and of 10 alpha0 for alpha, weak against any few samples of data. Their sum

@@ -661,3 +661,88 @@ def test_adrc_estimate_and_components():
     assert c["P"] == pytest.approx(4.0 * (1.0 - 0.3))  # at rest on y_0: y_hat = y_0
     assert ctrl.estimate.shape == (3,)
     assert "ADRC(order=2, b0=1.0" in repr(ctrl)
+
+
+# retune: the controllers of every law family, run a while, then retuned
+_RETUNED = [
+    (lambda: mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01, output_limits=(-5, 5)),
+     {"kp": 1.0, "ki": 3.0}),
+    (lambda: mfcontrol.ADRC(order=1, b0=3.0, wc=5.0, wo=20.0, sample_time=0.01),
+     {"wc": 8.0, "b0": 2.0}),
+    (lambda: IPI(alpha=10.0, kp=2.0, ki=1.0, sample_time=0.01), {"kp": 3.0, "alpha": 8.0}),
+    (lambda: IPID(alpha=10.0, kp=2.0, ki=1.0, kd=0.1, sample_time=0.01, estimator="algebraic",
+                  window=10), {"kd": 0.2}),
+    (lambda: RecursiveIP(alpha=10.0, kp=2.0, sample_time=0.01), {"kp": 3.0, "alpha": 5.0}),
+]
+
+
+def _run(ctrl, n=30, start=0):
+    return [ctrl(0.5 + 0.01 * math.sin(k), setpoint=1.0) for k in range(start, start + n)]
+
+
+@pytest.mark.parametrize("make,changes", _RETUNED)
+def test_a_retune_is_bumpless_and_is_a_controller_built_with_the_new_parameters(make,
+                                                                                changes):
+    """retune(): the next output continues from the last one (the law restarts from it,
+    as a manual-to-automatic switch does), and from there on the controller is one built
+    with the new parameters and switched the same way, bit for bit."""
+    ctrl = make()
+    _run(ctrl)
+    last = ctrl.last_output
+    ctrl.retune(**changes)
+    after = _run(ctrl, 40, 30)
+    rebuilt = type(ctrl)(**{**make()._params, **changes})
+    rebuilt.set_auto_mode(False, last_output=last)
+    rebuilt.set_auto_mode(True)
+    assert after == _run(rebuilt, 40, 30)
+    assert after[0] == pytest.approx(last, abs=0.2 * (1 + abs(last)))
+    plain = make()
+    _run(plain)
+    assert after != _run(plain, 40, 30)  # the new parameters act
+    # a snapshot carries the new parameters
+    clone = type(ctrl).from_snapshot(ctrl.snapshot())
+    assert _run(clone, 5, 70) == _run(ctrl, 5, 70)
+
+
+def test_a_refused_retune_changes_nothing():
+    ctrl = mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01, output_limits=(-5, 5))
+    _run(ctrl)
+    before = json.dumps(ctrl.snapshot())
+    for changes, needle in [({"kp": math.nan}, "kp = nan"), ({"kd": -1.0}, "sign of kp"),
+                            ({"N": 0.0}, "N = 0.0"), ({"sample_time": 0.1}, "period"),
+                            ({"setpoint": 2.0}, "setpoint"),
+                            ({"output_limits": (3, 1)}, "output_limits")]:
+        with pytest.raises(ValueError, match=needle):
+            ctrl.retune(**changes)
+        assert json.dumps(ctrl.snapshot()) == before
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        ctrl.retune(gain=1.0)
+
+
+@pytest.mark.parametrize("make,changes", [
+    (lambda: IPI(alpha=10.0, kp=2.0, ki=1.0, sample_time=0.01, estimator="algebraic",
+                 window=10), {"window": 20}),
+    (lambda: IPI(alpha=10.0, kp=2.0, ki=1.0, sample_time=0.01), {"anti_windup": "none"}),
+    (lambda: IPI(alpha=10.0, kp=2.0, ki=1.0, sample_time=0.01), {"order": 2, "kp": 3.0}),
+    (lambda: mfcontrol.ADRC(order=1, b0=3.0, wc=5.0, wo=20.0, sample_time=0.01),
+     {"delay": 2}),
+])
+def test_what_fixes_the_law_s_structure_is_not_retuned(make, changes):
+    ctrl = make()
+    _run(ctrl)
+    before = json.dumps(ctrl.snapshot())
+    key = next(iter(changes))
+    with pytest.raises(ValueError, match=f"{key} = .*fixes the law's structure"):
+        ctrl.retune(**changes)
+    assert json.dumps(ctrl.snapshot()) == before
+
+
+def test_a_retune_in_manual_clamps_the_held_output_and_auto_restarts_from_it():
+    ctrl = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.01, output_limits=(-5, 5))
+    _run(ctrl)
+    ctrl.set_auto_mode(False, last_output=4.0)
+    ctrl.retune(output_limits=(-2, 2))
+    assert ctrl.last_output == 2.0 and not ctrl.auto_mode
+    assert ctrl(0.3, setpoint=1.0) == 2.0  # manual: held
+    ctrl.set_auto_mode(True)
+    assert ctrl(0.3, setpoint=1.0) == 2.0  # bumpless from the clamped output

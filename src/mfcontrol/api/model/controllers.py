@@ -299,6 +299,76 @@ class _Controller:
             self._last_output = self._limited(_number("last_output", last_output))
         self.auto_mode = bool(enabled)
 
+    #: the law's module in :mod:`mfcontrol.laws` (its tunable rows: :meth:`retune`)
+    _LAW: Any
+
+    #: keywords :meth:`retune` refuses: what is not a parameter of the law, or is built in
+    _NOT_RETUNED = {"sample_time": "the period is built in", "setpoint":
+                    "set the setpoint attribute, or pass it with a sample",
+                    "input_limits": "the measurement's range is built in"}
+
+    def retune(self, **changes: Any) -> None:
+        """Change parameters while the controller runs: gains, output limits and the
+        other tunable ones (:mod:`mfcontrol.laws.tunable`), by the constructor's keywords
+        and checked as it checks them (a refused value changes nothing). In automatic
+        mode the law then restarts from the last output, bumpless, as
+        :meth:`set_auto_mode` does; in manual mode the held output is clamped to the new
+        limits. The counters stay. A keyword that fixes the law's structure (its order,
+        estimator, window, kernel, anti-windup kind, gain mode, delay, the period) is
+        refused: build a new controller. The exported C's ``PREFIX_set_params`` does the
+        same (:mod:`mfcontrol.cexport`).
+
+        Examples
+        --------
+        >>> import mfcontrol
+        >>> ctrl = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1)
+        >>> ctrl(0.0, setpoint=1.0)
+        2.0
+        >>> ctrl.retune(kp=1.0)
+        >>> ctrl(0.0, setpoint=1.0), round(ctrl(0.0, setpoint=1.0), 6)
+        (2.0, 2.1)
+
+        The output does not jump: the integral takes up what P gave up, then integrates.
+        """
+        for key in changes:
+            if key in self._NOT_RETUNED:
+                raise ValueError(f"{key}: not retuned ({self._NOT_RETUNED[key]})")
+        cls = type(self)
+        new = cls(**{**self._params, **changes})  # every check the constructor makes
+        # the rows as built (a bumpless start rewrites the recursive law's start row)
+        before, after = cls(**self._params)._CP[:, 0], new._CP[:, 0]
+        tunable = {row for _, row, _ in self._LAW.tunable(after)}
+
+        def fixed_rows_differ(cp) -> bool:
+            return cp.shape != before.shape or any(
+                not (cp[r] == before[r] or (cp[r] != cp[r] and before[r] != before[r]))
+                for r in range(len(cp)) if r not in tunable)
+
+        if fixed_rows_differ(after) or new._CS.shape != self._CS.shape:
+            at_fault = []
+            for key, value in changes.items():
+                try:
+                    alone = cls(**{**self._params, key: value})
+                except (TypeError, ValueError):
+                    continue
+                if fixed_rows_differ(alone._CP[:, 0]) or alone._CS.shape != self._CS.shape:
+                    at_fault.append(key)
+            keys = ", ".join(f"{k} = {shown(changes[k])}" for k in at_fault or changes)
+            raise ValueError(f"{keys}: fixes the law's structure (its state or its "
+                             f"branches), not retuned: build a new {cls.__name__}")
+        self._params = new._params
+        self._CP[:, 0] = after  # in place: the compiled step holds the array
+        self._adopt(new)
+        if self.auto_mode:
+            self._bumpless_start(self._last_output)
+            self._skipped = 0.0
+            self._overflows = 0
+        else:
+            self._last_output = self._limited(self._last_output)
+
+    def _adopt(self, new: Self) -> None:
+        """Take what ``new``, built with the retuned parameters, holds beside its rows."""
+
     #: the parameter rows of the output limits (every law has them; +-inf when not set)
     _OUT_ROWS: tuple[int, int]
 
@@ -582,6 +652,7 @@ class IntelligentController(_Sampled):
 
     _OUT_ROWS = (intelligent.OUT_MIN, intelligent.OUT_MAX)
     _KERNEL = ("intelligent_step", 4)
+    _LAW = intelligent
 
     def __init__(self, alpha: float, kp: float = 0.0, ki: float = 0.0, kd: float = 0.0, *,
                  sample_time: float, order: int = 1,
@@ -720,7 +791,9 @@ class IntelligentController(_Sampled):
         cp = self._CP[:, 0]
         cp[gain_law.MODE] = gain_law.MODES[gain]
         cp[gain_law.INV_ALPHA] = 1 / alpha
-        cp[gain_law.GAMMA0] = 1 / alpha if params["gamma0"] is None else params["gamma0"]
+        if gain == "variational":  # its start (default 1/alpha): no other gain reads it,
+            # so that a retune of alpha moves no row the law does not retune
+            cp[gain_law.GAMMA0] = 1 / alpha if params["gamma0"] is None else params["gamma0"]
         cp[gain_law.GAMMA_RATE] = params["Gamma"]
         cp[gain_law.EPS_M] = params["eps_M"]
         cp[gain_law.ORDER] = 2.0 if integrator == "second-order" else 1.0
@@ -1046,6 +1119,7 @@ class RecursiveIP(_Controller):
 
     _OUT_ROWS = (recursive_ip.OUT_MIN, recursive_ip.OUT_MAX)
     _KERNEL = ("recursive_step", 2)
+    _LAW = recursive_ip
 
     def __init__(self, alpha: float = 10.0, kp: float = 2.0, *, setpoint: float = 0.0,
                  sample_time: float | None = None,
@@ -1095,6 +1169,9 @@ class RecursiveIP(_Controller):
         self._u0 = float(self._CP[recursive_ip.U0, 0])  # the start as built
         self._bind()
         self._reset_state()
+
+    def _adopt(self, new: Self) -> None:
+        self._u0 = new._u0  # its start as built
 
     def _reset_state(self) -> None:
         # a bumpless start rewrites the law's u0 (its first raw output): a reset undoes it
@@ -1200,10 +1277,8 @@ input_limits : (low, high)
 
 class _TermsLaw(_Sampled):
     """A sampled law called with (y, setpoint, dt) whose memory records the terms of its
-    last output (the PID, the ADRC): the call, the restarts and ``components``, once."""
-
-    #: the law's module (:mod:`mfcontrol.laws`): its COMPONENTS and C_UNLIM rows
-    _LAW: Any
+    last output (the PID, the ADRC): the call, the restarts and ``components`` (from its
+    law's COMPONENTS and C_UNLIM rows), once."""
 
     def _restart(self, start: float) -> None:  # pragma: no cover
         """Reset the law's memory; ``start`` (NaN: none) is its first output."""
