@@ -344,10 +344,14 @@ def _cmd_export_c(args) -> int:
         low, high = (_limit("--input-limits", text) for text in args.input_limits)
         limits = (low, high)
         sets += f" --input-limits {' '.join(args.input_limits)}"
+    if args.frozen:
+        sets += " --frozen"
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
-                              description=f"case {args.case}{sets}", input_limits=limits)
-    print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}); compile "
-          f"with: cc {' '.join(CFLAGS)} -c {source}")
+                              description=f"case {args.case}{sets}", input_limits=limits,
+                              frozen=args.frozen)
+    build = "frozen" if args.frozen else f"tunable with {args.prefix}_set_params"
+    print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}, {build}); "
+          f"compile with: cc {' '.join(CFLAGS)} -c {source}")
     key = cfg["sweep.key"]
     if key is not None:  # the controller of one setting, not of the sweep: said, not silent
         print(f"note: {name} sweeps {key}; this is the controller of its base setting, "
@@ -528,6 +532,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--input-limits", nargs=2, metavar=("LOW", "HIGH"),
                    help="the measurement's valid range (the sensor's; 'none' for no limit): "
                    "a sample outside is rejected as a NaN is, the output held")
+    s.add_argument("--frozen", action="store_true",
+                   help="every parameter a constant folded into the code, no "
+                   "PREFIX_set_params (default: gains and limits in a parameter struct, "
+                   "checked and changed at run time)")
     s.set_defaults(func=_cmd_export_c)
 
     s = sub.add_parser("tuner", help="tune a case interactively in the browser: sliders, "

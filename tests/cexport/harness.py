@@ -1,9 +1,11 @@
 """Compile an exported controller and drive it with the same operations as the Python one.
 
 An operation is a row ``(op, a, b)``: op 0 steps with y = a and setpoint = b, op 1 switches
-to manual with output a, op 2 back to automatic. The binary reads the rows from stdin as
-doubles and writes, as doubles, the output of every step and finally the nan_count; given
-a file name, it writes its final state's memory there (as doubles).
+to manual with output a, op 2 back to automatic, op 3 sets the parameters (``set_params``)
+to the values in the rows that follow, three a row (:func:`set_params_rows`). The binary
+reads the rows from stdin as doubles and writes, as doubles, the output of every step and
+the return code of every op 3, and finally the nan_count; given a file name, it writes its
+final state's memory there (as doubles).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from mfcontrol.cexport import CFLAGS as EXPORT_FLAGS
 #: the flags the export recommends, with every warning a firmware build turns on an error
 CFLAGS = [*EXPORT_FLAGS, "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion",
           "-Wdouble-promotion", "-Wshadow"]
-STEP, MANUAL, AUTO = 0.0, 1.0, 2.0
+STEP, MANUAL, AUTO, SET_PARAMS = 0.0, 1.0, 2.0, 3.0
 
 _MAIN = r"""
 #include <stdio.h>
@@ -39,7 +41,8 @@ int main(int argc, char **argv)
             fwrite(&u, sizeof u, 1, stdout);
         } else if (row[0] == 1.0) {
             @P@_set_manual(&s, (@P@_real)row[1]);
-        } else {
+        } else if (row[0] == 3.0) {
+@SET@        } else {
             @P@_set_auto(&s);
         }
     }
@@ -59,6 +62,28 @@ int main(int argc, char **argv)
     return 0;
 }
 """
+
+
+def _set_params_c(src) -> str:
+    """main's op 3: read the members' values, three a row, then call set_params."""
+    if not src.fields:
+        return "            return 2; /* a frozen export has no setter */\n"
+    n_rows = -(-len(src.fields) // 3)
+    sets = "".join(f"            p.{name} = (@P@_real)v[{i}];\n"
+                   for i, name in enumerate(src.fields))
+    return ("            @P@_params p;\n"
+            f"            double v[{3 * n_rows}], rc;\n"
+            f"            if (fread(v, sizeof v, 1, stdin) != 1) return 3;\n{sets}"
+            "            rc = (double)@P@_set_params(&s, &p);\n"
+            "            fwrite(&rc, sizeof rc, 1, stdout);\n")
+
+
+def set_params_rows(src, values: dict[str, float], index: int) -> np.ndarray:
+    """The rows of an op 3 that sets the export's parameters to ``values`` (every member
+    of ``src.fields``); ``index`` (its row's a) names it for :func:`run_python`."""
+    v = [values[name] for name in src.fields]
+    v += [0.0] * (-len(v) % 3)
+    return np.vstack([[SET_PARAMS, index, 0.0], np.reshape(v, (-1, 3))])
 
 
 def compiler() -> str:
@@ -82,7 +107,8 @@ def build(src, folder: Path, *, shared: bool = False, flags: tuple[str, ...] = (
         out = folder / f"lib{src.prefix}.so"
         extra = ["-shared", "-fPIC"]
     else:
-        (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix)
+        (folder / "main.c").write_text(_MAIN.replace("@SET@", _set_params_c(src))
+                                       .replace("@P@", src.prefix)
                                        .replace("@PU@", src.prefix.upper()))
         files.append(str(folder / "main.c"))
         out = folder / src.prefix
@@ -108,14 +134,27 @@ def run_binary(exe: Path, ops: np.ndarray, state: Path | None = None
     return out[:-1], int(out[-1])
 
 
-def run_python(ctrl, ops: np.ndarray) -> tuple[np.ndarray, int]:
+def run_python(ctrl, ops: np.ndarray, retunes=()) -> tuple[np.ndarray, int]:
     """The same operations on the live Python controller. Where the live controller
     refuses a value with an exception (a non-finite setpoint or manual output), the C,
     which cannot raise, rejects and counts it: the Python side does what the C does (a
-    rejected sample, a manual mode that keeps the last output) and counts it too."""
+    rejected sample, a manual mode that keeps the last output) and counts it too.
+    An op 3 is ``ctrl.retune(**changes)`` with ``(changes, code) = retunes[a]``: code 0 is
+    taken (what the C returns), another is the C's code for a set the Python refuses."""
     out, refused = [], 0
-    for op, a, b in ops:
-        if op == STEP:
+    rows = iter(ops)
+    for op, a, b in rows:
+        if op == SET_PARAMS:
+            changes, code = retunes[int(a)]
+            for _ in range(-(-len(ctrl._LAW.tunable(ctrl._CP[:, 0])) // 3)):
+                next(rows)  # the C's values
+            if code == 0:
+                ctrl.retune(**changes)
+            else:
+                with pytest.raises(ValueError):
+                    ctrl.retune(**changes)
+            out.append(float(code))
+        elif op == STEP:
             if np.isfinite(b):
                 out.append(ctrl(float(a), setpoint=float(b)))
             else:  # a rejected sample, as a NaN measurement is

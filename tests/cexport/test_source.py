@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import inspect
 import math
 import re
 
@@ -357,10 +358,11 @@ def test_the_files_say_what_they_hold():
     assert "/* mfcontrol.laws.estimators.push_spread */" in src.source
     assert "#include <math.h>" in src.source
     assert "malloc" not in src.source and "static mfc" not in src.source
-    # no file-scope state: the only static data is the const parameter table
+    # no file-scope state: the only data are the const parameter table and defaults
     for line in src.source.splitlines():
-        if line.startswith("static") and "(" not in line:
-            assert line.startswith("static const motor_real motor_params[")
+        if line.startswith(("static", "const")) and "(" not in line:
+            assert line.startswith(("static const motor_real motor_fixed[",
+                                    "const motor_params motor_default_params = {"))
 
 
 def test_a_non_finite_manual_output_is_not_taken(tmp_path):
@@ -732,15 +734,135 @@ def test_a_build_that_removes_the_guards_is_refused(flag, tmp_path):
 
 
 def test_a_reviewer_reads_the_rows_by_their_names():
-    """Issue 33: parameters and state were unnamed rows (params[12], cs[17]). Every row
-    the C reads by a constant has the name the law's Python gives it, as an enum constant
-    PREFIX_MODULE_NAME, and the parameter table says which row is which."""
-    src = c_source(mfcontrol.make_controller("motor-noise-pid"))
-    assert "    0.2 /* 0: MFC_PID_KP */," in src.source
-    assert "MFC_PID_KP" in src.source and "mfc_params[MFC_PID_OUT_MIN]" in src.source
+    """Issue 33: parameters and state were unnamed rows (params[12], cs[17]). A tunable
+    parameter is a named member of the parameter struct (cp->kp, s->params.out_min); every
+    other row the C reads by a constant has the name the law's Python gives it, as an enum
+    constant PREFIX_MODULE_NAME, and the fixed table says which row is which."""
+    pid_ctrl = mfcontrol.make_controller("motor-noise-pid")
+    src = c_source(pid_ctrl)
+    assert "    mfc_real kp;" in src.header and "    mfc_real out_max;" in src.header
+    assert "cp->kp" in src.source and "s->params.out_min" in src.source
+    assert "    0.2 /* kp */," in src.source  # the defaults, by name
     assert "cs[MFC_PID_Y_OLD]" in src.source
+    # every PID row is tunable: no fixed table
+    assert "mfc_fixed" not in src.source
+    frozen = c_source(pid_ctrl, frozen=True).source
+    assert "    0.2 /* 0: MFC_PID_KP */," in frozen
+    assert "mfc_fixed[MFC_PID_OUT_MIN]" in frozen and "cp->" not in frozen
     # a number in brackets only where the table is declared
-    assert re.findall(r"mfc_params\[\d+", src.source) == ["mfc_params[10"]
+    assert re.findall(r"mfc_fixed\[\d+", frozen) == ["mfc_fixed[10"]
     algebraic = c_source(mfcontrol.make_controller(INTELLIGENT)).source
     assert "MFC_ESTIMATORS_COUNT" in algebraic and "MFC_INTELLIGENT_U1" in algebraic
-    assert len(re.findall(r"mfc_params\[\d", algebraic)) == 1
+    assert "mfc_fixed[MFC_INTELLIGENT_M_WIN]" in algebraic and "cp->kp" in algebraic
+    assert len(re.findall(r"mfc_fixed\[\d", algebraic)) == 1
+
+
+# (case, overrides, the retune: the constructor's keywords as functions of its parameters)
+RETUNES = [
+    ("motor-noise-pid", {}, lambda p: {"kp": 1.5 * p["kp"], "ki": 0.5 * p["ki"],
+                                       "output_limits": [-12.0, 12.0]}),
+    ("motor-noise-pid", {"controller.kd": 0.05, "controller.Tt": 0.2},
+     lambda p: {"kd": 0.02, "N": 8.0, "b": 0.7, "c": 0.5, "Tf": 0.002}),
+    ("motor-noise-adrc", {"controller.order": 2, "controller.wc": 15.0,
+                          "controller.wo": 60.0, "controller.delay": 3},
+     lambda p: {"wc": 12.0, "wo": 50.0, "b0": 1.2 * p["b0"]}),
+    (INTELLIGENT, {}, lambda p: {"kp": 1.5 * p["kp"], "ki": 0.7 * p["ki"],
+                                 "alpha": 1.2 * p["alpha"]}),
+    (INTELLIGENT, {"controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5,
+                   "controller.estimator": "backward-difference",
+                   "controller.anti_windup": "back-calculation"},
+     lambda p: {"kd": 0.3, "k_aw": 3.0, "output_limits": [-5.0, 5.0]}),
+    (RECURSIVE, {}, lambda p: {"kp": 1.2 * p["kp"], "alpha": 0.8 * p["alpha"]}),
+    (RECURSIVE, {"controller.law": "variational"},
+     lambda p: {"Gamma": 2.0 * p["Gamma"], "eps_M": 0.5 * p["eps_M"]}),
+]
+
+
+def _values(ctrl) -> dict[str, float]:
+    """The export's parameter members as the live controller holds them."""
+    cp = ctrl._CP[:, 0]
+    return {name: float(cp[row]) for name, row, _ in ctrl._LAW.tunable(cp)}
+
+
+@pytest.mark.parametrize("case,over,retune", RETUNES,
+                         ids=[_id((c, o)) for c, o, _ in RETUNES])
+def test_parameters_set_at_run_time_are_the_python_retune_bit_for_bit(case, over, retune,
+                                                                        tmp_path):
+    """Issue 33: gains and limits change at run time. The C's set_params equals the live
+    controller's retune(): the same bumpless restart from the last output in automatic,
+    the held output clamped in manual, a refused set (the member at fault returned) that
+    changes nothing; then the same bits at every later sample."""
+    ctrl = mfcontrol.make_controller(case, over)
+    src = c_source(ctrl)
+    changes = retune(ctrl._params)
+    retuned = type(ctrl)(**{**ctrl._params, **changes})
+    defaults = inspect.signature(type(ctrl)).parameters
+    back = {k: ctrl._params.get(k, getattr(defaults.get(k), "default", None)) for k in changes}
+    first = src.fields[0]  # kp, or the ADRC's b0: a NaN there is refused with code 1
+    key = {"kp": "kp", "b0": "b0"}[first]
+    bad = {**_values(ctrl), first: math.nan}
+    y, r = closed_loop(case)
+    ops = np.vstack([
+        H.steps(y[:600], r[:600]),
+        H.set_params_rows(src, _values(retuned), 0), H.steps(y[600:900], r[600:900]),
+        H.set_params_rows(src, bad, 1), H.steps(y[900:1000], r[900:1000]),
+        [(H.MANUAL, float(np.median(r)), 0.0)],
+        H.set_params_rows(src, _values(ctrl), 2),  # back, in manual
+        [(H.AUTO, 0.0, 0.0)], H.steps(y[1000:1200], r[1000:1200]),
+    ])
+    exe = H.build(src, tmp_path)
+    c_out, c_nan = H.run_binary(exe, ops)
+    py_ctrl = mfcontrol.make_controller(case, over)
+    py_out, py_nan = H.run_python(py_ctrl, ops, [
+        (changes, 0), ({key: math.nan}, 1), (back, 0)])
+    np.testing.assert_array_equal(c_out, py_out)
+    assert c_nan == py_nan
+    # the retune took: the outputs after it differ from a run without it
+    plain, _ = H.run_python(mfcontrol.make_controller(case, over), H.steps(y[:900], r[:900]))
+    assert not np.array_equal(plain[600:], np.delete(py_out, 600)[600:900])
+
+
+@pytest.mark.parametrize("variant", VARIANTS, ids=[_id(v) for v in VARIANTS])
+def test_the_setters_check_is_the_laws_invalid_row(variant, tmp_path):
+    """The C's check of a parameter set is the law's invalid_row, translated: for sets with
+    NaN, infinities, zeros, signs and limits out of order in every member, the code
+    set_params returns names the member invalid_row names (0: taken)."""
+    ctrl = mfcontrol.make_controller(*variant)
+    src = c_source(ctrl)
+    cp = ctrl._CP[:, 0]
+    tunable = ctrl._LAW.tunable(cp)
+    rng = np.random.default_rng(3)
+    special = [math.nan, math.inf, -math.inf, 0.0, -0.0, -1.0, 1.0, 1e-300, 1e300, -2.5]
+    base = _values(ctrl)
+    sets = [base]
+    for name in src.fields:
+        sets += [{**base, name: v} for v in special]
+    for _ in range(60):  # two members at once
+        a, b = rng.choice(len(src.fields), 2, replace=False)
+        sets.append({**base, src.fields[a]: rng.choice(special),
+                     src.fields[b]: rng.choice(special)})
+    expected = []
+    for values in sets:
+        col = cp.copy()
+        for name, row, _ in tunable:
+            col[row] = values[name]
+        row = ctrl._LAW.invalid_row(col[:, None], 0)
+        expected.append(0 if row < 0 else 1 + [r for _, r, _ in tunable].index(row))
+    # every set tried on the exported state as built: set, then back to the base set
+    ops = np.vstack([np.vstack([H.set_params_rows(src, v, 0),
+                                H.set_params_rows(src, base, 0)]) for v in sets])
+    out, _ = H.run_binary(H.build(src, tmp_path), ops)
+    assert out[::2].tolist() == expected and not out[1::2].any()
+    assert expected[0] == 0 and any(expected)
+
+
+def test_a_frozen_export_folds_every_parameter_and_computes_the_same(tmp_path):
+    """--frozen: every row a constant, no parameter struct and no setter; the same bits."""
+    ctrl = mfcontrol.make_controller("motor-noise-pid", {"controller.kd": 0.05})
+    frozen, tunable = c_source(ctrl, frozen=True), c_source(ctrl)
+    assert "set_params" not in frozen.header and not frozen.fields
+    assert "mfc_set_params" in tunable.header
+    ops = operations("motor-noise-pid")
+    a, _ = H.run_binary(H.build(frozen, tmp_path / "frozen"), ops)
+    b, _ = H.run_binary(H.build(tunable, tmp_path / "tunable"), ops)
+    np.testing.assert_array_equal(a, b)

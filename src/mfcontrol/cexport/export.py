@@ -16,12 +16,16 @@ from .source import CSource, c_source
 def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | None = None, *,
              out: str | Path = ".", prefix: str = "mfc", real: str = "double",
              description: str | None = None,
-             input_limits: tuple[float | None, float | None] | None = None
-             ) -> tuple[Path, Path]:
+             input_limits: tuple[float | None, float | None] | None = None,
+             frozen: bool = False) -> tuple[Path, Path]:
     """Write the controller of a case as C99: ``OUT/PREFIX.h`` and ``OUT/PREFIX.c``.
 
-    The C is translated from the same law functions the simulators run, with every
-    parameter baked in as a constant; compiled without floating-point contraction
+    The C is translated from the same law functions the simulators run. The law's
+    tunable parameters (gains, limits: :mod:`mfcontrol.laws.tunable`) are named members
+    of ``PREFIX_params``, which ``PREFIX_set_params`` checks and changes at run time as
+    the live controller's ``retune`` does; the rows that fix the law's structure are
+    constants the compiler folds (every row with ``frozen``). Compiled without
+    floating-point contraction
     (``cc -std=c99 -O2 -ffp-contract=off``), the double build returns what
     :func:`mfcontrol.make_controller` returns, bit for bit, for any sequence of
     measurements, setpoints and manual/automatic switches.
@@ -46,6 +50,8 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
         The measurement's valid range (the sensor's; None for no limit) given to a case's
         controller: a sample outside is rejected as a NaN is. A controller built in Python
         takes its own ``input_limits=``.
+    frozen : bool
+        Every parameter a constant and no setter (the least code).
 
     Returns
     -------
@@ -61,11 +67,14 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
     ('motor.h', 'motor.c')
     >>> print(next(line for line in h.read_text().splitlines() if "motor_step(" in line))
     motor_real motor_step(motor_state *s, motor_real y, motor_real setpoint);
+    >>> print(next(line for line in h.read_text().splitlines() if "_set_params(" in line))
+    int motor_set_params(motor_state *s, const motor_params *p);
 
-    ``motor_real`` is ``double`` here and ``float`` with ``real="float"``.
+    ``motor_real`` is ``double`` here and ``float`` with ``real="float"``; ``motor_params``
+    holds ``kp``, ``ki``, ``inv_alpha`` (1 / alpha) and the output limits.
     """
     src = source_of(case, overrides, prefix=prefix, real=real, description=description,
-                    input_limits=input_limits)
+                    input_limits=input_limits, frozen=frozen)
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     header, source = folder / f"{prefix}.h", folder / f"{prefix}.c"
@@ -76,7 +85,8 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
 
 def source_of(case, overrides=None, *, prefix: str = "mfc", real: str = "double",
               description: str | None = None,
-              input_limits: tuple[float | None, float | None] | None = None) -> CSource:
+              input_limits: tuple[float | None, float | None] | None = None,
+              frozen: bool = False) -> CSource:
     """The :class:`CSource` :func:`export_c` writes."""
     from ..experiments.cases import make_controller
 
@@ -87,7 +97,8 @@ def source_of(case, overrides=None, *, prefix: str = "mfc", real: str = "double"
         if input_limits is not None:
             raise ConfigError("input_limits", input_limits, "build the controller with "
                               "input_limits=, not its export")
-        return c_source(case, prefix=prefix, real=real, description=description or repr(case))
+        return c_source(case, prefix=prefix, real=real, frozen=frozen,
+                        description=description or repr(case))
     ctrl = make_controller(case, overrides)
     if input_limits is not None:
         try:
@@ -97,5 +108,5 @@ def source_of(case, overrides=None, *, prefix: str = "mfc", real: str = "double"
                               str(exc).partition(": ")[2]) from None
     what = case if isinstance(case, str | Path) else getattr(case, "name", "a configuration")
     sets = "".join(f" --set {k}={v!r}" for k, v in (overrides or {}).items())
-    return c_source(ctrl, prefix=prefix, real=real, key_prefix="controller.",
+    return c_source(ctrl, prefix=prefix, real=real, key_prefix="controller.", frozen=frozen,
                     description=description or f"case {what}{sets}")

@@ -15,6 +15,7 @@ import math
 import re
 import textwrap
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -61,8 +62,10 @@ class CSource:
     real: str
     header: str
     source: str
-    law: str  # the law family: "intelligent", "recursive" or "pid"
+    law: str  # the law family: "intelligent", "recursive", "pid" or "adrc"
     n_state: int
+    #: the members of ``PREFIX_params``, in order (empty for a frozen export)
+    fields: tuple[str, ...] = ()
 
 
 def check_prefix(prefix: str) -> str:
@@ -107,10 +110,15 @@ def _check_float_range(ctrl, cp, key_prefix: str) -> None:
 
 
 def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: str = "",
-             key_prefix: str = "") -> CSource:
+             key_prefix: str = "", frozen: bool = False) -> CSource:
     """Translate a live controller (``IP``, ``IPI``, ``IPD``, ``IPID``, ``PID``, ``ADRC``
     or ``RecursiveIP``) into C99. The C starts as the controller would if built afresh with
     its parameters (a manual/automatic switch the object went through is not exported).
+
+    The law's tunable rows (:mod:`mfcontrol.laws.tunable`: gains, limits) are members of
+    a parameter struct in the state, which ``PREFIX_set_params`` checks and changes at run
+    time; the rows that fix the law's structure are constants the compiler folds. With
+    ``frozen`` every row is a constant and there is no setter.
 
     ``description`` goes into the files' leading comment (the case it came from);
     ``key_prefix`` (``"controller."`` for a case) goes before a keyword an error names."""
@@ -124,11 +132,17 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     cp = ctrl._CP[:, 0]
     if real == "float":
         _check_float_range(ctrl, cp, key_prefix)
-    table = f"{prefix}_params"
-    options = Options(prefix, real, table, law.state_rows, law.replace)
+    table = f"{prefix}_fixed"
+    tunable = () if frozen else law.module.tunable(cp)
+    fields = None if frozen else {row: name for name, row, _ in tunable}
+    options = Options(prefix, real, table, law.state_rows, law.replace, fields)
     tr = Translator(options)
     step = tr.function(law.step, law.step_kinds)
     reset = tr.function(law.reset, law.reset_kinds)
+    roots = [step, reset]
+    if not frozen:
+        invalid = tr.function(law.module.invalid_row, (CP, J))
+        roots.append(invalid)
     n_cs = ctrl._CS.shape[0] + len(law.state_rows) + law.extra_rows
     dt = ctrl.sample_time
     lo, hi = ctrl.input_limits
@@ -144,31 +158,78 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         "DT": options.literal(dt if dt is not None else 0.0),
     }
     # the law's pieces first (they hold @-names the second pass fills)
-    parts = {"SAVE": law.save, "RESTORE": law.restore, "FINITE": law.finite, "INIT": law.init,
+    parts = {"INIT_PARAMS": "" if frozen else "    s->params = @P@_default_params;\n",
+             "SAVE": law.save, "RESTORE": law.restore, "FINITE": law.finite, "INIT": law.init,
              "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip,
              "SKIP_INNER": textwrap.indent(law.skip, "    "),
              "CLAMP_U": _clamp(law.limits, "u", "        ")}
     driver = _fill(_fill(_DRIVER, parts), subs)
-    # the parameter rows the driver reads (the output limits) by the names the law uses
-    driver = re.sub(rf"\b{table}\[(\d+)\]",
-                    lambda m: f"{table}[{tr.param_names.get(int(m[1]), m[1])}]", driver)
-    banner = _banner(prefix, real, law, ctrl, description)
+    if not frozen:
+        driver += _fill(_fill(_SETTER, {
+            "INVALID": invalid.name,
+            "CLAMP_OUT": _clamp(law.limits, "s->last_output", "        "),
+            "FIELD_OF": "".join(f"    case {row}: return {prefix.upper()}_FIELD_{name.upper()};\n"
+                                for name, row, _ in tunable)}), subs)
+        # the translated law takes the parameter struct first
+        driver = re.sub(rf"\b({step.name}|{reset.name})\(s->cs", r"\1(&s->params, s->cs",
+                        driver)
+
+    def row_read(m):  # a parameter row the driver reads (the output limits)
+        row = int(m[1])
+        if fields is not None and row in fields:
+            return f"s->params.{fields[row]}"
+        return f"{table}[{tr.param_names.get(row, row)}]"
+
+    driver = re.sub(rf"\b{table}\[(\d+)\]", row_read, driver)
+    banner = _banner(prefix, real, law, ctrl, description, frozen)
     period = (f"/* sample period (s) the law was built for: call {prefix}_step once per "
               f"period */\n#define {prefix.upper()}_SAMPLE_TIME {options.literal(dt)}"
               if dt is not None else
               "/* no sample period: the law takes its samples as equally spaced */")
+    code = tr.source(roots)
     header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"MFCONTROL_{prefix}_H",
-                             "REAL": real, "PERIOD": period})
-    rows = ",\n".join(f"    {options.literal(float(v))} /* {i}"
-                       f"{': ' + tr.param_names[i] if i in tr.param_names else ''} */"
-                       for i, v in enumerate(cp))
-    source = (f"{banner}\n"
-              f"#include <math.h>\n#include \"{prefix}.h\"\n\n"
-              f"{_fill(_CHECKS[real], {'P': prefix})}\n\n"
-              f"/* the law's parameters, rows of mfcontrol.laws ({law.name}) */\n"
-              f"static const {prefix}_real {table}[{len(cp)}] = {{\n{rows}\n}};\n\n"
-              f"{tr.source([step, reset])}\n\n{driver}")
-    return CSource(prefix, real, header, source, law.name, n_cs)
+                             "REAL": real, "PERIOD": period,
+                             "PARAMS": "" if frozen else _params_header(prefix, tunable, law),
+                             "STATE_PARAMS": "" if frozen else _STATE_PARAMS,
+                             "SET_PARAMS": "" if frozen else _SET_PARAMS_DECL})
+    header = _fill(header, subs)
+    parts_c = [f"{banner}\n#include <math.h>\n#include \"{prefix}.h\"",
+               _fill(_CHECKS[real], {"P": prefix})]
+    if re.search(rf"\b{table}\[", code + driver):
+        # the rows that fix the law's structure (every row in a frozen build): constants,
+        # folded into the code
+        rows = ",\n".join(f"    {options.literal(float(v))} /* {i}"
+                           f"{': ' + tr.param_names[i] if i in tr.param_names else ''} */"
+                           for i, v in enumerate(cp))
+        what = "parameters" if frozen else "fixed parameters (its structure)"
+        parts_c.append(f"/* the law's {what}, rows of mfcontrol.laws ({law.name}) */\n"
+                       f"static const {prefix}_real {table}[{len(cp)}] = {{\n{rows}\n}};")
+    if not frozen:
+        values = ",\n".join(f"    {options.literal(float(cp[row]))} /* {name} */"
+                             for name, row, _ in tunable)
+        parts_c.append(f"/* the parameters exported (mfcontrol.laws.{law.module_name} rows, "
+                       f"by name) */\nconst {prefix}_params {prefix}_default_params = "
+                       f"{{\n{values}\n}};")
+    source = "\n\n".join([*parts_c, code, driver])
+    return CSource(prefix, real, header, source, law.name, n_cs,
+                   tuple(name for name, _, _ in tunable))
+
+
+def _params_header(prefix: str, tunable, law) -> str:
+    width = max(len(name) for name, _, _ in tunable)
+    members = "\n".join(f"    {prefix}_real {name + ';':<{width + 1}} /* {_comment(what)} */"
+                         for name, _, what in tunable)
+    codes = ",\n".join(f"    {prefix.upper()}_FIELD_{name.upper()} = {i + 1}"
+                        for i, (name, _, _) in enumerate(tunable))
+    return (f"/* The parameters a running controller may change ({prefix}_set_params): the\n"
+            f" * tunable rows of mfcontrol.laws.{law.module_name}, by name. Every other row\n"
+            " * fixes the law's structure and is a constant of the code. */\n"
+            f"typedef struct {{\n{members}\n}} {prefix}_params;\n\n"
+            f"/* what {prefix}_set_params returns: 0 taken, -1 a state never initialised, or\n"
+            " * the member at fault */\n"
+            f"enum {{\n{codes}\n}};\n\n"
+            "/* the parameters exported: what init starts from */\n"
+            f"extern const {prefix}_params {prefix}_default_params;\n")
 
 
 #: compile-time checks of the target's arithmetic (a negative array size stops the build)
@@ -221,6 +282,7 @@ def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
 @dataclass
 class _Law:
     name: str
+    module: Any  # the law's module in mfcontrol.laws (its tunable rows, invalid_row)
     step: object
     step_kinds: tuple
     reset: object
@@ -243,6 +305,10 @@ class _Law:
     def n_backup(self, n_cs: int) -> int:
         return n_cs if self.backup_rows is None else self.backup_rows
 
+    @property
+    def module_name(self) -> str:
+        return self.module.__name__.rsplit(".", 1)[-1]
+
 
 #: a law with a period (intelligent, PID): called with the time since the last sample it
 #: took, and a sample it did not take adds its period to that
@@ -252,8 +318,8 @@ _SAMPLED_SKIP = "        s->skipped += @DT@;\n"
 
 def _clamp(limits: tuple[int, int], var: str = "start", indent: str = "    ") -> str:
     lo, hi = limits
-    return (f"{indent}if ({var} < @P@_params[{lo}]) {var} = @P@_params[{lo}];\n"
-            f"{indent}if ({var} > @P@_params[{hi}]) {var} = @P@_params[{hi}];\n")
+    return (f"{indent}if ({var} < @P@_fixed[{lo}]) {var} = @P@_fixed[{lo}];\n"
+            f"{indent}if ({var} > @P@_fixed[{hi}]) {var} = @P@_fixed[{hi}];\n")
 
 
 def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
@@ -266,9 +332,9 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
                           "the exported step compensates no delay yet: export with delay 0")
     limits = (intelligent.OUT_MIN, intelligent.OUT_MAX)
     law = _Law(
-        "intelligent", intelligent.step, (CP, CS, J, REAL, REAL, REAL),
+        "intelligent", intelligent, intelligent.step, (CP, CS, J, REAL, REAL, REAL),
         intelligent.reset, (CP, CS, J),
-        init=f"    @RESET@(s->cs);\n    s->last_output = @P@_params[{intelligent.U_INIT}];\n",
+        init=f"    @RESET@(s->cs);\n    s->last_output = @P@_fixed[{intelligent.U_INIT}];\n",
         bumpless=(f"    @RESET@(s->cs);\n{_clamp(limits)}"
                   f"    s->cs[{intelligent.U1}] = start;\n    s->cs[{intelligent.U2}] = start;\n"
                   "    s->last_output = start;\n"),
@@ -317,12 +383,12 @@ def _recursive() -> _Law:
     # parameter: in C that one row lives in the state, after the law's own rows
     u0 = recursive_ip.N_STATE
     return _Law(
-        "recursive", recursive_ip.step, (CP, CS, J, REAL, REAL),
+        "recursive", recursive_ip, recursive_ip.step, (CP, CS, J, REAL, REAL),
         recursive_ip.reset, (CP, CS, J),
-        init=(f"    s->cs[{u0}] = @P@_params[{recursive_ip.U0}];\n    @RESET@(s->cs);\n"
+        init=(f"    s->cs[{u0}] = @P@_fixed[{recursive_ip.U0}];\n    @RESET@(s->cs);\n"
               "    s->last_output = 0;\n"),
         bumpless=(f"    @RESET@(s->cs);\n"
-                  f"    s->cs[{u0}] = start / @P@_params[{recursive_ip.OUT_GAIN}];\n"
+                  f"    s->cs[{u0}] = start / @P@_fixed[{recursive_ip.OUT_GAIN}];\n"
                   "    s->last_output = start;\n"),
         call=("    {\n        @R@ raw = 0, gain = 0, gamma = 0;\n"
               "        @STEP@(s->cs, y, setpoint, &raw, &u, &gain, &gamma);\n"
@@ -336,7 +402,7 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
     is the same, restarted bumplessly through that reset."""
     limits = (law.OUT_MIN, law.OUT_MAX)
     return _Law(
-        name, law.step, (CP, CS, J, REAL, REAL, REAL), law.reset, reset_kinds,
+        name, law, law.step, (CP, CS, J, REAL, REAL, REAL), law.reset, reset_kinds,
         init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
         # the start row is NaN once used (or when there is none)
         finite=(f"    for (i = 0; i < @NS@; i++)\n"
@@ -387,13 +453,14 @@ def _law_label(ctrl) -> str:
     return name
 
 
-def _banner(prefix, real, law, ctrl, description) -> str:
+def _banner(prefix, real, law, ctrl, description, frozen) -> str:
+    how = "baked in" if frozen else f"as exported; {prefix}_set_params changes the tunable ones"
     params = "\n".join(f" *   {k} = {_comment(repr(v))}" for k, v in ctrl._params.items())
     what = "".join(f" * {line}".rstrip() + "\n"
                    for line in _comment(description).split("\n")) if description else ""
     return (f"/* {prefix}: {_law_label(ctrl)} controller (mfcontrol.{type(ctrl).__name__}) "
             f"exported by mfcontrol {__version__} ({law.name} law family, {real}).\n{what}"
-            f" * Parameters (baked in):\n{params}\n"
+            f" * Parameters ({how}):\n{params}\n"
             " * C99, no dynamic memory, no global state, only <math.h>. Compile without\n"
             " * floating-point contraction (this file turns it off for gcc and clang; other\n"
             " * compilers: -ffp-contract=off or theirs) and without -ffast-math to compute,\n"
@@ -416,8 +483,8 @@ typedef @REAL@ @R@;
  * output (one is the sample's fault and is rejected; a second in a row, the memory's) */
 #define @PU@_RESTART_AFTER @RESTART@
 
-typedef struct {
-    /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
+@PARAMS@typedef struct {
+@STATE_PARAMS@    /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
     @R@ cs[@NS@];
     /* the memory the current step may overwrite, as it was before the step */
     @R@ backup[@NB@];
@@ -455,7 +522,7 @@ void @P@_init(@P@_state *s);
 void @P@_set_manual(@P@_state *s, @R@ u);
 /* Back to automatic, restarting the law from the last output (bumpless). */
 void @P@_set_auto(@P@_state *s);
-
+@SET_PARAMS@
 #ifdef __cplusplus
 }
 #endif
@@ -493,7 +560,7 @@ void @P@_init(@P@_state *s)
     long i;
     for (i = 0; i < @NS@; i++) s->cs[i] = 0;
     for (i = 0; i < @NB@; i++) s->backup[i] = 0;
-@INIT@    s->nan_count = 0;
+@INIT_PARAMS@@INIT@    s->nan_count = 0;
     s->restarts = 0;
     s->overflows = 0;
     s->skipped = 0;
@@ -555,5 +622,47 @@ void @P@_set_auto(@P@_state *s)
         s->overflows = 0;
     }
     s->auto_mode = 1;
+}
+"""
+
+_STATE_PARAMS = """\
+    /* the parameters the law runs with (@P@_set_params changes them: do not
+     * write them here, where nothing checks them) */
+    @P@_params params;
+"""
+
+_SET_PARAMS_DECL = """\
+/* Change the parameters while running. Every member is checked: a value the law is
+ * not defined for (NaN, a limit pair out of order, N <= 0...) is refused, nothing
+ * changes, and the member at fault is returned (@PU@_FIELD_...). Taken: in automatic
+ * mode the law restarts from the last output (bumpless, as @P@_set_auto does), in
+ * manual mode the held output is clamped to the new limits. Returns 0 when taken, -1
+ * for a state never initialised (or no parameters). */
+int @P@_set_params(@P@_state *s, const @P@_params *p);
+"""
+
+_SETTER = """
+/* the member of @P@_params that holds a parameter row */
+static int @P@_field_of(long row)
+{
+    switch (row) {
+@FIELD_OF@    default: return -1; /* (never: the check names tunable rows only) */
+    }
+}
+
+int @P@_set_params(@P@_state *s, const @P@_params *p)
+{
+    long row = 0;
+    if (s->ready != @PU@_READY || !p) return -1;
+    row = @INVALID@(p, s->cs);
+    if (row >= 0) return @P@_field_of(row);
+    s->params = *p;
+    if (s->auto_mode) {
+        @P@_bumpless(s, s->last_output);
+        s->skipped = 0;
+        s->overflows = 0;
+    } else {
+@CLAMP_OUT@    }
+    return 0;
 }
 """

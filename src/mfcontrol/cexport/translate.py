@@ -8,7 +8,9 @@ subset into C, one function at a time, reachable from a root function:
 * a ``CP[row, j]`` read (or ``P[row]`` of the parameter tuple that
   :func:`mfcontrol.laws.recursive_ip.parameters` returns) becomes an element of the file's
   ``static const`` parameter table, which the compiler folds into the code; rows listed in
-  ``state_rows`` are read from the state instead (parameters a live controller rewrites);
+  ``fields`` (the tunable ones) are members of the parameter struct ``cp`` points to, which
+  every function then takes first (``cp->kp``); rows listed in ``state_rows`` are read
+  from the state instead (parameters a live controller rewrites);
 * a ``CS[row, j]`` access becomes ``cs[row]``, ``cs`` being the controller's state array;
 * ``j`` disappears; every function takes ``cs`` first;
 * module constants (row numbers, mode codes) become literals;
@@ -42,7 +44,7 @@ _C_KEYWORDS = {
     "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
     "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
     "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch",
-    "typedef", "union", "unsigned", "void", "volatile", "while", "cs",
+    "typedef", "union", "unsigned", "void", "volatile", "while", "cs", "cp",
 }
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Mod: "%",
            ast.FloorDiv: "/"}
@@ -75,6 +77,9 @@ class Options:
     state_rows: dict[int, int]  # parameter row -> state row holding it
     # a law function -> the function the C calls in its place (same bits, other cost)
     replace: dict = field(default_factory=dict)
+    # tunable parameter row -> its member of the struct ``cp`` points to (None: every row
+    # in the static table, the frozen build)
+    fields: dict[int, str] | None = None
 
     def literal(self, value: float | int | bool) -> str:
         if isinstance(value, bool | np.bool_):
@@ -179,6 +184,8 @@ class Translator:
 
     def prototype(self, f: Function) -> str:
         params = [f"{self.options.prefix}_real *cs"]
+        if self.options.fields is not None:
+            params.insert(0, f"const {self.options.prefix}_params *cp")
         params += [f"{self.ctype(k)} {n}" for n, k in f.params]
         if f.returns is None or len(f.returns) == 1:
             ret = "void" if f.returns is None else self.ctype(f.returns[0])
@@ -207,6 +214,9 @@ class _FunctionTranslator:
         self.returns_seen = False
         self.ptuple = False
         self.tmp = 0
+        # what every function takes first: the state, after the parameter struct when
+        # there is one
+        self.columns = ["cs"] if self.opt.fields is None else ["cp", "cs"]
 
     # -- errors -------------------------------------------------------------------------
     def fail(self, node, what: str) -> NoReturn:
@@ -237,7 +247,7 @@ class _FunctionTranslator:
         self.tmp = 0
         self.block(body, 1)
         body_text = "\n".join(self.lines)
-        decls, unused = [], [n for n in ["cs"] + [n for n, _ in f.params]
+        decls, unused = [], [n for n in self.columns + [n for n, _ in f.params]
                              if not _read(n, body_text)]
         for name, kind in sorted(self.locals.items()):
             c = self.cname(name)
@@ -344,7 +354,7 @@ class _FunctionTranslator:
                     self.fail(s, f"unpacks {len(names)} values from {callee.name}")
                 temps = [self.temp(k) for k in callee.returns]
                 ptrs = ", ".join(f"&{t}" for t in temps)
-                self.emit(depth, f"{callee.name}({', '.join(['cs'] + args + [ptrs])});")
+                self.emit(depth, f"{callee.name}({', '.join(self.columns + args + [ptrs])});")
                 for tgt, t, k in zip(names, temps, callee.returns, strict=True):
                     if not (isinstance(tgt, ast.Name) and tgt.id == "_"):
                         self.store(tgt, t, k, depth, s)
@@ -427,7 +437,7 @@ class _FunctionTranslator:
             if callee.returns is not None and len(callee.returns) > 1:
                 self.set_returns(callee.returns, s)
                 outs = [f"out{i}" for i in range(len(callee.returns))]
-                self.emit(depth, f"{callee.name}({', '.join(['cs'] + args + outs)});")
+                self.emit(depth, f"{callee.name}({', '.join(self.columns + args + outs)});")
                 self.emit(depth, "return;")
                 return
         code, kind = self.expr(value)
@@ -604,6 +614,8 @@ class _FunctionTranslator:
         row_n = int(value)
         if row_n in self.opt.state_rows:
             return f"cs[{self.opt.state_rows[row_n]}]", CS
+        if self.opt.fields is not None and row_n in self.opt.fields:
+            return f"cp->{self.opt.fields[row_n]}", CP
         name = self.named(row, value)
         if name is None:
             return f"{self.opt.param_table}[{row_n}]", CP
@@ -649,7 +661,7 @@ class _FunctionTranslator:
                 self.fail(node, f"uses the tuple {callee.name} returns as one value")
             temps = [self.temp(k) for k in callee.returns]
             args = args + [f"&{t}" for t in temps]
-        code = f"{callee.name}({', '.join(['cs'] + args)})"
+        code = f"{callee.name}({', '.join(self.columns + args)})"
         if statement:
             return code
         if callee.returns is None:
