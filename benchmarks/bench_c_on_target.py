@@ -104,13 +104,13 @@ def _count(trace: Path, before: int, after: int) -> list[int]:
 
 
 def measure(case: str, overrides: dict, real: str, target: str,
-            folder: Path) -> tuple[int, float, int, int]:
+            folder: Path, frozen: bool = False) -> tuple[int, float, int, int]:
     """(text bytes, mean instructions per steady step, worst step, its sample)."""
     ctrl = mfcontrol.make_controller(case, overrides)
     M = ctrl._params.get("window") if ctrl._params.get("estimator") == "algebraic" else None
     n = 2 * M + 2 if M else 100
     y, r = closed_loop(case, overrides, n)
-    src = c_source(ctrl, real=real, prefix="mfc")
+    src = c_source(ctrl, real=real, prefix="mfc", frozen=frozen)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)
     (folder / "samples.h").write_text(_samples_header(y, r, real))
@@ -141,12 +141,18 @@ def measure(case: str, overrides: dict, real: str, target: str,
 
 
 def main() -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frozen", action="store_true", help="the frozen exports (every "
+                        "parameter a constant, no setter) instead of the tunable ones")
+    args = parser.parse_args()
     missing = cortex_m.missing_tools()
     if missing:
         sys.exit(f"bench_c_on_target: needs {', '.join(missing)} (Debian: "
                  f"{cortex_m.PACKAGES})")
-    print(f"instructions per step under qemu, compiled with arm-none-eabi-gcc "
-          f"{' '.join(CFLAGS)}")
+    print(f"instructions per step under qemu, {'frozen' if args.frozen else 'tunable'} "
+          f"exports compiled with arm-none-eabi-gcc {' '.join(CFLAGS)}")
     print(f"{'controller':<50} {'target':<11} {'real':<7} {'text (bytes)':>12} "
           f"{'mean':>8} {'worst':>8} {'at sample':>10}")
     with tempfile.TemporaryDirectory() as tmp:
@@ -154,7 +160,8 @@ def main() -> None:
             for name, target, real in TARGETS:
                 folder = Path(tmp) / f"{case}-{len(overrides)}-{target}-{real}"
                 folder.mkdir()
-                text, mean, worst, at = measure(case, overrides, real, target, folder)
+                text, mean, worst, at = measure(case, overrides, real, target, folder,
+                                                frozen=args.frozen)
                 print(f"{label:<50} {name:<11} {real:<7} {text:>12,} {mean:>8,.0f} "
                       f"{worst:>8,} {at:>10}", flush=True)
 
