@@ -159,7 +159,10 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     }
     # the law's pieces first (they hold @-names the second pass fills)
     parts = {"INIT_PARAMS": "" if frozen else "    s->params = @P@_default_params;\n",
-             "SAVE": law.save, "RESTORE": law.restore, "FINITE": law.finite, "INIT": law.init,
+             "SAVE": law.save, "RESTORE": law.restore, "INIT": law.init,
+             "FINITE": _finite_check(law.finite, "acc += {x} - {x};"),
+             "FINITE_SOFT": _finite_check(law.finite, "if (!isfinite({x})) return 0;"),
+             "NO_FPU": _NO_FPU[real],
              "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip,
              "SKIP_INNER": textwrap.indent(law.skip, "    "),
              "CLAMP_U": _clamp(law.limits, "u", "        ")}
@@ -298,9 +301,9 @@ class _Law:
     backup_rows: int | None = None  # rows the step may write (None: all)
     save: str = "    for (i = 0; i < @NS@; i++) s->backup[i] = s->cs[i];\n"
     restore: str = "    for (i = 0; i < @NS@; i++) s->cs[i] = s->backup[i];\n"
-    # C statements: return 0 when a row the step wrote is not finite (as
-    # mfcontrol.engine.live checks the whole memory)
-    finite: str = "    for (i = 0; i < @NS@; i++) if (!isfinite(s->cs[i])) return 0;\n"
+    # C statements: CHECK(x); for every row x the step wrote (as mfcontrol.engine.live
+    # checks the whole memory); _finite_check makes them C
+    finite: str = "    for (i = 0; i < @NS@; i++) CHECK(s->cs[i]);\n"
 
     def n_backup(self, n_cs: int) -> int:
         return n_cs if self.backup_rows is None else self.backup_rows
@@ -372,9 +375,9 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
         # are not checked: the live controller's memory has no such rows, and what they
         # hold reaches the checked moments at the resync, as the live resync's sums do
         old = f"((long)s->backup[{count}] % {M + 1})"
-        law.finite = (f"    for (i = 0; i < {head}; i++) if (!isfinite(s->cs[i])) return 0;\n"
-                      f"    if (!isfinite(s->cs[{head} + {old}])) return 0;\n"
-                      f"    if (!isfinite(s->cs[{head + M + 1} + {old}])) return 0;\n")
+        law.finite = (f"    for (i = 0; i < {head}; i++) CHECK(s->cs[i]);\n"
+                      f"    CHECK(s->cs[{head} + {old}]);\n"
+                      f"    CHECK(s->cs[{head + M + 1} + {old}]);\n")
     return law
 
 
@@ -405,12 +408,28 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
         name, law, law.step, (CP, CS, J, REAL, REAL, REAL), law.reset, reset_kinds,
         init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
         # the start row is NaN once used (or when there is none)
-        finite=(f"    for (i = 0; i < @NS@; i++)\n"
-                f"        if (!isfinite(s->cs[i]) && !(i == {law.START} && s->cs[i] != "
-                "s->cs[i])) return 0;\n"),
+        finite=(f"    for (i = 0; i < {law.START}; i++) CHECK(s->cs[i]);\n"
+                f"    if (s->cs[{law.START}] == s->cs[{law.START}]) {{ /* NaN: used */\n"
+                f"        CHECK(s->cs[{law.START}]);\n    }}\n"
+                f"    for (i = {law.START + 1}; i < @NS@; i++) CHECK(s->cs[i]);\n"),
         bumpless=(f"{_clamp(limits)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),
         call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
+
+
+def _finite_check(text: str, form: str) -> str:
+    """The C statements ``text`` with each ``CHECK(x);`` in ``form``."""
+    return re.sub(r"CHECK\((.*?)\);", lambda m: form.format(x=m[1]), text)
+
+
+#: the preprocessor's test for a target without a floating-point unit for the type (an
+#: ARM or RISC-V core whose FPU, if any, lacks that precision)
+_NO_FPU = {
+    "double": ("(defined(__arm__) && (!defined(__ARM_FP) || !(__ARM_FP & 8))) || \\\n"
+               "    (defined(__riscv) && (!defined(__riscv_flen) || __riscv_flen < 64))"),
+    "float": ("(defined(__arm__) && (!defined(__ARM_FP) || !(__ARM_FP & 4))) || \\\n"
+              "    (defined(__riscv) && !defined(__riscv_flen))"),
+}
 
 
 def _fill(text: str, subs: dict) -> str:
@@ -546,12 +565,25 @@ static void @P@_restore(@P@_state *s)
     long i;
 @RESTORE@}
 
-/* 1 when the memory the step wrote holds only finite values */
+/* 1 when the memory the step wrote holds only finite values. With a floating-point unit
+ * for the real type, x - x is 0 for a finite x and NaN for an infinite or NaN one, so one
+ * comparison tests their sum, without a branch per row (-ffast-math, which would fold
+ * x - x to 0, is refused above); without one, the arithmetic is a library call and
+ * isfinite an integer test, so each row is tested */
+#if @NO_FPU@
 static int @P@_memory_finite(const @P@_state *s)
 {
     long i;
-@FINITE@    return 1;
+@FINITE_SOFT@    return 1;
 }
+#else
+static int @P@_memory_finite(const @P@_state *s)
+{
+    @R@ acc = 0;
+    long i;
+@FINITE@    return acc == 0;
+}
+#endif
 
 static void @P@_bumpless(@P@_state *s, @R@ start);
 
