@@ -866,3 +866,21 @@ def test_a_frozen_export_folds_every_parameter_and_computes_the_same(tmp_path):
     a, _ = H.run_binary(H.build(frozen, tmp_path / "frozen"), ops)
     b, _ = H.run_binary(H.build(tunable, tmp_path / "tunable"), ops)
     np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("case,over", [
+    ("motor-noise-pid", {"controller.duty_min": 1.0, "controller.duty_max": 3.0}),
+    ("motor-noise-adrc", {"controller.duty_min": 1.0, "controller.duty_max": 1.0}),
+    (RECURSIVE, {"controller.duty_min": 0.2}),
+])
+def test_the_output_held_before_any_sample_is_within_the_output_limits_in_c(case, over,
+                                                                            tmp_path):
+    """The output held before any sample is taken is 0 clamped to the output limits, in C
+    as in Python (it was 0 in both, outside limits that exclude it)."""
+    ctrl = mfcontrol.make_controller(case, over)
+    ops = np.array([(H.STEP, np.nan, 1.0), (H.STEP, 1e308, 1.0), (H.STEP, np.inf, 1.0)])
+    c_out, c_nan = H.run_binary(H.build(c_source(ctrl), tmp_path), ops)
+    py_out, py_nan = H.run_python(mfcontrol.make_controller(case, over), ops)
+    np.testing.assert_array_equal(c_out, py_out)
+    lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
+    assert c_out[0] == min(max(0.0, lo), hi) and c_nan == py_nan

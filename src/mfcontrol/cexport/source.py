@@ -389,7 +389,8 @@ def _recursive() -> _Law:
         "recursive", recursive_ip, recursive_ip.step, (CP, CS, J, REAL, REAL),
         recursive_ip.reset, (CP, CS, J),
         init=(f"    s->cs[{u0}] = @P@_fixed[{recursive_ip.U0}];\n    @RESET@(s->cs);\n"
-              "    s->last_output = 0;\n"),
+              "    s->last_output = 0;\n"
+              f"{_clamp((recursive_ip.OUT_MIN, recursive_ip.OUT_MAX), 's->last_output')}"),
         bumpless=(f"    @RESET@(s->cs);\n"
                   f"    s->cs[{u0}] = start / @P@_fixed[{recursive_ip.OUT_GAIN}];\n"
                   "    s->last_output = start;\n"),
@@ -406,7 +407,8 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
     limits = (law.OUT_MIN, law.OUT_MAX)
     return _Law(
         name, law, law.step, (CP, CS, J, REAL, REAL, REAL), law.reset, reset_kinds,
-        init="    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n",
+        init=("    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n"
+              f"{_clamp(limits, 's->last_output')}"),
         # the start row is NaN once used (or when there is none)
         finite=(f"    for (i = 0; i < {law.START}; i++) CHECK(s->cs[i]);\n"
                 f"    if (s->cs[{law.START}] == s->cs[{law.START}]) {{ /* NaN: used */\n"

@@ -746,3 +746,20 @@ def test_a_retune_in_manual_clamps_the_held_output_and_auto_restarts_from_it():
     assert ctrl(0.3, setpoint=1.0) == 2.0  # manual: held
     ctrl.set_auto_mode(True)
     assert ctrl(0.3, setpoint=1.0) == 2.0  # bumpless from the clamped output
+
+
+@pytest.mark.parametrize("make", [
+    lambda: mfcontrol.ADRC(order=2, b0=1.5, wc=3.0, wo=15.0, sample_time=1.0,
+                           output_limits=(1.0, 1.0)),
+    lambda: mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.1, output_limits=(1.0, 3.0)),
+    lambda: RecursiveIP(alpha=10.0, kp=2.0, duty_min=0.2, duty_max=0.9),
+])
+def test_the_output_held_before_any_sample_is_within_the_output_limits(make):
+    """Found by hypothesis (test_output_within_limits_and_never_nan): an order-2 ADRC with
+    limits (1, 1) whose first sample, 2e307, overflows its step returned the output held
+    before any sample, 0, outside its limits. That output is 0 clamped to the limits."""
+    ctrl = make()
+    lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
+    assert lo <= ctrl.last_output <= hi
+    assert lo <= ctrl(1.9974368165136842e+307, setpoint=1.0) <= hi
+    assert lo <= ctrl(math.nan) <= hi

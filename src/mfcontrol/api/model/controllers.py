@@ -1177,7 +1177,8 @@ class RecursiveIP(_Controller):
         # a bumpless start rewrites the law's u0 (its first raw output): a reset undoes it
         self._CP[recursive_ip.U0, 0] = self._u0
         live.recursive_reset(self._CP, self._CS)
-        self._last_output = 0.0
+        # held while no sample is taken: 0 within the output limits (as every output)
+        self._last_output = self._limited(0.0)
         self._components: tuple[float, ...] = (math.nan, math.nan, math.nan)  # u_raw, gain, gamma
 
     def _bumpless_start(self, start: float) -> None:
@@ -1286,7 +1287,8 @@ class _TermsLaw(_Sampled):
 
     def _reset_state(self) -> None:
         self._restart(math.nan)
-        self._last_output = 0.0
+        # held while no sample is taken: 0 within the output limits (as every output)
+        self._last_output = self._limited(0.0)
 
     def _bumpless_start(self, start: float) -> None:
         start = self._limited(start)
