@@ -1,6 +1,7 @@
 """What an exported controller costs on a Cortex-M: code size and instructions per step,
 mean and worst, for the Cortex-M4F (float, its FPU) and the Cortex-M0 (float and double in
-software), beside the x86 figures of ``bench_c_export.py`` (same controllers).
+software), and the PID in fixed point (q31) on both, beside the x86 figures of
+``bench_c_export.py`` (same controllers).
 
 Each export is cross-compiled with Debian's arm-none-eabi-gcc (``-O2`` and the export's
 flags), its object's ``text`` read with ``arm-none-eabi-size``, and driven with its case's
@@ -19,6 +20,7 @@ samples). Needs arm-none-eabi-gcc, libnewlib-arm-none-eabi and qemu-system-arm. 
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import subprocess
@@ -32,10 +34,15 @@ import numpy as np
 import mfcontrol
 from bench_c_export import CONTROLLERS, closed_loop
 from mfcontrol.cexport import CFLAGS, c_source, cortex_m
+from mfcontrol.cexport.fixed_point import code, q31_pid
 from mfcontrol.cexport.translate import Options
 
 TARGETS = [("Cortex-M4F", "m4f", "float"), ("Cortex-M0", "m0", "float"),
-           ("Cortex-M0", "m0", "double")]  # (label, mfcontrol.cexport.cortex_m target, real)
+           ("Cortex-M0", "m0", "double"), ("Cortex-M4F", "m4f", "q31"),
+           ("Cortex-M0", "m0", "q31")]  # (label, mfcontrol.cexport.cortex_m target, real)
+#: the controllers measured in fixed point (q31 exports the PID so far; its measurement
+#: range, which it needs, is the run's largest |y| or |r| up to a power of two)
+Q31_LAWS = ("PID",)
 BASELINE = 3  # calls of the empty function first
 
 _MAIN = r"""
@@ -72,7 +79,14 @@ int main(void)
 """
 
 
-def _samples_header(y: np.ndarray, r: np.ndarray, real: str) -> str:
+def _samples_header(y: np.ndarray, r: np.ndarray, real: str, scale: float = 1.0) -> str:
+    if real == "q31":  # the codes, at the export's measurement scale
+        def row(values):
+            return ",\n".join(f"    {code(float(v), scale)}" for v in values)
+        return ("typedef mfc_q31 mfc_real;\n"
+                f"#define N_SAMPLES {len(y)}L\n"
+                f"static const mfc_real Y[{len(y)}] = {{\n{row(y)}\n}};\n"
+                f"static const mfc_real R[{len(r)}] = {{\n{row(r)}\n}};\n")
     # each sample as the export writes its constants: the value in its real type, exact
     literal = Options("mfc", real, "", {}).literal
 
@@ -110,10 +124,15 @@ def measure(case: str, overrides: dict, real: str, target: str,
     M = ctrl._params.get("window") if ctrl._params.get("estimator") == "algebraic" else None
     n = 2 * M + 2 if M else 100
     y, r = closed_loop(case, overrides, n)
+    scale = 1.0
+    if real == "q31":
+        span = 2.0 ** math.ceil(math.log2(max(np.abs(y).max(), np.abs(r).max())))
+        ctrl._take_input_limits((-span, span))
+        scale = q31_pid(ctrl).y_scale
     src = c_source(ctrl, real=real, prefix="mfc", frozen=frozen)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)
-    (folder / "samples.h").write_text(_samples_header(y, r, real))
+    (folder / "samples.h").write_text(_samples_header(y, r, real, scale))
     flags, _ = cortex_m.TARGETS[target]
     subprocess.run(["arm-none-eabi-gcc", *flags, *CFLAGS, "-c", "mfc.c", "-o", "mfc.o"],
                    cwd=folder, check=True)
@@ -158,6 +177,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for label, case, overrides in CONTROLLERS:
             for name, target, real in TARGETS:
+                if real == "q31" and not label.startswith(Q31_LAWS):
+                    continue
+                if real == "q31" and "filter" in label:  # no measurement filter in q31 yet
+                    continue
                 folder = Path(tmp) / f"{case}-{len(overrides)}-{target}-{real}"
                 folder.mkdir()
                 text, mean, worst, at = measure(case, overrides, real, target, folder,

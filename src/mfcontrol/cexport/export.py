@@ -41,8 +41,10 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
         Folder of the two files (created if missing).
     prefix : str
         Prefix of the files and of every exported name (``PREFIX_step``...).
-    real : {"double", "float"}
-        Floating-point type of the exported code.
+    real : {"double", "float", "q31"}
+        Number type of the exported code. ``"q31"`` is fixed point for a core without a
+        floating-point unit (:mod:`mfcontrol.cexport.fixed_point`): the PID so far, with
+        ``input_limits`` for the measurement's scale, every parameter a constant.
     description : str, optional
         What the files' leading comment says they came from (default: the case and its
         overrides, or the controller's repr).

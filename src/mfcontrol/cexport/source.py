@@ -26,7 +26,7 @@ from ..laws import adrc, estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
 from .translate import CP, CS, REAL, J, Options, Translator
 
-REALS = ("double", "float")
+REALS = ("double", "float", "q31")
 #: how to compile an export so that, in double, it computes what mfcontrol computes: no
 #: contraction of a multiply and an add into one rounding (and no -ffast-math)
 CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
@@ -125,6 +125,8 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     check_prefix(prefix)
     if real not in REALS:
         raise ConfigError("real", real, f"must be one of {', '.join(REALS)}")
+    if real == "q31":
+        return _q31(ctrl, prefix, description, key_prefix)
     law = law_of(ctrl, real, key_prefix)  # refuses what cannot export
     if isinstance(ctrl, RecursiveIP):
         # the parameters as built: a bumpless start rewrites the law's u0 in place
@@ -265,6 +267,25 @@ _CHECKS = {
               "typedef char @P@_float_without_excess_precision"
               "[sizeof(float_t) == sizeof(float) ? 1 : -1];"),
 }
+
+
+def _q31(ctrl, prefix: str, description: str, key_prefix: str) -> CSource:
+    """The fixed-point export (:mod:`mfcontrol.cexport.fixed_point`): the PID so far."""
+    from .fixed_point import q31_source
+
+    if not isinstance(ctrl, PID):
+        raise ConfigError("real", "q31", f"exports the PID so far (this is the "
+                          f"{_law_label(ctrl)} law): export it in float or double")
+    banner = (f"/* {prefix}: pid controller (mfcontrol.PID) exported by mfcontrol "
+              f"{__version__} in fixed point (q31).\n"
+              + "".join(f" * {line}".rstrip() + "\n" for line in _comment(description)
+                        .split("\n") if description)
+              + " * Parameters (baked in):\n"
+              + "\n".join(f" *   {k} = {_comment(repr(v))}" for k, v in ctrl._params.items())
+              + "\n * C99 with <stdint.h>, integer arithmetic only: no floating point, no "
+              "dynamic memory,\n * no global state. */")
+    header, source = q31_source(ctrl, prefix=prefix, banner=banner, key_prefix=key_prefix)
+    return CSource(prefix, "q31", header, source, "pid", 0)
 
 
 def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:

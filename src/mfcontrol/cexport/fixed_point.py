@@ -1,0 +1,329 @@
+"""The PID as fixed-point C (``real="q31"``), for a microcontroller without a floating-point
+unit (a Cortex-M0), where software floating point costs thousands of instructions a step.
+
+Not a translation: integers need formats the law's Python does not carry. This is the PID
+of :mod:`mfcontrol.laws.pid` written out in integer arithmetic, every coefficient
+computed here from the controller's parameters, and held to the double law by tests
+(``tests/cexport/test_fixed_point.py``: within an error bound derived step by step on the
+case's closed loop, with hostile codes, and with the same bits on a Cortex-M0 as on x86).
+
+Formats. A signal is an ``int32_t`` code. The measurement and the setpoint:
+``y = Y * Y_SCALE / 2^31``, with ``Y_SCALE`` twice the larger magnitude of the input
+limits (the sensor's range, required), so that the difference of two codes fits an int32.
+The output: ``u = U * U_SCALE / 2^31``, ``U_SCALE`` :data:`U_HEADROOM` times the larger
+magnitude of the output limits (required finite), so that the terms before the limits (a
+derivative kick, the unlimited output the back-calculation sees) have room up to that
+many times the limits before they saturate. A coefficient c is ``M 2^-s`` with ``M`` in
+[2^30, 2^31), its relative error at most 2^-31; a product of a code and a coefficient is
+formed in 64 bits and shifted back, rounded to nearest. The integral is held in 64 bits
+with :data:`GUARD_BITS` more fraction bits than the output's code, and every sum
+saturates. A rejected sample (a measurement outside the input limits) holds the output;
+the next step uses the nominal period (the double law spans the time since the last
+sample taken). There is no run-time setter: the coefficients are constants.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .._version import __version__
+from ..errors import ConfigError
+from ..laws import pid
+
+#: fraction bits of the integral beyond the output's code: an increment ki h e of one
+#: code of e in a year of 1 kHz samples still moves it
+GUARD_BITS = 24
+#: the output's scale over the output limits' magnitude: room for the terms before limiting
+U_HEADROOM = 16
+_ONE = 2**31
+
+
+@dataclass(frozen=True)
+class Coefficient:
+    """``value`` as ``mantissa * 2^-shift`` (``mantissa`` in [2^30, 2^31) or 0)."""
+
+    value: float
+    mantissa: int
+    shift: int
+
+    @classmethod
+    def of(cls, value: float, name: str) -> Coefficient:
+        if value == 0.0:
+            return cls(0.0, 0, 31)
+        if not math.isfinite(value):
+            raise ConfigError(name, value, "must be finite for a fixed-point export")
+        shift = 30 - math.floor(math.log2(abs(value)))
+        mantissa = round(abs(value) * 2.0**shift)
+        if mantissa == _ONE:  # rounded up to the next power of two
+            mantissa, shift = _ONE // 2, shift - 1
+        if not 1 <= shift <= 62:
+            raise ConfigError(name, value, "is outside what a q31 coefficient holds (about "
+                              "2^-32 to 2^29 times the codes' scale ratio): export in float")
+        return cls(value, int(math.copysign(mantissa, value)), shift)
+
+    @property
+    def exact(self) -> float:
+        """The value the C multiplies by."""
+        return self.mantissa * 2.0**-self.shift
+
+
+@dataclass(frozen=True)
+class Q31Pid:
+    """The scales and coefficients of a PID's q31 export."""
+
+    y_scale: float
+    u_scale: float
+    y_limits: tuple[int, int]  # codes of the input limits
+    u_limits: tuple[int, int]  # codes of the output limits
+    b: Coefficient
+    c: Coefficient
+    kp: Coefficient  # kp Y_SCALE / U_SCALE
+    kih: Coefficient  # ki h Y_SCALE / U_SCALE 2^GUARD_BITS
+    htt: Coefficient  # h / Tt 2^GUARD_BITS
+    ad: Coefficient
+    bd: Coefficient  # bd Y_SCALE / U_SCALE
+    derivative: bool
+
+
+def code(value: float, scale: float) -> int:
+    """The int32 code of ``value`` at full scale ``scale``, rounded and saturated."""
+    return int(round(min(max(value / scale * _ONE, -_ONE + 1.0), _ONE - 1.0)))
+
+
+def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
+    """The q31 formats of a live :class:`mfcontrol.PID` (refusing what they cannot hold)."""
+    cp = ctrl._CP[:, 0]
+    lo, hi = float(cp[pid.OUT_MIN]), float(cp[pid.OUT_MAX])
+    if not (math.isfinite(lo) and math.isfinite(hi)) or max(abs(lo), abs(hi)) == 0.0:
+        raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be finite and not "
+                          "both 0 for a fixed-point export (they set the output's scale)")
+    y_lo, y_hi = ctrl.input_limits
+    if y_lo is None or y_hi is None or max(abs(y_lo), abs(y_hi)) == 0.0:
+        raise ConfigError("input_limits", [y_lo, y_hi], "a fixed-point export needs the "
+                          "measurement's range (the sensor's) for its scale: both limits "
+                          "finite, not both 0 (--input-limits LOW HIGH, input_limits=)")
+    if cp[pid.TF] != 0.0:
+        raise ConfigError(f"{key_prefix}Tf", float(cp[pid.TF]), "the fixed-point PID has no "
+                          "measurement filter yet: export with Tf 0, or in float")
+    h = ctrl.sample_time
+    sy = 2.0 * max(abs(y_lo), abs(y_hi))
+    su = U_HEADROOM * max(abs(lo), abs(hi))
+    ratio = sy / su
+    kp, ki, kd, n = (float(cp[row]) for row in (pid.KP, pid.KI, pid.KD, pid.N))
+    tt = float(cp[pid.TT])
+    derivative = kd != 0.0
+    ad = bd = 0.0
+    if derivative:  # the law's own expressions (pid._terms), for the nominal period
+        td = kd / kp
+        ad = td / (td + n * h)
+        bd = kp * td * n / (td + n * h)
+    guard = 2.0**GUARD_BITS
+    p = key_prefix
+    return Q31Pid(
+        sy, su, (code(y_lo, sy), code(y_hi, sy)), (code(lo, su), code(hi, su)),
+        Coefficient.of(float(cp[pid.B]), f"{p}b"), Coefficient.of(float(cp[pid.C]), f"{p}c"),
+        Coefficient.of(kp * ratio, f"{p}kp"), Coefficient.of(ki * h * ratio * guard, f"{p}ki"),
+        Coefficient.of(h / tt * guard if math.isfinite(tt) else 0.0, f"{p}Tt"),
+        Coefficient.of(ad, f"{p}N"), Coefficient.of(bd * ratio, f"{p}kd"), derivative)
+
+
+def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "") -> tuple[str, str]:
+    """(header, source) of the q31 PID of ``ctrl``."""
+    q = q31_pid(ctrl, key_prefix)
+    P, PU = prefix, prefix.upper()
+
+    def coef(name: str, c: Coefficient) -> str:
+        return (f"#define {PU}_{name}_M ({c.mantissa}L)\n"
+                f"#define {PU}_{name}_S {c.shift}\n")
+    consts = "".join(coef(n, c) for n, c in (
+        ("B", q.b), ("C", q.c), ("KP", q.kp), ("KIH", q.kih), ("HTT", q.htt), ("AD", q.ad),
+        ("BD", q.bd)))
+    subs = {"P": P, "PU": PU, "CONSTS": consts, "BANNER": banner,
+            "YLO": str(q.y_limits[0]), "YHI": str(q.y_limits[1]),
+            "ULO": str(q.u_limits[0]), "UHI": str(q.u_limits[1]),
+            "YS": repr(q.y_scale), "US": repr(q.u_scale), "DT": repr(ctrl.sample_time),
+            "F": str(GUARD_BITS), "DER": "1" if q.derivative else "0",
+            "CW": "1" if q.c.mantissa else "0", "VERSION": __version__}
+    header, source = _HEADER, _SOURCE
+    for key, value in subs.items():
+        header = header.replace(f"@{key}@", value)
+        source = source.replace(f"@{key}@", value)
+    return header, source
+
+
+_HEADER = """@BANNER@
+#ifndef MFCONTROL_@P@_H
+#define MFCONTROL_@P@_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* q31 codes: the measurement and the setpoint are y = Y * @PU@_Y_SCALE / 2^31, the
+ * output u = U * @PU@_U_SCALE / 2^31 (int32_t; the scales in the physical units) */
+typedef int32_t @P@_q31;
+#define @PU@_Y_SCALE @YS@
+#define @PU@_U_SCALE @US@
+/* sample period (s) the law was built for: call @P@_step once per period */
+#define @PU@_SAMPLE_TIME @DT@
+
+typedef struct {
+    int64_t i;              /* the integral, in output codes * 2^@F@ */
+    int32_t d;              /* the derivative term, output codes */
+    int32_t y_old, r_old;   /* the last sample's measurement and setpoint */
+    int32_t start;          /* the output the next sample is set to give (bumpless) */
+    int32_t last_output;    /* returned in manual mode and after a rejected sample */
+    unsigned long nan_count; /* rejected: a measurement outside the input limits */
+    int started;            /* 0 until the first sample is taken */
+    int pending;            /* 1 while start waits for the next sample */
+    int auto_mode;          /* 1 automatic, 0 manual */
+    unsigned long ready;    /* set by @P@_init: a state never initialised is refused */
+} @P@_state;
+
+/* Start (or restart) the controller: automatic mode, no history. */
+void @P@_init(@P@_state *s);
+/* One sample: the measurement and setpoint codes in, the limited output code out. A
+ * measurement outside the input limits returns the last output and counts in nan_count.
+ * Every sum saturates: no code overflows. On a state never initialised: returns 0. */
+@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint);
+/* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto. */
+void @P@_set_manual(@P@_state *s, @P@_q31 u);
+/* Back to automatic, restarting the law from the last output (bumpless). */
+void @P@_set_auto(@P@_state *s);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
+"""
+
+_SOURCE = """@BANNER@
+#include "@P@.h"
+
+/* the right shift of a negative integer is arithmetic on every compiler this targets;
+ * the build stops where it is not */
+typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
+
+/* the coefficients, M * 2^-S with M in [2^30, 2^31) (mfcontrol.cexport.fixed_point) */
+@CONSTS@#define @PU@_Y_LO (@YLO@L)
+#define @PU@_Y_HI (@YHI@L)
+#define @PU@_U_LO (@ULO@L)
+#define @PU@_U_HI (@UHI@L)
+#define @PU@_F @F@
+#define @PU@_I_MAX ((int64_t)1 << 61)
+#define @PU@_T_MAX ((int64_t)1 << (61 - @PU@_F))
+#define @PU@_READY 0x6D666331UL
+
+static int32_t @P@_sat32(int64_t x)
+{
+    if (x > INT32_MAX) return INT32_MAX;
+    if (x < -INT32_MAX) return -INT32_MAX;
+    return (int32_t)x;
+}
+
+/* the integral's bound: the integral and two products (each below 2^61) sum without
+ * overflow */
+static int64_t @P@_sat_i(int64_t x)
+{
+    if (x > @PU@_I_MAX) return @PU@_I_MAX;
+    if (x < -@PU@_I_MAX) return -@PU@_I_MAX;
+    return x;
+}
+
+/* x * M * 2^-S, rounded to nearest (|x| < 2^31, |M| < 2^31: the product and the half
+ * fit 63 bits, and the result is below 2^61) */
+static int64_t @P@_mul(int32_t x, int64_t m, int shift)
+{
+    return ((int64_t)x * m + ((int64_t)1 << (shift - 1))) >> shift;
+}
+
+static int32_t @P@_clamp(int64_t v)
+{
+    return (int32_t)(v > @PU@_U_HI ? @PU@_U_HI : (v < @PU@_U_LO ? @PU@_U_LO : v));
+}
+
+void @P@_init(@P@_state *s)
+{
+    s->i = 0;
+    s->d = 0;
+    s->y_old = 0;
+    s->r_old = 0;
+    s->start = 0;
+    s->last_output = @P@_clamp(0);
+    s->nan_count = 0;
+    s->started = 0;
+    s->pending = 0;
+    s->auto_mode = 1;
+    s->ready = @PU@_READY;
+}
+
+@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint)
+{
+    int64_t p, d = 0, v;
+    int32_t u;
+    if (s->ready != @PU@_READY) return 0;
+    if (!s->auto_mode) return s->last_output;
+    if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
+        s->nan_count++;
+        return s->last_output;
+    }
+    if (!s->started) {
+        s->y_old = y;
+        s->r_old = setpoint;
+    }
+    p = @P@_mul(@P@_sat32(@P@_mul(setpoint, @PU@_B_M, @PU@_B_S) - y), @PU@_KP_M, @PU@_KP_S);
+#if @DER@
+    {
+#if @CW@
+        int64_t de = (y - @P@_mul(setpoint, @PU@_C_M, @PU@_C_S))
+                     - (s->y_old - @P@_mul(s->r_old, @PU@_C_M, @PU@_C_S));
+#else
+        int64_t de = (int64_t)y - s->y_old;
+#endif
+        d = @P@_mul(s->d, @PU@_AD_M, @PU@_AD_S) - @P@_mul(@P@_sat32(de), @PU@_BD_M, @PU@_BD_S);
+        d = @P@_sat32(d);
+    }
+#endif
+    if (s->pending) {  /* the bumpless start: the integral that gives `start` */
+        int64_t t = (int64_t)s->start - p - d;
+        if (t > @PU@_T_MAX) t = @PU@_T_MAX;
+        if (t < -@PU@_T_MAX) t = -@PU@_T_MAX;
+        s->i = t * ((int64_t)1 << @PU@_F);
+        s->pending = 0;
+    }
+    v = p + ((s->i + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F) + d;
+    u = @P@_clamp(v);
+    s->i = @P@_sat_i(s->i + @P@_mul(@P@_sat32((int64_t)setpoint - y), @PU@_KIH_M, @PU@_KIH_S)
+                     + @P@_mul(@P@_sat32((int64_t)u - v), @PU@_HTT_M, @PU@_HTT_S));
+    s->d = (int32_t)d;
+    s->y_old = y;
+    s->r_old = setpoint;
+    s->started = 1;
+    s->last_output = u;
+    return u;
+}
+
+void @P@_set_manual(@P@_state *s, @P@_q31 u)
+{
+    if (s->ready != @PU@_READY) return;
+    s->auto_mode = 0;
+    s->last_output = @P@_clamp(u);
+}
+
+void @P@_set_auto(@P@_state *s)
+{
+    if (s->ready != @PU@_READY) return;
+    if (!s->auto_mode) {  /* restart from the last output, as the live PID's reset does */
+        s->i = 0;
+        s->d = 0;
+        s->started = 0;
+        s->start = s->last_output;
+        s->pending = 1;
+    }
+    s->auto_mode = 1;
+}
+"""

@@ -1,0 +1,262 @@
+"""The q31 PID (mfcontrol.cexport.fixed_point) against the double PID it implements.
+
+The export is compiled under the tests' warnings (and with -fsanitize=undefined, which
+reports a signed overflow), driven with codes of the case's closed loop, and compared at
+every step with the live double PID driven with the same values: the difference stays
+within a first-order bound derived along the run from the export's arithmetic (each
+coefficient's representation error, each product's rounding, the integral's guard bits,
+carried through the law's recursions). Hostile codes saturate and never leave the output
+limits; the Cortex-M0 computes the same codes as x86.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol.cexport import c_source, cortex_m
+from mfcontrol.cexport.fixed_point import GUARD_BITS, code, q31_pid
+from mfcontrol.errors import ConfigError
+
+from . import harness as H
+from .test_on_target import _require_tools
+from .test_source import closed_loop
+
+CASE = "motor-noise-pid"
+INPUT_LIMITS = (-128.0, 128.0)  # the measurement's scale 256: codes dequantize exactly
+VARIANTS = [
+    {},
+    {"controller.kd": 0.05, "controller.N": 5.0, "controller.b": 0.5, "controller.c": 0.3,
+     "controller.Tt": 0.2, "controller.duty_min": -2.0, "controller.duty_max": 2.0},
+    {"controller.kp": 1.0, "controller.ki": 20.0, "controller.duty_min": 0.0,
+     "controller.duty_max": 12.0},
+]
+
+_MAIN = r"""
+#include <stdio.h>
+#include "@P@.h"
+
+int main(void)
+{
+    static @P@_state s;
+    long row[3];
+    @P@_init(&s);
+    while (fread(row, sizeof row, 1, stdin) == 1) {
+        if (row[0] == 0) {
+            long u = (long)@P@_step(&s, (@P@_q31)row[1], (@P@_q31)row[2]);
+            fwrite(&u, sizeof u, 1, stdout);
+        } else if (row[0] == 1) {
+            @P@_set_manual(&s, (@P@_q31)row[1]);
+        } else {
+            @P@_set_auto(&s);
+        }
+    }
+    {
+        long count = (long)s.nan_count;
+        fwrite(&count, sizeof count, 1, stdout);
+    }
+    return 0;
+}
+"""
+
+
+def controller(over):
+    ctrl = mfcontrol.make_controller(CASE, over)
+    ctrl._take_input_limits(INPUT_LIMITS)
+    return ctrl
+
+
+def build(src, folder: Path, flags=()) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{src.prefix}.h").write_text(src.header)
+    (folder / f"{src.prefix}.c").write_text(src.source)
+    (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix))
+    exe = folder / "drive"
+    done = subprocess.run([H.compiler(), *H.CFLAGS, *flags, "-I", str(folder),
+                           str(folder / f"{src.prefix}.c"), str(folder / "main.c"), "-o",
+                           str(exe)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[:4000]
+    return exe
+
+
+def run(exe: Path, ops: np.ndarray) -> tuple[np.ndarray, int]:
+    done = subprocess.run([str(exe)], input=np.ascontiguousarray(ops, np.int64).tobytes(),
+                          capture_output=True, timeout=600)
+    assert done.returncode == 0 and not done.stderr, done.stderr.decode()[:2000]
+    out = np.frombuffer(done.stdout, dtype=np.int64)
+    return out[:-1], int(out[-1])
+
+
+def codes_of_the_run(ctrl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ops, y, r): the case's closed loop as codes, a manual period and the return to
+    automatic; y and r dequantized (exactly: the scale is a power of two)."""
+    q = q31_pid(ctrl)
+    y, r = closed_loop(CASE)
+    Y = np.array([code(v, q.y_scale) for v in y])
+    R = np.array([code(v, q.y_scale) for v in r])
+    n = len(Y)
+    u_manual = code(0.25 * q.u_scale, q.u_scale)
+    ops = np.vstack([np.column_stack([np.zeros(n // 2), Y[:n // 2], R[:n // 2]]),
+                     [[1, u_manual, 0]],
+                     np.column_stack([np.zeros(5), Y[n // 2:n // 2 + 5], R[n // 2:n // 2 + 5]]),
+                     [[2, 0, 0]],
+                     np.column_stack([np.zeros(n - n // 2), Y[n // 2:], R[n // 2:]])])
+    return ops.astype(np.int64), Y * (q.y_scale / 2**31), R * (q.y_scale / 2**31)
+
+
+def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
+    """The double PID's outputs for ``ops`` and a first-order bound on |u_q31 - u| at each
+    of its steps, carried through the law's recursions. Sources: each coefficient's
+    representation error (known exactly: value against M 2^-S), each product's rounding
+    (half a code of its result), the output limits' codes, the integral's rounding to an
+    output code, and the double law's own rounding. The integral's back-calculation
+    i + h/Tt (sat(v) - v) does not amplify an error of i (sat(v) - v falls with slope 0 or
+    -1 in v, and h/Tt <= 1), so the integral's error grows only by what each step adds."""
+    q = q31_pid(ctrl)
+    py = type(ctrl)(**ctrl._params)
+    qy, qu = q.y_scale / 2**31, q.u_scale / 2**31
+    qi = qu / 2**GUARD_BITS
+    ratio = q.u_scale / q.y_scale  # a coefficient in codes is the law's divided by this
+    guard = 2.0**GUARD_BITS
+    b, c = q.b.value, q.c.value
+    db, dc = abs(q.b.exact - b), abs(q.c.exact - c)
+    kp, dkp = q.kp.value * ratio, abs(q.kp.exact - q.kp.value) * ratio
+    dkih = abs(q.kih.exact - q.kih.value) * ratio / guard
+    htt, dhtt = q.htt.value / guard, abs(q.htt.exact - q.htt.value) / guard
+    assert htt <= 1.0
+    ad, dad = q.ad.value, abs(q.ad.exact - q.ad.value)
+    bd, dbd = q.bd.value * ratio, abs(q.bd.exact - q.bd.value) * ratio
+    lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
+    dlim = max(abs(q.u_limits[0] * qu - lo), abs(q.u_limits[1] * qu - hi))
+    eps = 2.0**-50  # the double law's own rounding, relative
+    out, bounds = [], []
+    err_i = err_d = err_u = 0.0  # of the integral, the derivative term, the last output
+    first, pending = True, False
+    y_old = r_old = d_old = 0.0
+    for op, a, code_r in ops:
+        if op == 1:  # manual: the code is the double's value, clamped to the limits' codes
+            py.set_auto_mode(False, last_output=a * qu)
+            err_u = dlim + eps * abs(a * qu)
+            continue
+        if op == 2:  # the law restarts from the last output
+            py.set_auto_mode(True)
+            err_i = err_d = 0.0
+            first, pending = True, True
+            continue
+        y, r = a * qy, code_r * qy
+        if first:
+            y_old, r_old, d_old = y, r, 0.0
+        u = py(y, setpoint=r)
+        comp = py.components
+        p, i, d, v = comp["P"], comp["I"], comp["D"], comp["unlimited"]
+        err_p = kp * (abs(r) * db + 0.5 * qy) + abs(b * r - y) * dkp + 0.5 * qu
+        if q.derivative:
+            de = (y - y_old) if c == 0.0 else (y - c * r) - (y_old - c * r_old)
+            err_de = 0.0 if c == 0.0 else dc * (abs(r) + abs(r_old)) + qy
+            err_d = (ad * err_d + abs(d_old) * dad + 0.5 * qu + abs(de) * dbd + bd * err_de
+                     + 0.5 * qu)
+        if pending:  # the integral set to give the last output
+            err_i = err_u + err_p + err_d
+            pending = False
+        err_v = err_p + err_i + 0.5 * qu + err_d + eps * (abs(p) + abs(i) + abs(d))
+        err_u = err_v + dlim + eps * abs(u)
+        out.append(u)
+        bounds.append(err_u)
+        err_i += (htt * (err_p + err_d + 0.5 * qu + dlim) + abs(r - y) * dkih
+                  + abs(u - v) * dhtt + 2 * 0.5 * qi + eps * (abs(i) + abs(u - v)))
+        y_old, r_old, d_old, first = y, r, d, False
+    return np.array(out), np.array(bounds)
+
+
+@pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast"])
+def test_the_q31_pid_stays_within_its_derived_bound_of_the_double_pid(over, tmp_path):
+    ctrl = controller(over)
+    src = c_source(ctrl, real="q31")
+    ops, _, _ = codes_of_the_run(ctrl)
+    out, nan_count = run(build(src, tmp_path), ops)
+    u_q = out * (q31_pid(ctrl).u_scale / 2**31)
+    u, bound = bound_along(ctrl, ops)
+    err = np.abs(u_q - u)
+    worst = int(np.argmax(err / bound))
+    assert np.all(err <= bound), (f"step {worst}: |{u_q[worst]!r} - {u[worst]!r}| > "
+                                  f"{bound[worst]:.3g}")
+    assert nan_count == 0
+    # the bound means something: within 1e-4 of the output's range over the whole run
+    lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
+    assert bound.max() < 1e-4 * (hi - lo)
+    assert err.max() > 0.0  # and the comparison sees the fixed point's rounding
+
+
+def test_hostile_codes_saturate_without_undefined_behaviour(tmp_path):
+    """The extreme codes as measurement, setpoint and manual output, under
+    -fsanitize=undefined (a signed overflow or an out-of-range shift is reported): every
+    output is within the output limits, a measurement outside the input limits is held
+    and counted."""
+    ctrl = controller(VARIANTS[1])
+    q = q31_pid(ctrl)
+    src = c_source(ctrl, real="q31")
+    big, y_lo, y_hi = 2**31 - 1, *q.y_limits
+    values = [-big - 1, -big, -1, 0, 1, big, y_lo, y_hi, y_lo - 1, y_hi + 1]
+    rng = np.random.default_rng(5)
+    rows = [[0, a, b] for a in values for b in values]
+    rows += [[0, int(a), int(b)] for a, b in rng.integers(-2**31, 2**31, (300, 2))]
+    rows += [[1, big, 0], [0, 0, 0], [2, 0, 0], [0, 0, big], [1, -big - 1, 0], [2, 0, 0],
+             [0, y_hi, -big - 1]]
+    exe = build(src, tmp_path, ("-fsanitize=undefined", "-fno-sanitize-recover=all"))
+    out, nan_count = run(exe, np.array(rows, np.int64))
+    assert np.all((out >= q.u_limits[0]) & (out <= q.u_limits[1]))
+    outside = sum(1 for op, a, _ in rows if op == 0 and not y_lo <= a <= y_hi)
+    assert nan_count == outside
+
+
+def test_the_cortex_m0_computes_the_same_codes(tmp_path):
+    _require_tools()
+    ctrl = controller(VARIANTS[1])
+    src = c_source(ctrl, real="q31")
+    ops, _, _ = codes_of_the_run(ctrl)
+    ops = ops[:400]
+    x86, _ = run(build(src, tmp_path / "x86"), ops)
+    folder = tmp_path / "m0"
+    folder.mkdir()
+    (folder / "mfc.h").write_text(src.header)
+    (folder / "mfc.c").write_text(src.source)
+    rows = ",\n".join("{" + ", ".join(f"{int(v)}L" for v in row) + "}" for row in ops)
+    main = ("#include <stdio.h>\n#include \"mfc.h\"\n"
+            f"static const long OPS[{len(ops)}][3] = {{\n{rows}\n}};\n"
+            "int main(void)\n{\n    static mfc_state s;\n    long i;\n    mfc_init(&s);\n"
+            f"    for (i = 0; i < {len(ops)}L; i++) {{\n"
+            "        if (OPS[i][0] == 0) printf(\"u %ld\\n\", (long)mfc_step(&s, "
+            "(mfc_q31)OPS[i][1], (mfc_q31)OPS[i][2]));\n"
+            "        else if (OPS[i][0] == 1) mfc_set_manual(&s, (mfc_q31)OPS[i][1]);\n"
+            "        else mfc_set_auto(&s);\n    }\n    return 0;\n}\n")
+    flags, _ = cortex_m.TARGETS["m0"]
+    subprocess.run(["arm-none-eabi-gcc", *flags, *H.CFLAGS, "-c", str(folder / "mfc.c"),
+                    "-o", str(folder / "controller.o")], check=True, timeout=600)
+    elf = cortex_m.build(folder, "m0", ["controller.o"], main)
+    done = subprocess.run(cortex_m.qemu_command(elf, "m0"), capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    m0 = [int(line[2:]) for line in done.stdout.splitlines() if line.startswith("u ")]
+    assert m0 == x86.tolist()
+    # no floating point in the M0's code: no software float routine linked in
+    symbols = subprocess.run(["arm-none-eabi-nm", str(folder / "controller.o")],
+                             capture_output=True, text=True, check=True).stdout
+    assert "__aeabi_f" not in symbols and "__aeabi_d" not in symbols
+
+
+def test_what_the_fixed_point_export_cannot_hold_is_refused():
+    with pytest.raises(ConfigError, match="input_limits"):
+        c_source(mfcontrol.make_controller(CASE), real="q31")
+    with pytest.raises(ConfigError, match="Tf"):
+        c_source(controller({"controller.Tf": 0.01}), real="q31")
+    with pytest.raises(ConfigError, match="q31.*PID so far"):
+        c_source(mfcontrol.make_controller("motor-noise-ipi"), real="q31")
+    ctrl = mfcontrol.PID(kp=1.0, ki=1.0, sample_time=0.01, input_limits=(-1, 1))
+    with pytest.raises(ConfigError, match="output_limits"):
+        c_source(ctrl, real="q31")
+    assert math.isfinite(code(1e300, 1.0))
