@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -845,6 +846,31 @@ def test_export_c_takes_the_sensor_range(tmp_path):
     source = (tmp_path / "c" / "mfc.c").read_text()
     assert "if (!isfinite(y) || !isfinite(setpoint) || y > 5000.0) {" in source
     assert "--input-limits none 5000" in source  # the banner says how it was made
+
+
+def test_export_c_frozen_and_in_fixed_point(tmp_path):
+    """--frozen: no parameter struct nor setter; --real q31: the PID in integers, which
+    needs the sensor's range."""
+    from tests.cexport.harness import CFLAGS, compiler
+
+    proc = cli("export-c", "motor-noise-pid", "--frozen", "--out", str(tmp_path / "f"))
+    assert proc.returncode == 0 and "frozen" in proc.stdout, proc.stderr
+    assert "set_params" not in (tmp_path / "f" / "mfc.h").read_text()
+    proc = cli("export-c", "motor-noise-pid", "--out", str(tmp_path / "t"))
+    assert "tunable with mfc_set_params" in proc.stdout
+    assert "int mfc_set_params(mfc_state *s, const mfc_params *p);" in \
+        (tmp_path / "t" / "mfc.h").read_text()
+    proc = cli("export-c", "motor-noise-pid", "--real", "q31", "--out", str(tmp_path / "q"))
+    assert proc.returncode == 2 and "input_limits" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    proc = cli("export-c", "motor-noise-pid", "--real", "q31", "--input-limits", "-128",
+               "128", "--out", str(tmp_path / "q"))
+    assert proc.returncode == 0, proc.stderr
+    source = tmp_path / "q" / "mfc.c"
+    assert "typedef int32_t mfc_q31;" in (tmp_path / "q" / "mfc.h").read_text()
+    assert not re.search(r"\b(double|float)\b", source.read_text())  # no floating type
+    subprocess.run([compiler(), *CFLAGS, "-c", str(source), "-o", str(tmp_path / "q.o")],
+                   check=True)
 
 
 def test_export_c_of_a_sweep_case_says_it_exports_the_base_setting(tmp_path):
