@@ -192,12 +192,19 @@ def test_the_q31_pid_stays_within_its_derived_bound_of_the_double_pid(over, tmp_
     assert err.max() > 0.0  # and the comparison sees the fixed point's rounding
 
 
-def test_hostile_codes_saturate_without_undefined_behaviour(tmp_path):
+#: coefficients at the top of their range (shifts near 1: the least room in 64 bits)
+EXTREME = {"controller.kp": 5e7, "controller.ki": 10.0, "controller.kd": 2e5,
+           "controller.N": 5.0, "controller.b": 100.0, "controller.c": -50.0,
+           "controller.Tt": 0.002, "controller.duty_min": -2.0, "controller.duty_max": 2.0}
+
+
+@pytest.mark.parametrize("over", [VARIANTS[1], EXTREME], ids=["pid-weights", "extreme"])
+def test_hostile_codes_saturate_without_undefined_behaviour(over, tmp_path):
     """The extreme codes as measurement, setpoint and manual output, under
     -fsanitize=undefined (a signed overflow or an out-of-range shift is reported): every
     output is within the output limits, a measurement outside the input limits is held
     and counted."""
-    ctrl = controller(VARIANTS[1])
+    ctrl = controller(over)
     q = q31_pid(ctrl)
     src = c_source(ctrl, real="q31")
     big, y_lo, y_hi = 2**31 - 1, *q.y_limits
@@ -259,4 +266,7 @@ def test_what_the_fixed_point_export_cannot_hold_is_refused():
     ctrl = mfcontrol.PID(kp=1.0, ki=1.0, sample_time=0.01, input_limits=(-1, 1))
     with pytest.raises(ConfigError, match="output_limits"):
         c_source(ctrl, real="q31")
+    # a coefficient out of range is named by the parameter as given
+    with pytest.raises(ConfigError, match=r"ki = 1000000000.0: gives the q31 coefficient"):
+        c_source(controller({"controller.ki": 1e9}), real="q31")
     assert math.isfinite(code(1e300, 1.0))

@@ -423,19 +423,27 @@ def test_comments_cannot_be_closed_by_a_description():
 
 
 def test_two_exports_compile_in_one_translation_unit_with_gcc_and_clang(tmp_path):
-    """Unity builds: every name is prefixed. clang too where it is installed (its
-    -Wparentheses-equality once failed every export under -Werror)."""
+    """Unity builds: every name is prefixed. clang too (its -Wparentheses-equality once
+    failed every export under -Werror, its -Wenum-float-conversion every intelligent and
+    recursive one); CI installs it and sets MFCONTROL_REQUIRE_CLANG=1."""
+    import os
     import shutil
     import subprocess
 
-    for prefix, case in (("a", INTELLIGENT), ("b", RECURSIVE), ("c", "motor-noise-pid")):
+    cases = (("a", INTELLIGENT, False), ("b", RECURSIVE, False), ("c", "motor-noise-pid", False),
+             ("d", "voltage-stable-variational", True), ("e", "motor-noise-adrc", True))
+    for prefix, case, frozen in cases:
         for real in ("double", "float"):
-            src = c_source(mfcontrol.make_controller(case), prefix=prefix + real[0], real=real)
+            src = c_source(mfcontrol.make_controller(case), prefix=prefix + real[0], real=real,
+                           frozen=frozen)
             (tmp_path / f"{src.prefix}.h").write_text(src.header)
             (tmp_path / f"{src.prefix}.c").write_text(src.source)
-    (tmp_path / "unity.c").write_text("".join(f'#include "{p}{r}.c"\n' for p in "abc"
+    (tmp_path / "unity.c").write_text("".join(f'#include "{p}{r}.c"\n' for p, _, _ in cases
                                               for r in "df") + "int main(void) { return 0; }\n")
-    for cc in [H.compiler(), shutil.which("clang")]:
+    clang = shutil.which("clang")
+    if clang is None and os.environ.get("MFCONTROL_REQUIRE_CLANG"):
+        pytest.fail("no clang on this machine (Debian: clang)")
+    for cc in [H.compiler(), clang]:
         if cc:
             subprocess.run([cc, *H.CFLAGS, str(tmp_path / "unity.c"), "-o",
                             str(tmp_path / "unity"), "-lm"], check=True)
@@ -884,3 +892,29 @@ def test_the_output_held_before_any_sample_is_within_the_output_limits_in_c(case
     np.testing.assert_array_equal(c_out, py_out)
     lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
     assert c_out[0] == min(max(0.0, lo), hi) and c_nan == py_nan
+
+
+@pytest.mark.parametrize("case,over,retune", RETUNES,
+                         ids=[_id((c, o)) for c, o, _ in RETUNES])
+def test_set_params_before_any_sample_starts_afresh_and_an_unchanged_set_is_no_restart(
+        case, over, retune, tmp_path):
+    """Review: set_params right after init (parameters loaded at boot) restarted the law
+    from the held output, and the PID's integral kept -P; a set with the values running
+    restarted it too. Now the first is the export built with them, the second nothing,
+    as the live retune()."""
+    ctrl = mfcontrol.make_controller(case, over)
+    src = c_source(ctrl)
+    changes = retune(ctrl._params)
+    retuned = type(ctrl)(**{**ctrl._params, **changes})
+    y, r = closed_loop(case)
+    ops = np.vstack([H.set_params_rows(src, _values(retuned), 0), H.steps(y[:400], r[:400]),
+                     H.set_params_rows(src, _values(retuned), 1), H.steps(y[400:600],
+                                                                         r[400:600])])
+    c_out, c_nan = H.run_binary(H.build(src, tmp_path), ops)
+    py_out, py_nan = H.run_python(mfcontrol.make_controller(case, over), ops,
+                                  [(changes, 0), (changes, 0)])
+    np.testing.assert_array_equal(c_out, py_out)
+    assert c_nan == py_nan
+    # both are the controller built with the new parameters, never restarted
+    built, _ = H.run_python(retuned, H.steps(y[:600], r[:600]))
+    np.testing.assert_array_equal(np.delete(c_out, [0, 401]), built)

@@ -40,7 +40,8 @@ CONTROLLERS = [
       ("eps_M", vg.EPS_M, float)]),
     (lambda: mfcontrol.RecursiveIP(alpha=10.0, kp=2.0), recursive_ip,
      [("kp", recursive_ip.KP, float),
-      ("alpha", vg.INV_ALPHA, lambda v: float(_inv / np.float64(v)))]),
+      ("alpha", vg.INV_ALPHA, lambda v: float(_inv / np.float64(v))),
+      ("duty_min", recursive_ip.OUT_MIN, float), ("duty_max", recursive_ip.OUT_MAX, float)]),
 ]
 IDS = ["PID", "ADRC", "IPID", "IPI-variational", "RecursiveIP"]
 
@@ -76,7 +77,8 @@ def test_output_limits_out_of_order_or_nan_fail(make, law, keys):
         bad = cp.copy()
         bad[lo], bad[hi] = a, b
         assert not _valid(law, bad), (a, b)
-    for a, b in [(-math.inf, math.inf), (0.0, 0.0), (-1.0, 1.0)]:
+    infinite = [] if law is recursive_ip else [(-math.inf, math.inf)]  # a duty's are finite
+    for a, b in [*infinite, (0.0, 0.0), (-1.0, 1.0)]:
         good = cp.copy()
         good[lo], good[hi] = a, b
         assert _valid(law, good), (a, b)
@@ -96,9 +98,15 @@ def test_every_case_s_controller_is_valid_as_built():
         assert all(n.isidentifier() and n == n.lower() for n in names)
 
 
-def test_the_pid_tracking_time_row_takes_infinity_for_none():
+def test_the_pid_tracking_time_row_takes_infinity_only_without_an_integral():
+    """Review: a P export (tt INFINITY) given ki in C had no anti-windup, which no
+    constructor builds (retune(ki=1) computes Tt)."""
     cp = mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.01)._CP[:, 0].copy()
-    for value, ok in [(math.inf, True), (0.5, True), (0.0, False), (-1.0, False),
-                      (math.nan, False)]:
-        cp[pid.TT] = value
-        assert _valid(pid, cp) is ok, value
+    for ki in (1.0, 0.0):
+        cp[pid.KI] = ki
+        for value, ok in [(math.inf, ki == 0.0), (0.5, True), (0.0, False), (-1.0, False),
+                          (math.nan, False)]:
+            cp[pid.TT] = value
+            assert _valid(pid, cp) is ok, (ki, value)
+    with pytest.raises(ValueError, match="Tt = inf"):
+        mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.01, Tt=math.inf)

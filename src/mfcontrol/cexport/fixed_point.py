@@ -48,18 +48,23 @@ class Coefficient:
     shift: int
 
     @classmethod
-    def of(cls, value: float, name: str) -> Coefficient:
+    def of(cls, value: float, name: str, given: float | None = None) -> Coefficient:
+        """``value`` in q31, refused in the words of ``name = given`` (the parameter it
+        comes from, as the user gave it; default ``value``)."""
+        given = value if given is None else given
         if value == 0.0:
             return cls(0.0, 0, 31)
         if not math.isfinite(value):
-            raise ConfigError(name, value, "must be finite for a fixed-point export")
+            raise ConfigError(name, given, "must be finite for a fixed-point export")
         shift = 30 - math.floor(math.log2(abs(value)))
         mantissa = round(abs(value) * 2.0**shift)
         if mantissa == _ONE:  # rounded up to the next power of two
             mantissa, shift = _ONE // 2, shift - 1
         if not 1 <= shift <= 62:
-            raise ConfigError(name, value, "is outside what a q31 coefficient holds (about "
-                              "2^-32 to 2^29 times the codes' scale ratio): export in float")
+            raise ConfigError(name, given, f"gives the q31 coefficient {value:.3g} (in the "
+                              "codes' units), outside what one holds (2^-32 to 2^30): "
+                              "export in float, or change the scales (input and output "
+                              "limits)")
         return cls(value, int(math.copysign(mantissa, value)), shift)
 
     @property
@@ -123,9 +128,10 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
     return Q31Pid(
         sy, su, (code(y_lo, sy), code(y_hi, sy)), (code(lo, su), code(hi, su)),
         Coefficient.of(float(cp[pid.B]), f"{p}b"), Coefficient.of(float(cp[pid.C]), f"{p}c"),
-        Coefficient.of(kp * ratio, f"{p}kp"), Coefficient.of(ki * h * ratio * guard, f"{p}ki"),
-        Coefficient.of(h / tt * guard if math.isfinite(tt) else 0.0, f"{p}Tt"),
-        Coefficient.of(ad, f"{p}N"), Coefficient.of(bd * ratio, f"{p}kd"), derivative)
+        Coefficient.of(kp * ratio, f"{p}kp", kp),
+        Coefficient.of(ki * h * ratio * guard, f"{p}ki", ki),
+        Coefficient.of(h / tt * guard if math.isfinite(tt) else 0.0, f"{p}Tt", tt),
+        Coefficient.of(ad, f"{p}N", n), Coefficient.of(bd * ratio, f"{p}kd", kd), derivative)
 
 
 def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "") -> tuple[str, str]:
@@ -187,7 +193,8 @@ typedef struct {
 void @P@_init(@P@_state *s);
 /* One sample: the measurement and setpoint codes in, the limited output code out. A
  * measurement outside the input limits returns the last output and counts in nan_count.
- * Every sum saturates: no code overflows. On a state never initialised: returns 0. */
+ * Every sum saturates: no code overflows. On a state never initialised: returns 0
+ * clamped to the output limits and changes nothing. */
 @P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint);
 /* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto. */
 void @P@_set_manual(@P@_state *s, @P@_q31 u);
@@ -265,7 +272,7 @@ void @P@_init(@P@_state *s)
 {
     int64_t p, d = 0, v;
     int32_t u;
-    if (s->ready != @PU@_READY) return 0;
+    if (s->ready != @PU@_READY) return @P@_clamp(0); /* within the limits, unchanged */
     if (!s->auto_mode) return s->last_output;
     if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
         s->nan_count++;

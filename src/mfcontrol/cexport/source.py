@@ -174,7 +174,10 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
             "INVALID": invalid.name,
             "CLAMP_OUT": _clamp(law.limits, "s->last_output", "        "),
             "FIELD_OF": "".join(f"    case {row}: return {prefix.upper()}_FIELD_{name.upper()};\n"
-                                for name, row, _ in tunable)}), subs)
+                                for name, row, _ in tunable),
+            "SAME": " &&\n        ".join(f"p->{name} == s->params.{name}"
+                                           for name, _, _ in tunable),
+            "INIT_LAW": textwrap.indent(law.init, "    ")}), subs)
         # the translated law takes the parameter struct first
         driver = re.sub(rf"\b({step.name}|{reset.name})\(s->cs", r"\1(&s->params, s->cs",
                         driver)
@@ -545,6 +548,8 @@ typedef @REAL@ @R@;
     @R@ skipped;
     /* 1 automatic, 0 manual */
     int auto_mode;
+    /* 1 until the law takes a sample or restarts */
+    int fresh;
     /* set by @P@_init: a state never initialised is refused, not run on whatever its
      * memory holds */
     unsigned long ready;
@@ -620,6 +625,7 @@ void @P@_init(@P@_state *s)
     s->overflows = 0;
     s->skipped = 0;
     s->auto_mode = 1;
+    s->fresh = 1;
     s->ready = @PU@_READY;
 }
 
@@ -650,6 +656,7 @@ void @P@_init(@P@_state *s)
     s->last_output = u;
     s->skipped = 0;
     s->overflows = 0;
+    s->fresh = 0;
     return u;
 }
 
@@ -666,6 +673,7 @@ void @P@_set_manual(@P@_state *s, @R@ u)
 
 static void @P@_bumpless(@P@_state *s, @R@ start)
 {
+    s->fresh = 0;
 @BUMPLESS@}
 
 void @P@_set_auto(@P@_state *s)
@@ -690,9 +698,12 @@ _SET_PARAMS_DECL = """\
 /* Change the parameters while running. Every member is checked: a value the law is
  * not defined for (NaN, a limit pair out of order, N <= 0...) is refused, nothing
  * changes, and the member at fault is returned (@PU@_FIELD_...). Taken: in automatic
- * mode the law restarts from the last output (bumpless, as @P@_set_auto does), in
- * manual mode the held output is clamped to the new limits. Returns 0 when taken, -1
- * for a state never initialised (or no parameters). */
+ * mode the law restarts from the last output (bumpless, as @P@_set_auto does; before
+ * any sample it starts as @P@_init would with them; an unchanged set changes nothing),
+ * in manual mode the held output is clamped to the new limits. Returns 0 when taken,
+ * -1 for a state never initialised (or no parameters). A restart: the sample after it
+ * integrates nothing, so it is not a per-sample gain schedule. Call it where @P@_step
+ * is called (or with that interrupt masked): the copy is not atomic. */
 int @P@_set_params(@P@_state *s, const @P@_params *p);
 """
 
@@ -711,13 +722,15 @@ int @P@_set_params(@P@_state *s, const @P@_params *p)
     if (s->ready != @PU@_READY || !p) return -1;
     row = @INVALID@(p, s->cs);
     if (row >= 0) return @P@_field_of(row);
+    if (@SAME@) return 0; /* nothing changes */
     s->params = *p;
-    if (s->auto_mode) {
+    if (!s->auto_mode) {
+@CLAMP_OUT@    } else if (s->fresh) { /* before any sample: as init with them */
+@INIT_LAW@    } else {
         @P@_bumpless(s, s->last_output);
         s->skipped = 0;
         s->overflows = 0;
-    } else {
-@CLAMP_OUT@    }
+    }
     return 0;
 }
 """

@@ -546,7 +546,9 @@ class _FunctionTranslator:
                 c = _CMPOPS.get(type(op))
                 if c is None:
                     self.fail(node, f"comparison {type(op).__name__}")
-                a, b = self.expr(left)[0], self.expr(right)[0]
+                (a, ka), (b, kb) = self.expr(left), self.expr(right)
+                if REAL in (ka, kb):  # an enum constant against a real: said explicitly
+                    a, b = self.as_kind(a, ka, REAL), self.as_kind(b, kb, REAL)
                 parts.append(f"({a} {c} {b})")
                 left = right
             return ("(" + " && ".join(parts) + ")" if len(parts) > 1 else parts[0]), BOOL

@@ -80,7 +80,7 @@ TUNABLE = (
     ("b", B, "setpoint weight of the proportional term"),
     ("c", C, "setpoint weight of the derivative"),
     ("tf", TF, "measurement filter's time constant (s), >= 0 (0: none)"),
-    ("tt", TT, "anti-windup tracking time (s), > 0 (INFINITY: none); kept as given"),
+    ("tt", TT, "anti-windup tracking time (s), > 0 (INFINITY: none, only with ki 0)"),
     ("out_min", OUT_MIN, "lower output limit (-INFINITY: none)"),
     ("out_max", OUT_MAX, "upper output limit (INFINITY: none), >= out_min"),
 )
@@ -110,7 +110,9 @@ def invalid_row(CP, j):
     tf = CP[TF, j]
     if not (math.isfinite(tf) and tf >= 0.0):
         return TF
-    if not CP[TT, j] > 0.0:
+    tt = CP[TT, j]
+    # a tracking time of INFINITY (none) only without an integral: one would wind up
+    if not (tt > 0.0 and (math.isfinite(tt) or CP[KI, j] == 0.0)):
         return TT
     if not _tunable.limits_ok(CP[OUT_MIN, j], CP[OUT_MAX, j]):
         return OUT_MAX

@@ -24,7 +24,6 @@ import math
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from .._jit import step_jit
-from . import tunable as _tunable
 from . import variational_gain as vg
 
 # The law's parameters: the gain adaptation's rows, then these. The row constants are the
@@ -54,8 +53,8 @@ def tunable(cp) -> tuple[tuple[str, int, str], ...]:
     parameter column ``cp`` (:mod:`mfcontrol.laws.tunable`): K_P, the limits and the
     gain's own (:func:`mfcontrol.laws.variational_gain.tunable`)."""
     return (("kp", KP, "proportional gain K_P"),
-            ("out_min", OUT_MIN, "lower output limit"),
-            ("out_max", OUT_MAX, "upper output limit, >= out_min"),
+            ("out_min", OUT_MIN, "lower output limit (finite)"),
+            ("out_max", OUT_MAX, "upper output limit (finite), >= out_min"),
             *vg.tunable(cp[vg.MODE]))
 
 
@@ -63,7 +62,9 @@ def invalid_row(CP, j):
     """The first row of :func:`tunable` whose value the law is not defined for, or -1."""
     if not math.isfinite(CP[KP, j]):
         return KP
-    if not _tunable.limits_ok(CP[OUT_MIN, j], CP[OUT_MAX, j]):
+    lo, hi = CP[OUT_MIN, j], CP[OUT_MAX, j]
+    # finite, as its duty limits are (the output is a duty: its bounds are numbers)
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
         return OUT_MAX
     return vg.invalid_row(CP, j)
 

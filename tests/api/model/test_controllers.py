@@ -704,6 +704,24 @@ def test_a_retune_is_bumpless_and_is_a_controller_built_with_the_new_parameters(
     assert _run(clone, 5, 70) == _run(ctrl, 5, 70)
 
 
+@pytest.mark.parametrize("make,changes", _RETUNED)
+def test_a_retune_before_any_sample_is_a_controller_built_with_them(make, changes):
+    """Review: a retune before the first sample (parameters loaded at start) restarted the
+    law from the held 0, and the integral kept -P."""
+    ctrl = make()
+    ctrl.retune(**changes)
+    assert _run(ctrl) == _run(type(ctrl)(**{**make()._params, **changes}))
+
+
+@pytest.mark.parametrize("make,changes", _RETUNED)
+def test_a_retune_that_changes_nothing_is_no_restart(make, changes):
+    ctrl, plain = make(), make()
+    _run(ctrl)
+    _run(plain)
+    ctrl.retune(**{k: ctrl._params[k] for k in changes})
+    assert _run(ctrl, 20, 30) == _run(plain, 20, 30)
+
+
 def test_a_refused_retune_changes_nothing():
     ctrl = mfcontrol.PID(kp=2.0, ki=1.0, kd=0.1, sample_time=0.01, output_limits=(-5, 5))
     _run(ctrl)

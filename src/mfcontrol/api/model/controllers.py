@@ -312,8 +312,14 @@ class _Controller:
         other tunable ones (:mod:`mfcontrol.laws.tunable`), by the constructor's keywords
         and checked as it checks them (a refused value changes nothing). In automatic
         mode the law then restarts from the last output, bumpless, as
-        :meth:`set_auto_mode` does; in manual mode the held output is clamped to the new
-        limits. The counters stay. A keyword that fixes the law's structure (its order,
+        :meth:`set_auto_mode` does (before any sample it starts as a controller built
+        with them would; a retune that changes nothing the law reads changes nothing); in
+        manual mode the held output is clamped to the new limits. The counters stay.
+
+        A retune is a restart: the derivative's and the estimator's histories start again
+        and the sample after it integrates nothing (its output is the last one). It suits
+        an operator's or a tuning tool's change, not a gain schedule that retunes every
+        sample, which would hold the output. A keyword that fixes the law's structure (its order,
         estimator, window, kernel, anti-windup kind, gain mode, delay, the period) is
         refused: build a new controller. The exported C's ``PREFIX_set_params`` does the
         same (:mod:`mfcontrol.cexport`).
@@ -336,7 +342,8 @@ class _Controller:
         cls = type(self)
         new = cls(**{**self._params, **changes})  # every check the constructor makes
         # the rows as built (a bumpless start rewrites the recursive law's start row)
-        before, after = cls(**self._params)._CP[:, 0], new._CP[:, 0]
+        built = cls(**self._params)
+        before, after = built._CP[:, 0], new._CP[:, 0]
         tunable = {row for _, row, _ in self._LAW.tunable(after)}
 
         def fixed_rows_differ(cp) -> bool:
@@ -354,17 +361,25 @@ class _Controller:
                 if fixed_rows_differ(alone._CP[:, 0]) or alone._CS.shape != self._CS.shape:
                     at_fault.append(key)
             keys = ", ".join(f"{k} = {shown(changes[k])}" for k in at_fault or changes)
-            raise ValueError(f"{keys}: fixes the law's structure (its state or its "
-                             f"branches), not retuned: build a new {cls.__name__}")
+            raise ValueError(f"{keys}: not retuned, it fixes the law's structure (its state "
+                             "or its branches) or its gain mode does not adapt it: build a "
+                             f"new {cls.__name__}")
+        same = all(after[r] == self._CP[r, 0] for r in tunable)
+        # no sample taken since the start (the memory as built)
+        fresh = np.array_equal(self._CS, built._CS, equal_nan=True)
         self._params = new._params
+        if same:  # nothing the law reads changes: no restart
+            return
         self._CP[:, 0] = after  # in place: the compiled step holds the array
         self._adopt(new)
-        if self.auto_mode:
+        if not self.auto_mode:
+            self._last_output = self._limited(self._last_output)
+        elif fresh:  # before any sample: start as a controller built with them would
+            self._reset_state()
+        else:
             self._bumpless_start(self._last_output)
             self._skipped = 0.0
             self._overflows = 0
-        else:
-            self._last_output = self._limited(self._last_output)
 
     def _adopt(self, new: Self) -> None:
         """Take what ``new``, built with the retuned parameters, holds beside its rows."""
