@@ -189,7 +189,9 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         return f"{table}[{tr.param_names.get(row, row)}]"
 
     driver = re.sub(rf"\b{table}\[(\d+)\]", row_read, driver)
-    banner = _banner(prefix, real, law, ctrl, description, frozen)
+    banner = _banner(prefix, ctrl, description, f"({law.name} law family, {real})",
+                     "baked in" if frozen else
+                     f"as exported; {prefix}_set_params changes the tunable ones", _FLOAT_TAIL)
     period = (f"/* sample period (s) the law was built for: call {prefix}_step once per "
               f"period */\n#define {prefix.upper()}_SAMPLE_TIME {options.literal(dt)}"
               if dt is not None else
@@ -279,14 +281,9 @@ def _q31(ctrl, prefix: str, description: str, key_prefix: str) -> CSource:
     if not isinstance(ctrl, PID):
         raise ConfigError("real", "q31", f"exports the PID so far (this is the "
                           f"{_law_label(ctrl)} law): export it in float or double")
-    banner = (f"/* {prefix}: pid controller (mfcontrol.PID) exported by mfcontrol "
-              f"{__version__} in fixed point (q31).\n"
-              + "".join(f" * {line}".rstrip() + "\n" for line in _comment(description)
-                        .split("\n") if description)
-              + " * Parameters (baked in):\n"
-              + "\n".join(f" *   {k} = {_comment(repr(v))}" for k, v in ctrl._params.items())
-              + "\n * C99 with <stdint.h>, integer arithmetic only: no floating point, no "
-              "dynamic memory,\n * no global state. */")
+    banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in",
+                     " * C99 with <stdint.h>, integer arithmetic only: no floating point, no "
+                     "dynamic memory,\n * no global state. */")
     header, source = q31_source(ctrl, prefix=prefix, banner=banner, key_prefix=key_prefix)
     return CSource(prefix, "q31", header, source, "pid", 0)
 
@@ -498,18 +495,22 @@ def _law_label(ctrl) -> str:
     return name
 
 
-def _banner(prefix, real, law, ctrl, description, frozen) -> str:
-    how = "baked in" if frozen else f"as exported; {prefix}_set_params changes the tunable ones"
+def _banner(prefix: str, ctrl, description: str, made: str, how: str, tail: str) -> str:
+    """The files' leading comment: the controller, how it was ``made``, the case it came
+    from, its parameters (``how`` they are held) and the ``tail`` lines."""
     params = "\n".join(f" *   {k} = {_comment(repr(v))}" for k, v in ctrl._params.items())
     what = "".join(f" * {line}".rstrip() + "\n"
                    for line in _comment(description).split("\n")) if description else ""
     return (f"/* {prefix}: {_law_label(ctrl)} controller (mfcontrol.{type(ctrl).__name__}) "
-            f"exported by mfcontrol {__version__} ({law.name} law family, {real}).\n{what}"
-            f" * Parameters ({how}):\n{params}\n"
-            " * C99, no dynamic memory, no global state, only <math.h>. Compile without\n"
-            " * floating-point contraction (this file turns it off for gcc and clang; other\n"
-            " * compilers: -ffp-contract=off or theirs) and without -ffast-math to compute,\n"
-            " * in double, exactly what mfcontrol computes.\n */")
+            f"exported by mfcontrol {__version__} {made}.\n{what}"
+            f" * Parameters ({how}):\n{params}\n{tail}")
+
+
+#: the floating-point exports' last banner lines
+_FLOAT_TAIL = (" * C99, no dynamic memory, no global state, only <math.h>. Compile without\n"
+               " * floating-point contraction (this file turns it off for gcc and clang; other\n"
+               " * compilers: -ffp-contract=off or theirs) and without -ffast-math to compute,\n"
+               " * in double, exactly what mfcontrol computes.\n */")
 
 
 _HEADER = """@BANNER@

@@ -107,37 +107,6 @@ AW_CLAMP = 1.0
 AW_BACK = 2.0
 ANTI_WINDUP = {"none": AW_NONE, "clamp": AW_CLAMP, "back-calculation": AW_BACK}
 
-
-def tunable(cp) -> tuple[tuple[str, int, str], ...]:
-    """The rows a running controller may retune, (field, row, what), of a law with the
-    parameter column ``cp`` (:mod:`mfcontrol.laws.tunable`): the gains, the limits, the
-    back-calculation's k_aw where it has one, and the gain's own
-    (:func:`mfcontrol.laws.variational_gain.tunable`). The order, the estimator, its window
-    and kernel, the start-up, the anti-windup's kind and the delay fix its structure."""
-    rows = [("kp", KP, "proportional gain K_P"), ("ki", KI, "integral gain K_I"),
-            ("kd", KD, "derivative gain K_D")]
-    if cp[AW] == AW_BACK:
-        rows.append(("k_aw", K_AW, "back-calculation gain (1/s), >= 0"))
-    rows += [("out_min", OUT_MIN, "lower output limit (-INFINITY: none)"),
-             ("out_max", OUT_MAX, "upper output limit (INFINITY: none), >= out_min")]
-    return (*rows, *variational_gain.tunable(cp[variational_gain.MODE]))
-
-
-def invalid_row(CP, j):
-    """The first row of :func:`tunable` whose value the law is not defined for, or -1."""
-    if not math.isfinite(CP[KP, j]):
-        return KP
-    if not math.isfinite(CP[KI, j]):
-        return KI
-    if not math.isfinite(CP[KD, j]):
-        return KD
-    if CP[AW, j] == AW_BACK:
-        k_aw = CP[K_AW, j]
-        if not (math.isfinite(k_aw) and k_aw >= 0.0):
-            return K_AW
-    if not _tunable.limits_ok(CP[OUT_MIN, j], CP[OUT_MAX, j]):
-        return OUT_MAX
-    return variational_gain.invalid_row(CP, j)
 KERNELS = estimators.KERNELS
 START_BACKWARD = 0.0
 START_HOLD = 1.0
@@ -170,6 +139,38 @@ EST_BASE = variational_gain.N_STATE + 20
 #: the terms of the bracket by signal name: a live controller's ``components`` and the
 #: engine's recorded trajectory rows both read these
 COMPONENTS = (("F_hat", C_F), ("feedforward", C_FF), ("P", C_P), ("I", C_I), ("D", C_D))
+
+
+def tunable(cp) -> tuple[tuple[str, int, str], ...]:
+    """The rows a running controller may retune, (field, row, what), of a law with the
+    parameter column ``cp`` (:mod:`mfcontrol.laws.tunable`): the gains, the limits, the
+    back-calculation's k_aw where it has one, and the gain's own
+    (:func:`mfcontrol.laws.variational_gain.tunable`). The order, the estimator, its window
+    and kernel, the start-up, the anti-windup's kind and the delay fix its structure."""
+    rows = [("kp", KP, "proportional gain K_P"), ("ki", KI, "integral gain K_I"),
+            ("kd", KD, "derivative gain K_D")]
+    if cp[AW] == AW_BACK:
+        rows.append(("k_aw", K_AW, "back-calculation gain (1/s), >= 0"))
+    rows += [("out_min", OUT_MIN, "lower output limit (-INFINITY: none)"),
+             ("out_max", OUT_MAX, "upper output limit (INFINITY: none), >= out_min")]
+    return (*rows, *variational_gain.tunable(cp[variational_gain.MODE]))
+
+
+def invalid_row(CP, j):
+    """The first row of :func:`tunable` whose value the law is not defined for, or -1."""
+    if not math.isfinite(CP[KP, j]):
+        return KP
+    if not math.isfinite(CP[KI, j]):
+        return KI
+    if not math.isfinite(CP[KD, j]):
+        return KD
+    if CP[AW, j] == AW_BACK:
+        k_aw = CP[K_AW, j]
+        if not (math.isfinite(k_aw) and k_aw >= 0.0):
+            return K_AW
+    if not _tunable.limits_ok(CP[OUT_MIN, j], CP[OUT_MAX, j]):
+        return OUT_MAX
+    return variational_gain.invalid_row(CP, j)
 
 
 def n_state(M: int, d: int = 0) -> int:

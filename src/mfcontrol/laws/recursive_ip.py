@@ -47,6 +47,17 @@ AW_COEF = vg.N_PARAMS + 10  # 0 published (winds up), 1 clamp, k_aw h back-calcu
 H = vg.N_PARAMS + 11
 N_PARAMS = vg.N_PARAMS + 12
 
+# state rows (after the gain adaptation rows)
+U_PREV = vg.N_STATE + 0
+Y_PREV = vg.N_STATE + 1
+R_PREV = vg.N_STATE + 2
+K = vg.N_STATE + 3
+N_STATE = vg.N_STATE + 4
+
+#: from this sample on :func:`advance` depends on k only through the state: a kernel may
+#: pass STEADY for every k >= STEADY, which compiles out the start-up branches
+STEADY = max(1.0, vg.STEADY)
+
 
 def tunable(cp) -> tuple[tuple[str, int, str], ...]:
     """The rows a running controller may retune, (field, row, what), of a law with the
@@ -67,17 +78,6 @@ def invalid_row(CP, j):
     if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
         return OUT_MAX
     return vg.invalid_row(CP, j)
-
-# state rows (after the gain adaptation rows)
-U_PREV = vg.N_STATE + 0
-Y_PREV = vg.N_STATE + 1
-R_PREV = vg.N_STATE + 2
-K = vg.N_STATE + 3
-N_STATE = vg.N_STATE + 4
-
-#: from this sample on :func:`advance` depends on k only through the state: a kernel may
-#: pass STEADY for every k >= STEADY, which compiles out the start-up branches
-STEADY = max(1.0, vg.STEADY)
 
 
 @step_jit

@@ -1,9 +1,10 @@
 """What a running controller may change: the laws' tunable parameter rows and the checks
 their values pass.
 
-Each law module declares ``TUNABLE``, its rows a controller may retune while it runs, as
-``(field, row, what)`` triples (``field`` the C export's struct member, ``what`` its
-meaning and unit), and ``invalid_row(CP, j)``, the first tunable row holding a value the
+Each law module declares ``tunable(cp)``, the rows a controller with the parameter
+column ``cp`` may retune while it runs, as ``(field, row, what)`` triples (``field`` the C
+export's struct member, ``what`` its meaning and unit; the PID's and the ADRC's are the
+constant ``TUNABLE``), and ``invalid_row(CP, j)``, the first tunable row holding a value the
 law is not defined for, or -1. Every other row fixes the law's structure (its order, its
 estimator and window, the gain's mode, a delay): the state's size or the code's branches,
 which the C export folds into the code. ``invalid_row`` is plain Python in the laws'

@@ -85,6 +85,13 @@ EXTERNAL = 2
 RLS = 3
 MODES = {"constant": CONSTANT, "variational": VARIATIONAL, "external": EXTERNAL, "rls": RLS}
 
+#: rls: the prior's variances of F / alpha0 (in u's units) and of alpha / alpha0, the
+#: regression being normalised by the starting alpha0: a standard deviation of 100 u
+#: for F and of 10 alpha0 for alpha, weak against any few samples of data. Their sum
+#: caps the covariance's trace (forgetting stops there: no wind-up without excitation)
+RLS_P0_F = 1e4
+RLS_P0_ALPHA = 1e2
+
 
 def tunable(mode: float) -> tuple[tuple[str, int, str], ...]:
     """The rows of the gain a running controller may retune under ``mode``, (field, row,
@@ -117,12 +124,6 @@ def invalid_row(CP, j):
         if not math.isfinite(CP[EPS_M, j]):
             return EPS_M
     return -1
-#: rls: the prior's variances of F / alpha0 (in u's units) and of alpha / alpha0, the
-#: regression being normalised by the starting alpha0: a standard deviation of 100 u
-#: for F and of 10 alpha0 for alpha, weak against any few samples of data. Their sum
-#: caps the covariance's trace (forgetting stops there: no wind-up without excitation)
-RLS_P0_F = 1e4
-RLS_P0_ALPHA = 1e2
 
 
 def rls_limits(alpha: float, lo: float | None, hi: float | None) -> tuple[float, float]:

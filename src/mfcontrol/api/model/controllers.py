@@ -344,12 +344,12 @@ class _Controller:
         # the rows as built (a bumpless start rewrites the recursive law's start row)
         built = cls(**self._params)
         before, after = built._CP[:, 0], new._CP[:, 0]
-        tunable = {row for _, row, _ in self._LAW.tunable(after)}
+        tunable = [row for _, row, _ in self._LAW.tunable(after)]
+        fixed = np.ones(len(after), bool)
+        fixed[tunable] = False
 
         def fixed_rows_differ(cp) -> bool:
-            return cp.shape != before.shape or any(
-                not (cp[r] == before[r] or (cp[r] != cp[r] and before[r] != before[r]))
-                for r in range(len(cp)) if r not in tunable)
+            return not np.array_equal(cp[fixed], before[fixed], equal_nan=True)
 
         if fixed_rows_differ(after) or new._CS.shape != self._CS.shape:
             at_fault = []
@@ -364,7 +364,7 @@ class _Controller:
             raise ValueError(f"{keys}: not retuned, it fixes the law's structure (its state "
                              "or its branches) or its gain mode does not adapt it: build a "
                              f"new {cls.__name__}")
-        same = all(after[r] == self._CP[r, 0] for r in tunable)
+        same = np.array_equal(after[tunable], self._CP[tunable, 0])
         # no sample taken since the start (the memory as built)
         fresh = np.array_equal(self._CS, built._CS, equal_nan=True)
         self._params = new._params
