@@ -209,7 +209,7 @@ def carried_outputs(ctrl, law, y, r, every: int = 1) -> tuple[np.ndarray, np.nda
         reset(CP, CS, 0, math.nan)
     else:
         reset(CP, CS, 0)
-    step = python_of(law.step)
+    step = python_of(law.module.step)  # (the coefficients computed as the C computes them)
     dt = Carried(getattr(ctrl, "_dt", 0.0) or 0.0)
     values, nodes = [], []
     for yk, rk in zip(y, r, strict=True):

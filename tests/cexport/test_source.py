@@ -621,7 +621,8 @@ def test_a_manual_output_is_clamped_to_the_output_limits(tmp_path):
 
 def test_a_state_never_initialised_is_refused(tmp_path):
     """A zeroed static state never passed to init used to read as manual mode and return
-    0.0 in silence: now step returns NaN and no function changes the state."""
+    0.0 in silence: now step returns NaN and no function changes the state. An
+    initialised state's one mode word reads automatic or manual."""
     import subprocess
 
     src = c_source(mfcontrol.make_controller("motor-noise-pid"), prefix="m")
@@ -641,7 +642,11 @@ int main(void)
     if (!isnan(u) || memcmp(&s, &zero, sizeof s) != 0) return 1;
     m_init(&s);
     u = m_step(&s, 0.5, 1.0);
-    return isfinite(u) && s.ready != 0 ? 0 : 2;
+    if (!isfinite(u) || s.mode != M_AUTO) return 2;
+    m_set_manual(&s, 1.0);
+    if (s.mode != M_MANUAL || m_step(&s, 0.5, 1.0) != 1.0) return 3;
+    m_set_auto(&s);
+    return s.mode == M_AUTO ? 0 : 4;
 }
 """)
     subprocess.run([H.compiler(), *H.CFLAGS, str(tmp_path / "m.c"), str(tmp_path / "main.c"),

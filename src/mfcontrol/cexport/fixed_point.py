@@ -118,19 +118,16 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
     kp, ki, kd, n = (float(cp[row]) for row in (pid.KP, pid.KI, pid.KD, pid.N))
     tt = float(cp[pid.TT])
     derivative = kd != 0.0
-    ad = bd = 0.0
-    if derivative:  # the law's own expressions (pid._terms), for the nominal period
-        td = kd / kp
-        ad = td / (td + n * h)
-        bd = kp * td * n / (td + n * h)
+    # the law's own coefficients at the nominal period
+    kih, htt, ad, bd, _, _ = pid.coefficients(ctrl._CP, 0, h)
     guard = 2.0**GUARD_BITS
     p = key_prefix
     return Q31Pid(
         sy, su, (code(y_lo, sy), code(y_hi, sy)), (code(lo, su), code(hi, su)),
         Coefficient.of(float(cp[pid.B]), f"{p}b"), Coefficient.of(float(cp[pid.C]), f"{p}c"),
         Coefficient.of(kp * ratio, f"{p}kp", kp),
-        Coefficient.of(ki * h * ratio * guard, f"{p}ki", ki),
-        Coefficient.of(h / tt * guard if math.isfinite(tt) else 0.0, f"{p}Tt", tt),
+        Coefficient.of(kih * ratio * guard, f"{p}ki", ki),
+        Coefficient.of(htt * guard, f"{p}Tt", tt),
         Coefficient.of(ad, f"{p}N", n), Coefficient.of(bd * ratio, f"{p}kd", kd), derivative)
 
 
@@ -175,6 +172,9 @@ typedef int32_t @P@_q31;
 #define @PU@_U_SCALE @US@
 /* sample period (s) the law was built for: call @P@_step once per period */
 #define @PU@_SAMPLE_TIME @DT@
+/* a state's mode: automatic ("mfc1"), manual ("mfc0") */
+#define @PU@_AUTO 0x6D666331UL
+#define @PU@_MANUAL 0x6D666330UL
 
 typedef struct {
     int64_t i;              /* the integral, in output codes * 2^@F@ */
@@ -185,8 +185,9 @@ typedef struct {
     unsigned long nan_count; /* rejected: a measurement outside the input limits */
     int started;            /* 0 until the first sample is taken */
     int pending;            /* 1 while start waits for the next sample */
-    int auto_mode;          /* 1 automatic, 0 manual */
-    unsigned long ready;    /* set by @P@_init: a state never initialised is refused */
+    /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
+     * value is a state never passed to @P@_init, which every function refuses */
+    unsigned long mode;
 } @P@_state;
 
 /* Start (or restart) the controller: automatic mode, no history. */
@@ -223,7 +224,8 @@ typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
 #define @PU@_F @F@
 #define @PU@_I_MAX ((int64_t)1 << 61)
 #define @PU@_T_MAX ((int64_t)1 << (61 - @PU@_F))
-#define @PU@_READY 0x6D666331UL
+/* a state passed to @P@_init: its mode is one of the two */
+#define @PU@_INITIALISED(s) ((s)->mode == @PU@_AUTO || (s)->mode == @PU@_MANUAL)
 
 static int32_t @P@_sat32(int64_t x)
 {
@@ -264,16 +266,15 @@ void @P@_init(@P@_state *s)
     s->nan_count = 0;
     s->started = 0;
     s->pending = 0;
-    s->auto_mode = 1;
-    s->ready = @PU@_READY;
+    s->mode = @PU@_AUTO;
 }
 
 @P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint)
 {
     int64_t p, d = 0, v;
     int32_t u;
-    if (s->ready != @PU@_READY) return @P@_clamp(0); /* within the limits, unchanged */
-    if (!s->auto_mode) return s->last_output;
+    if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
+        return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp(0);
     if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
         s->nan_count++;
         return s->last_output;
@@ -316,21 +317,22 @@ void @P@_init(@P@_state *s)
 
 void @P@_set_manual(@P@_state *s, @P@_q31 u)
 {
-    if (s->ready != @PU@_READY) return;
-    s->auto_mode = 0;
+    if (!@PU@_INITIALISED(s)) return;
+    s->mode = @PU@_MANUAL;
     s->last_output = @P@_clamp(u);
 }
 
 void @P@_set_auto(@P@_state *s)
 {
-    if (s->ready != @PU@_READY) return;
-    if (!s->auto_mode) {  /* restart from the last output, as the live PID's reset does */
+    if (!@PU@_INITIALISED(s)) return;
+    /* from manual: restart from the last output, as the live PID's reset does */
+    if (s->mode == @PU@_MANUAL) {
         s->i = 0;
         s->d = 0;
         s->started = 0;
         s->start = s->last_output;
         s->pending = 1;
     }
-    s->auto_mode = 1;
+    s->mode = @PU@_AUTO;
 }
 """

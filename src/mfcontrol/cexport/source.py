@@ -139,9 +139,11 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     fields = None if frozen else {row: name for name, row, _ in tunable}
     options = Options(prefix, real, table, law.state_rows, law.replace, fields)
     tr = Translator(options)
-    step = tr.function(law.step, law.step_kinds)
+    coef = None if law.coefficients is None else tr.function(law.coefficients, (CP, J, REAL))
+    n_coef = 0 if coef is None else len(coef.returns)
+    step = tr.function(law.step, law.step_kinds + (REAL,) * n_coef)
     reset = tr.function(law.reset, law.reset_kinds)
-    roots = [step, reset]
+    roots = [step, reset] + ([] if coef is None else [coef])
     if not frozen:
         invalid = tr.function(law.module.invalid_row, (CP, J))
         roots.append(invalid)
@@ -151,25 +153,33 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     in_range = "".join(f" || y {op} {options.literal(v)}"
                        for op, v in (("<", lo), (">", hi)) if v is not None)
     subs = {
-        "P": prefix, "R": f"{prefix}_real", "NS": str(n_cs), "NB": str(law.n_backup(n_cs)),
+        "P": prefix, "R": f"{prefix}_real", "NS": str(n_cs),
         "PU": prefix.upper(), "RESTART": str(RESTART_AFTER), "RANGE": in_range,
         "INLIMITS": ("" if (lo, hi) == (None, None) else
                      f",\n * a y outside the input limits [{'-inf' if lo is None else repr(lo)}"
                      f", {'inf' if hi is None else repr(hi)}],"),
-        "STEP": step.name, "RESET": reset.name, "LAW": law.name,
+        "STEP": step.name, "RESET": reset.name, "LAW": law.name, "NC": str(n_coef),
+        "COEF": "" if coef is None else coef.name,
+        "COPY_COEF": "".join(f"            c[{i}] = s->coef[{i}];\n" for i in range(n_coef)),
+        "COEF_OUT": ", ".join(f"&c[{i}]" for i in range(n_coef)),
+        "COEF_ARGS": ", ".join(f"c[{i}]" for i in range(n_coef)),
         "DT": options.literal(dt if dt is not None else 0.0),
     }
     # the law's pieces first (they hold @-names the second pass fills)
-    parts = {"INIT_PARAMS": "" if frozen else "    s->params = @P@_default_params;\n",
-             "SAVE": law.save, "RESTORE": law.restore, "INIT": law.init,
-             "FINITE": _finite_check(law.finite, "acc += {x} - {x};"),
-             "FINITE_SOFT": _finite_check(law.finite, "if (!isfinite({x})) return 0;"),
-             "NO_FPU": _NO_FPU[real],
+    coef_at = "" if coef is None else (
+        f"    {coef.name}(s->cs, @DT@, {', '.join(f'&s->coef[{i}]' for i in range(n_coef))});\n")
+    parts = {"INIT_PARAMS": ("" if frozen else "    s->params = @P@_default_params;\n")
+             + coef_at,
+             "INIT": law.init, "NO_FPU": _NO_FPU[real],
              "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip,
              "SKIP_INNER": textwrap.indent(law.skip, "    "),
-             "CLAMP_U": _clamp(law.limits, "u", "        ")}
+             "CLAMP_U": _clamp(law.limits, "u", "        "),
+             # last: the law's pieces above hold its @-names
+             **_memory(law, n_cs)}
     driver = _fill(_fill(_DRIVER, parts), subs)
-    if not frozen:
+    if frozen:  # no setter reads whether the law has taken a sample
+        driver = re.sub(r"^ *s->fresh = [01];\n", "", driver, flags=re.M)
+    else:
         driver += _fill(_fill(_SETTER, {
             "INVALID": invalid.name,
             "CLAMP_OUT": _clamp(law.limits, "s->last_output", "        "),
@@ -177,10 +187,10 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                                 for name, row, _ in tunable),
             "SAME": " &&\n        ".join(f"p->{name} == s->params.{name}"
                                            for name, _, _ in tunable),
-            "INIT_LAW": textwrap.indent(law.init, "    ")}), subs)
+            "INIT_LAW": textwrap.indent(law.init, "    "), "SET_COEF": coef_at}), subs)
         # the translated law takes the parameter struct first
-        driver = re.sub(rf"\b({step.name}|{reset.name})\(s->cs", r"\1(&s->params, s->cs",
-                        driver)
+        names = "|".join(f.name for f in roots if f is not invalid)
+        driver = re.sub(rf"\b({names})\((s->cs|w)\b", r"\1(&s->params, \2", driver)
 
     def row_read(m):  # a parameter row the driver reads (the output limits)
         row = int(m[1])
@@ -201,6 +211,10 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                              "REAL": real, "PERIOD": period,
                              "PARAMS": "" if frozen else _params_header(prefix, tunable, law),
                              "STATE_PARAMS": "" if frozen else _STATE_PARAMS,
+                             "BACKUP": "" if law.backup is None else
+                             _BACKUP_MEMBER.replace("@NB@", str(law.backup.rows)),
+                             "FRESH": "" if frozen else _FRESH_MEMBER,
+                             "COEF_MEMBER": "" if coef is None else _COEF_MEMBER,
                              "SET_PARAMS": "" if frozen else _SET_PARAMS_DECL})
     header = _fill(header, subs)
     parts_c = [f"{banner}\n#include <math.h>\n#include \"{prefix}.h\"",
@@ -313,31 +327,57 @@ class _Law:
     reset_kinds: tuple
     init: str  # C statements of init after the state is zeroed
     bumpless: str  # C statements: restart the law from `start`
-    call: str  # C statements: run the law; set `u` and `ok`
+    call: str  # C statements: run the law; set `u`, and `out`, what must be finite of it
     state_rows: dict
     limits: tuple[int, int]  # parameter rows of the output limits
     skip: str = ""  # C statements: a sample the law did not take (laws with a period)
     replace: dict = field(default_factory=dict)  # law function -> the one the C calls
     extra_rows: int = 0  # state rows the replacements keep after the law's own
-    backup_rows: int | None = None  # rows the step may write (None: all)
-    save: str = "    for (i = 0; i < @NS@; i++) s->backup[i] = s->cs[i];\n"
-    restore: str = "    for (i = 0; i < @NS@; i++) s->cs[i] = s->backup[i];\n"
-    # C statements: CHECK(x); for every row x the step wrote (as mfcontrol.engine.live
-    # checks the whole memory); _finite_check makes them C
-    finite: str = "    for (i = 0; i < @NS@; i++) CHECK(s->cs[i]);\n"
-
-    def n_backup(self, n_cs: int) -> int:
-        return n_cs if self.backup_rows is None else self.backup_rows
+    nan_row: int | None = None  # a row NaN by design once used (as mfcontrol.engine.live)
+    # the law's coefficients(CP, j, h) (what a sample computes from the parameters and its
+    # period alone), which `step` then takes after its own arguments: computed when the
+    # parameters are set, kept in the state, and recomputed only for a longer period
+    coefficients: object = None
+    # None: the step runs on a copy of the memory in local variables, checked, then
+    # written back (the compiler keeps the copy in registers: no backup is stored)
+    backup: _Backup | None = None
 
     @property
     def module_name(self) -> str:
         return self.module.__name__.rsplit(".", 1)[-1]
 
 
+@dataclass
+class _Backup:
+    """A law whose memory is too large to copy every step (the algebraic estimator's ring):
+    the rows its step may write are backed up before it and restored after an overflow."""
+
+    rows: int  # rows of the state's backup
+    save: str  # C statements: copy what the step may write into s->backup
+    restore: str  # and back
+    # C statements: CHECK(x); for every row x the step wrote (cs: the memory), as
+    # mfcontrol.engine.live checks the whole memory; _finite_check makes them C
+    finite: str
+
+
 #: a law with a period (intelligent, PID): called with the time since the last sample it
 #: took, and a sample it did not take adds its period to that
-_SAMPLED_CALL = "    u = @STEP@(s->cs, y, setpoint, @DT@ + s->skipped);\n    ok = isfinite(u);\n"
+_SAMPLED_CALL = "    u = @STEP@(@CS@, y, setpoint, @DT@ + s->skipped);\n    out = u;\n"
 _SAMPLED_SKIP = "        s->skipped += @DT@;\n"
+#: a law with a period and coefficients: those of the sample period from the state, a
+#: longer period's (after a rejected sample) computed for it
+_COEFFICIENTS_CALL = """\
+    {
+        @R@ h = @DT@, c[@NC@];
+        if (s->skipped == 0) {
+@COPY_COEF@        } else { /* a longer period after a rejected sample: its own coefficients */
+            h += s->skipped;
+            @COEF@(s->cs, h, @COEF_OUT@);
+        }
+        u = @STEP@(@CS@, y, setpoint, h, @COEF_ARGS@);
+    }
+    out = u;
+"""
 
 
 def _clamp(limits: tuple[int, int], var: str = "start", indent: str = "    ") -> str:
@@ -379,26 +419,27 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
         spread = intelligent.EST_BASE + estimators.n_state(M)
         n_spread = estimators.SPREAD_ROWS
         slot = f"((long)s->cs[{count}] % {M + 1})"
-        law.backup_rows = head + 2 + n_spread
-        law.save = (f"    for (i = 0; i < {head}; i++) s->backup[i] = s->cs[i];\n"
-                    f"    s->backup[{head}] = s->cs[{head} + {slot}];\n"
-                    f"    s->backup[{head + 1}] = s->cs[{head + M + 1} + {slot}];\n"
-                    f"    for (i = 0; i < {n_spread}; i++) "
-                    f"s->backup[{head + 2} + i] = s->cs[{spread} + i];\n")
-        # the rows before the ring first: the slots are found from the count they hold
-        law.restore = (f"    for (i = 0; i < {head}; i++) s->cs[i] = s->backup[i];\n"
-                       f"    s->cs[{head} + {slot}] = s->backup[{head}];\n"
-                       f"    s->cs[{head + M + 1} + {slot}] = s->backup[{head + 1}];\n"
-                       f"    for (i = 0; i < {n_spread}; i++) "
-                       f"s->cs[{spread} + i] = s->backup[{head + 2} + i];\n")
         # the slots the step wrote, found from the count before it (in the backup); the
         # rest of the ring holds samples already taken, finite. The next resync's moments
         # are not checked: the live controller's memory has no such rows, and what they
         # hold reaches the checked moments at the resync, as the live resync's sums do
         old = f"((long)s->backup[{count}] % {M + 1})"
-        law.finite = (f"    for (i = 0; i < {head}; i++) CHECK(s->cs[i]);\n"
-                      f"    CHECK(s->cs[{head} + {old}]);\n"
-                      f"    CHECK(s->cs[{head + M + 1} + {old}]);\n")
+        law.backup = _Backup(
+            rows=head + 2 + n_spread,
+            save=(f"    for (i = 0; i < {head}; i++) s->backup[i] = s->cs[i];\n"
+                  f"    s->backup[{head}] = s->cs[{head} + {slot}];\n"
+                  f"    s->backup[{head + 1}] = s->cs[{head + M + 1} + {slot}];\n"
+                  f"    for (i = 0; i < {n_spread}; i++) "
+                  f"s->backup[{head + 2} + i] = s->cs[{spread} + i];\n"),
+            # the rows before the ring first: the slots are found from the count they hold
+            restore=(f"    for (i = 0; i < {head}; i++) s->cs[i] = s->backup[i];\n"
+                     f"    s->cs[{head} + {slot}] = s->backup[{head}];\n"
+                     f"    s->cs[{head + M + 1} + {slot}] = s->backup[{head + 1}];\n"
+                     f"    for (i = 0; i < {n_spread}; i++) "
+                     f"s->cs[{spread} + i] = s->backup[{head + 2} + i];\n"),
+            finite=(f"    for (i = 0; i < {head}; i++) CHECK(cs[i]);\n"
+                    f"    CHECK(cs[{head} + {old}]);\n"
+                    f"    CHECK(cs[{head + M + 1} + {old}]);\n"))
     return law
 
 
@@ -416,8 +457,8 @@ def _recursive() -> _Law:
                   f"    s->cs[{u0}] = start / @P@_fixed[{recursive_ip.OUT_GAIN}];\n"
                   "    s->last_output = start;\n"),
         call=("    {\n        @R@ raw = 0, gain = 0, gamma = 0;\n"
-              "        @STEP@(s->cs, y, setpoint, &raw, &u, &gain, &gamma);\n"
-              "        ok = isfinite(raw * 0 + u);\n    }\n"),
+              "        @STEP@(@CS@, y, setpoint, &raw, &u, &gain, &gamma);\n"
+              "        out = raw * 0 + u;\n    }\n"),
         state_rows={recursive_ip.U0: u0}, limits=(recursive_ip.OUT_MIN, recursive_ip.OUT_MAX))
 
 
@@ -427,17 +468,46 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
     is the same, restarted bumplessly through that reset."""
     limits = (law.OUT_MIN, law.OUT_MAX)
     return _Law(
-        name, law, law.step, (CP, CS, J, REAL, REAL, REAL), law.reset, reset_kinds,
+        name, law, law.step_at, (CP, CS, J, REAL, REAL, REAL), law.reset, reset_kinds,
         init=("    @RESET@(s->cs, (@R@)NAN);\n    s->last_output = 0;\n"
               f"{_clamp(limits, 's->last_output')}"),
-        # the start row is NaN once used (or when there is none)
-        finite=(f"    for (i = 0; i < {law.START}; i++) CHECK(s->cs[i]);\n"
-                f"    if (s->cs[{law.START}] == s->cs[{law.START}]) {{ /* NaN: used */\n"
-                f"        CHECK(s->cs[{law.START}]);\n    }}\n"
-                f"    for (i = {law.START + 1}; i < @NS@; i++) CHECK(s->cs[i]);\n"),
+        nan_row=law.START,  # the start row is NaN once used (or when there is none)
         bumpless=(f"{_clamp(limits)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),
-        call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
+        call=_COEFFICIENTS_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP,
+        coefficients=law.coefficients)
+
+
+def _memory(law: _Law, n_cs: int) -> dict[str, str]:
+    """The step's protection of the law's memory (pieces of :data:`_DRIVER`): a copy in
+    local variables that the law runs on, checked and then written back, or, for a law
+    with a :class:`_Backup`, the rows it may write backed up and restored on overflow."""
+    if law.backup is None:
+        rows = [i for i in range(n_cs) if i != law.nan_row]
+        finite = "".join(f"    CHECK(cs[{i}]);\n" for i in rows)
+        if law.nan_row is not None:
+            r = law.nan_row
+            finite += (f"    if (cs[{r}] == cs[{r}]) {{ /* NaN: used */\n"
+                       f"        CHECK(cs[{r}]);\n    }}\n")
+
+        def copies(dst: str, src: str) -> str:  # straight-line: every index a constant
+            return "".join(f"    {dst}[{i}] = {src}[{i}];\n" for i in range(n_cs))
+        parts = {"BACKUP_FUNCS": "", "BACKUP_INIT": "", "CS": "w", "UNDO": "",
+                 "LOCALS": "    @R@ w[@NS@];\n",
+                 "BEFORE": ("    /* the law runs on a copy, written back once checked */\n"
+                            + copies("w", "s->cs")),
+                 "COMMIT": copies("s->cs", "w"), "UNUSED_S": "    (void)s;\n"}
+    else:
+        finite = law.backup.finite
+        parts = {"BACKUP_FUNCS": _fill(_BACKUP_FUNCS, {"SAVE": law.backup.save,
+                                                        "RESTORE": law.backup.restore}),
+                 "BACKUP_INIT": f"    for (i = 0; i < {law.backup.rows}; i++) "
+                                "s->backup[i] = 0;\n",
+                 "CS": "s->cs", "UNDO": "        @P@_restore(s);\n", "LOCALS": "",
+                 "BEFORE": "    @P@_save(s);\n", "COMMIT": "", "UNUSED_S": ""}
+    loop = "    long i;\n" if "i++" in finite else ""
+    return {**parts, "FINITE": loop + _finite_check(finite, "acc += {x} - {x};"),
+            "FINITE_SOFT": loop + _finite_check(finite, "if (!isfinite({x})) return 0;")}
 
 
 def _finite_check(text: str, form: str) -> str:
@@ -528,13 +598,14 @@ typedef @REAL@ @R@;
 /* taken samples in a row whose step overflows after which the law restarts from its last
  * output (one is the sample's fault and is rejected; a second in a row, the memory's) */
 #define @PU@_RESTART_AFTER @RESTART@
+/* a state's mode: automatic ("mfc1"), manual ("mfc0") */
+#define @PU@_AUTO 0x6D666331UL
+#define @PU@_MANUAL 0x6D666330UL
 
 @PARAMS@typedef struct {
 @STATE_PARAMS@    /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
     @R@ cs[@NS@];
-    /* the memory the current step may overwrite, as it was before the step */
-    @R@ backup[@NB@];
-    /* returned in manual mode and after a rejected sample */
+@BACKUP@@COEF_MEMBER@    /* returned in manual mode and after a rejected sample */
     @R@ last_output;
     /* rejected values: a non-finite measurement or setpoint, a measurement outside the
      * input limits, a step that overflowed, a non-finite manual value */
@@ -547,13 +618,10 @@ typedef @REAL@ @R@;
     /* time (s) of the samples the law did not take since its last one: the next step's
      * derivatives and integral span it */
     @R@ skipped;
-    /* 1 automatic, 0 manual */
-    int auto_mode;
-    /* 1 until the law takes a sample or restarts */
-    int fresh;
-    /* set by @P@_init: a state never initialised is refused, not run on whatever its
-     * memory holds */
-    unsigned long ready;
+@FRESH@    /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
+     * value is a state never passed to @P@_init (a zeroed static one included), which every
+     * function refuses rather than run on whatever its memory holds */
+    unsigned long mode;
 } @P@_state;
 
 /* Start (or restart) the controller: automatic mode, no history. Call it once before any
@@ -580,37 +648,25 @@ void @P@_set_auto(@P@_state *s);
 
 _DRIVER = """/* the live controller around the law (as mfcontrol.api.model.controllers) */
 
-/* what @P@_init leaves in a state's `ready` ("mfc1"): any other value is a state never
- * initialised (a zeroed static one included) */
-#define @PU@_READY 0x6D666331UL
-
-static void @P@_save(@P@_state *s)
-{
-    long i;
-@SAVE@}
-
-static void @P@_restore(@P@_state *s)
-{
-    long i;
-@RESTORE@}
-
-/* 1 when the memory the step wrote holds only finite values. With a floating-point unit
- * for the real type, x - x is 0 for a finite x and NaN for an infinite or NaN one, so one
- * comparison tests their sum, without a branch per row (-ffast-math, which would fold
- * x - x to 0, is refused above); without one, the arithmetic is a library call and
- * isfinite an integer test, so each row is tested */
+/* a state passed to @P@_init: its mode is one of the two */
+#define @PU@_INITIALISED(s) ((s)->mode == @PU@_AUTO || (s)->mode == @PU@_MANUAL)
+@BACKUP_FUNCS@
+/* 1 when the step's output (out) and the memory it wrote (cs) hold only finite values.
+ * With a floating-point unit for the real type, x - x is 0 for a finite x and NaN for an
+ * infinite or NaN one, so one comparison tests their sum, without a branch per row
+ * (-ffast-math, which would fold x - x to 0, is refused above); without one, the
+ * arithmetic is a library call and isfinite an integer test, so each row is tested */
 #if @NO_FPU@
-static int @P@_memory_finite(const @P@_state *s)
+static int @P@_finite(const @P@_state *s, const @R@ *cs, @R@ out)
 {
-    long i;
+@UNUSED_S@    if (!isfinite(out)) return 0;
 @FINITE_SOFT@    return 1;
 }
 #else
-static int @P@_memory_finite(const @P@_state *s)
+static int @P@_finite(const @P@_state *s, const @R@ *cs, @R@ out)
 {
-    @R@ acc = 0;
-    long i;
-@FINITE@    return acc == 0;
+    @R@ acc = out - out;
+@UNUSED_S@@FINITE@    return acc == 0;
 }
 #endif
 
@@ -620,31 +676,25 @@ void @P@_init(@P@_state *s)
 {
     long i;
     for (i = 0; i < @NS@; i++) s->cs[i] = 0;
-    for (i = 0; i < @NB@; i++) s->backup[i] = 0;
-@INIT_PARAMS@@INIT@    s->nan_count = 0;
+@BACKUP_INIT@@INIT_PARAMS@@INIT@    s->nan_count = 0;
     s->restarts = 0;
     s->overflows = 0;
     s->skipped = 0;
-    s->auto_mode = 1;
     s->fresh = 1;
-    s->ready = @PU@_READY;
+    s->mode = @PU@_AUTO;
 }
 
 @R@ @P@_step(@P@_state *s, @R@ y, @R@ setpoint)
 {
-    @R@ u = 0;
-    int ok = 0;
-    if (s->ready != @PU@_READY) return (@R@)NAN;
-    if (!s->auto_mode) return s->last_output;
+    @R@ u = 0, out = 0;
+@LOCALS@    if (s->mode != @PU@_AUTO) /* (one test on the way of every sample) */
+        return s->mode == @PU@_MANUAL ? s->last_output : (@R@)NAN;
     if (!isfinite(y) || !isfinite(setpoint)@RANGE@) {
         s->nan_count++;
 @SKIP@        return s->last_output;
     }
-    @P@_save(s);
-@CALL@    if (ok) ok = @P@_memory_finite(s);
-    if (!ok) {
-        @P@_restore(s);
-        s->nan_count++;
+@BEFORE@@CALL@    if (!@P@_finite(s, @CS@, out)) {
+@UNDO@        s->nan_count++;
         if (++s->overflows < @PU@_RESTART_AFTER) {
 @SKIP_INNER@            return s->last_output;
         }
@@ -654,7 +704,7 @@ void @P@_init(@P@_state *s)
         s->restarts++;
         return s->last_output;
     }
-    s->last_output = u;
+@COMMIT@    s->last_output = u;
     s->skipped = 0;
     s->overflows = 0;
     s->fresh = 0;
@@ -663,8 +713,8 @@ void @P@_init(@P@_state *s)
 
 void @P@_set_manual(@P@_state *s, @R@ u)
 {
-    if (s->ready != @PU@_READY) return;
-    s->auto_mode = 0;
+    if (!@PU@_INITIALISED(s)) return;
+    s->mode = @PU@_MANUAL;
     if (isfinite(u)) {
 @CLAMP_U@        s->last_output = u;
     } else {
@@ -679,14 +729,42 @@ static void @P@_bumpless(@P@_state *s, @R@ start)
 
 void @P@_set_auto(@P@_state *s)
 {
-    if (s->ready != @PU@_READY) return;
-    if (!s->auto_mode) {
+    if (!@PU@_INITIALISED(s)) return;
+    if (s->mode == @PU@_MANUAL) {
         @P@_bumpless(s, s->last_output);
         s->skipped = 0;
         s->overflows = 0;
     }
-    s->auto_mode = 1;
+    s->mode = @PU@_AUTO;
 }
+"""
+
+_BACKUP_MEMBER = """\
+    /* the memory the current step may overwrite, as it was before the step */
+    @R@ backup[@NB@];
+"""
+
+_COEF_MEMBER = """\
+    /* what the law computes from its parameters and the sample period alone (computed
+     * when they are set; a longer period after a rejected sample has its own) */
+    @R@ coef[@NC@];
+"""
+
+_FRESH_MEMBER = """\
+    /* 1 until the law takes a sample or restarts (@P@_set_params then starts afresh) */
+    int fresh;
+"""
+
+_BACKUP_FUNCS = """
+static void @P@_save(@P@_state *s)
+{
+    long i;
+@SAVE@}
+
+static void @P@_restore(@P@_state *s)
+{
+    long i;
+@RESTORE@}
 """
 
 _STATE_PARAMS = """\
@@ -720,12 +798,12 @@ static int @P@_field_of(long row)
 int @P@_set_params(@P@_state *s, const @P@_params *p)
 {
     long row = 0;
-    if (s->ready != @PU@_READY || !p) return -1;
+    if (!@PU@_INITIALISED(s) || !p) return -1;
     row = @INVALID@(p, s->cs);
     if (row >= 0) return @P@_field_of(row);
     if (@SAME@) return 0; /* nothing changes */
     s->params = *p;
-    if (!s->auto_mode) {
+@SET_COEF@    if (s->mode == @PU@_MANUAL) {
 @CLAMP_OUT@    } else if (s->fresh) { /* before any sample: as init with them */
 @INIT_LAW@    } else {
         @P@_bumpless(s, s->last_output);

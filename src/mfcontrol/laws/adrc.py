@@ -154,6 +154,14 @@ def observer_gains(order, wo, h):
 
 
 @step_jit
+def coefficients(CP, j, h):
+    """What a sample computes from the parameters and its period h alone, in the order
+    :func:`step_at` takes them: the observer's gains (:func:`observer_gains`). A C export
+    computes them when its parameters are set, and again only for a longer period."""
+    return observer_gains(CP[ORDER, j], CP[WO, j], h)
+
+
+@step_jit
 def reset(CP, CS, j, start):
     """Forget the history; ``start`` (NaN for none) is the output the first sample gives
     (and what the delay's ring holds: the output applied before the start)."""
@@ -172,10 +180,8 @@ STEADY = 1.0
 
 
 @step_jit
-def _corrected(CP, CS, j, y, h):
+def _corrected(CS, j, y, l1, l2, l3):
     """x_k from the prediction and y_k: (x1, x2, x3)."""
-    order = CP[ORDER, j]
-    l1, l2, l3 = observer_gains(order, CP[WO, j], h)
     z1, z2, z3 = CS[Z1, j], CS[Z2, j], CS[Z3, j]
     e = y - z1
     return z1 + l1 * e, z2 + l2 * e, z3 + l3 * e
@@ -223,14 +229,14 @@ def _output(CP, CS, j, order, x1, x2, x3, p, d, f, h):
 
 
 @step_jit
-def step(CP, CS, j, y, r, h):
-    """One sample: measurement y, setpoint r and period h in; the limited output out."""
+def step_at(CP, CS, j, y, r, h, l1, l2, l3):
+    """:func:`step` given the period's :func:`coefficients`."""
     order = CP[ORDER, j]
     if CS[K, j] == 0.0:  # at rest on the first measurement: no observer transient
         CS[Z1, j] = y
         CS[Z2, j] = 0.0
         CS[Z3, j] = 0.0
-    x1, x2, x3 = _corrected(CP, CS, j, y, h)
+    x1, x2, x3 = _corrected(CS, j, y, l1, l2, l3)
     p, d, f = _terms(CP, j, order, x1, x2, x3, r)
     start = CS[START, j]
     if start == start:  # bumpless: the disturbance estimate that makes v the held output
@@ -244,11 +250,19 @@ def step(CP, CS, j, y, r, h):
 
 
 @step_jit
+def step(CP, CS, j, y, r, h):
+    """One sample: measurement y, setpoint r and period h in; the limited output out."""
+    l1, l2, l3 = coefficients(CP, j, h)
+    return step_at(CP, CS, j, y, r, h, l1, l2, l3)
+
+
+@step_jit
 def steady_step(CP, CS, j, y, r, h):
     """:func:`step` for a sample from :data:`STEADY` on, the bumpless start used (START
     NaN): its first-sample branches compiled out, so that a loop over members
     vectorises. Returns (u limited, u unlimited)."""
     order = CP[ORDER, j]
-    x1, x2, x3 = _corrected(CP, CS, j, y, h)
+    l1, l2, l3 = coefficients(CP, j, h)
+    x1, x2, x3 = _corrected(CS, j, y, l1, l2, l3)
     p, d, f = _terms(CP, j, order, x1, x2, x3, r)
     return _output(CP, CS, j, order, x1, x2, x3, p, d, f, h), CS[C_UNLIM, j]

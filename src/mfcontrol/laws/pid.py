@@ -145,39 +145,56 @@ STEADY = 1.0
 
 
 @step_jit
-def filter_step(x, xd, y, h, tf):
+def coefficients(CP, j, h):
+    """What a sample computes from the parameters and its period h alone, in the order
+    :func:`step_at` takes them: ki h, h / Tt, the derivative's ad and bd (0 without one),
+    the measurement filter's c = 2 h / Tf^2 and 1 + c (h + Tf) (0 without one). A C export
+    computes them when its parameters are set, and again only for a longer period."""
+    kp, kd, n, tf = CP[KP, j], CP[KD, j], CP[N, j], CP[TF, j]
+    ad = 0.0
+    bd = 0.0
+    if kd != 0.0:
+        td = kd / kp
+        ad = td / (td + n * h)
+        bd = kp * td * n / (td + n * h)
+    fc = 0.0
+    fden = 0.0
+    if tf > 0.0:
+        fc = 2.0 * h / (tf * tf)
+        fden = 1.0 + fc * (h + tf)
+    return CP[KI, j] * h, h / CP[TT, j], ad, bd, fc, fden
+
+
+@step_jit
+def filter_step(x, xd, y, h, fc, fden):
     """The measurement filter's backward-difference step from its state (y_f, y_f') =
     (x, xd) on the sample y: the new state. The implicit step of
     ``(Tf^2 / 2) x'' + Tf x' + x = y`` solved in closed form:
-    ``xd+ = (xd + c (y - x)) / (1 + c (h + Tf))``, ``x+ = x + h xd+``, c = 2 h / Tf^2."""
-    c = 2.0 * h / (tf * tf)
-    xd = (xd + c * (y - x)) / (1.0 + c * (h + tf))
+    ``xd+ = (xd + c (y - x)) / (1 + c (h + Tf))``, ``x+ = x + h xd+``, c = 2 h / Tf^2
+    (``fc`` and ``fden``: :func:`coefficients`)."""
+    xd = (xd + fc * (y - x)) / fden
     return x + h * xd, xd
 
 
 @step_jit
-def _filtered(CP, CS, j, y, h):
+def _filtered(CP, CS, j, y, h, fc, fden):
     """y_f of this sample, the filter's state advanced (y itself without a filter)."""
-    tf = CP[TF, j]
-    if tf > 0.0:
-        y, CS[YF_D, j] = filter_step(CS[YF, j], CS[YF_D, j], y, h, tf)
+    if CP[TF, j] > 0.0:
+        y, CS[YF_D, j] = filter_step(CS[YF, j], CS[YF_D, j], y, h, fc, fden)
     CS[YF, j] = y
     return y
 
 
 @step_jit
-def _terms(CP, CS, j, y, r, h):
+def _terms(CP, CS, j, y, r, ad, bd):
     """The proportional and derivative terms of this sample, on the filtered y."""
-    kp, kd, n, c = CP[KP, j], CP[KD, j], CP[N, j], CP[C, j]
+    kp, kd, c = CP[KP, j], CP[KD, j], CP[C, j]
     p = kp * (CP[B, j] * r - y)
     # the state read whatever kd: a load under the branch keeps a loop over members
     # from vectorising (the branch's arithmetic becomes a select)
     d_old, y_old, r_old = CS[D, j], CS[Y_OLD, j], CS[R_OLD, j]
     d = 0.0
     if kd != 0.0:
-        td = kd / kp
-        ad = td / (td + n * h)
-        bd = kp * td * n / (td + n * h)
         # c = 0: the measurement's difference alone (c r would be NaN for an infinite r)
         de = (y - y_old) if c == 0.0 else ((y - c * r) - (y_old - c * r_old))
         d = ad * d_old - bd * de
@@ -185,7 +202,7 @@ def _terms(CP, CS, j, y, r, h):
 
 
 @step_jit
-def _output(CP, CS, j, y, r, h, p, i, d):
+def _output(CP, CS, j, y, r, kih, htt, p, i, d):
     """The output from the terms, limited; the integral updated with back-calculation;
     the terms into the state. Returns the limited output."""
     v = p + i + d
@@ -195,7 +212,7 @@ def _output(CP, CS, j, y, r, h, p, i, d):
     CS[C_I, j] = i
     CS[C_D, j] = d
     CS[C_UNLIM, j] = v
-    CS[I, j] = i + CP[KI, j] * h * (r - y) + (h / CP[TT, j]) * (u - v)
+    CS[I, j] = i + kih * (r - y) + htt * (u - v)
     CS[D, j] = d
     CS[Y_OLD, j] = y
     CS[R_OLD, j] = r
@@ -204,21 +221,28 @@ def _output(CP, CS, j, y, r, h, p, i, d):
 
 
 @step_jit
-def step(CP, CS, j, y, r, h):
-    """One sample: measurement y, setpoint r and period h in; the limited output out."""
+def step_at(CP, CS, j, y, r, h, kih, htt, ad, bd, fc, fden):
+    """:func:`step` given the period's :func:`coefficients`."""
     if CS[K, j] == 0.0:  # at rest at the first sample: no kick, no filter transient
         CS[Y_OLD, j] = y
         CS[R_OLD, j] = r
         CS[YF, j] = y
         CS[YF_D, j] = 0.0
-    y = _filtered(CP, CS, j, y, h)
-    p, d = _terms(CP, CS, j, y, r, h)
+    y = _filtered(CP, CS, j, y, h, fc, fden)
+    p, d = _terms(CP, CS, j, y, r, ad, bd)
     i = CS[I, j]
     start = CS[START, j]
     if start == start:  # bumpless: the integral that makes v the held output
         i = start - p - d
         CS[START, j] = math.nan  # used once
-    return _output(CP, CS, j, y, r, h, p, i, d)
+    return _output(CP, CS, j, y, r, kih, htt, p, i, d)
+
+
+@step_jit
+def step(CP, CS, j, y, r, h):
+    """One sample: measurement y, setpoint r and period h in; the limited output out."""
+    kih, htt, ad, bd, fc, fden = coefficients(CP, j, h)
+    return step_at(CP, CS, j, y, r, h, kih, htt, ad, bd, fc, fden)
 
 
 @step_jit
@@ -226,6 +250,7 @@ def steady_step(CP, CS, j, y, r, h):
     """:func:`step` for a sample from :data:`STEADY` on, the bumpless start used (START
     NaN): its first-sample branches compiled out, so that a loop over members
     vectorises. Returns (u limited, u unlimited)."""
-    y = _filtered(CP, CS, j, y, h)
-    p, d = _terms(CP, CS, j, y, r, h)
-    return _output(CP, CS, j, y, r, h, p, CS[I, j], d), CS[C_UNLIM, j]
+    kih, htt, ad, bd, fc, fden = coefficients(CP, j, h)
+    y = _filtered(CP, CS, j, y, h, fc, fden)
+    p, d = _terms(CP, CS, j, y, r, ad, bd)
+    return _output(CP, CS, j, y, r, kih, htt, p, CS[I, j], d), CS[C_UNLIM, j]
