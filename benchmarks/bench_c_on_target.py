@@ -1,7 +1,7 @@
 """What an exported controller costs on a Cortex-M: code size and instructions per step,
 mean and worst, for the Cortex-M4F (float, its FPU) and the Cortex-M0 (float and double in
-software), and the PID in fixed point (q31) on both, beside the x86 figures of
-``bench_c_export.py`` (same controllers).
+software), and the PID and the backward-difference i-PID in fixed point (q31) on both,
+beside the x86 figures of ``bench_c_export.py`` (same controllers).
 
 Each export is cross-compiled with Debian's arm-none-eabi-gcc (``-O2`` and the export's
 flags), its object's ``text`` read with ``arm-none-eabi-size``, and driven with its case's
@@ -34,15 +34,16 @@ import numpy as np
 import mfcontrol
 from bench_c_export import CONTROLLERS, closed_loop
 from mfcontrol.cexport import CFLAGS, c_source, cortex_m
-from mfcontrol.cexport.fixed_point import code, q31_pid
+from mfcontrol.cexport.fixed_point import code
 from mfcontrol.cexport.translate import Options
 
 TARGETS = [("Cortex-M4F", "m4f", "float"), ("Cortex-M0", "m0", "float"),
            ("Cortex-M0", "m0", "double"), ("Cortex-M4F", "m4f", "q31"),
            ("Cortex-M0", "m0", "q31")]  # (label, mfcontrol.cexport.cortex_m target, real)
-#: the controllers measured in fixed point (q31 exports the PID so far; its measurement
-#: range, which it needs, is the run's largest |y| or |r| up to a power of two)
-Q31_LAWS = ("PID",)
+#: the controllers measured in fixed point (q31 exports the PID and the i-P family with the
+#: backward difference; the measurement range it needs is the run's largest |y| or |r| up
+#: to a power of two)
+Q31_LAWS = ("PID", "i-PID, backward difference")
 BASELINE = 3  # calls of the empty function first
 
 _MAIN = r"""
@@ -128,7 +129,7 @@ def measure(case: str, overrides: dict, real: str, target: str,
     if real == "q31":
         span = 2.0 ** math.ceil(math.log2(max(np.abs(y).max(), np.abs(r).max())))
         ctrl._take_input_limits((-span, span))
-        scale = q31_pid(ctrl).y_scale
+        scale = 2.0 * span  # Y_SCALE: twice the input limits' magnitude
     src = c_source(ctrl, real=real, prefix="mfc", frozen=frozen)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)

@@ -849,8 +849,8 @@ def test_export_c_takes_the_sensor_range(tmp_path):
 
 
 def test_export_c_frozen_and_in_fixed_point(tmp_path):
-    """--frozen: no parameter struct nor setter; --real q31: the PID in integers, which
-    needs the sensor's range."""
+    """--frozen: no parameter struct nor setter; --real q31: the PID and the i-P family in
+    integers, which needs the sensor's range."""
     from tests.cexport.harness import CFLAGS, compiler
 
     proc = cli("export-c", "motor-noise-pid", "--frozen", "--out", str(tmp_path / "f"))
@@ -871,6 +871,15 @@ def test_export_c_frozen_and_in_fixed_point(tmp_path):
     assert not re.search(r"\b(double|float)\b", source.read_text())  # no floating type
     subprocess.run([compiler(), *CFLAGS, "-c", str(source), "-o", str(tmp_path / "q.o")],
                    check=True)
+    # the i-P family with the backward difference too; not with a gain it cannot hold
+    proc = cli("export-c", "motor-noise-ipi", "--real", "q31", "--input-limits", "-128",
+               "128", "--out", str(tmp_path / "i"))
+    assert proc.returncode == 0, proc.stderr
+    assert not re.search(r"\b(double|float)\b", (tmp_path / "i" / "mfc.c").read_text())
+    proc = cli("export-c", "motor-noise-ipi", "--real", "q31", "--input-limits", "-128",
+               "128", "--set", "controller.adapt=variational", "--out", str(tmp_path / "v"))
+    assert proc.returncode == 2 and "constant gain only" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
 
 
 def test_export_c_of_a_sweep_case_says_it_exports_the_base_setting(tmp_path):

@@ -530,8 +530,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default mfc: mfc.h, mfc_step...)")
     s.add_argument("--real", "--float", dest="float", choices=("double", "float", "q31"),
                    default="double", help="number type of the C (default double; q31: "
-                   "fixed point for a core without an FPU, the PID so far, with "
-                   "--input-limits for the measurement's scale)")
+                   "fixed point for a core without an FPU: the PID, and the i-P family with "
+                   "the backward difference and a constant gain; with --input-limits for "
+                   "the measurement's scale)")
     s.add_argument("--input-limits", nargs=2, metavar=("LOW", "HIGH"),
                    help="the measurement's valid range (the sensor's; 'none' for no limit): "
                    "a sample outside is rejected as a NaN is, the output held")

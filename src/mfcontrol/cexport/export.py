@@ -43,8 +43,10 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
         Prefix of the files and of every exported name (``PREFIX_step``...).
     real : {"double", "float", "q31"}
         Number type of the exported code. ``"q31"`` is fixed point for a core without a
-        floating-point unit (:mod:`mfcontrol.cexport.fixed_point`): the PID so far, with
-        ``input_limits`` for the measurement's scale, every parameter a constant.
+        floating-point unit: the PID (:mod:`mfcontrol.cexport.fixed_point`) and the i-P,
+        i-PI, i-PD and i-PID with the backward difference and a constant gain
+        (:mod:`mfcontrol.cexport.fixed_point_intelligent`), with ``input_limits`` for the
+        measurement's scale, every parameter a constant.
     description : str, optional
         What the files' leading comment says they came from (default: the case and its
         overrides, or the controller's repr).

@@ -48,9 +48,11 @@ class Coefficient:
     shift: int
 
     @classmethod
-    def of(cls, value: float, name: str, given: float | None = None) -> Coefficient:
+    def of(cls, value: float, name: str, given: float | None = None,
+           shifts: tuple[int, int] = (1, 62)) -> Coefficient:
         """``value`` in q31, refused in the words of ``name = given`` (the parameter it
-        comes from, as the user gave it; default ``value``)."""
+        comes from, as the user gave it; default ``value``) where its shift is outside
+        ``shifts`` (what the C's products take)."""
         given = value if given is None else given
         if value == 0.0:
             return cls(0.0, 0, 31)
@@ -60,11 +62,11 @@ class Coefficient:
         mantissa = round(abs(value) * 2.0**shift)
         if mantissa == _ONE:  # rounded up to the next power of two
             mantissa, shift = _ONE // 2, shift - 1
-        if not 1 <= shift <= 62:
+        if not shifts[0] <= shift <= shifts[1]:
             raise ConfigError(name, given, f"gives the q31 coefficient {value:.3g} (in the "
-                              "codes' units), outside what one holds (2^-32 to 2^30): "
-                              "export in float, or change the scales (input and output "
-                              "limits)")
+                              "codes' units), outside what one holds (2^"
+                              f"{30 - shifts[1]} to 2^{31 - shifts[0]}): export in float, "
+                              "or change the scales (input and output limits)")
         return cls(value, int(math.copysign(mantissa, value)), shift)
 
     @property
@@ -96,10 +98,23 @@ def code(value: float, scale: float) -> int:
     return int(round(min(max(value / scale * _ONE, -_ONE + 1.0), _ONE - 1.0)))
 
 
-def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
-    """The q31 formats of a live :class:`mfcontrol.PID` (refusing what they cannot hold)."""
-    cp = ctrl._CP[:, 0]
-    lo, hi = float(cp[pid.OUT_MIN]), float(cp[pid.OUT_MAX])
+@dataclass(frozen=True)
+class Scales:
+    """A fixed-point export's signal formats: the full scales of the measurement (and the
+    setpoint) and of the output, and the codes of their limits."""
+
+    y_scale: float
+    u_scale: float
+    y_limits: tuple[int, int]  # codes of the input limits
+    u_limits: tuple[int, int]  # codes of the output limits
+    u_lo: float  # the output limits themselves
+    u_hi: float
+
+
+def scales(ctrl, lo: float, hi: float, key_prefix: str = "") -> Scales:
+    """The formats of a live controller with output limits (lo, hi): ``Y_SCALE`` twice the
+    larger magnitude of its input limits (required: the sensor's range), ``U_SCALE``
+    :data:`U_HEADROOM` times that of the output limits (required finite)."""
     if not (math.isfinite(lo) and math.isfinite(hi)) or max(abs(lo), abs(hi)) == 0.0:
         raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be finite and not "
                           "both 0 for a fixed-point export (they set the output's scale)")
@@ -108,12 +123,21 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
         raise ConfigError("input_limits", [y_lo, y_hi], "a fixed-point export needs the "
                           "measurement's range (the sensor's) for its scale: both limits "
                           "finite, not both 0 (--input-limits LOW HIGH, input_limits=)")
+    sy = 2.0 * max(abs(y_lo), abs(y_hi))
+    su = U_HEADROOM * max(abs(lo), abs(hi))
+    return Scales(sy, su, (code(y_lo, sy), code(y_hi, sy)), (code(lo, su), code(hi, su)),
+                  lo, hi)
+
+
+def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
+    """The q31 formats of a live :class:`mfcontrol.PID` (refusing what they cannot hold)."""
+    cp = ctrl._CP[:, 0]
+    sc = scales(ctrl, float(cp[pid.OUT_MIN]), float(cp[pid.OUT_MAX]), key_prefix)
     if cp[pid.TF] != 0.0:
         raise ConfigError(f"{key_prefix}Tf", float(cp[pid.TF]), "the fixed-point PID has no "
                           "measurement filter yet: export with Tf 0, or in float")
     h = ctrl.sample_time
-    sy = 2.0 * max(abs(y_lo), abs(y_hi))
-    su = U_HEADROOM * max(abs(lo), abs(hi))
+    sy, su = sc.y_scale, sc.u_scale
     ratio = sy / su
     kp, ki, kd, n = (float(cp[row]) for row in (pid.KP, pid.KI, pid.KD, pid.N))
     tt = float(cp[pid.TT])
@@ -123,7 +147,7 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
     guard = 2.0**GUARD_BITS
     p = key_prefix
     return Q31Pid(
-        sy, su, (code(y_lo, sy), code(y_hi, sy)), (code(lo, su), code(hi, su)),
+        sy, su, sc.y_limits, sc.u_limits,
         Coefficient.of(float(cp[pid.B]), f"{p}b"), Coefficient.of(float(cp[pid.C]), f"{p}c"),
         Coefficient.of(kp * ratio, f"{p}kp", kp),
         Coefficient.of(kih * ratio * guard, f"{p}ki", ki),

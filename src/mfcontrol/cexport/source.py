@@ -289,17 +289,23 @@ _CHECKS = {
 
 
 def _q31(ctrl, prefix: str, description: str, key_prefix: str) -> CSource:
-    """The fixed-point export (:mod:`mfcontrol.cexport.fixed_point`): the PID so far."""
+    """The fixed-point export: the PID (:mod:`mfcontrol.cexport.fixed_point`) and the i-P
+    family with the backward difference (:mod:`mfcontrol.cexport.fixed_point_intelligent`)."""
     from .fixed_point import q31_source
+    from .fixed_point_intelligent import q31_intelligent_source
 
-    if not isinstance(ctrl, PID):
-        raise ConfigError("real", "q31", f"exports the PID so far (this is the "
-                          f"{_law_label(ctrl)} law): export it in float or double")
+    if isinstance(ctrl, PID):
+        write, name = q31_source, "pid"
+    elif isinstance(ctrl, IntelligentController):
+        write, name = q31_intelligent_source, "intelligent"
+    else:
+        raise ConfigError("real", "q31", f"exports the PID and the i-P, i-PI, i-PD and i-PID "
+                          f"(this is the {_law_label(ctrl)} law): export it in float or double")
     banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in",
                      " * C99 with <stdint.h>, integer arithmetic only: no floating point, no "
                      "dynamic memory,\n * no global state. */")
-    header, source = q31_source(ctrl, prefix=prefix, banner=banner, key_prefix=key_prefix)
-    return CSource(prefix, "q31", header, source, "pid", 0)
+    header, source = write(ctrl, prefix=prefix, banner=banner, key_prefix=key_prefix)
+    return CSource(prefix, "q31", header, source, name, 0)
 
 
 def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:

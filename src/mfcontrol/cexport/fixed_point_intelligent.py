@@ -1,0 +1,356 @@
+"""The i-P, i-PI, i-PD and i-PID with the backward-difference estimator as fixed-point C
+(``real="q31"``), for a microcontroller without a floating-point unit.
+
+As :mod:`mfcontrol.cexport.fixed_point` does for the PID: the law of
+:mod:`mfcontrol.laws.intelligent` written out in integer arithmetic, every coefficient
+computed here from the controller's parameters, and held to the double law by tests
+(``tests/cexport/test_fixed_point_intelligent.py``: within an error bound derived step by
+step on the case's closed loop, with hostile codes, and with the same codes on a
+Cortex-M0). The formats are the PID's (:func:`mfcontrol.cexport.fixed_point.scales`).
+
+The law in codes. With the backward difference the estimate of F cancels the input term:
+``u = -gamma (y^(n) - alpha u_h - y*^(n) + K_P e + K_I I + K_D e')`` is, exactly in real
+arithmetic (``gamma alpha = 1``),
+
+    u = u_h - (gamma / h^n) D^n e - gamma K_P e - gamma K_D (e - e_1) / h - T
+
+with ``e = y - y*`` (y's derivatives minus the setpoint's are the error's), ``D^n e`` its
+first (n = 1) or second difference, ``u_h`` the held input of the ultra-local model (the
+last applied output, or the mean of the last two with n = 2 and the held kernel), and
+``T = gamma K_I I`` the integral term, carried in output units:
+``T_k = T_{k-1} + gamma K_I h e``. Back-calculation, ``I += K_aw h (u - v) / (-gamma
+K_I)`` in the double law, is ``T -= K_aw h (u - v)``: no division. The clamp undoes the
+sample's integration where it pushed the output further past the limit it hit.
+
+Formats. The measurement and the setpoint are the PID's ``int32_t`` codes; the error and
+its differences are formed in 64 bits (no saturation: ``|D^2 e| < 2^35``). The output, its
+last two values and T are held in 64 bits with :data:`GUARD_BITS` fraction bits beyond
+the output's code (the output carries from sample to sample through ``u_h``, so its
+rounding does not accumulate in codes); each term is a 64-bit product with a coefficient
+``M 2^-S`` split so that nothing overflows, rounded to nearest, and saturated. The code
+returned is the output rounded to the output's code.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..errors import ConfigError
+from ..laws import estimators, intelligent
+from ..laws import variational_gain as gain_law
+from .fixed_point import GUARD_BITS, Coefficient, Scales, scales
+
+#: the shifts a coefficient of this law may have: a product splits its 64-bit operand into
+#: 16-bit halves, so a coefficient up to 2^45 (shift -15) still forms without overflow
+SHIFTS = (-15, 62)
+
+
+@dataclass(frozen=True)
+class Q31Intelligent:
+    """The scales and coefficients of an intelligent controller's q31 export (each
+    coefficient in output codes per code of its operand; T's and the output's guard bits
+    are applied in the C)."""
+
+    scales: Scales
+    order: int
+    held_mean: bool  # u_h: the mean of the last two applied outputs (n = 2, held kernel)
+    cn: Coefficient  # gamma / h^n, on D^n e
+    cp: Coefficient  # gamma K_P, on e
+    cd: Coefficient  # gamma K_D / h, on e - e_1
+    ci: Coefficient  # gamma K_I h, on e (T's increment)
+    caw: Coefficient  # K_aw h, on u - v (back-calculation)
+    anti_windup: float  # intelligent.AW_*
+    u_init: int  # the output held before the first n samples, a code
+
+
+def q31_intelligent(ctrl, key_prefix: str = "") -> Q31Intelligent:
+    """The q31 formats of a live intelligent controller (refusing what they cannot hold)."""
+    cp = ctrl._CP[:, 0]
+    p = key_prefix
+    if cp[intelligent.EST] != intelligent.BACKWARD:
+        raise ConfigError(f"{p}estimator", "algebraic", "a fixed-point export has the "
+                          "backward-difference estimator only: export it in float")
+    if cp[gain_law.MODE] != gain_law.CONSTANT:
+        raise ConfigError("gain", ctrl._params.get("gain"), "a fixed-point export has "
+                          "a constant gain only: export it in float")
+    if cp[intelligent.DELAY] > 0:
+        raise ConfigError(f"{p}delay", int(cp[intelligent.DELAY]), "the exported step "
+                          "compensates no delay yet: export with delay 0")
+    sc = scales(ctrl, float(cp[intelligent.OUT_MIN]), float(cp[intelligent.OUT_MAX]),
+                key_prefix)
+    h = float(ctrl.sample_time)
+    n = int(cp[intelligent.N_ORDER])
+    gamma = float(cp[gain_law.INV_ALPHA])
+    kp, ki, kd = (float(cp[row]) for row in (intelligent.KP, intelligent.KI, intelligent.KD))
+    aw = float(cp[intelligent.AW]) if ki != 0.0 else intelligent.AW_NONE
+    k_aw = float(cp[intelligent.K_AW]) if aw == intelligent.AW_BACK else 0.0
+    if k_aw * h > 1.0:
+        raise ConfigError(f"{p}k_aw", k_aw, f"k_aw h = {k_aw * h:.3g} > 1 over-corrects the "
+                          "integral at every limited sample: a fixed-point export needs "
+                          "k_aw <= 1 / sample_time")
+    ratio = sc.y_scale / sc.u_scale  # output codes per measurement code, per unit gain
+    alpha = ctrl._params.get("alpha", 1.0 / gamma)  # as the user gave it
+
+    def coefficient(value: float, name: str, given: float) -> Coefficient:
+        return Coefficient.of(value, f"{p}{name}", given, SHIFTS)
+    u_init = min(max(float(cp[intelligent.U_INIT]), sc.u_lo), sc.u_hi)
+    return Q31Intelligent(
+        sc, n, n == 2 and cp[intelligent.KERNEL] == estimators.HELD,
+        coefficient(gamma / h**n * ratio, "alpha", alpha),
+        coefficient(gamma * kp * ratio, "kp", kp),
+        coefficient(gamma * kd / h * ratio, "kd", kd),
+        coefficient(gamma * ki * h * ratio, "ki", ki),
+        Coefficient.of(k_aw * h, f"{p}k_aw", k_aw, (30, 62)), aw,
+        round(u_init / sc.u_scale * 2**31))
+
+
+def q31_intelligent_source(ctrl, *, prefix: str, banner: str,
+                           key_prefix: str = "") -> tuple[str, str]:
+    """(header, source) of the q31 intelligent controller of ``ctrl``."""
+    q = q31_intelligent(ctrl, key_prefix)
+    sc = q.scales
+    PU = prefix.upper()
+
+    def coef(name: str, c: Coefficient) -> str:
+        return (f"#define {PU}_{name}_M ({c.mantissa}L)\n"
+                f"#define {PU}_{name}_S {c.shift}\n")
+    consts = "".join(coef(n, c) for n, c in (("CN", q.cn), ("CP", q.cp), ("CD", q.cd),
+                                              ("CI", q.ci), ("CAW", q.caw)))
+    subs = {"P": prefix, "PU": PU, "CONSTS": consts, "BANNER": banner,
+            "YLO": str(sc.y_limits[0]), "YHI": str(sc.y_limits[1]),
+            "ULO": str(sc.u_limits[0]), "UHI": str(sc.u_limits[1]),
+            "YS": repr(sc.y_scale), "US": repr(sc.u_scale), "DT": repr(ctrl.sample_time),
+            "F": str(GUARD_BITS), "N": str(q.order), "UINIT": str(q.u_init),
+            "MEAN": "1" if q.held_mean else "0",
+            "DER": "1" if q.cd.mantissa else "0",
+            "CLAMP": "1" if q.anti_windup == intelligent.AW_CLAMP else "0",
+            "BACK": "1" if q.anti_windup == intelligent.AW_BACK else "0"}
+    header, source = _HEADER, _SOURCE
+    for key, value in subs.items():
+        header = header.replace(f"@{key}@", value)
+        source = source.replace(f"@{key}@", value)
+    return header, source
+
+
+_HEADER = """@BANNER@
+#ifndef MFCONTROL_@P@_H
+#define MFCONTROL_@P@_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* q31 codes: the measurement and the setpoint are y = Y * @PU@_Y_SCALE / 2^31, the
+ * output u = U * @PU@_U_SCALE / 2^31 (int32_t; the scales in the physical units) */
+typedef int32_t @P@_q31;
+#define @PU@_Y_SCALE @YS@
+#define @PU@_U_SCALE @US@
+/* sample period (s) the law was built for: call @P@_step once per period */
+#define @PU@_SAMPLE_TIME @DT@
+/* a state's mode: automatic ("mfc1"), manual ("mfc0") */
+#define @PU@_AUTO 0x6D666331UL
+#define @PU@_MANUAL 0x6D666330UL
+
+typedef struct {
+    int64_t e1, e2;         /* the error's codes at the last two samples */
+    int64_t u1, u2;         /* the last two applied outputs, output codes * 2^@F@ */
+    int64_t t;              /* the integral term gamma K_I I, output codes * 2^@F@ */
+    int k;                  /* samples taken since the start, up to the model order */
+    @P@_q31 last_output;    /* returned in manual mode and after a rejected sample */
+    unsigned long nan_count; /* rejected: a measurement outside the input limits */
+    /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
+     * value is a state never passed to @P@_init, which every function refuses */
+    unsigned long mode;
+} @P@_state;
+
+/* Start (or restart) the controller: automatic mode, no history; the first @N@ samples
+ * hold the starting output (no derivative exists before). */
+void @P@_init(@P@_state *s);
+/* One sample: the measurement and setpoint codes in, the limited output code out. A
+ * measurement outside the input limits returns the last output and counts in nan_count.
+ * Every sum saturates: no code overflows. On a state never initialised: returns 0
+ * clamped to the output limits and changes nothing. */
+@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint);
+/* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto. */
+void @P@_set_manual(@P@_state *s, @P@_q31 u);
+/* Back to automatic, restarting the law from the last output (bumpless: the next @N@
+ * samples hold it). */
+void @P@_set_auto(@P@_state *s);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
+"""
+
+_SOURCE = """@BANNER@
+#include "@P@.h"
+
+/* the right shift of a negative integer is arithmetic on every compiler this targets;
+ * the build stops where it is not */
+typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
+
+/* the coefficients, M * 2^-S with M in [2^30, 2^31) (mfcontrol.cexport.fixed_point) */
+@CONSTS@#define @PU@_Y_LO (@YLO@L)
+#define @PU@_Y_HI (@YHI@L)
+#define @PU@_U_LO ((int64_t)(@ULO@L) * ((int64_t)1 << @PU@_F))
+#define @PU@_U_HI ((int64_t)(@UHI@L) * ((int64_t)1 << @PU@_F))
+#define @PU@_U_INIT (@UINIT@L)
+#define @PU@_F @F@
+#define @PU@_N @N@
+/* a term's bound, output codes * 2^F: five of them sum without overflow */
+#define @PU@_T_MAX ((int64_t)1 << 59)
+/* a state passed to @P@_init: its mode is one of the two */
+#define @PU@_INITIALISED(s) ((s)->mode == @PU@_AUTO || (s)->mode == @PU@_MANUAL)
+
+static int64_t @P@_sat(int64_t x)
+{
+    if (x > @PU@_T_MAX) return @PU@_T_MAX;
+    if (x < -@PU@_T_MAX) return -@PU@_T_MAX;
+    return x;
+}
+
+/* x * M * 2^(F - s), rounded to nearest and saturated to +-T_MAX, for |x| < 2^40,
+ * |M| < 2^31 and -15 <= s <= 62: x = hi 2^16 + lo (0 <= lo < 2^16), x M = a 2^16 + b,
+ * b = bh 2^16 + bl, so x M = t 2^16 + bl with |t| < 2^56: no product overflows */
+static int64_t @P@_mul(int64_t x, int64_t m, int s)
+{
+    int64_t hi = x >> 16, lo, a, b, bh, bl, t;
+    int r = s - @PU@_F; /* the shift in output codes * 2^F */
+    if (m == 0) return 0;
+    lo = x - hi * 65536;
+    a = hi * m;
+    b = lo * m;
+    bh = b >> 16;
+    bl = b - bh * 65536;
+    t = a + bh;
+    if (r >= 16)  /* floor((t 2^16 + bl + 2^(r-1)) / 2^r), in two exact steps */
+        return @P@_sat((t + ((bl + ((int64_t)1 << (r - 1))) >> 16)) >> (r - 16));
+    /* r < 16: t 2^(16 - r) + bl 2^-r; saturated where t alone is past the bound */
+    if (t >= ((int64_t)1 << (43 + r))) return @PU@_T_MAX;
+    if (t <= -((int64_t)1 << (43 + r))) return -@PU@_T_MAX;
+    if (r > 0)
+        return @P@_sat(t * ((int64_t)1 << (16 - r)) + ((bl + ((int64_t)1 << (r - 1))) >> r));
+    return @P@_sat(t * ((int64_t)1 << (16 - r)) + bl * ((int64_t)1 << -r));
+}
+
+#if @BACK@
+/* x * M * 2^-s, rounded to nearest and saturated to +-T_MAX, for a coefficient at most
+ * 1 (s >= 30) and any x (saturated to +-2^61 first): x = hi 2^30 + lo (0 <= lo < 2^30),
+ * hi M < 2^62 and lo M < 2^61 */
+static int64_t @P@_scale(int64_t x, int64_t m, int s)
+{
+    int64_t hi, lo;
+    if (x > ((int64_t)1 << 61)) x = (int64_t)1 << 61;
+    if (x < -((int64_t)1 << 61)) x = -((int64_t)1 << 61);
+    hi = x >> 30;
+    lo = x - hi * ((int64_t)1 << 30);
+    return @P@_sat((hi * m + ((lo * m + ((int64_t)1 << (s - 1))) >> 30)) >> (s - 30));
+}
+#endif
+
+static int64_t @P@_limit(int64_t v)
+{
+    return v > @PU@_U_HI ? @PU@_U_HI : (v < @PU@_U_LO ? @PU@_U_LO : v);
+}
+
+/* the output code of a guarded output (within the limits: no overflow) */
+static @P@_q31 @P@_code(int64_t u)
+{
+    return (@P@_q31)((u + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F);
+}
+
+static void @P@_restart(@P@_state *s, @P@_q31 u)
+{
+    s->e1 = 0;
+    s->e2 = 0;
+    s->u1 = (int64_t)u * ((int64_t)1 << @PU@_F);
+    s->u2 = s->u1;
+    s->t = 0;
+    s->k = 0;
+    s->last_output = u;
+}
+
+static @P@_q31 @P@_clamp_code(int64_t u)
+{
+    int64_t lo = @PU@_U_LO >> @PU@_F, hi = @PU@_U_HI >> @PU@_F;
+    return (@P@_q31)(u > hi ? hi : (u < lo ? lo : u));
+}
+
+void @P@_init(@P@_state *s)
+{
+    @P@_restart(s, @P@_clamp_code(@PU@_U_INIT));
+    s->nan_count = 0;
+    s->mode = @PU@_AUTO;
+}
+
+@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint)
+{
+    int64_t e, uh, base, t, v, u;
+    if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
+        return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp_code(0);
+    if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
+        s->nan_count++;
+        return s->last_output;
+    }
+    e = (int64_t)y - setpoint;
+    if (s->k < @PU@_N) {  /* no derivative yet: the output holds */
+        s->k++;
+        u = s->u1;
+    } else {
+#if @MEAN@
+        uh = (s->u1 + s->u2 + 1) >> 1;  /* the held kernel's input, rounded */
+#else
+        uh = s->u1;
+#endif
+#if @N@ == 2
+        base = @P@_mul(e - 2 * s->e1 + s->e2, @PU@_CN_M, @PU@_CN_S);
+#else
+        base = @P@_mul(e - s->e1, @PU@_CN_M, @PU@_CN_S);
+#endif
+        base += @P@_mul(e, @PU@_CP_M, @PU@_CP_S);
+#if @DER@
+        base += @P@_mul(e - s->e1, @PU@_CD_M, @PU@_CD_S);
+#endif
+        t = @P@_sat(s->t + @P@_mul(e, @PU@_CI_M, @PU@_CI_S));
+        v = uh - base - t;
+        u = @P@_limit(v);
+#if @CLAMP@
+        /* integrating pushed the output further past the limit it hit: undo it */
+        if ((v > @PU@_U_HI && t < s->t) || (v < @PU@_U_LO && t > s->t)) {
+            t = s->t;
+            v = uh - base - t;
+            u = @P@_limit(v);
+        }
+#endif
+#if @BACK@
+        if (u != v) t = @P@_sat(t - @P@_scale(u - v, @PU@_CAW_M, @PU@_CAW_S));
+#endif
+        s->t = t;
+    }
+    s->e2 = s->e1;
+    s->e1 = e;
+    s->u2 = s->u1;
+    s->u1 = u;
+    s->last_output = @P@_code(u);
+    return s->last_output;
+}
+
+void @P@_set_manual(@P@_state *s, @P@_q31 u)
+{
+    if (!@PU@_INITIALISED(s)) return;
+    s->mode = @PU@_MANUAL;
+    s->last_output = @P@_clamp_code(u);
+}
+
+void @P@_set_auto(@P@_state *s)
+{
+    if (!@PU@_INITIALISED(s)) return;
+    /* from manual: restart from the last output, as the live controller does */
+    if (s->mode == @PU@_MANUAL) @P@_restart(s, s->last_output);
+    s->mode = @PU@_AUTO;
+}
+"""

@@ -1,0 +1,292 @@
+"""The q31 i-P family (mfcontrol.cexport.fixed_point_intelligent) against the double law.
+
+As tests/cexport/test_fixed_point.py does for the PID: the export is compiled under the
+tests' warnings (and -fsanitize=undefined), driven with codes of a case's closed loop,
+and compared at every step with the live double controller driven with the same values:
+the difference stays within a first-order bound derived along the run from the export's
+arithmetic. Hostile codes saturate and never leave the output limits; the Cortex-M0
+computes the same codes as x86.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+import mfcontrol
+from mfcontrol.cexport import c_source, cortex_m
+from mfcontrol.cexport.fixed_point import GUARD_BITS, code
+from mfcontrol.cexport.fixed_point_intelligent import q31_intelligent
+from mfcontrol.errors import ConfigError
+from mfcontrol.laws import intelligent
+
+from . import harness as H
+from .test_fixed_point import build, run
+from .test_on_target import _require_tools
+from .test_source import closed_loop
+
+CASE = "motor-noise-ipi"  # an i-PI of order 1 with the backward difference and the clamp
+INPUT_LIMITS = (-128.0, 128.0)  # the measurement's scale 256: codes dequantize exactly
+VARIANTS = {
+    "ipi-clamp": {},
+    "ipi-clamp-narrow": {"controller.duty_min": -2.0, "controller.duty_max": 2.0},
+    "ip": {"controller.law": "i-P", "controller.duty_min": -5.0, "controller.duty_max": 5.0},
+    "ipid-order2-held-back-calculation": {
+        "controller.law": "i-PID", "controller.order": 2, "controller.kd": 0.5,
+        "controller.ki": 50.0, "controller.alpha": 2000.0,
+        "controller.anti_windup": "back-calculation", "controller.k_aw": 20.0},
+    "ipd-order2-trapezoid": {"controller.law": "i-PD", "controller.order": 2,
+                             "controller.kd": 0.5, "controller.alpha": 2000.0,
+                             "controller.kernel": "trapezoid"},
+}
+
+
+def controller(over):
+    ctrl = mfcontrol.make_controller(CASE, over)
+    ctrl._take_input_limits(INPUT_LIMITS)
+    return ctrl
+
+
+def codes_of_the_run(ctrl) -> np.ndarray:
+    """The case's closed loop as codes, a manual period and the return to automatic."""
+    sc = q31_intelligent(ctrl).scales
+    y, r = closed_loop(CASE)
+    Y = np.array([code(v, sc.y_scale) for v in y])
+    R = np.array([code(v, sc.y_scale) for v in r])
+    n = len(Y)
+    u_manual = code(0.25 * sc.u_hi, sc.u_scale)
+    return np.vstack([np.column_stack([np.zeros(n // 2), Y[:n // 2], R[:n // 2]]),
+                      [[1, u_manual, 0]],
+                      np.column_stack([np.zeros(5), Y[n // 2:n // 2 + 5],
+                                       R[n // 2:n // 2 + 5]]),
+                      [[2, 0, 0]],
+                      np.column_stack([np.zeros(n - n // 2), Y[n // 2:], R[n // 2:]])]
+                     ).astype(np.int64)
+
+
+def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
+    """The double law's outputs for ``ops`` and a first-order bound on |u_q31 - u| at each
+    of its steps. Carried from step to step: the errors of the last two applied outputs
+    (u_h is made of them) and of the integral term T. Added at each step: each
+    coefficient's representation error times its operand (the operands, codes of the
+    error, are exact), each product's rounding (half a unit of the guarded output), the
+    held kernel's mean's rounding, the limits' codes, the double law's own rounding, and
+    the returned code's rounding. The limits are 1-Lipschitz, and where both outputs are
+    surely past a limit they are that limit's code exactly. Where the clamp's decision is
+    within the bound of its threshold it may go either way in fixed point: T's error
+    then grows by the sample's integration. Back-calculation T - c (sat(v) - v), c = K_aw h
+    <= 1, does not amplify T's error (slope 1 or 1 - c in T)."""
+    q = q31_intelligent(ctrl)
+    sc = q.scales
+    py = type(ctrl)(**ctrl._params)
+    qy, qu = sc.y_scale / 2**31, sc.u_scale / 2**31
+    qg = qu / 2**GUARD_BITS  # a unit of the guarded output
+    lo, hi = sc.u_lo, sc.u_hi
+    lo_q, hi_q = sc.u_limits[0] * qu, sc.u_limits[1] * qu
+    dlim = max(abs(lo_q - lo), abs(hi_q - hi))
+
+    def term_error(c, operand: float) -> float:  # operand in codes
+        return (abs(c.exact - c.value) * abs(operand) + 0.5 / 2**GUARD_BITS) * qu
+    eps = 2.0**-50  # the double law's own rounding, relative
+    gamma = float(ctrl._CP[intelligent.variational_gain.INV_ALPHA, 0])
+    alpha = 1.0 / gamma
+    n = q.order
+    clamp = q.anti_windup == intelligent.AW_CLAMP
+    back = q.anti_windup == intelligent.AW_BACK
+    c_aw = q.caw.value
+    out, bounds = [], []
+    u_init = q.u_init * qu
+    err_u1 = err_u2 = abs(u_init - float(ctrl._CP[intelligent.U_INIT, 0]))
+    err_t = 0.0
+    k = 0
+    e1 = e2 = 0
+    u1_d = u2_d = float(ctrl._CP[intelligent.U_INIT, 0])
+    err_last = err_u1
+    for op, a, code_r in ops:
+        if op == 1:  # manual: the code, clamped to the limits' codes
+            py.set_auto_mode(False, last_output=a * qu)
+            err_last = dlim
+            continue
+        if op == 2:  # the law restarts from the last output, held for n samples
+            py.set_auto_mode(True)
+            err_u1 = err_u2 = err_last
+            err_t = 0.0
+            k, e1, e2 = 0, 0, 0
+            u1_d = u2_d = py.last_output
+            continue
+        if not py.auto_mode:
+            out.append(py(a * qy, setpoint=code_r * qy))
+            bounds.append(err_last + eps * abs(out[-1]))
+            continue
+        e = int(a) - int(code_r)
+        u = py(a * qy, setpoint=code_r * qy)
+        if k < n:  # held
+            k += 1
+            err_u = err_u1
+        else:
+            comp = py.components
+            v = comp["unlimited"]
+            held_mean = q.held_mean
+            uh = 0.5 * (u1_d + u2_d) if held_mean else u1_d
+            err_uh = (0.5 * (err_u1 + err_u2) + 0.5 * qg) if held_mean else err_u1
+            dn = (e - 2 * e1 + e2) if n == 2 else (e - e1)
+            err_a = (err_uh + term_error(q.cn, dn) + term_error(q.cp, e)
+                     + (term_error(q.cd, e - e1) if q.cd.mantissa else 0.0))
+            err_a += eps * (gamma * (abs(comp["F_hat"]) + 2 * alpha * abs(uh)
+                                     + abs(comp["feedforward"]) + abs(comp["P"])
+                                     + abs(comp["I"]) + abs(comp["D"])) + abs(v))
+            inc = q.ci.value * e * qu  # T's increment this sample
+            err_t += term_error(q.ci, e)
+            err_v = err_a + err_t
+            near = err_v + dlim + abs(inc)  # (v is after the double's own undo)
+            if clamp and (abs(v - hi) <= near or abs(v - lo) <= near):
+                err_t += abs(inc) + term_error(q.ci, e)  # the undo may go either way
+                err_v = err_a + err_t
+            if v - err_v > hi + dlim or v + err_v < lo - dlim:
+                err_u = dlim  # both at the limit
+            else:
+                err_u = err_v + dlim
+            if back:
+                err_t += c_aw * (err_a + dlim) + abs(q.caw.exact - c_aw) * abs(u - v) + 0.5 * qg
+        out.append(u)
+        bounds.append(err_u + 0.5 * qu + eps * abs(u))
+        err_last = err_u + 0.5 * qu
+        err_u2, err_u1 = err_u1, err_u
+        u2_d, u1_d = u1_d, u
+        e2, e1 = e1, e
+    return np.array(out), np.array(bounds)
+
+
+@pytest.mark.parametrize("name", VARIANTS)
+def test_the_q31_law_stays_within_its_derived_bound_of_the_double_law(name, tmp_path):
+    ctrl = controller(VARIANTS[name])
+    src = c_source(ctrl, real="q31")
+    ops = codes_of_the_run(ctrl)
+    out, nan_count = run(build(src, tmp_path), ops)
+    sc = q31_intelligent(ctrl).scales
+    u_q = out * (sc.u_scale / 2**31)
+    u, bound = bound_along(ctrl, ops)
+    err = np.abs(u_q - u)
+    worst = int(np.argmax(err / bound))
+    assert np.all(err <= bound), (f"step {worst}: |{u_q[worst]!r} - {u[worst]!r}| > "
+                                  f"{bound[worst]:.3g}")
+    assert nan_count == 0
+    # the bound means something: within 1e-4 of the output's range over the whole run
+    assert bound.max() < 1e-4 * (sc.u_hi - sc.u_lo)
+    assert err.max() > 0.0  # and the comparison sees the fixed point's rounding
+
+
+#: coefficients near the ends of their range
+EXTREME = {"controller.law": "i-PID", "controller.order": 2, "controller.kd": 50.0,
+           "controller.ki": 1e4, "controller.kp": 1e4, "controller.alpha": 0.02,
+           "controller.anti_windup": "back-calculation", "controller.k_aw": 999.0,
+           "controller.duty_min": -2.0, "controller.duty_max": 2.0}
+
+
+@pytest.mark.parametrize("over", [VARIANTS["ipi-clamp-narrow"], EXTREME],
+                         ids=["ipi-clamp-narrow", "extreme"])
+def test_hostile_codes_saturate_without_undefined_behaviour(over, tmp_path):
+    """The extreme codes as measurement, setpoint and manual output, under
+    -fsanitize=undefined: every output is within the output limits, a measurement outside
+    the input limits is held and counted."""
+    ctrl = controller(over)
+    sc = q31_intelligent(ctrl).scales
+    src = c_source(ctrl, real="q31")
+    big, y_lo, y_hi = 2**31 - 1, *sc.y_limits
+    values = [-big - 1, -big, -1, 0, 1, big, y_lo, y_hi, y_lo - 1, y_hi + 1]
+    rng = np.random.default_rng(5)
+    rows = [[0, a, b] for a in values for b in values]
+    rows += [[0, int(a), int(b)] for a, b in rng.integers(-2**31, 2**31, (300, 2))]
+    rows += [[1, big, 0], [0, 0, 0], [2, 0, 0], [0, 0, big], [0, y_hi, -big - 1],
+             [1, -big - 1, 0], [2, 0, 0], [0, y_lo, big], [0, y_hi, -big - 1]]
+    exe = build(src, tmp_path, ("-fsanitize=undefined", "-fno-sanitize-recover=all"))
+    out, nan_count = run(exe, np.array(rows, np.int64))
+    assert np.all((out >= sc.u_limits[0]) & (out <= sc.u_limits[1]))
+    outside = sum(1 for op, a, _ in rows if op == 0 and not y_lo <= a <= y_hi)
+    assert nan_count == outside
+
+
+def test_the_products_are_exact_where_they_can_be_checked(tmp_path):
+    """The split 64-bit product against Python's integers: x M 2^(F - s) rounded to
+    nearest (ties up), saturated to +-2^59, over random operands and every shift."""
+    src = c_source(controller({}), real="q31")
+    helpers = src.source.split("static int64_t mfc_limit")[0]
+    rng = np.random.default_rng(11)
+    cases = []
+    for s in range(-15, 63):
+        for _ in range(40):
+            x = int(rng.integers(-2**40 + 1, 2**40))
+            m = int(rng.integers(2**30, 2**31)) * int(rng.choice([-1, 1]))
+            cases.append((x, m, s))
+        cases += [(2**40 - 1, 2**31 - 1, s), (-2**40 + 1, -(2**31 - 1), s), (0, 2**30, s)]
+    body = "\n".join(f"    printf(\"%lld\\n\", (long long)mfc_mul({x}LL, {m}LL, {s}));"
+                     for x, m, s in cases)
+    (tmp_path / "mfc.h").write_text(src.header)
+    (tmp_path / "t.c").write_text(f"#include <stdio.h>\n{helpers}\nint main(void)\n{{\n"
+                                  f"{body}\n    return 0;\n}}\n")
+    exe = tmp_path / "t"
+    subprocess.run([H.compiler(), *H.CFLAGS, "-Wno-unused-function", "-fsanitize=undefined",
+                    "-fno-sanitize-recover=all", "-I", str(tmp_path), str(tmp_path / "t.c"),
+                    "-o", str(exe)], check=True, timeout=600)
+    got = [int(v) for v in subprocess.run([str(exe)], capture_output=True, text=True,
+                                          check=True, timeout=600).stdout.split()]
+    t_max = 2**59
+    for (x, m, s), value in zip(cases, got, strict=True):
+        r = s - GUARD_BITS
+        exact = x * m * 2**-r if r <= 0 else (x * m + 2**(r - 1)) >> r
+        assert value == max(-t_max, min(t_max, int(exact))), (x, m, s)
+
+
+def test_the_cortex_m0_computes_the_same_codes(tmp_path):
+    _require_tools()
+    ctrl = controller(VARIANTS["ipid-order2-held-back-calculation"])
+    src = c_source(ctrl, real="q31")
+    ops = codes_of_the_run(ctrl)[:400]
+    x86, _ = run(build(src, tmp_path / "x86"), ops)
+    folder = tmp_path / "m0"
+    folder.mkdir()
+    (folder / "mfc.h").write_text(src.header)
+    (folder / "mfc.c").write_text(src.source)
+    rows = ",\n".join("{" + ", ".join(f"{int(v)}L" for v in row) + "}" for row in ops)
+    main = ("#include <stdio.h>\n#include \"mfc.h\"\n"
+            f"static const long OPS[{len(ops)}][3] = {{\n{rows}\n}};\n"
+            "int main(void)\n{\n    static mfc_state s;\n    long i;\n    mfc_init(&s);\n"
+            f"    for (i = 0; i < {len(ops)}L; i++) {{\n"
+            "        if (OPS[i][0] == 0) printf(\"u %ld\\n\", (long)mfc_step(&s, "
+            "(mfc_q31)OPS[i][1], (mfc_q31)OPS[i][2]));\n"
+            "        else if (OPS[i][0] == 1) mfc_set_manual(&s, (mfc_q31)OPS[i][1]);\n"
+            "        else mfc_set_auto(&s);\n    }\n    return 0;\n}\n")
+    flags, _ = cortex_m.TARGETS["m0"]
+    subprocess.run(["arm-none-eabi-gcc", *flags, *H.CFLAGS, "-c", str(folder / "mfc.c"),
+                    "-o", str(folder / "controller.o")], check=True, timeout=600)
+    elf = cortex_m.build(folder, "m0", ["controller.o"], main)
+    done = subprocess.run(cortex_m.qemu_command(elf, "m0"), capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    m0 = [int(line[2:]) for line in done.stdout.splitlines() if line.startswith("u ")]
+    assert m0 == x86.tolist()
+    symbols = subprocess.run(["arm-none-eabi-nm", str(folder / "controller.o")],
+                             capture_output=True, text=True, check=True).stdout
+    assert "__aeabi_f" not in symbols and "__aeabi_d" not in symbols
+
+
+def test_what_the_fixed_point_export_cannot_hold_is_refused():
+    with pytest.raises(ConfigError, match="input_limits"):
+        c_source(mfcontrol.make_controller(CASE), real="q31")
+    with pytest.raises(ConfigError, match="estimator.*backward-difference estimator only"):
+        c_source(controller({"controller.estimator": "algebraic", "controller.window": 20}),
+                 real="q31")
+    with pytest.raises(ConfigError, match="gain.*constant gain only"):
+        c_source(controller({"controller.adapt": "variational"}), real="q31")
+    with pytest.raises(ConfigError, match="k_aw"):
+        c_source(controller({"controller.anti_windup": "back-calculation",
+                             "controller.k_aw": 5000.0}), real="q31")
+    # a coefficient out of range is named by the parameter as given
+    with pytest.raises(ConfigError, match=r"alpha = 1e-12: gives the q31 coefficient"):
+        c_source(controller({"controller.alpha": 1e-12}), real="q31")
+    with pytest.raises(ConfigError, match="q31.*i-PID"):
+        c_source(mfcontrol.make_controller("motor-noise-adrc"), real="q31")
+    assert math.isfinite(code(-1e300, 1.0))
