@@ -28,7 +28,10 @@ last two values and T are held in 64 bits with :data:`GUARD_BITS` fraction bits 
 the output's code (the output carries from sample to sample through ``u_h``, so its
 rounding does not accumulate in codes); each term is a 64-bit product with a coefficient
 ``M 2^-S`` split so that nothing overflows, rounded to nearest, and saturated. The code
-returned is the output rounded to the output's code.
+returned is the output rounded to the output's code. A rejected sample (a measurement
+outside the input limits) holds the output, and the next sample taken spans its period as
+the double law does: its differences divided by d^n and d, T's increment times d, for
+d - 1 rejected samples in a row (up to 255; integer divisions on that step only).
 """
 
 from __future__ import annotations
@@ -41,7 +44,8 @@ from ..laws import variational_gain as gain_law
 from .fixed_point import GUARD_BITS, Coefficient, Scales, scales
 
 #: the shifts a coefficient of this law may have: a product splits its 64-bit operand into
-#: 16-bit halves, so a coefficient up to 2^45 (shift -15) still forms without overflow
+#: 16-bit halves, so a coefficient up to just under 2^46 (shift -15) still forms without
+#: overflow
 SHIFTS = (-15, 62)
 
 
@@ -149,6 +153,9 @@ typedef int32_t @P@_q31;
 #define @PU@_U_SCALE @US@
 /* sample period (s) the law was built for: call @P@_step once per period */
 #define @PU@_SAMPLE_TIME @DT@
+/* rejected samples in a row whose periods the next step spans; beyond, it spans this many
+ * (the double law spans them all) */
+#define @PU@_SKIP_MAX 255
 /* a state's mode: automatic ("mfc1"), manual ("mfc0") */
 #define @PU@_AUTO 0x6D666331UL
 #define @PU@_MANUAL 0x6D666330UL
@@ -158,6 +165,8 @@ typedef struct {
     int64_t u1, u2;         /* the last two applied outputs, output codes * 2^@F@ */
     int64_t t;              /* the integral term gamma K_I I, output codes * 2^@F@ */
     int k;                  /* samples taken since the start, up to the model order */
+    int skipped;            /* samples rejected since the last one taken (up to
+                             * @PU@_SKIP_MAX): the next step spans their periods */
     @P@_q31 last_output;    /* returned in manual mode and after a rejected sample */
     unsigned long nan_count; /* rejected: a measurement outside the input limits */
     /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
@@ -169,9 +178,10 @@ typedef struct {
  * hold the starting output (no derivative exists before). */
 void @P@_init(@P@_state *s);
 /* One sample: the measurement and setpoint codes in, the limited output code out. A
- * measurement outside the input limits returns the last output and counts in nan_count.
- * Every sum saturates: no code overflows. On a state never initialised: returns 0
- * clamped to the output limits and changes nothing. */
+ * measurement outside the input limits returns the last output and counts in nan_count;
+ * the next sample taken spans its period (its differences and integral over the longer
+ * time, as the double law's). Every sum saturates: no code overflows. On a state never
+ * initialised: returns 0 clamped to the output limits and changes nothing. */
 @P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint);
 /* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto. */
 void @P@_set_manual(@P@_state *s, @P@_q31 u);
@@ -193,7 +203,8 @@ _SOURCE = """@BANNER@
  * the build stops where it is not */
 typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
 
-/* the coefficients, M * 2^-S with M in [2^30, 2^31) (mfcontrol.cexport.fixed_point) */
+/* the coefficients, M * 2^-S with |M| in [2^30, 2^31), or 0
+ * (mfcontrol.cexport.fixed_point) */
 @CONSTS@#define @PU@_Y_LO (@YLO@L)
 #define @PU@_Y_HI (@YHI@L)
 #define @PU@_U_LO ((int64_t)(@ULO@L) * ((int64_t)1 << @PU@_F))
@@ -238,9 +249,9 @@ static int64_t @P@_mul(int64_t x, int64_t m, int s)
 }
 
 #if @BACK@
-/* x * M * 2^-s, rounded to nearest and saturated to +-T_MAX, for a coefficient at most
- * 1 (s >= 30) and any x (saturated to +-2^61 first): x = hi 2^30 + lo (0 <= lo < 2^30),
- * hi M < 2^62 and lo M < 2^61 */
+/* x * M * 2^-s, rounded to nearest and saturated to +-T_MAX, for a coefficient of at
+ * most 1 (k_aw h, refused above 1: s >= 30) and any x (saturated to +-2^61 first):
+ * x = hi 2^30 + lo (0 <= lo < 2^30), hi M < 2^62 and lo M < 2^61 */
 static int64_t @P@_scale(int64_t x, int64_t m, int s)
 {
     int64_t hi, lo;
@@ -251,6 +262,20 @@ static int64_t @P@_scale(int64_t x, int64_t m, int s)
     return @P@_sat((hi * m + ((lo * m + ((int64_t)1 << (s - 1))) >> 30)) >> (s - 30));
 }
 #endif
+
+/* x / d rounded to nearest (|x| <= T_MAX, d > 0) */
+static int64_t @P@_div(int64_t x, int64_t d)
+{
+    return x >= 0 ? (x + d / 2) / d : -((-x + d / 2) / d);
+}
+
+/* x * d saturated to +-T_MAX (|x| <= T_MAX, d > 0) */
+static int64_t @P@_times(int64_t x, int64_t d)
+{
+    if (x > @PU@_T_MAX / d) return @PU@_T_MAX;
+    if (x < -@PU@_T_MAX / d) return -@PU@_T_MAX;
+    return x * d;
+}
 
 static int64_t @P@_limit(int64_t v)
 {
@@ -271,6 +296,7 @@ static void @P@_restart(@P@_state *s, @P@_q31 u)
     s->u2 = s->u1;
     s->t = 0;
     s->k = 0;
+    s->skipped = 0;
     s->last_output = u;
 }
 
@@ -289,14 +315,17 @@ void @P@_init(@P@_state *s)
 
 @P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint)
 {
-    int64_t e, uh, base, t, v, u;
+    int64_t e, uh, base, t, v, u, d;
     if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
         return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp_code(0);
     if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
         s->nan_count++;
+        if (s->skipped < @PU@_SKIP_MAX) s->skipped++;
         return s->last_output;
     }
     e = (int64_t)y - setpoint;
+    d = (int64_t)s->skipped + 1; /* the period since the last sample taken, in periods */
+    s->skipped = 0;
     if (s->k < @PU@_N) {  /* no derivative yet: the output holds */
         s->k++;
         u = s->u1;
@@ -308,14 +337,20 @@ void @P@_init(@P@_state *s)
 #endif
 #if @N@ == 2
         base = @P@_mul(e - 2 * s->e1 + s->e2, @PU@_CN_M, @PU@_CN_S);
+        if (d > 1) base = @P@_div(base, d * d); /* after rejected samples: h^2 -> (d h)^2 */
 #else
         base = @P@_mul(e - s->e1, @PU@_CN_M, @PU@_CN_S);
+        if (d > 1) base = @P@_div(base, d);
+#endif
+#if @DER@
+        {
+            int64_t de = @P@_mul(e - s->e1, @PU@_CD_M, @PU@_CD_S);
+            base += d > 1 ? @P@_div(de, d) : de;
+        }
 #endif
         base += @P@_mul(e, @PU@_CP_M, @PU@_CP_S);
-#if @DER@
-        base += @P@_mul(e - s->e1, @PU@_CD_M, @PU@_CD_S);
-#endif
-        t = @P@_sat(s->t + @P@_mul(e, @PU@_CI_M, @PU@_CI_S));
+        t = @P@_mul(e, @PU@_CI_M, @PU@_CI_S);
+        t = @P@_sat(s->t + (d > 1 ? @P@_times(t, d) : t));
         v = uh - base - t;
         u = @P@_limit(v);
 #if @CLAMP@
@@ -327,7 +362,10 @@ void @P@_init(@P@_state *s)
         }
 #endif
 #if @BACK@
-        if (u != v) t = @P@_sat(t - @P@_scale(u - v, @PU@_CAW_M, @PU@_CAW_S));
+        if (u != v) {
+            int64_t c = @P@_scale(u - v, @PU@_CAW_M, @PU@_CAW_S);
+            t = @P@_sat(t - (d > 1 ? @P@_times(c, d) : c));
+        }
 #endif
         s->t = t;
     }

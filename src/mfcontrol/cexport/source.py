@@ -140,7 +140,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     options = Options(prefix, real, table, law.state_rows, law.replace, fields)
     tr = Translator(options)
     coef = None if law.coefficients is None else tr.function(law.coefficients, (CP, J, REAL))
-    n_coef = 0 if coef is None else len(coef.returns)
+    n_coef = 0 if coef is None or coef.returns is None else len(coef.returns)
     step = tr.function(law.step, law.step_kinds + (REAL,) * n_coef)
     reset = tr.function(law.reset, law.reset_kinds)
     roots = [step, reset] + ([] if coef is None else [coef])
