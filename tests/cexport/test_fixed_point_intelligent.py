@@ -123,7 +123,8 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
             py.set_auto_mode(False, last_output=a * qu)
             err_last = dlim
             continue
-        if op == 2:  # the law restarts from the last output, held for n samples
+        if op == 2:  # from manual, the law restarts from the last output, held for n samples
+            assert not py.auto_mode  # (the runs switch to automatic from manual only)
             py.set_auto_mode(True)
             err_u1 = err_u2 = err_last
             err_t = 0.0
