@@ -654,6 +654,36 @@ int main(void)
     assert subprocess.run([str(tmp_path / "t")], timeout=600).returncode == 0
 
 
+def test_an_application_reads_the_state_by_the_names_in_the_header(tmp_path):
+    """The rows of the law's memory are named in the header (PREFIX_MODULE_NAME, as in
+    mfcontrol.laws): a firmware reads its PID's integral as s.cs[M_PID_I], the value the
+    live controller holds in that row."""
+    import subprocess
+
+    from mfcontrol.laws import pid
+
+    ctrl = mfcontrol.make_controller("motor-noise-pid")
+    src = c_source(ctrl, prefix="m")
+    assert "M_PID_I " in src.header and "M_PID_I " not in src.source
+    (tmp_path / "m.h").write_text(src.header)
+    (tmp_path / "m.c").write_text(src.source)
+    samples = [(0.5, 1.0), (0.6, 1.0), (0.65, 2.0)]
+    steps = "".join(f"    m_step(&s, {y!r}, {r!r});\n" for y, r in samples)
+    (tmp_path / "main.c").write_text(
+        "#include <stdio.h>\n#include \"m.h\"\nint main(void)\n{\n    static m_state s;\n"
+        f"    m_init(&s);\n{steps}"
+        "    printf(\"%.17g %.17g\\n\", (double)s.cs[M_PID_I], (double)s.cs[M_PID_Y_OLD]);\n"
+        "    return 0;\n}\n")
+    exe = tmp_path / "t"
+    subprocess.run([H.compiler(), *H.CFLAGS, str(tmp_path / "m.c"), str(tmp_path / "main.c"),
+                    "-o", str(exe), "-lm"], check=True, timeout=600)
+    got = subprocess.run([str(exe)], capture_output=True, text=True, check=True,
+                         timeout=600).stdout.split()
+    for y, r in samples:
+        ctrl(y, setpoint=r)
+    assert [float(v) for v in got] == [ctrl._CS[pid.I, 0], ctrl._CS[pid.Y_OLD, 0]]
+
+
 def test_a_cpp_firmware_links_the_export_and_float_code_stays_float(tmp_path):
     """The header opens extern "C" for C++; the sample time is a literal of the export's
     type, so ``f * PREFIX_SAMPLE_TIME`` in a float build promotes nothing to double."""

@@ -206,10 +206,12 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
               f"period */\n#define {prefix.upper()}_SAMPLE_TIME {options.literal(dt)}"
               if dt is not None else
               "/* no sample period: the law takes its samples as equally spaced */")
-    code = tr.source(roots)
+    code = tr.source(roots, names=False)  # the names go into the header
     header = _fill(_HEADER, {**subs, "BANNER": banner, "GUARD": f"MFCONTROL_{prefix}_H",
                              "REAL": real, "PERIOD": period,
                              "PARAMS": "" if frozen else _params_header(prefix, tunable, law),
+                             "NAMES": (tr.constant_names() + "\n\n"
+                                       if tr.constants else ""),
                              "STATE_PARAMS": "" if frozen else _STATE_PARAMS,
                              "BACKUP": "" if law.backup is None else
                              _BACKUP_MEMBER.replace("@NB@", str(law.backup.rows)),
@@ -608,7 +610,7 @@ typedef @REAL@ @R@;
 #define @PU@_AUTO 0x6D666331UL
 #define @PU@_MANUAL 0x6D666330UL
 
-@PARAMS@typedef struct {
+@NAMES@@PARAMS@typedef struct {
 @STATE_PARAMS@    /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
     @R@ cs[@NS@];
 @BACKUP@@COEF_MEMBER@    /* returned in manual mode and after a rejected sample */

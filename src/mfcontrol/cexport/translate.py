@@ -142,10 +142,11 @@ class Translator:
         self._names.add(name)
         return name
 
-    def source(self, roots: list[Function]) -> str:
+    def source(self, roots: list[Function], names: bool = True) -> str:
         """The C of ``roots`` and every function they call (a function translated for
         argument kinds an earlier inference pass guessed is left out: C would reject an
-        unused static function)."""
+        unused static function), after the :meth:`constant_names` unless ``names`` is
+        False (the caller puts them in a header)."""
         used, todo = set(), [f.name for f in roots]
         by_name = {f.name: f for f in self.order}
         while todo:
@@ -167,8 +168,8 @@ class Translator:
                            "    long q = a / b;\n"
                            "    return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;\n}")
         protos = [self.prototype(f) + ";" for f in funcs]
-        names = [self.constant_names()] if self.constants else []
-        return "\n\n".join(names + helpers + ["\n".join(protos)] + [f.text for f in funcs])
+        enum = [self.constant_names()] if self.constants and names else []
+        return "\n\n".join(enum + helpers + ["\n".join(protos)] + [f.text for f in funcs])
 
     def constant_names(self) -> str:
         """The module constants the C reads, named as in the laws' Python (rows, counts,
@@ -176,8 +177,10 @@ class Translator:
         width = max(map(len, self.constants))
         rows = ",\n".join(f"    {name:<{width}} = {value}"
                           for name, value in sorted(self.constants.items()))
-        return ("/* constants of mfcontrol.laws, named as there: PREFIX_MODULE_NAME is\n"
-                f" * mfcontrol.laws.module.NAME */\nenum {{\n{rows}\n}};")
+        return ("/* constants of mfcontrol.laws, named as there (PREFIX_MODULE_NAME is\n"
+                " * mfcontrol.laws.module.NAME): the rows of the law's memory (an application\n"
+                " * reads a state's as s.cs[PREFIX_MODULE_NAME]) and of its parameters, and the\n"
+                f" * codes it compares with */\nenum {{\n{rows}\n}};")
 
     def ctype(self, kind: str) -> str:
         return {INT: "long", BOOL: "int", REAL: f"{self.options.prefix}_real"}[kind]
