@@ -97,16 +97,16 @@ def codes_of_the_run(ctrl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     automatic; y and r dequantized (exactly: the scale is a power of two)."""
     q = q31_pid(ctrl)
     y, r = closed_loop(CASE)
-    Y = np.array([code(v, q.y_scale) for v in y])
-    R = np.array([code(v, q.y_scale) for v in r])
+    Y = np.array([code(v, q.scales.y_scale) for v in y])
+    R = np.array([code(v, q.scales.y_scale) for v in r])
     n = len(Y)
-    u_manual = code(0.25 * q.u_scale, q.u_scale)
+    u_manual = code(0.25 * q.scales.u_scale, q.scales.u_scale)
     ops = np.vstack([np.column_stack([np.zeros(n // 2), Y[:n // 2], R[:n // 2]]),
                      [[1, u_manual, 0]],
                      np.column_stack([np.zeros(5), Y[n // 2:n // 2 + 5], R[n // 2:n // 2 + 5]]),
                      [[2, 0, 0]],
                      np.column_stack([np.zeros(n - n // 2), Y[n // 2:], R[n // 2:]])])
-    return ops.astype(np.int64), Y * (q.y_scale / 2**31), R * (q.y_scale / 2**31)
+    return ops.astype(np.int64), Y * (q.scales.y_scale / 2**31), R * (q.scales.y_scale / 2**31)
 
 
 def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
@@ -119,9 +119,10 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
     -1 in v, and h/Tt <= 1), so the integral's error grows only by what each step adds."""
     q = q31_pid(ctrl)
     py = type(ctrl)(**ctrl._params)
-    qy, qu = q.y_scale / 2**31, q.u_scale / 2**31
+    qy, qu = q.scales.y_scale / 2**31, q.scales.u_scale / 2**31
     qi = qu / 2**GUARD_BITS
-    ratio = q.u_scale / q.y_scale  # a coefficient in codes is the law's divided by this
+    # a coefficient in codes is the law's divided by this
+    ratio = q.scales.u_scale / q.scales.y_scale
     guard = 2.0**GUARD_BITS
     b, c = q.b.value, q.c.value
     db, dc = abs(q.b.exact - b), abs(q.c.exact - c)
@@ -132,7 +133,7 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
     ad, dad = q.ad.value, abs(q.ad.exact - q.ad.value)
     bd, dbd = q.bd.value * ratio, abs(q.bd.exact - q.bd.value) * ratio
     lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
-    dlim = max(abs(q.u_limits[0] * qu - lo), abs(q.u_limits[1] * qu - hi))
+    dlim = max(abs(q.scales.u_limits[0] * qu - lo), abs(q.scales.u_limits[1] * qu - hi))
     eps = 2.0**-50  # the double law's own rounding, relative
     out, bounds = [], []
     err_i = err_d = err_u = 0.0  # of the integral, the derivative term, the last output
@@ -179,7 +180,7 @@ def test_the_q31_pid_stays_within_its_derived_bound_of_the_double_pid(over, tmp_
     src = c_source(ctrl, real="q31")
     ops, _, _ = codes_of_the_run(ctrl)
     out, nan_count = run(build(src, tmp_path), ops)
-    u_q = out * (q31_pid(ctrl).u_scale / 2**31)
+    u_q = out * (q31_pid(ctrl).scales.u_scale / 2**31)
     u, bound = bound_along(ctrl, ops)
     err = np.abs(u_q - u)
     worst = int(np.argmax(err / bound))
@@ -207,7 +208,7 @@ def test_hostile_codes_saturate_without_undefined_behaviour(over, tmp_path):
     ctrl = controller(over)
     q = q31_pid(ctrl)
     src = c_source(ctrl, real="q31")
-    big, y_lo, y_hi = 2**31 - 1, *q.y_limits
+    big, y_lo, y_hi = 2**31 - 1, *q.scales.y_limits
     values = [-big - 1, -big, -1, 0, 1, big, y_lo, y_hi, y_lo - 1, y_hi + 1]
     rng = np.random.default_rng(5)
     rows = [[0, a, b] for a in values for b in values]
@@ -216,19 +217,14 @@ def test_hostile_codes_saturate_without_undefined_behaviour(over, tmp_path):
              [0, y_hi, -big - 1]]
     exe = build(src, tmp_path, ("-fsanitize=undefined", "-fno-sanitize-recover=all"))
     out, nan_count = run(exe, np.array(rows, np.int64))
-    assert np.all((out >= q.u_limits[0]) & (out <= q.u_limits[1]))
+    assert np.all((out >= q.scales.u_limits[0]) & (out <= q.scales.u_limits[1]))
     outside = sum(1 for op, a, _ in rows if op == 0 and not y_lo <= a <= y_hi)
     assert nan_count == outside
 
 
-def test_the_cortex_m0_computes_the_same_codes(tmp_path):
-    _require_tools()
-    ctrl = controller(VARIANTS[1])
-    src = c_source(ctrl, real="q31")
-    ops, _, _ = codes_of_the_run(ctrl)
-    ops = ops[:400]
-    x86, _ = run(build(src, tmp_path / "x86"), ops)
-    folder = tmp_path / "m0"
+def m0_codes(src, ops: np.ndarray, folder: Path) -> list[int]:
+    """The output codes of the q31 export ``src`` cross-compiled for the Cortex-M0 and run
+    under qemu on ``ops``; asserts that no software floating-point routine is linked in."""
     folder.mkdir()
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)
@@ -248,12 +244,21 @@ def test_the_cortex_m0_computes_the_same_codes(tmp_path):
     done = subprocess.run(cortex_m.qemu_command(elf, "m0"), capture_output=True, text=True,
                           timeout=600)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
-    m0 = [int(line[2:]) for line in done.stdout.splitlines() if line.startswith("u ")]
-    assert m0 == x86.tolist()
     # no floating point in the M0's code: no software float routine linked in
     symbols = subprocess.run(["arm-none-eabi-nm", str(folder / "controller.o")],
                              capture_output=True, text=True, check=True).stdout
     assert "__aeabi_f" not in symbols and "__aeabi_d" not in symbols
+    return [int(line[2:]) for line in done.stdout.splitlines() if line.startswith("u ")]
+
+
+def test_the_cortex_m0_computes_the_same_codes(tmp_path):
+    _require_tools()
+    ctrl = controller(VARIANTS[1])
+    src = c_source(ctrl, real="q31")
+    ops, _, _ = codes_of_the_run(ctrl)
+    ops = ops[:400]
+    x86, _ = run(build(src, tmp_path / "x86"), ops)
+    assert m0_codes(src, ops, tmp_path / "m0") == x86.tolist()
 
 
 def test_what_the_fixed_point_export_cannot_hold_is_refused():

@@ -17,14 +17,14 @@ import numpy as np
 import pytest
 
 import mfcontrol
-from mfcontrol.cexport import c_source, cortex_m
+from mfcontrol.cexport import c_source
 from mfcontrol.cexport.fixed_point import GUARD_BITS, code
 from mfcontrol.cexport.fixed_point_intelligent import q31_intelligent
 from mfcontrol.errors import ConfigError
 from mfcontrol.laws import intelligent
 
 from . import harness as H
-from .test_fixed_point import build, run
+from .test_fixed_point import build, m0_codes, run
 from .test_on_target import _require_tools
 from .test_source import closed_loop
 
@@ -269,31 +269,7 @@ def test_the_cortex_m0_computes_the_same_codes(tmp_path):
     src = c_source(ctrl, real="q31")
     ops = codes_of_the_run(ctrl)[:400]
     x86, _ = run(build(src, tmp_path / "x86"), ops)
-    folder = tmp_path / "m0"
-    folder.mkdir()
-    (folder / "mfc.h").write_text(src.header)
-    (folder / "mfc.c").write_text(src.source)
-    rows = ",\n".join("{" + ", ".join(f"{int(v)}L" for v in row) + "}" for row in ops)
-    main = ("#include <stdio.h>\n#include \"mfc.h\"\n"
-            f"static const long OPS[{len(ops)}][3] = {{\n{rows}\n}};\n"
-            "int main(void)\n{\n    static mfc_state s;\n    long i;\n    mfc_init(&s);\n"
-            f"    for (i = 0; i < {len(ops)}L; i++) {{\n"
-            "        if (OPS[i][0] == 0) printf(\"u %ld\\n\", (long)mfc_step(&s, "
-            "(mfc_q31)OPS[i][1], (mfc_q31)OPS[i][2]));\n"
-            "        else if (OPS[i][0] == 1) mfc_set_manual(&s, (mfc_q31)OPS[i][1]);\n"
-            "        else mfc_set_auto(&s);\n    }\n    return 0;\n}\n")
-    flags, _ = cortex_m.TARGETS["m0"]
-    subprocess.run(["arm-none-eabi-gcc", *flags, *H.CFLAGS, "-c", str(folder / "mfc.c"),
-                    "-o", str(folder / "controller.o")], check=True, timeout=600)
-    elf = cortex_m.build(folder, "m0", ["controller.o"], main)
-    done = subprocess.run(cortex_m.qemu_command(elf, "m0"), capture_output=True, text=True,
-                          timeout=600)
-    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
-    m0 = [int(line[2:]) for line in done.stdout.splitlines() if line.startswith("u ")]
-    assert m0 == x86.tolist()
-    symbols = subprocess.run(["arm-none-eabi-nm", str(folder / "controller.o")],
-                             capture_output=True, text=True, check=True).stdout
-    assert "__aeabi_f" not in symbols and "__aeabi_d" not in symbols
+    assert m0_codes(src, ops, tmp_path / "m0") == x86.tolist()
 
 
 def test_what_the_fixed_point_export_cannot_hold_is_refused():

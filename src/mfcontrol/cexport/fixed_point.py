@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .._version import __version__
 from ..errors import ConfigError
 from ..laws import pid
 
@@ -76,13 +75,23 @@ class Coefficient:
 
 
 @dataclass(frozen=True)
-class Q31Pid:
-    """The scales and coefficients of a PID's q31 export."""
+class Scales:
+    """A fixed-point export's signal formats: the full scales of the measurement (and the
+    setpoint) and of the output, and the codes of their limits."""
 
     y_scale: float
     u_scale: float
     y_limits: tuple[int, int]  # codes of the input limits
     u_limits: tuple[int, int]  # codes of the output limits
+    u_lo: float  # the output limits themselves
+    u_hi: float
+
+
+@dataclass(frozen=True)
+class Q31Pid:
+    """The scales and coefficients of a PID's q31 export."""
+
+    scales: Scales
     b: Coefficient
     c: Coefficient
     kp: Coefficient  # kp Y_SCALE / U_SCALE
@@ -96,19 +105,6 @@ class Q31Pid:
 def code(value: float, scale: float) -> int:
     """The int32 code of ``value`` at full scale ``scale``, rounded and saturated."""
     return int(round(min(max(value / scale * _ONE, -_ONE + 1.0), _ONE - 1.0)))
-
-
-@dataclass(frozen=True)
-class Scales:
-    """A fixed-point export's signal formats: the full scales of the measurement (and the
-    setpoint) and of the output, and the codes of their limits."""
-
-    y_scale: float
-    u_scale: float
-    y_limits: tuple[int, int]  # codes of the input limits
-    u_limits: tuple[int, int]  # codes of the output limits
-    u_lo: float  # the output limits themselves
-    u_hi: float
 
 
 def scales(ctrl, lo: float, hi: float, key_prefix: str = "") -> Scales:
@@ -147,7 +143,7 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
     guard = 2.0**GUARD_BITS
     p = key_prefix
     return Q31Pid(
-        sy, su, sc.y_limits, sc.u_limits,
+        sc,
         Coefficient.of(float(cp[pid.B]), f"{p}b"), Coefficient.of(float(cp[pid.C]), f"{p}c"),
         Coefficient.of(kp * ratio, f"{p}kp", kp),
         Coefficient.of(kih * ratio * guard, f"{p}ki", ki),
@@ -158,28 +154,38 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
 def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "") -> tuple[str, str]:
     """(header, source) of the q31 PID of ``ctrl``."""
     q = q31_pid(ctrl, key_prefix)
-    P, PU = prefix, prefix.upper()
+    coefficients = (("B", q.b), ("C", q.c), ("KP", q.kp), ("KIH", q.kih), ("HTT", q.htt),
+                    ("AD", q.ad), ("BD", q.bd))
+    return q31_files(ctrl, q.scales, coefficients, prefix=prefix, banner=banner,
+                     templates=(_HEADER, _SOURCE),
+                     subs={"DER": "1" if q.derivative else "0",
+                           "CW": "1" if q.c.mantissa else "0"})
 
-    def coef(name: str, c: Coefficient) -> str:
-        return (f"#define {PU}_{name}_M ({c.mantissa}L)\n"
-                f"#define {PU}_{name}_S {c.shift}\n")
-    consts = "".join(coef(n, c) for n, c in (
-        ("B", q.b), ("C", q.c), ("KP", q.kp), ("KIH", q.kih), ("HTT", q.htt), ("AD", q.ad),
-        ("BD", q.bd)))
-    subs = {"P": P, "PU": PU, "CONSTS": consts, "BANNER": banner,
-            "YLO": str(q.y_limits[0]), "YHI": str(q.y_limits[1]),
-            "ULO": str(q.u_limits[0]), "UHI": str(q.u_limits[1]),
-            "YS": repr(q.y_scale), "US": repr(q.u_scale), "DT": repr(ctrl.sample_time),
-            "F": str(GUARD_BITS), "DER": "1" if q.derivative else "0",
-            "CW": "1" if q.c.mantissa else "0", "VERSION": __version__}
-    header, source = _HEADER, _SOURCE
-    for key, value in subs.items():
+
+def q31_files(ctrl, sc: Scales, coefficients, *, prefix: str, banner: str,
+              templates: tuple[str, str], subs: dict[str, str]) -> tuple[str, str]:
+    """(header, source) of a fixed-point law from its templates: their shared opening
+    lines (``@Q31_HEAD@``, ``@Q31_TAIL@`` in the header, ``@Q31_PRELUDE@`` in the source:
+    the formats, the modes, the coefficients ``(NAME, Coefficient)`` as
+    ``PREFIX_NAME_M`` and ``PREFIX_NAME_S``) and the law's own ``subs`` filled in."""
+    PU = prefix.upper()
+    consts = "".join(f"#define {PU}_{name}_M ({c.mantissa}L)\n#define {PU}_{name}_S {c.shift}\n"
+                     for name, c in coefficients)
+    every = {"Q31_HEAD": _Q31_HEAD, "Q31_TAIL": _Q31_TAIL, "Q31_PRELUDE": _Q31_PRELUDE,
+             **subs, "P": prefix, "PU": PU, "CONSTS": consts, "BANNER": banner,
+             "YLO": str(sc.y_limits[0]), "YHI": str(sc.y_limits[1]),
+             "ULO": str(sc.u_limits[0]), "UHI": str(sc.u_limits[1]),
+             "YS": repr(sc.y_scale), "US": repr(sc.u_scale), "DT": repr(ctrl.sample_time),
+             "F": str(GUARD_BITS)}
+    header, source = templates
+    for key, value in every.items():
         header = header.replace(f"@{key}@", value)
         source = source.replace(f"@{key}@", value)
     return header, source
 
 
-_HEADER = """@BANNER@
+#: the fixed-point headers' opening lines: the formats, the sample period and the modes
+_Q31_HEAD = """@BANNER@
 #ifndef MFCONTROL_@P@_H
 #define MFCONTROL_@P@_H
 
@@ -199,7 +205,37 @@ typedef int32_t @P@_q31;
 /* a state's mode: automatic ("mfc1"), manual ("mfc0") */
 #define @PU@_AUTO 0x6D666331UL
 #define @PU@_MANUAL 0x6D666330UL
+"""
 
+#: and their closing lines
+_Q31_TAIL = """
+#ifdef __cplusplus
+}
+#endif
+
+#endif
+"""
+
+#: the fixed-point sources' opening lines: the shift they rely on, the coefficients, the
+#: measurement's limits, the guard bits and the test of an initialised state
+_Q31_PRELUDE = """@BANNER@
+#include "@P@.h"
+
+/* the right shift of a negative integer is arithmetic on every compiler this targets;
+ * the build stops where it is not */
+typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
+
+/* the coefficients, M * 2^-S with |M| in [2^30, 2^31), or 0
+ * (mfcontrol.cexport.fixed_point) */
+@CONSTS@#define @PU@_Y_LO (@YLO@L)
+#define @PU@_Y_HI (@YHI@L)
+#define @PU@_F @F@
+/* a state passed to @P@_init: its mode is one of the two */
+#define @PU@_INITIALISED(s) ((s)->mode == @PU@_AUTO || (s)->mode == @PU@_MANUAL)
+"""
+
+
+_HEADER = """@Q31_HEAD@
 typedef struct {
     int64_t i;              /* the integral, in output codes * 2^@F@ */
     int32_t d;              /* the derivative term, output codes */
@@ -225,31 +261,12 @@ void @P@_init(@P@_state *s);
 void @P@_set_manual(@P@_state *s, @P@_q31 u);
 /* Back to automatic, restarting the law from the last output (bumpless). */
 void @P@_set_auto(@P@_state *s);
+@Q31_TAIL@"""
 
-#ifdef __cplusplus
-}
-#endif
-
-#endif
-"""
-
-_SOURCE = """@BANNER@
-#include "@P@.h"
-
-/* the right shift of a negative integer is arithmetic on every compiler this targets;
- * the build stops where it is not */
-typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
-
-/* the coefficients, M * 2^-S with M in [2^30, 2^31) (mfcontrol.cexport.fixed_point) */
-@CONSTS@#define @PU@_Y_LO (@YLO@L)
-#define @PU@_Y_HI (@YHI@L)
-#define @PU@_U_LO (@ULO@L)
+_SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO (@ULO@L)
 #define @PU@_U_HI (@UHI@L)
-#define @PU@_F @F@
 #define @PU@_I_MAX ((int64_t)1 << 61)
 #define @PU@_T_MAX ((int64_t)1 << (61 - @PU@_F))
-/* a state passed to @P@_init: its mode is one of the two */
-#define @PU@_INITIALISED(s) ((s)->mode == @PU@_AUTO || (s)->mode == @PU@_MANUAL)
 
 static int32_t @P@_sat32(int64_t x)
 {

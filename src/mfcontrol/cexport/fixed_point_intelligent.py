@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from ..errors import ConfigError
 from ..laws import estimators, intelligent
 from ..laws import variational_gain as gain_law
-from .fixed_point import GUARD_BITS, Coefficient, Scales, scales
+from .fixed_point import Coefficient, Scales, q31_files, scales
 
 #: the shifts a coefficient of this law may have: a product splits its 64-bit operand into
 #: 16-bit halves, so a coefficient up to just under 2^46 (shift -15) still forms without
@@ -112,53 +112,20 @@ def q31_intelligent_source(ctrl, *, prefix: str, banner: str,
                            key_prefix: str = "") -> tuple[str, str]:
     """(header, source) of the q31 intelligent controller of ``ctrl``."""
     q = q31_intelligent(ctrl, key_prefix)
-    sc = q.scales
-    PU = prefix.upper()
-
-    def coef(name: str, c: Coefficient) -> str:
-        return (f"#define {PU}_{name}_M ({c.mantissa}L)\n"
-                f"#define {PU}_{name}_S {c.shift}\n")
-    consts = "".join(coef(n, c) for n, c in (("CN", q.cn), ("CP", q.cp), ("CD", q.cd),
-                                              ("CI", q.ci), ("CAW", q.caw)))
-    subs = {"P": prefix, "PU": PU, "CONSTS": consts, "BANNER": banner,
-            "YLO": str(sc.y_limits[0]), "YHI": str(sc.y_limits[1]),
-            "ULO": str(sc.u_limits[0]), "UHI": str(sc.u_limits[1]),
-            "YS": repr(sc.y_scale), "US": repr(sc.u_scale), "DT": repr(ctrl.sample_time),
-            "F": str(GUARD_BITS), "N": str(q.order), "UINIT": str(q.u_init),
-            "MEAN": "1" if q.held_mean else "0",
-            "DER": "1" if q.cd.mantissa else "0",
-            "CLAMP": "1" if q.anti_windup == intelligent.AW_CLAMP else "0",
-            "BACK": "1" if q.anti_windup == intelligent.AW_BACK else "0"}
-    header, source = _HEADER, _SOURCE
-    for key, value in subs.items():
-        header = header.replace(f"@{key}@", value)
-        source = source.replace(f"@{key}@", value)
-    return header, source
+    coefficients = (("CN", q.cn), ("CP", q.cp), ("CD", q.cd), ("CI", q.ci), ("CAW", q.caw))
+    return q31_files(ctrl, q.scales, coefficients, prefix=prefix, banner=banner,
+                     templates=(_HEADER, _SOURCE),
+                     subs={"N": str(q.order), "UINIT": str(q.u_init),
+                           "MEAN": "1" if q.held_mean else "0",
+                           "DER": "1" if q.cd.mantissa else "0",
+                           "CLAMP": "1" if q.anti_windup == intelligent.AW_CLAMP else "0",
+                           "BACK": "1" if q.anti_windup == intelligent.AW_BACK else "0"})
 
 
-_HEADER = """@BANNER@
-#ifndef MFCONTROL_@P@_H
-#define MFCONTROL_@P@_H
-
-#include <stdint.h>
-
-#ifdef __cplusplus
-extern "C" {
-#endif
-
-/* q31 codes: the measurement and the setpoint are y = Y * @PU@_Y_SCALE / 2^31, the
- * output u = U * @PU@_U_SCALE / 2^31 (int32_t; the scales in the physical units) */
-typedef int32_t @P@_q31;
-#define @PU@_Y_SCALE @YS@
-#define @PU@_U_SCALE @US@
-/* sample period (s) the law was built for: call @P@_step once per period */
-#define @PU@_SAMPLE_TIME @DT@
+_HEADER = """@Q31_HEAD@\
 /* rejected samples in a row whose periods the next step spans; beyond, it spans this many
  * (the double law spans them all) */
 #define @PU@_SKIP_MAX 255
-/* a state's mode: automatic ("mfc1"), manual ("mfc0") */
-#define @PU@_AUTO 0x6D666331UL
-#define @PU@_MANUAL 0x6D666330UL
 
 typedef struct {
     int64_t e1, e2;         /* the error's codes at the last two samples */
@@ -188,34 +155,14 @@ void @P@_set_manual(@P@_state *s, @P@_q31 u);
 /* Back to automatic, restarting the law from the last output (bumpless: the next @N@
  * samples hold it). */
 void @P@_set_auto(@P@_state *s);
+@Q31_TAIL@"""
 
-#ifdef __cplusplus
-}
-#endif
-
-#endif
-"""
-
-_SOURCE = """@BANNER@
-#include "@P@.h"
-
-/* the right shift of a negative integer is arithmetic on every compiler this targets;
- * the build stops where it is not */
-typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
-
-/* the coefficients, M * 2^-S with |M| in [2^30, 2^31), or 0
- * (mfcontrol.cexport.fixed_point) */
-@CONSTS@#define @PU@_Y_LO (@YLO@L)
-#define @PU@_Y_HI (@YHI@L)
-#define @PU@_U_LO ((int64_t)(@ULO@L) * ((int64_t)1 << @PU@_F))
+_SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO ((int64_t)(@ULO@L) * ((int64_t)1 << @PU@_F))
 #define @PU@_U_HI ((int64_t)(@UHI@L) * ((int64_t)1 << @PU@_F))
 #define @PU@_U_INIT (@UINIT@L)
-#define @PU@_F @F@
 #define @PU@_N @N@
 /* a term's bound, output codes * 2^F: five of them sum without overflow */
 #define @PU@_T_MAX ((int64_t)1 << 59)
-/* a state passed to @P@_init: its mode is one of the two */
-#define @PU@_INITIALISED(s) ((s)->mode == @PU@_AUTO || (s)->mode == @PU@_MANUAL)
 
 static int64_t @P@_sat(int64_t x)
 {
