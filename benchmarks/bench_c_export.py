@@ -17,7 +17,8 @@ its coefficients computed once, the memory written after the check instead of ba
 up), driven with the same samples; the script checks that it returns the same bits (the
 sums of the outputs are equal) and prints the export's instructions per call over its.
 The Python live controller's time per call on the same samples is printed beside it for
-scale. Needs cc, size and valgrind. Run::
+scale. Needs cc, size and valgrind. Run (words after it: only the controllers whose label
+starts with one, ``PID`` for the PIDs)::
 
     python benchmarks/bench_c_export.py
 """
@@ -168,6 +169,8 @@ def main() -> None:
           f"{'instr/call':>11} {'ordinary':>9} {'resync':>7} {'Python us/call':>15}")
     with tempfile.TemporaryDirectory() as tmp:
         for label, case, overrides in CONTROLLERS:
+            if sys.argv[1:] and not any(label.startswith(word) for word in sys.argv[1:]):
+                continue
             per_build, sums = {}, {}
             for real in ("double", "float"):
                 for build in ("tunable", "frozen"):

@@ -184,3 +184,58 @@ def test_a_snapshot_from_before_the_filter_rows_continues_bit_for_bit():
 def test_bad_options_get_one_line(kwargs, message):
     with pytest.raises(ValueError, match="^" + message.replace("(", r"\(")):
         PID(sample_time=0.1, **kwargs)
+
+
+# --- the overflow guard's rows (pid.GUARDED) ----------------------------------------------
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from mfcontrol.laws import pid  # noqa: E402
+
+#: finite values, the extreme ones (overflow's neighbourhood, denormals) drawn often
+_FINITE = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.sampled_from([0.0, -0.0, 5e-324, 1.0, -1.0, 1e154, -1e154, 1e300, -1e300,
+                     1.7976931348623157e308, -1.7976931348623157e308]))
+
+
+@st.composite
+def _pid_sample(draw):
+    """A valid parameter column, a finite memory (START NaN or finite), y, r and h."""
+    CP = np.zeros((pid.N_PARAMS, 1))
+    kp = draw(st.one_of(st.just(0.0), _FINITE))
+    CP[pid.KP] = kp
+    CP[pid.KI] = draw(st.one_of(st.just(0.0), _FINITE))
+    CP[pid.KD] = draw(st.one_of(st.just(0.0), _FINITE.map(lambda x: math.copysign(x, kp))))
+    CP[pid.N] = draw(_FINITE.map(abs).filter(lambda x: x > 0.0))
+    CP[pid.B] = draw(_FINITE)
+    CP[pid.C] = draw(st.one_of(st.just(0.0), _FINITE))
+    CP[pid.TF] = draw(st.one_of(st.just(0.0), _FINITE.map(abs)))
+    CP[pid.TT] = draw(st.one_of(st.just(math.inf), _FINITE.map(abs).filter(lambda x: x > 0)))
+    lo = draw(st.one_of(st.just(-math.inf), _FINITE))
+    hi = draw(st.one_of(st.just(math.inf), _FINITE))
+    CP[pid.OUT_MIN], CP[pid.OUT_MAX] = min(lo, hi), max(lo, hi)
+    CS = np.array([[draw(_FINITE)] for _ in range(pid.N_STATE)])
+    CS[pid.K] = draw(st.sampled_from([0.0, 1.0, 7.0, 2.0**53]))
+    CS[pid.START] = draw(st.one_of(st.just(math.nan), _FINITE))
+    y, r = draw(_FINITE), draw(_FINITE)
+    h = draw(st.sampled_from([1e-3, 2e-3, 1e-6, 1.0]))
+    return CP, CS, y, r, h
+
+
+@settings(max_examples=3000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_pid_sample())
+def test_the_guarded_rows_and_the_output_are_finite_exactly_when_the_memory_is(sample):
+    """pid.GUARDED: the C export's overflow guard checks u and these rows only, the live
+    controller every row; on valid parameters, a finite memory and finite samples (the
+    guard's precondition: what it let through before, and the input guard's) they take the
+    same decision, hostile magnitudes included."""
+    CP, CS, y, r, h = sample
+    if pid.invalid_row(CP, 0) >= 0:
+        return
+    u = pid.step(CP, CS, 0, y, r, h)
+    every_row = math.isfinite(u) and all(
+        math.isfinite(v) or (row == pid.START and v != v) for row, v in enumerate(CS[:, 0]))
+    guarded = math.isfinite(u) and all(math.isfinite(CS[row, 0]) for row in pid.GUARDED)
+    assert guarded == every_row
+    assert CS[pid.START, 0] != CS[pid.START, 0]  # NaN after any step: never checked

@@ -160,23 +160,28 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                      f", {'inf' if hi is None else repr(hi)}],"),
         "STEP": step.name, "RESET": reset.name, "LAW": law.name, "NC": str(n_coef),
         "COEF": "" if coef is None else coef.name,
-        "COPY_COEF": "".join(f"            c[{i}] = s->coef[{i}];\n" for i in range(n_coef)),
-        "COEF_OUT": ", ".join(f"&c[{i}]" for i in range(n_coef)),
         "COEF_ARGS": ", ".join(f"c[{i}]" for i in range(n_coef)),
         "DT": options.literal(dt if dt is not None else 0.0),
     }
     # the law's pieces first (they hold @-names the second pass fills)
-    coef_at = "" if coef is None else (
-        f"    {coef.name}(s->cs, @DT@, {', '.join(f'&s->coef[{i}]' for i in range(n_coef))});\n")
+    # the coefficients of the sample period, and of the period the next step spans after
+    # rejected samples (computed again when one is rejected: _COEFFICIENTS_SKIP)
+    coef_at = "" if coef is None else (_coefficients_at(coef.name, n_coef, 0, "@DT@")
+                                       + _coefficients_at(coef.name, n_coef, 1, _LONGER))
     parts = {"INIT_PARAMS": ("" if frozen else "    s->params = @P@_default_params;\n")
              + coef_at,
              "INIT": law.init, "NO_FPU": _NO_FPU[real],
              "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip,
              "SKIP_INNER": textwrap.indent(law.skip, "    "),
+             "LONGER": "" if coef is None else _coefficients_at(coef.name, n_coef, 1, _LONGER,
+                                                                "        "),
              "CLAMP_U": _clamp(law.limits, "u", "        "),
              # last: the law's pieces above hold its @-names
              **_memory(law, n_cs)}
     driver = _fill(_fill(_DRIVER, parts), subs)
+    if coef is not None:  # a restart or a taken sample: the next step spans one period
+        driver = re.sub(r"^( *)s->skipped = 0;\n", r"\1s->skipped = 0;\n\1s->held = 0;\n",
+                        driver, flags=re.M)
     if frozen:  # no setter reads whether the law has taken a sample
         driver = re.sub(r"^ *s->fresh = [01];\n", "", driver, flags=re.M)
     else:
@@ -217,6 +222,8 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                              _BACKUP_MEMBER.replace("@NB@", str(law.backup.rows)),
                              "FRESH": "" if frozen else _FRESH_MEMBER,
                              "COEF_MEMBER": "" if coef is None else _COEF_MEMBER,
+                             "NC1": str(n_coef + 1),
+                             "HELD": "" if coef is None else _HELD_MEMBER,
                              "SET_PARAMS": "" if frozen else _SET_PARAMS_DECL})
     header = _fill(header, subs)
     parts_c = [f"{banner}\n#include <math.h>\n#include \"{prefix}.h\"",
@@ -376,16 +383,26 @@ _SAMPLED_SKIP = "        s->skipped += @DT@;\n"
 #: longer period's (after a rejected sample) computed for it
 _COEFFICIENTS_CALL = """\
     {
-        @R@ h = @DT@, c[@NC@];
-        if (s->skipped == 0) {
-@COPY_COEF@        } else { /* a longer period after a rejected sample: its own coefficients */
-            h += s->skipped;
-            @COEF@(s->cs, h, @COEF_OUT@);
-        }
-        u = @STEP@(@CS@, y, setpoint, h, @COEF_ARGS@);
+        /* the sample period's coefficients, or the longer period's after a rejected sample
+         * (computed then: no call on this path, which would make the compiler spill the
+         * law's values around it), the period last */
+        const @R@ *c = s->coef[s->held];
+        u = @STEP@(@CS@, y, setpoint, c[@NC@], @COEF_ARGS@);
     }
     out = u;
 """
+#: and a sample it did not take adds its period to the next step's, whose coefficients it
+#: computes
+_COEFFICIENTS_SKIP = _SAMPLED_SKIP + "@LONGER@        s->held = 1;\n"
+#: the period the next step spans after rejected samples
+_LONGER = "@DT@ + s->skipped"
+
+
+def _coefficients_at(name: str, n: int, which: int, h: str, indent: str = "    ") -> str:
+    """C statements: set ``which`` of the state's coefficient sets (0: the sample
+    period's, 1: the longer one's) for the period ``h``, the period last."""
+    out = ", ".join(f"&s->coef[{which}][{i}]" for i in range(n))
+    return f"{indent}{name}(s->cs, {h}, {out});\n{indent}s->coef[{which}][{n}] = {h};\n"
 
 
 def _clamp(limits: tuple[int, int], var: str = "start", indent: str = "    ") -> str:
@@ -482,7 +499,7 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
         nan_row=law.START,  # the start row is NaN once used (or when there is none)
         bumpless=(f"{_clamp(limits)}    @RESET@(s->cs, start);\n"
                   "    s->last_output = start;\n"),
-        call=_COEFFICIENTS_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP,
+        call=_COEFFICIENTS_CALL, state_rows={}, limits=limits, skip=_COEFFICIENTS_SKIP,
         coefficients=law.coefficients)
 
 
@@ -491,12 +508,20 @@ def _memory(law: _Law, n_cs: int) -> dict[str, str]:
     local variables that the law runs on, checked and then written back, or, for a law
     with a :class:`_Backup`, the rows it may write backed up and restored on overflow."""
     if law.backup is None:
-        rows = [i for i in range(n_cs) if i != law.nan_row]
-        finite = "".join(f"    CHECK(cs[{i}]);\n" for i in rows)
-        if law.nan_row is not None:
-            r = law.nan_row
-            finite += (f"    if (cs[{r}] == cs[{r}]) {{ /* NaN: used */\n"
-                       f"        CHECK(cs[{r}]);\n    }}\n")
+        guarded = getattr(law.module, "GUARDED", None)
+        if guarded is not None:
+            # the rows whose finiteness, with the output's, is the whole memory's (the law
+            # says why and tests it): the others need no test of their own
+            finite = (f"    /* {law.module.__name__}.GUARDED: with the output's, their "
+                      "finiteness is the memory's */\n"
+                      + "".join(f"    CHECK(cs[{i}]);\n" for i in guarded))
+        else:
+            rows = [i for i in range(n_cs) if i != law.nan_row]
+            finite = "".join(f"    CHECK(cs[{i}]);\n" for i in rows)
+            if law.nan_row is not None:
+                r = law.nan_row
+                finite += (f"    if (cs[{r}] == cs[{r}]) {{ /* NaN: used */\n"
+                           f"        CHECK(cs[{r}]);\n    }}\n")
 
         def copies(dst: str, src: str) -> str:  # straight-line: every index a constant
             return "".join(f"    {dst}[{i}] = {src}[{i}];\n" for i in range(n_cs))
@@ -615,18 +640,18 @@ typedef @REAL@ @R@;
     @R@ cs[@NS@];
 @BACKUP@@COEF_MEMBER@    /* returned in manual mode and after a rejected sample */
     @R@ last_output;
-    /* rejected values: a non-finite measurement or setpoint, a measurement outside the
+    /* time (s) of the samples the law did not take since its last one: the next step's
+     * derivatives and integral span it */
+    @R@ skipped;
+@HELD@    /* steps in a row that overflowed */
+    unsigned overflows;
+@FRESH@    /* rejected values: a non-finite measurement or setpoint, a measurement outside the
      * input limits, a step that overflowed, a non-finite manual value */
     unsigned long nan_count;
     /* restarts of the law because its memory overflowed (@PU@_RESTART_AFTER steps in a row
      * overflowed) */
     unsigned long restarts;
-    /* steps in a row that overflowed */
-    unsigned overflows;
-    /* time (s) of the samples the law did not take since its last one: the next step's
-     * derivatives and integral span it */
-    @R@ skipped;
-@FRESH@    /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
+    /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
      * value is a state never passed to @P@_init (a zeroed static one included), which every
      * function refuses rather than run on whatever its memory holds */
     unsigned long mode;
@@ -684,10 +709,10 @@ void @P@_init(@P@_state *s)
 {
     long i;
     for (i = 0; i < @NS@; i++) s->cs[i] = 0;
+    s->skipped = 0;
 @BACKUP_INIT@@INIT_PARAMS@@INIT@    s->nan_count = 0;
     s->restarts = 0;
     s->overflows = 0;
-    s->skipped = 0;
     s->fresh = 1;
     s->mode = @PU@_AUTO;
 }
@@ -753,9 +778,15 @@ _BACKUP_MEMBER = """\
 """
 
 _COEF_MEMBER = """\
-    /* what the law computes from its parameters and the sample period alone (computed
-     * when they are set; a longer period after a rejected sample has its own) */
-    @R@ coef[@NC@];
+    /* what the law computes from its parameters and the period alone, then the period:
+     * [0] the sample period's (computed when the parameters are set), [1] the longer one's
+     * the next step spans after rejected samples (computed when one is rejected) */
+    @R@ coef[2][@NC1@];
+"""
+
+_HELD_MEMBER = """\
+    /* 1 after a rejected sample (the next step takes coef[1]), 0 after a taken one */
+    unsigned held;
 """
 
 _FRESH_MEMBER = """\
