@@ -37,3 +37,33 @@ def pytest_terminal_summary(terminalreporter):
         terminalreporter.section("counts")
         for nodeid, text in sorted(_COUNTS):
             terminalreporter.write_line(f"{nodeid}: {text}")
+
+
+# --- the vectorised loop's kernels, compiled once for the workers of a run ----------------
+def _warm_f(t, x, u, p, dxdt):
+    dxdt[0] = x[1]
+    dxdt[1] = u - p[0] * x[0] - p[1] * x[1]
+
+
+def _warm_g(x, p):
+    return x[0]
+
+
+@pytest.fixture(scope="session")
+def vectorised_kernels(tmp_path_factory):
+    """The kernels of a single run and a vectorised sweep of an ODE plant in numba's disk
+    cache. Compiling them takes minutes on a cold cache (a clean CI machine), and two xdist
+    workers reaching them at once (or a test's child process) would each compile them:
+    under a lock shared by the run's workers, one compiles them with a small run and sweep
+    while another waits, then loads them, as a child process started afterwards does."""
+    from filelock import FileLock
+
+    import mfcontrol
+
+    shared = tmp_path_factory.getbasetemp().parent  # the same for every worker of the run
+    with FileLock(shared / "vectorised-kernels.lock"):
+        plant = mfcontrol.ODE(_warm_f, _warm_g, x0=(0.0, 0.0), params={"k": 4.0, "c": 1.0})
+        ctrl = mfcontrol.IPI(alpha=2.0, kp=4.0, ki=2.0, sample_time=1e-3)
+        mfcontrol.simulate_loop(plant, ctrl, 1.0, t_end=0.01)
+        mfcontrol.sweep(plant, ctrl, 1.0, t_end=0.01, vectorise=True,
+                        grid={"controller.kp": [1.0, 2.0]})

@@ -7,6 +7,9 @@ import mfcontrol
 from mfcontrol import Change, simulate_loop
 from mfcontrol.api.model.plants import LTI, ODE, Boost, Buck, FirstOrder
 
+# the vectorised sweep's kernels, compiled once for the run's xdist workers (conftest.py)
+pytestmark = pytest.mark.usefixtures("vectorised_kernels")
+
 
 class _Opaque:
     """A library controller hidden from the engine: the Python driver calls it per sample,

@@ -88,9 +88,13 @@ print(json.dumps({
 
 
 @pytest.fixture(scope="module")
-def cache_dir(tmp_path_factory):
-    """numba's cache of this file's subprocesses."""
-    return tmp_path_factory.mktemp("numba-cache")
+def cache_dir():
+    """numba's cache of this file's subprocesses: the tests' own (NUMBA_CACHE_DIR, or
+    None: numba's default places), so that a child loads the engine's kernels that other
+    tests compiled, or compiles them for them (minutes on a cold cache, where a fresh folder
+    made every run compile them once more). The plant modules are new files of each test's
+    folder: their functions are never in it before the test."""
+    return os.environ.get("NUMBA_CACHE_DIR")
 
 
 def _write_plant(folder: Path, name: str, place: str, **edits: str) -> None:
@@ -100,12 +104,13 @@ def _write_plant(folder: Path, name: str, place: str, **edits: str) -> None:
     (folder / f"{name}.py").write_text(text)
 
 
-def _run(folder: Path, name: str, cache_dir: Path, vectorise: str, **env: str):
+def _run(folder: Path, name: str, cache_dir: str | None, vectorise: str, **env: str):
     """One process: (its result, numba's cache log lines)."""
     child = folder / "child.py"
     child.write_text(CHILD)
-    environ = {**os.environ, "NUMBA_CACHE_DIR": str(cache_dir), "NUMBA_DEBUG_CACHE": "1",
-               **env}
+    environ = {**os.environ, "NUMBA_DEBUG_CACHE": "1", **env}
+    if cache_dir is not None:
+        environ["NUMBA_CACHE_DIR"] = str(cache_dir)
     proc = subprocess.run([sys.executable, str(child), str(folder), name, vectorise],
                           capture_output=True, text=True, env=environ, timeout=TIMEOUT)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -120,6 +125,7 @@ def _ode_lines(log: list[str], what: str) -> list[str]:
                  or "blocks._guard_block" in line)]
 
 
+@pytest.mark.usefixtures("vectorised_kernels")  # the engine's part cached: the ODE's left
 def test_an_ode_from_a_file_compiles_once_per_machine(tmp_path, cache_dir):
     _write_plant(tmp_path, "plant_once", "once")
     first, log = _run(tmp_path, "plant_once", cache_dir, "yes")
@@ -136,6 +142,7 @@ def test_an_ode_from_a_file_compiles_once_per_machine(tmp_path, cache_dir):
     assert second["y"] == first["y"] and second["iae"] == first["iae"]
 
 
+@pytest.mark.usefixtures("vectorised_kernels")
 @pytest.mark.parametrize("edit", ["source", "constant", "environment"])
 def test_an_edited_ode_compiles_anew_and_runs_the_new_code(tmp_path, cache_dir, edit):
     name = f"plant_{edit}"

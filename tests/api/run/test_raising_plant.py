@@ -88,6 +88,7 @@ def test_an_f_that_returns_nan_is_a_flagged_divergence_not_an_error():
 
 @pytest.mark.parametrize("vectorise", [False, True], ids=["member loop", "vectorised"])
 @pytest.mark.parametrize("f", [_f, _f_returning], ids=["in-place", "returning"])
+@pytest.mark.usefixtures("vectorised_kernels")  # compiled once a run
 def test_in_a_sweep_the_raising_members_diverge_and_the_others_keep_their_bits(vectorise, f):
     ks = [0.5, 2.0, 0.8, 3.0]
     sw = mfcontrol.sweep(_plant(f=f), _ctrl(), 1.0, grid={"plant.k": ks}, t_end=2.0,
@@ -102,6 +103,7 @@ def test_in_a_sweep_the_raising_members_diverge_and_the_others_keep_their_bits(v
 
 
 @pytest.mark.parametrize("vectorise", [False, True], ids=["member loop", "vectorised"])
+@pytest.mark.usefixtures("vectorised_kernels")  # compiled once a run
 def test_in_a_sweep_a_raising_g_makes_its_member_diverge(vectorise):
     sw = mfcontrol.sweep(_plant(g=_g_raising), _ctrl(), 1.0, grid={"plant.k": [0.5, 2.0]},
                          t_end=2.0, vectorise=vectorise)
