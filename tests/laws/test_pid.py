@@ -236,6 +236,7 @@ def test_the_guarded_rows_and_the_output_are_finite_exactly_when_the_memory_is(s
     u = pid.step(CP, CS, 0, y, r, h)
     every_row = math.isfinite(u) and all(
         math.isfinite(v) or (row == pid.START and v != v) for row, v in enumerate(CS[:, 0]))
-    guarded = math.isfinite(u) and all(math.isfinite(CS[row, 0]) for row in pid.GUARDED)
+    guarded = math.isfinite(u) and all(math.isfinite(CS[getattr(pid, name), 0])
+                                        for name in pid.GUARDED)
     assert guarded == every_row
     assert CS[pid.START, 0] != CS[pid.START, 0]  # NaN after any step: never checked

@@ -177,7 +177,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                                                                 "        "),
              "CLAMP_U": _clamp(law.limits, "u", "        "),
              # last: the law's pieces above hold its @-names
-             **_memory(law, n_cs)}
+             **_memory(law, n_cs, tr.constants, prefix.upper())}
     driver = _fill(_fill(_DRIVER, parts), subs)
     if coef is not None:  # a restart or a taken sample: the next step spans one period
         driver = re.sub(r"^( *)s->skipped = 0;\n", r"\1s->skipped = 0;\n\1s->held = 0;\n",
@@ -503,18 +503,22 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
         coefficients=law.coefficients)
 
 
-def _memory(law: _Law, n_cs: int) -> dict[str, str]:
+def _memory(law: _Law, n_cs: int, constants: dict[str, int], pu: str) -> dict[str, str]:
     """The step's protection of the law's memory (pieces of :data:`_DRIVER`): a copy in
     local variables that the law runs on, checked and then written back, or, for a law
-    with a :class:`_Backup`, the rows it may write backed up and restored on overflow."""
+    with a :class:`_Backup`, the rows it may write backed up and restored on overflow.
+    ``constants``: the header's names of the law's constants; ``pu``: their prefix."""
     if law.backup is None:
         guarded = getattr(law.module, "GUARDED", None)
         if guarded is not None:
             # the rows whose finiteness, with the output's, is the whole memory's (the law
             # says why and tests it): the others need no test of their own
+            def row(name: str) -> str:  # by the header's name when the law's code has it
+                c_name = f"{pu}_{law.module_name.upper()}_{name}"
+                return c_name if c_name in constants else str(getattr(law.module, name))
             finite = (f"    /* {law.module.__name__}.GUARDED: with the output's, their "
                       "finiteness is the memory's */\n"
-                      + "".join(f"    CHECK(cs[{i}]);\n" for i in guarded))
+                      + "".join(f"    CHECK(cs[{row(name)}]);\n" for name in guarded))
         else:
             rows = [i for i in range(n_cs) if i != law.nan_row]
             finite = "".join(f"    CHECK(cs[{i}]);\n" for i in rows)

@@ -67,10 +67,10 @@ YF = 9  # the filtered measurement y_f
 YF_D = 10  # its derivative y_f'
 R_OLD = 11
 N_STATE = 12
-#: the rows a step's overflow guard checks, with the output (the C export's guard checks
-#: these only; :mod:`mfcontrol.engine.live` checks every row). After a step from a finite
-#: memory, with a finite measurement and setpoint and valid parameters, u and I are finite
-#: exactly when every row is (START aside: NaN after any step):
+#: the names of the rows a step's overflow guard checks, with the output (the C export's
+#: guard checks these only; :mod:`mfcontrol.engine.live` checks every row). After a step
+#: from a finite memory, with a finite measurement and setpoint and valid parameters, u
+#: and I are finite exactly when every row is (START aside: NaN after any step):
 #: - I bounds the unlimited output v = p + i + d. Beyond a limit, u - v is infinite, and so
 #:   is I's back-calculation term h / Tt (u - v) (NaN with an infinite Tt: 0 inf). Within
 #:   the limits u is v.
@@ -81,7 +81,7 @@ N_STATE = 12
 #:   y_f + h y_f'.
 #: - R_OLD is the setpoint; K is a finite count plus one.
 #: Tested on hostile memories and samples in tests/laws/test_pid.py.
-GUARDED = (I,)
+GUARDED = ("I",)
 #: the terms of the last output by signal name (a live controller's ``components`` and
 #: the engine's recorded trajectory rows read these)
 COMPONENTS = (("P", C_P), ("I", C_I), ("D", C_D))
