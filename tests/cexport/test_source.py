@@ -834,7 +834,9 @@ def test_parameters_set_at_run_time_are_the_python_retune_bit_for_bit(case, over
     """Issue 33: gains and limits change at run time. The C's set_params equals the live
     controller's retune(): the same bumpless restart from the last output in automatic,
     the held output clamped in manual, a refused set (the member at fault returned) that
-    changes nothing; then the same bits at every later sample."""
+    changes nothing; then the same bits at every later sample. The set comes after a
+    rejected sample: the restart's first step spans one period (review: the C's spanned
+    two, the longer period's coefficients still chosen)."""
     ctrl = mfcontrol.make_controller(case, over)
     src = c_source(ctrl)
     changes = retune(ctrl._params)
@@ -846,7 +848,7 @@ def test_parameters_set_at_run_time_are_the_python_retune_bit_for_bit(case, over
     bad = {**_values(ctrl), first: math.nan}
     y, r = closed_loop(case)
     ops = np.vstack([
-        H.steps(y[:600], r[:600]),
+        H.steps(y[:600], r[:600]), H.steps([math.nan], r[599:600]),
         H.set_params_rows(src, _values(retuned), 0), H.steps(y[600:900], r[600:900]),
         H.set_params_rows(src, bad, 1), H.steps(y[900:1000], r[900:1000]),
         [(H.MANUAL, float(np.median(r)), 0.0)],
@@ -861,8 +863,10 @@ def test_parameters_set_at_run_time_are_the_python_retune_bit_for_bit(case, over
     np.testing.assert_array_equal(c_out, py_out)
     assert c_nan == py_nan
     # the retune took: the outputs after it differ from a run without it
-    plain, _ = H.run_python(mfcontrol.make_controller(case, over), H.steps(y[:900], r[:900]))
-    assert not np.array_equal(plain[600:], np.delete(py_out, 600)[600:900])
+    plain, _ = H.run_python(mfcontrol.make_controller(case, over), np.vstack([
+        H.steps(y[:600], r[:600]), H.steps([math.nan], r[599:600]),
+        H.steps(y[600:900], r[600:900])]))
+    assert not np.array_equal(plain[601:], np.delete(py_out, 601)[601:901])
 
 
 @pytest.mark.parametrize("variant", VARIANTS, ids=[_id(v) for v in VARIANTS])

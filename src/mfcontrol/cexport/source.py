@@ -168,20 +168,17 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     # rejected samples (computed again when one is rejected: _COEFFICIENTS_SKIP)
     coef_at = "" if coef is None else (_coefficients_at(coef.name, n_coef, 0, "@DT@")
                                        + _coefficients_at(coef.name, n_coef, 1, _LONGER))
+    skip = _fill(law.skip, {"LONGER": "" if coef is None else _coefficients_at(
+        coef.name, n_coef, 1, _LONGER, "        ")})
     parts = {"INIT_PARAMS": ("" if frozen else "    s->params = @P@_default_params;\n")
              + coef_at,
              "INIT": law.init, "NO_FPU": _NO_FPU[real],
-             "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": law.skip,
-             "SKIP_INNER": textwrap.indent(law.skip, "    "),
-             "LONGER": "" if coef is None else _coefficients_at(coef.name, n_coef, 1, _LONGER,
-                                                                "        "),
+             "BUMPLESS": law.bumpless, "CALL": law.call, "SKIP": skip,
+             "SKIP_INNER": textwrap.indent(skip, "    "),
              "CLAMP_U": _clamp(law.limits, "u", "        "),
              # last: the law's pieces above hold its @-names
              **_memory(law, n_cs, tr.constants, prefix.upper())}
     driver = _fill(_fill(_DRIVER, parts), subs)
-    if coef is not None:  # a restart or a taken sample: the next step spans one period
-        driver = re.sub(r"^( *)s->skipped = 0;\n", r"\1s->skipped = 0;\n\1s->held = 0;\n",
-                        driver, flags=re.M)
     if frozen:  # no setter reads whether the law has taken a sample
         driver = re.sub(r"^ *s->fresh = [01];\n", "", driver, flags=re.M)
     else:
@@ -196,6 +193,9 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         # the translated law takes the parameter struct first
         names = "|".join(f.name for f in roots if f is not invalid)
         driver = re.sub(rf"\b({names})\((s->cs|w)\b", r"\1(&s->params, \2", driver)
+    if coef is not None:  # a taken sample or a restart (the setter's too): one period next
+        driver = re.sub(r"^( *)s->skipped = 0;\n", r"\1s->skipped = 0;\n\1s->held = 0;\n",
+                        driver, flags=re.M)
 
     def row_read(m):  # a parameter row the driver reads (the output limits)
         row = int(m[1])

@@ -2,9 +2,11 @@
 (numba's disk cache, under :func:`mfcontrol.plants.ode.identity`), once per process for
 the rest, and never again for a new plant object from the same functions.
 
-The subprocess tests run with a numba cache of their own (``NUMBA_CACHE_DIR``, shared by
-this file's tests: the engine's kernels compile once in it, a few minutes on a shared
-machine), so that neither the machine's cache nor another test's makes them pass."""
+The subprocess tests run with the test run's numba cache, where the engine's kernels are
+compiled once for every test (the ``vectorised_kernels`` fixture): minutes on a cold cache,
+which a folder of their own made them pay again. Each writes its plant with the path of
+its own folder in f's source, so that the plant's identity, and with it its disk cache
+entries, is new to the cache: neither an earlier run nor another test makes them pass."""
 
 from __future__ import annotations
 
@@ -28,15 +30,17 @@ from mfcontrol.plants import ode
 
 TIMEOUT = 1500  # s: a first process compiles the engine's kernels on a shared, loaded machine
 
-#: a plant module of yours; PLACE is replaced to make each test's functions its own
+#: a plant module of yours; PLACE is replaced to make each test's functions its own (f's
+#: source, a comment, is part of the identity its compiled code is cached under)
 PLANT = '''
 import os
 import numpy as np
 
-GAIN = float(os.environ.get("PLANT_GAIN", "1.0"))  # PLACE
+GAIN = float(os.environ.get("PLANT_GAIN", "1.0"))
 
 
 def f(t, x, u, p, dxdt):
+    # PLACE
     dxdt[0] = x[1]
     dxdt[1] = GAIN * u - p[0] * x[0] - p[1] * x[1]
 
@@ -91,14 +95,15 @@ print(json.dumps({
 def cache_dir():
     """numba's cache of this file's subprocesses: the tests' own (NUMBA_CACHE_DIR, or
     None: numba's default places), so that a child loads the engine's kernels that other
-    tests compiled, or compiles them for them (minutes on a cold cache, where a fresh folder
-    made every run compile them once more). The plant modules are new files of each test's
-    folder: their functions are never in it before the test."""
+    tests compiled (minutes on a cold cache, where a fresh folder made every run compile
+    them once more). The plants' functions are never in it before their test: their
+    source holds the test's folder (:func:`_write_plant`)."""
     return os.environ.get("NUMBA_CACHE_DIR")
 
 
 def _write_plant(folder: Path, name: str, place: str, **edits: str) -> None:
-    text = PLANT.replace("PLACE", place)
+    # the test's folder, new to every run, in f's source: an identity no cache holds yet
+    text = PLANT.replace("PLACE", f"{place} in {folder.resolve()}")
     for old, new in edits.items():
         text = text.replace(old, new)
     (folder / f"{name}.py").write_text(text)
