@@ -789,7 +789,8 @@ _COEF_MEMBER = """\
 """
 
 _HELD_MEMBER = """\
-    /* 1 after a rejected sample (the next step takes coef[1]), 0 after a taken one */
+    /* 1 after a rejected sample (the next step takes coef[1]); 0 after a taken sample, a
+     * restart and init */
     unsigned held;
 """
 
