@@ -379,8 +379,8 @@ class _Backup:
 #: took, and a sample it did not take adds its period to that
 _SAMPLED_CALL = "    u = @STEP@(@CS@, y, setpoint, @DT@ + s->skipped);\n    out = u;\n"
 _SAMPLED_SKIP = "        s->skipped += @DT@;\n"
-#: a law with a period and coefficients: those of the sample period from the state, a
-#: longer period's (after a rejected sample) computed for it
+#: a law with a period and coefficients: the state's set for the period the step spans,
+#: coef[held] (the sample period's, or the longer one's computed when a sample was rejected)
 _COEFFICIENTS_CALL = """\
     {
         /* the sample period's coefficients, or the longer period's after a rejected sample
