@@ -162,6 +162,9 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         "COEF": "" if coef is None else coef.name,
         "COEF_ARGS": ", ".join(f"c[{i}]" for i in range(n_coef)),
         "DT": options.literal(dt if dt is not None else 0.0),
+        # wherever the driver and the setter clear skipped (a taken sample, a restart,
+        # init), the next step spans one period: a law with coefficients then takes coef[0]
+        **{f"HELD_{n}": "" if coef is None else " " * n + "s->held = 0;\n" for n in (4, 8)},
     }
     # the law's pieces first (they hold @-names the second pass fills)
     # the coefficients of the sample period, and of the period the next step spans after
@@ -193,9 +196,6 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         # the translated law takes the parameter struct first
         names = "|".join(f.name for f in roots if f is not invalid)
         driver = re.sub(rf"\b({names})\((s->cs|w)\b", r"\1(&s->params, \2", driver)
-    if coef is not None:  # a taken sample or a restart (the setter's too): one period next
-        driver = re.sub(r"^( *)s->skipped = 0;\n", r"\1s->skipped = 0;\n\1s->held = 0;\n",
-                        driver, flags=re.M)
 
     def row_read(m):  # a parameter row the driver reads (the output limits)
         row = int(m[1])
@@ -714,7 +714,7 @@ void @P@_init(@P@_state *s)
     long i;
     for (i = 0; i < @NS@; i++) s->cs[i] = 0;
     s->skipped = 0;
-@BACKUP_INIT@@INIT_PARAMS@@INIT@    s->nan_count = 0;
+@HELD_4@@BACKUP_INIT@@INIT_PARAMS@@INIT@    s->nan_count = 0;
     s->restarts = 0;
     s->overflows = 0;
     s->fresh = 1;
@@ -738,12 +738,12 @@ void @P@_init(@P@_state *s)
         @P@_bumpless(s, s->last_output);
         s->overflows = 0;
         s->skipped = 0;
-        s->restarts++;
+@HELD_8@        s->restarts++;
         return s->last_output;
     }
 @COMMIT@    s->last_output = u;
     s->skipped = 0;
-    s->overflows = 0;
+@HELD_4@    s->overflows = 0;
     s->fresh = 0;
     return u;
 }
@@ -770,7 +770,7 @@ void @P@_set_auto(@P@_state *s)
     if (s->mode == @PU@_MANUAL) {
         @P@_bumpless(s, s->last_output);
         s->skipped = 0;
-        s->overflows = 0;
+@HELD_8@        s->overflows = 0;
     }
     s->mode = @PU@_AUTO;
 }
@@ -852,7 +852,7 @@ int @P@_set_params(@P@_state *s, const @P@_params *p)
 @INIT_LAW@    } else {
         @P@_bumpless(s, s->last_output);
         s->skipped = 0;
-        s->overflows = 0;
+@HELD_8@        s->overflows = 0;
     }
     return 0;
 }
