@@ -166,6 +166,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frozen", action="store_true", help="the frozen exports (every "
                         "parameter a constant, no setter) instead of the tunable ones")
+    parser.add_argument("--real", choices=sorted({real for _, _, real in TARGETS}),
+                        help="only this number type (default: every one)")
+    parser.add_argument("labels", nargs="*", help="only the controllers whose label starts "
+                        "with one of these (default: every one), e.g. PID")
     args = parser.parse_args()
     missing = cortex_m.missing_tools()
     if missing:
@@ -177,7 +181,11 @@ def main() -> None:
           f"{'mean':>8} {'worst':>8} {'at sample':>10}")
     with tempfile.TemporaryDirectory() as tmp:
         for label, case, overrides in CONTROLLERS:
+            if args.labels and not label.startswith(tuple(args.labels)):
+                continue
             for name, target, real in TARGETS:
+                if args.real and real != args.real:
+                    continue
                 if real == "q31" and not label.startswith(Q31_LAWS):
                     continue
                 if real == "q31" and "filter" in label:  # no measurement filter in q31 yet

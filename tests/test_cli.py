@@ -866,6 +866,7 @@ def test_export_c_frozen_and_in_fixed_point(tmp_path):
     proc = cli("export-c", "motor-noise-pid", "--real", "q31", "--input-limits", "-128",
                "128", "--out", str(tmp_path / "q"))
     assert proc.returncode == 0, proc.stderr
+    assert "tunable with mfc_set_params" in proc.stdout  # the q31 PID has a setter
     source = tmp_path / "q" / "mfc.c"
     assert "typedef int32_t mfc_q31;" in (tmp_path / "q" / "mfc.h").read_text()
     assert not re.search(r"\b(double|float)\b", source.read_text())  # no floating type
@@ -875,6 +876,7 @@ def test_export_c_frozen_and_in_fixed_point(tmp_path):
     proc = cli("export-c", "motor-noise-ipi", "--real", "q31", "--input-limits", "-128",
                "128", "--out", str(tmp_path / "i"))
     assert proc.returncode == 0, proc.stderr
+    assert "frozen" in proc.stdout  # the q31 i-P family has none yet
     assert not re.search(r"\b(double|float)\b", (tmp_path / "i" / "mfc.c").read_text())
     proc = cli("export-c", "motor-noise-ipi", "--real", "q31", "--input-limits", "-128",
                "128", "--set", "controller.adapt=variational", "--out", str(tmp_path / "v"))

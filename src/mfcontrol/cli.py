@@ -349,8 +349,8 @@ def _cmd_export_c(args) -> int:
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
                               description=f"case {args.case}{sets}", input_limits=limits,
                               frozen=args.frozen)
-    build = ("frozen" if args.frozen or args.float == "q31"
-             else f"tunable with {args.prefix}_set_params")
+    tunable = not args.frozen and (args.float != "q31" or cfg["controller.law"] == "pid")
+    build = f"tunable with {args.prefix}_set_params" if tunable else "frozen"
     print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}, {build}); "
           f"compile with: cc {' '.join(CFLAGS)} -c {source}")
     key = cfg["sweep.key"]
@@ -530,9 +530,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default mfc: mfc.h, mfc_step...)")
     s.add_argument("--real", "--float", dest="float", choices=("double", "float", "q31"),
                    default="double", help="number type of the C (default double; q31: "
-                   "fixed point for a core without an FPU: the PID, and the i-P family with "
-                   "the backward difference and a constant gain; with --input-limits for "
-                   "the measurement's scale)")
+                   "fixed point for a core without an FPU: the PID, tunable, and the i-P "
+                   "family with the backward difference and a constant gain, frozen; with "
+                   "--input-limits for the measurement's scale)")
     s.add_argument("--input-limits", nargs=2, metavar=("LOW", "HIGH"),
                    help="the measurement's valid range (the sensor's; 'none' for no limit): "
                    "a sample outside is rejected as a NaN is, the output held")

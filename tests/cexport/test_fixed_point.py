@@ -12,6 +12,7 @@ limits; the Cortex-M0 computes the same codes as x86.
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 from pathlib import Path
 
@@ -20,7 +21,7 @@ import pytest
 
 import mfcontrol
 from mfcontrol.cexport import c_source, cortex_m
-from mfcontrol.cexport.fixed_point import GUARD_BITS, code, q31_pid
+from mfcontrol.cexport.fixed_point import GUARD_BITS, code, q31_params_c, q31_pid
 from mfcontrol.errors import ConfigError
 
 from . import harness as H
@@ -40,7 +41,7 @@ VARIANTS = [
 _MAIN = r"""
 #include <stdio.h>
 #include "@P@.h"
-
+@SETS@
 int main(void)
 {
     static @P@_state s;
@@ -52,9 +53,9 @@ int main(void)
             fwrite(&u, sizeof u, 1, stdout);
         } else if (row[0] == 1) {
             @P@_set_manual(&s, (@P@_q31)row[1]);
-        } else {
+        } else if (row[0] == 2) {
             @P@_set_auto(&s);
-        }
+@SET@        }
     }
     {
         long count = (long)s.nan_count;
@@ -71,11 +72,24 @@ def controller(over):
     return ctrl
 
 
-def build(src, folder: Path, flags=()) -> Path:
+#: op 3 of the driver: set_params with SETS[row[1]] (row[1] -1: a null pointer); its
+#: answer goes to the output stream
+_SET = r"""        } else {
+            long answer = (long)@P@_set_params(&s, row[1] < 0 ? 0 : &SETS[row[1]]);
+            fwrite(&answer, sizeof answer, 1, stdout);
+"""
+
+
+def build(src, folder: Path, flags=(), sets=()) -> Path:
+    """The driver of the export ``src``; ``sets``: the parameter sets (C initializers) op 3
+    sends to its setter (a tunable export)."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{src.prefix}.h").write_text(src.header)
     (folder / f"{src.prefix}.c").write_text(src.source)
-    (folder / "main.c").write_text(_MAIN.replace("@P@", src.prefix))
+    table = ("" if not sets else f"static const @P@_params SETS[{len(sets)}] = {{\n"
+             + ",\n".join(sets) + "\n};\n")
+    main = _MAIN.replace("@SETS@", table).replace("@SET@", _SET if sets else "")
+    (folder / "main.c").write_text(main.replace("@P@", src.prefix))
     exe = folder / "drive"
     done = subprocess.run([H.compiler(), *H.CFLAGS, *flags, "-I", str(folder),
                            str(folder / f"{src.prefix}.c"), str(folder / "main.c"), "-o",
@@ -275,3 +289,163 @@ def test_what_the_fixed_point_export_cannot_hold_is_refused():
     with pytest.raises(ConfigError, match=r"ki = 1000000000.0: gives the q31 coefficient"):
         c_source(controller({"controller.ki": 1e9}), real="q31")
     assert math.isfinite(code(1e300, 1.0))
+
+
+# --- the tunable build (PREFIX_set_params) ---------------------------------------------
+
+#: gains changed at run time, the output limits kept (the same scales, so the same format)
+RETUNED = {"controller.kp": 0.5, "controller.ki": 2.0, "controller.kd": 0.02,
+           "controller.N": 5.0, "controller.b": 0.5, "controller.c": 0.3, "controller.Tt": 0.2}
+
+
+def members(text: str) -> list[str]:
+    """The members of a C initializer of ``PREFIX_params`` (q31_params_c's), in order."""
+    return re.findall(r"^    (\{[^}]*\}|[-0-9xA-FUL]+),? /\*", text, flags=re.M)
+
+
+def initializer(values: list[str]) -> str:
+    return "{" + ", ".join(values) + "}"
+
+
+@pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast"])
+def test_the_tunable_build_gives_the_frozen_builds_codes(over, tmp_path):
+    """The coefficients read from the parameter struct (a derivative and a setpoint weight
+    tested at run time) give the codes of the constants folded into the frozen build."""
+    ctrl = controller(over)
+    ops, _, _ = codes_of_the_run(ctrl)
+    tunable, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "t"), ops)
+    frozen_src = c_source(ctrl, real="q31", frozen=True)
+    assert "set_params" not in frozen_src.header
+    frozen, _ = run(build(frozen_src, tmp_path / "f"), ops)
+    assert tunable.tolist() == frozen.tolist()
+
+
+def test_set_params_restarts_bumplessly_on_the_new_coefficients(tmp_path):
+    """In automatic mode a new set restarts the law from the last output, as a return
+    from manual does: the codes after it are those of an export built with the new gains,
+    put in manual at the last output and back to automatic. The double law's retune does
+    the same, and the two stay within a small tolerance of each other."""
+    ctrl, new = controller({}), controller(RETUNED)
+    ops, _, _ = codes_of_the_run(ctrl)
+    k = 300
+    steps = ops[ops[:, 0] == 0]
+    retune = np.vstack([steps[:k], [[3, 0, 0]], steps[k:]])
+    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a",
+                       sets=[q31_params_c(new)]), retune)
+    assert out[k] == 0  # taken
+    before, after = out[:k], out[k + 1:]
+    alone, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "b"), steps[:k])
+    assert before.tolist() == alone.tolist()
+    restart = np.vstack([[[1, before[-1], 0], [2, 0, 0]], steps[k:]])
+    fresh, _ = run(build(c_source(new, real="q31"), tmp_path / "c"), restart)
+    assert after.tolist() == fresh.tolist()
+    assert after[0] == before[-1]  # bumpless: the first output is the last one
+    # the double law, retuned at the same sample
+    q = q31_pid(ctrl)
+    scale_y, scale_u = q.scales.y_scale / 2**31, q.scales.u_scale / 2**31
+    py = type(ctrl)(**ctrl._params)
+    u = []
+    for i, (_, y, r) in enumerate(steps):
+        if i == k:
+            py.retune(kp=0.5, ki=2.0, kd=0.02, N=5.0, b=0.5, c=0.3, Tt=0.2)
+        u.append(py(y * scale_y, setpoint=r * scale_y))
+    u_q = np.concatenate([before, after]) * scale_u
+    assert np.max(np.abs(u_q - np.array(u))) < 1e-4 * 48.0
+
+
+def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
+    """Each member out of what the law takes (a set for other formats, a mantissa or a
+    shift the products cannot take, a negative tracking, a tracking of 0 with an integral,
+    a pole at 1, a derivative against kp's sign, limits out of order) is refused with its
+    field's number, and the codes go on as if the call had not been made; an unchanged
+    set is taken (0) and changes nothing; a null pointer is refused with -1."""
+    ctrl = controller(VARIANTS[1] | {"controller.duty_min": -24.0, "controller.duty_max": 24.0})
+    good = members(q31_params_c(ctrl))
+    assert len(good) == 10
+    names = ["format", "b", "c", "kp", "kih", "htt", "ad", "bd", "out_min", "out_max"]
+    kp_m = int(good[3].strip("{}").split(",")[0].rstrip("L"))
+    bad = {
+        "format": "0x0UL",
+        "b": "{1073741823L, 30}",  # not normalised
+        "c": "{1073741824L, 63}",  # shift beyond 62
+        "kp": "{1073741824L, 0}",  # shift below 1
+        "kih": "{-2147483647L - 1L, 20}",  # |m| = 2^31
+        "htt": "{-1073741824L, 20}",  # negative
+        "ad": "{1073741824L, 30}",  # a pole of 1
+        "bd": f"{{{-1073741824 if kp_m > 0 else 1073741824}L, 20}}",  # against kp
+        "out_min": "-2147483647L - 1L",  # INT32_MIN: no symmetric saturation
+        "out_max": "-134217729L",  # below out_min
+    }
+    sets = []
+    for name, value in bad.items():
+        values = list(good)
+        values[names.index(name)] = value
+        if name == "out_max":
+            values[names.index("out_min")] = "-134217728L"
+        sets.append(initializer(values))
+    no_tracking = list(good)
+    no_tracking[names.index("htt")] = "{0L, 31}"  # with an integral
+    sets += [initializer(no_tracking), initializer(good)]
+    ops, _, _ = codes_of_the_run(ctrl)
+    steps = ops[ops[:, 0] == 0][:200]
+    calls = [[3, i, 0] for i in range(len(sets))] + [[3, -1, 0]]
+    mixed = np.vstack([steps[:100], calls, steps[100:]])
+    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "t", sets=sets), mixed)
+    answers = out[100:100 + len(calls)].tolist()
+    assert answers == [names.index(n) + 1 for n in bad] + [names.index("htt") + 1, 0, -1]
+    alone, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a"), steps)
+    assert np.concatenate([out[:100], out[100 + len(calls):]]).tolist() == alone.tolist()
+
+
+def test_new_limits_clamp_the_held_output_in_manual_and_bound_every_output(tmp_path):
+    ctrl = controller({})
+    q = q31_pid(ctrl)
+    good = members(q31_params_c(ctrl))
+    narrow = list(good)
+    narrow[8:10] = [str(code(-1.0, q.scales.u_scale)) + "L",
+                    str(code(2.0, q.scales.u_scale)) + "L"]
+    ops, _, _ = codes_of_the_run(ctrl)
+    steps = ops[ops[:, 0] == 0][:300]
+    mixed = np.vstack([steps[:50], [[1, code(20.0, q.scales.u_scale), 0], [3, 0, 0]],
+                       steps[50:60], [[2, 0, 0]], steps[60:]])
+    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path, sets=[initializer(narrow)]),
+                 mixed)
+    assert out[50] == 0
+    held, auto = out[51:61], out[61:]
+    assert held.tolist() == [code(2.0, q.scales.u_scale)] * 10  # 20 clamped to 2
+    assert auto.min() >= code(-1.0, q.scales.u_scale)
+    assert auto.max() <= code(2.0, q.scales.u_scale)
+    assert auto.max() == code(2.0, q.scales.u_scale)  # the loop's demand reaches the rail
+
+
+def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
+    """Sets at the ends of what the setter takes (mantissas at +-(2^31 - 1) and 2^30,
+    shifts at 1 and 62, limits at +-(2^31 - 1)), driven with hostile codes under
+    -fsanitize=undefined: no overflow, every output within the limits."""
+    ctrl = controller({})
+    good = members(q31_params_c(ctrl))
+    big = 2**31 - 1
+    fmt = good[0]
+    extremes = [
+        [fmt, f"{{{big}L, 1}}", f"{{-{big}L, 1}}", f"{{{big}L, 1}}", f"{{{big}L, 1}}",
+         f"{{{big}L, 1}}", f"{{{big}L, 31}}", f"{{{big}L, 1}}", f"-{big}L", f"{big}L"],
+        [fmt, "{-1073741824L, 62}", "{1073741824L, 62}", f"{{-{big}L, 1}}",
+         f"{{-{big}L, 1}}", "{1073741824L, 62}", "{1073741824L, 62}", f"{{-{big}L, 1}}",
+         f"-{big}L", f"{big}L"],
+        [fmt, f"{{{big}L, 1}}", "{0L, 31}", "{1073741824L, 62}", "{0L, 31}", "{0L, 31}",
+         "{0L, 31}", "{0L, 31}", "0L", "0L"],
+    ]
+    values = [-big - 1, -big, -1, 0, 1, big]
+    rows = []
+    for i in range(len(extremes)):
+        rows += [[3, i, 0]] + [[0, a, b] for a in values for b in values]
+        rows += [[1, big, 0], [0, 0, 0], [2, 0, 0], [0, big, -big - 1], [0, -big - 1, big]]
+    exe = build(c_source(controller({}), real="q31"), tmp_path,
+                ("-fsanitize=undefined", "-fno-sanitize-recover=all"),
+                sets=[initializer(e) for e in extremes])
+    # the input limits still reject out-of-range codes; the rest must stay defined
+    out, _ = run(exe, np.array(rows, np.int64))
+    per = len(out) // len(extremes)  # an answer, then the steps' codes
+    assert len(out) == len(rows) - 2 * len(extremes)  # (set_manual and set_auto write none)
+    assert out[::per].tolist() == [0] * len(extremes)  # every extreme set taken
+    assert not out[2 * per:].any()  # limits (0, 0): every output, manual's too, is 0

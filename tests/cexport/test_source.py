@@ -957,3 +957,31 @@ def test_set_params_before_any_sample_starts_afresh_and_an_unchanged_set_is_no_r
     # both are the controller built with the new parameters, never restarted
     built, _ = H.run_python(retuned, H.steps(y[:600], r[:600]))
     np.testing.assert_array_equal(np.delete(c_out, [0, 401]), built)
+
+
+@pytest.mark.parametrize("case,keys", [("motor-noise-pid", ("output_limits",)),
+                                       (RECURSIVE, ("duty_min", "duty_max"))])
+def test_a_held_sample_after_set_params_is_within_the_new_limits(case, keys, tmp_path):
+    """A rejected sample right after a retune whose limits exclude the last output
+    returned that output (the recursive law's), outside the new limits; now the live
+    retune and the C's set_params both restart from it clamped, with the same bits."""
+    ctrl = mfcontrol.make_controller(case)
+    src = c_source(ctrl)
+    y, r = closed_loop(case)
+    held = mfcontrol.make_controller(case)
+    last = [held(v, setpoint=s) for v, s in zip(y[:300], r[:300], strict=True)][-1]
+    lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
+    # new limits that leave the last output out, on the side of the wider gap
+    new = (lo, last - 0.25 * (last - lo)) if last - lo > hi - last else \
+        (last + 0.25 * (hi - last), hi)
+    changes = dict(zip(keys, [list(new)] if len(keys) == 1 else new, strict=True))
+    ops = np.vstack([H.steps(y[:300], r[:300]),
+                     H.set_params_rows(src, {**_values(ctrl), "out_min": new[0],
+                                             "out_max": new[1]}, 0),
+                     H.steps([math.nan], r[299:300]), H.steps(y[300:400], r[300:400])])
+    c_out, _ = H.run_binary(H.build(src, tmp_path), ops)
+    py_out, _ = H.run_python(mfcontrol.make_controller(case), ops, [(changes, 0)])
+    np.testing.assert_array_equal(c_out, py_out)
+    assert c_out[299] == last and not new[0] <= last <= new[1]
+    assert c_out[300] == 0  # set_params's answer: taken
+    assert np.all((c_out[301:] >= new[0]) & (c_out[301:] <= new[1]))  # the held one too

@@ -19,16 +19,21 @@ formed in 64 bits and shifted back, rounded to nearest. The integral is held in 
 with :data:`GUARD_BITS` more fraction bits than the output's code, and every sum
 saturates. A rejected sample (a measurement outside the input limits) holds the output;
 the next step uses the nominal period (the double law spans the time since the last
-sample taken). There is no run-time setter: the coefficients are constants.
+sample taken). The coefficients and the output limits' codes are a parameter struct that
+``PREFIX_set_params`` checks and changes at run time (:func:`q31_params_c` writes one for
+new gains), or constants with ``frozen``.
 """
 
 from __future__ import annotations
 
 import math
+import re
+import zlib
 from dataclasses import dataclass
 
 from ..errors import ConfigError
 from ..laws import pid
+from .source import _fill
 
 #: fraction bits of the integral beyond the output's code: an increment ki h e of one
 #: code of e in a year of 1 kHz samples still moves it
@@ -151,15 +156,87 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
         Coefficient.of(ad, f"{p}N", n), Coefficient.of(bd * ratio, f"{p}kd", kd), derivative)
 
 
-def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "") -> tuple[str, str]:
-    """(header, source) of the q31 PID of ``ctrl``."""
+#: the q31 PID's coefficients, in the order of its parameter struct: (member, what it is)
+_COEFFICIENTS = (
+    ("b", "setpoint weight of the proportional term"),
+    ("c", "setpoint weight of the derivative"),
+    ("kp", "kp * @PU@_Y_SCALE / @PU@_U_SCALE"),
+    ("kih", "ki * h * @PU@_Y_SCALE / @PU@_U_SCALE * 2^@F@ (h the sample period)"),
+    ("htt", "h / Tt * 2^@F@, >= 0 (0: no tracking, only with kih 0)"),
+    ("ad", "the derivative filter's pole Td / (Td + N h), in [0, 1)"),
+    ("bd", "kp Td N / (Td + N h) * @PU@_Y_SCALE / @PU@_U_SCALE, of kp's sign or 0"),
+)
+
+
+def q31_params_c(ctrl, key_prefix: str = "") -> str:
+    """The C initializer of the tunable q31 PID's ``PREFIX_params`` for the live PID
+    ``ctrl``: what ``PREFIX_set_params`` takes to run with its gains. It holds the formats
+    the coefficients are computed for, which must be those of the export it is sent to
+    (the same sample period and input and output limits); ``PREFIX_set_params`` refuses
+    a set made for others.
+
+    Examples
+    --------
+    >>> import mfcontrol
+    >>> from mfcontrol.cexport.fixed_point import q31_params_c
+    >>> ctrl = mfcontrol.PID(kp=0.3, ki=0.5, sample_time=0.001, output_limits=(-24, 24),
+    ...                      input_limits=(-10, 200))
+    >>> print(q31_params_c(ctrl).splitlines()[4])
+        {1342177280L, 32}, /* kp */
+    """
     q = q31_pid(ctrl, key_prefix)
-    coefficients = (("B", q.b), ("C", q.c), ("KP", q.kp), ("KIH", q.kih), ("HTT", q.htt),
-                    ("AD", q.ad), ("BD", q.bd))
+    lo, hi = q.scales.u_limits
+    return ("{\n" + f"    0x{_format(ctrl, q.scales):08X}UL, /* format */\n"
+            + "".join(f"    {{{c.mantissa}L, {c.shift}}}, /* {name} */\n"
+                      for name, c in ((n, getattr(q, n)) for n, _ in _COEFFICIENTS))
+            + f"    {lo}L, /* out_min */\n    {hi}L /* out_max */\n}}")
+
+
+def _format(ctrl, sc: Scales) -> int:
+    """The tag of the formats a q31 PID's coefficients are computed for: its scales, the
+    guard bits and the sample period (a CRC-32 of them)."""
+    return zlib.crc32(f"pid {sc.y_scale!r} {sc.u_scale!r} {GUARD_BITS} "
+                      f"{ctrl.sample_time!r}".encode())
+
+
+def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
+               frozen: bool = False) -> tuple[str, str]:
+    """(header, source) of the q31 PID of ``ctrl``: its coefficients and output limits in
+    a parameter struct that ``PREFIX_set_params`` checks and changes at run time, or
+    constants with ``frozen``."""
+    q = q31_pid(ctrl, key_prefix)
+    coefficients = [(name.upper(), getattr(q, name)) for name, _ in _COEFFICIENTS]
+    PU = prefix.upper()
+    if frozen:
+        subs = {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
+        subs |= {"DER": "1" if q.derivative else "0", "CW": "1" if q.c.mantissa else "0",
+                 "ULIM": f"{PU}_U_LO, {PU}_U_HI", "MUL": _MUL[True]}
+        subs |= dict.fromkeys(("PARAMS", "STATE_PARAMS", "SET_PARAMS_DECL", "SETTER",
+                               "INIT_PARAMS"), "")
+    else:
+        subs = {name: f"s->params.{name.lower()}.m, s->params.{name.lower()}.s"
+                for name, _ in coefficients}
+        members = "".join(f"    {prefix}_coef {name}; /* {what} */\n"
+                          for name, what in _COEFFICIENTS)
+        fields = ["format", *(name for name, _ in _COEFFICIENTS), "out_min", "out_max"]
+        same = " &&\n        ".join(
+            [f"p->{f} == s->params.{f}" for f in ("format", "out_min", "out_max")]
+            + [f"p->{f}.m == s->params.{f}.m && p->{f}.s == s->params.{f}.s"
+               for f, _ in _COEFFICIENTS])
+        subs |= {"DER": "s->params.ad.m != 0 || s->params.bd.m != 0",
+                 "CW": "s->params.c.m != 0",
+                 "ULIM": "s->params.out_min, s->params.out_max", "MUL": _MUL[False],
+                 "PARAMS": _fill(_PARAMS, {"MEMBERS": members,
+                                           "FORMAT": f"0x{_format(ctrl, q.scales):08X}UL",
+                                           "FIELDS": ",\n".join(
+                                               f"    {PU}_FIELD_{f.upper()} = {k}"
+                                               for k, f in enumerate(fields, 1))}),
+                 "STATE_PARAMS": _STATE_PARAMS, "SET_PARAMS_DECL": _SET_PARAMS_DECL,
+                 "SETTER": _fill(_SETTER, {"DEFAULTS": q31_params_c(ctrl, key_prefix),
+                                           "SAME": same}),
+                 "INIT_PARAMS": f"    s->params = {prefix}_default_params;\n"}
     return q31_files(ctrl, q.scales, coefficients, prefix=prefix, banner=banner,
-                     templates=(_HEADER, _SOURCE),
-                     subs={"DER": "1" if q.derivative else "0",
-                           "CW": "1" if q.c.mantissa else "0"})
+                     templates=(_HEADER, _SOURCE), subs=subs)
 
 
 def q31_files(ctrl, sc: Scales, coefficients, *, prefix: str, banner: str,
@@ -177,10 +254,10 @@ def q31_files(ctrl, sc: Scales, coefficients, *, prefix: str, banner: str,
              "ULO": str(sc.u_limits[0]), "UHI": str(sc.u_limits[1]),
              "YS": repr(sc.y_scale), "US": repr(sc.u_scale), "DT": repr(ctrl.sample_time),
              "F": str(GUARD_BITS)}
-    header, source = templates
-    for key, value in every.items():
-        header = header.replace(f"@{key}@", value)
-        source = source.replace(f"@{key}@", value)
+    header, source = (_fill(text, every) for text in templates)
+    left = re.search(r"@[A-Z0-9_]+@", header + source)
+    if left:  # a template's name nothing filled: a bug here, not the user's
+        raise AssertionError(f"unfilled {left[0]} in the q31 export")
     return header, source
 
 
@@ -235,9 +312,9 @@ typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
 """
 
 
-_HEADER = """@Q31_HEAD@
+_HEADER = """@Q31_HEAD@@PARAMS@
 typedef struct {
-    int64_t i;              /* the integral, in output codes * 2^@F@ */
+@STATE_PARAMS@    int64_t i;              /* the integral, in output codes * 2^@F@ */
     int32_t d;              /* the derivative term, output codes */
     int32_t y_old, r_old;   /* the last sample's measurement and setpoint */
     int32_t start;          /* the output the next sample is set to give (bumpless) */
@@ -261,7 +338,129 @@ void @P@_init(@P@_state *s);
 void @P@_set_manual(@P@_state *s, @P@_q31 u);
 /* Back to automatic, restarting the law from the last output (bumpless). */
 void @P@_set_auto(@P@_state *s);
-@Q31_TAIL@"""
+@SET_PARAMS_DECL@@Q31_TAIL@"""
+
+#: the end of the product's comment and its body: with a constant shift (the frozen
+#: build) the half is a constant; with a shift read at run time (the tunable one),
+#: floor((a + 2^(S-1)) / 2^S) = floor((floor(a / 2^(S-1)) + 1) / 2) shifts by a variable
+#: once where the other form shifts twice (the same codes: an identity of integers;
+#: measured on the Cortex-M4F, each form is the cheaper one in its build)
+_MUL = {True: """ */
+static int64_t @P@_mul(int32_t x, int64_t m, int shift)
+{
+    return ((int64_t)x * m + ((int64_t)1 << (shift - 1))) >> shift;""",
+        False: """; the half added as
+ * floor((a + 2^(S-1)) / 2^S) = floor((floor(a / 2^(S-1)) + 1) / 2): one shift by the
+ * variable S, not two) */
+static int64_t @P@_mul(int32_t x, int64_t m, int shift)
+{
+    return ((((int64_t)x * m) >> (shift - 1)) + 1) >> 1;"""}
+
+
+#: the tunable build's parameter struct and the members of its setter's answer
+_PARAMS = """
+/* A coefficient: m * 2^-s, with |m| in [2^30, 2^31) and s in [1, 62], or m = 0. */
+typedef struct {
+    int32_t m;
+    int32_t s;
+} @P@_coef;
+
+/* the formats a parameter set is computed for (the scales, the period, F): a set made
+ * for another export's is refused */
+#define @PU@_FORMAT @FORMAT@
+
+/* The parameters a running controller may change (@P@_set_params), in the codes' units
+ * (mfcontrol.cexport.fixed_point): the PID's coefficients and the output limits. For new
+ * gains, export the case again with them (the same input and output limits, so the same
+ * scales and @PU@_FORMAT) and take its @P@_default_params, or call
+ * mfcontrol.cexport.fixed_point.q31_params_c in Python; new output limits are codes,
+ * limit / @PU@_U_SCALE * 2^31. */
+typedef struct {
+    uint32_t format; /* @PU@_FORMAT */
+@MEMBERS@    int32_t out_min;  /* lower output limit, a code */
+    int32_t out_max;  /* upper output limit, a code, >= out_min */
+} @P@_params;
+
+/* what @P@_set_params returns: 0 taken, -1 a state never initialised, or the member at
+ * fault */
+enum {
+@FIELDS@
+};
+
+/* the parameters exported: what init starts from */
+extern const @P@_params @P@_default_params;
+"""
+
+_STATE_PARAMS = """\
+    /* the parameters the law runs with (@P@_set_params changes them: do not write them
+     * here, where nothing checks them) */
+    @P@_params params;
+"""
+
+_SET_PARAMS_DECL = """\
+/* Change the parameters while running. Every member is checked: a set made for other
+ * formats, a coefficient the products cannot take, a limit pair out of order... is
+ * refused, nothing changes, and the member at fault is returned (@PU@_FIELD_...).
+ * Taken: in automatic mode the law restarts from the last output clamped to the new
+ * limits (bumpless, as @P@_set_auto does; before any sample it starts as @P@_init would
+ * with them; an unchanged set changes nothing), in manual mode the held output is
+ * clamped to the new limits. Returns 0 when taken, -1 for a state never initialised (or
+ * no parameters).
+ * Call it where @P@_step is called (or with that interrupt masked): the copy is not
+ * atomic. */
+int @P@_set_params(@P@_state *s, const @P@_params *p);
+"""
+
+_SETTER = """
+/* the parameters exported: what init starts from */
+const @P@_params @P@_default_params = @DEFAULTS@;
+
+/* a coefficient the products take: 0, or |m| in [2^30, 2^31); its shift in [1, 62] */
+static int @P@_coef_ok(@P@_coef c)
+{
+    if (c.s < 1 || c.s > 62) return 0;
+    return c.m == 0 || c.m >= 0x40000000L || (c.m <= -0x40000000L && c.m > INT32_MIN);
+}
+
+int @P@_set_params(@P@_state *s, const @P@_params *p)
+{
+    if (!@PU@_INITIALISED(s) || !p) return -1;
+    if (p->format != @PU@_FORMAT) return @PU@_FIELD_FORMAT;
+    if (!@P@_coef_ok(p->b)) return @PU@_FIELD_B;
+    if (!@P@_coef_ok(p->c)) return @PU@_FIELD_C;
+    if (!@P@_coef_ok(p->kp)) return @PU@_FIELD_KP;
+    if (!@P@_coef_ok(p->kih)) return @PU@_FIELD_KIH;
+    /* h / Tt >= 0; 0 (Tt infinite) only without an integral, whose windup nothing would
+     * then stop (mfcontrol.PID's rule) */
+    if (!@P@_coef_ok(p->htt) || p->htt.m < 0 || (p->htt.m == 0 && p->kih.m != 0))
+        return @PU@_FIELD_HTT;
+    /* a pole in [0, 1): a value below 1 has a shift of 31 or more */
+    if (!@P@_coef_ok(p->ad) || p->ad.m < 0 || (p->ad.m != 0 && p->ad.s < 31))
+        return @PU@_FIELD_AD;
+    /* kd of kp's sign, or 0 */
+    if (!@P@_coef_ok(p->bd) || (p->bd.m > 0 && p->kp.m <= 0) || (p->bd.m < 0 && p->kp.m >= 0))
+        return @PU@_FIELD_BD;
+    if (p->out_min < -INT32_MAX) return @PU@_FIELD_OUT_MIN;
+    if (p->out_max < p->out_min) return @PU@_FIELD_OUT_MAX;
+    if (@SAME@)
+        return 0; /* nothing changes */
+    s->params = *p;
+    if (s->mode == @PU@_MANUAL) {
+        s->last_output = @P@_clamp(s->last_output, p->out_min, p->out_max);
+    } else if (!s->started && !s->pending) { /* before any sample: as init with them */
+        s->last_output = @P@_clamp(0, p->out_min, p->out_max);
+    } else { /* restart from the last output within the new limits (a held sample
+              * returns it), as @P@_set_auto does from manual */
+        s->last_output = @P@_clamp(s->last_output, p->out_min, p->out_max);
+        s->i = 0;
+        s->d = 0;
+        s->started = 0;
+        s->start = s->last_output;
+        s->pending = 1;
+    }
+    return 0;
+}
+"""
 
 _SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO (@ULO@L)
 #define @PU@_U_HI (@UHI@L)
@@ -284,16 +483,13 @@ static int64_t @P@_sat_i(int64_t x)
     return x;
 }
 
-/* x * M * 2^-S, rounded to nearest (|x| < 2^31, |M| < 2^31: the product and the half
- * fit 63 bits, and the result is below 2^61) */
-static int64_t @P@_mul(int32_t x, int64_t m, int shift)
-{
-    return ((int64_t)x * m + ((int64_t)1 << (shift - 1))) >> shift;
+/* x * M * 2^-S, rounded to nearest, ties up (|x| < 2^31, |M| < 2^31: the product and
+ * the half fit 63 bits, and the result is below 2^61)@MUL@
 }
 
-static int32_t @P@_clamp(int64_t v)
+static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
 {
-    return (int32_t)(v > @PU@_U_HI ? @PU@_U_HI : (v < @PU@_U_LO ? @PU@_U_LO : v));
+    return (int32_t)(v > hi ? hi : (v < lo ? lo : v));
 }
 
 void @P@_init(@P@_state *s)
@@ -303,7 +499,7 @@ void @P@_init(@P@_state *s)
     s->y_old = 0;
     s->r_old = 0;
     s->start = 0;
-    s->last_output = @P@_clamp(0);
+@INIT_PARAMS@    s->last_output = @P@_clamp(0, @ULIM@);
     s->nan_count = 0;
     s->started = 0;
     s->pending = 0;
@@ -315,7 +511,7 @@ void @P@_init(@P@_state *s)
     int64_t p, d = 0, v;
     int32_t u;
     if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
-        return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp(0);
+        return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp(0, @PU@_U_LO, @PU@_U_HI);
     if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
         s->nan_count++;
         return s->last_output;
@@ -324,19 +520,17 @@ void @P@_init(@P@_state *s)
         s->y_old = y;
         s->r_old = setpoint;
     }
-    p = @P@_mul(@P@_sat32(@P@_mul(setpoint, @PU@_B_M, @PU@_B_S) - y), @PU@_KP_M, @PU@_KP_S);
-#if @DER@
-    {
-#if @CW@
-        int64_t de = (y - @P@_mul(setpoint, @PU@_C_M, @PU@_C_S))
-                     - (s->y_old - @P@_mul(s->r_old, @PU@_C_M, @PU@_C_S));
-#else
-        int64_t de = (int64_t)y - s->y_old;
-#endif
-        d = @P@_mul(s->d, @PU@_AD_M, @PU@_AD_S) - @P@_mul(@P@_sat32(de), @PU@_BD_M, @PU@_BD_S);
+    p = @P@_mul(@P@_sat32(@P@_mul(setpoint, @B@) - y), @KP@);
+    if (@DER@) {  /* a derivative */
+        int64_t de;
+        if (@CW@)  /* its setpoint weight */
+            de = (y - @P@_mul(setpoint, @C@))
+                 - (s->y_old - @P@_mul(s->r_old, @C@));
+        else
+            de = (int64_t)y - s->y_old;
+        d = @P@_mul(s->d, @AD@) - @P@_mul(@P@_sat32(de), @BD@);
         d = @P@_sat32(d);
     }
-#endif
     if (s->pending) {  /* the bumpless start: the integral that gives `start` */
         int64_t t = (int64_t)s->start - p - d;
         if (t > @PU@_T_MAX) t = @PU@_T_MAX;
@@ -345,9 +539,9 @@ void @P@_init(@P@_state *s)
         s->pending = 0;
     }
     v = p + ((s->i + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F) + d;
-    u = @P@_clamp(v);
-    s->i = @P@_sat_i(s->i + @P@_mul(@P@_sat32((int64_t)setpoint - y), @PU@_KIH_M, @PU@_KIH_S)
-                     + @P@_mul(@P@_sat32((int64_t)u - v), @PU@_HTT_M, @PU@_HTT_S));
+    u = @P@_clamp(v, @ULIM@);
+    s->i = @P@_sat_i(s->i + @P@_mul(@P@_sat32((int64_t)setpoint - y), @KIH@)
+                     + @P@_mul(@P@_sat32((int64_t)u - v), @HTT@));
     s->d = (int32_t)d;
     s->y_old = y;
     s->r_old = setpoint;
@@ -360,7 +554,7 @@ void @P@_set_manual(@P@_state *s, @P@_q31 u)
 {
     if (!@PU@_INITIALISED(s)) return;
     s->mode = @PU@_MANUAL;
-    s->last_output = @P@_clamp(u);
+    s->last_output = @P@_clamp(u, @ULIM@);
 }
 
 void @P@_set_auto(@P@_state *s)
@@ -376,4 +570,4 @@ void @P@_set_auto(@P@_state *s)
     }
     s->mode = @PU@_AUTO;
 }
-"""
+@SETTER@"""

@@ -126,7 +126,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     if real not in REALS:
         raise ConfigError("real", real, f"must be one of {', '.join(REALS)}")
     if real == "q31":
-        return _q31(ctrl, prefix, description, key_prefix)
+        return _q31(ctrl, prefix, description, key_prefix, frozen)
     law = law_of(ctrl, real, key_prefix)  # refuses what cannot export
     if isinstance(ctrl, RecursiveIP):
         # the parameters as built: a bumpless start rewrites the law's u0 in place
@@ -297,24 +297,30 @@ _CHECKS = {
 }
 
 
-def _q31(ctrl, prefix: str, description: str, key_prefix: str) -> CSource:
-    """The fixed-point export: the PID (:mod:`mfcontrol.cexport.fixed_point`) and the i-P
-    family with the backward difference (:mod:`mfcontrol.cexport.fixed_point_intelligent`)."""
+def _q31(ctrl, prefix: str, description: str, key_prefix: str, frozen: bool) -> CSource:
+    """The fixed-point export: the PID (:mod:`mfcontrol.cexport.fixed_point`), tunable
+    unless ``frozen``, and the i-P family with the backward difference
+    (:mod:`mfcontrol.cexport.fixed_point_intelligent`), whose parameters are constants."""
     from .fixed_point import q31_source
     from .fixed_point_intelligent import q31_intelligent_source
 
+    banner_tail = (" * C99 with <stdint.h>, integer arithmetic only: no floating point, "
+                   "no dynamic memory,\n * no global state. */")
     if isinstance(ctrl, PID):
-        write, name = q31_source, "pid"
-    elif isinstance(ctrl, IntelligentController):
-        write, name = q31_intelligent_source, "intelligent"
-    else:
-        raise ConfigError("real", "q31", f"exports the PID and the i-P, i-PI, i-PD and i-PID "
-                          f"(this is the {_law_label(ctrl)} law): export it in float or double")
-    banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in",
-                     " * C99 with <stdint.h>, integer arithmetic only: no floating point, no "
-                     "dynamic memory,\n * no global state. */")
-    header, source = write(ctrl, prefix=prefix, banner=banner, key_prefix=key_prefix)
-    return CSource(prefix, "q31", header, source, name, 0)
+        banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in"
+                         if frozen else f"as exported; {prefix}_set_params changes the "
+                         "coefficients and limits", banner_tail)
+        header, source = q31_source(ctrl, prefix=prefix, banner=banner,
+                                    key_prefix=key_prefix, frozen=frozen)
+        return CSource(prefix, "q31", header, source, "pid", 0)
+    if isinstance(ctrl, IntelligentController):
+        banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in",
+                         banner_tail)
+        header, source = q31_intelligent_source(ctrl, prefix=prefix, banner=banner,
+                                                key_prefix=key_prefix)
+        return CSource(prefix, "q31", header, source, "intelligent", 0)
+    raise ConfigError("real", "q31", f"exports the PID and the i-P, i-PI, i-PD and i-PID "
+                      f"(this is the {_law_label(ctrl)} law): export it in float or double")
 
 
 def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
@@ -821,9 +827,10 @@ _SET_PARAMS_DECL = """\
 /* Change the parameters while running. Every member is checked: a value the law is
  * not defined for (NaN, a limit pair out of order, N <= 0...) is refused, nothing
  * changes, and the member at fault is returned (@PU@_FIELD_...). Taken: in automatic
- * mode the law restarts from the last output (bumpless, as @P@_set_auto does; before
- * any sample it starts as @P@_init would with them; an unchanged set changes nothing),
- * in manual mode the held output is clamped to the new limits. Returns 0 when taken,
+ * mode the law restarts from the last output clamped to the new limits (bumpless, as
+ * @P@_set_auto does; before any sample it starts as @P@_init would with them; an
+ * unchanged set changes nothing), in manual mode the held output is clamped to the new
+ * limits. Returns 0 when taken,
  * -1 for a state never initialised (or no parameters). A restart: the sample after it
  * integrates nothing, so it is not a per-sample gain schedule. Call it where @P@_step
  * is called (or with that interrupt masked): the copy is not atomic. */
@@ -849,8 +856,8 @@ int @P@_set_params(@P@_state *s, const @P@_params *p)
     s->params = *p;
 @SET_COEF@    if (s->mode == @PU@_MANUAL) {
 @CLAMP_OUT@    } else if (s->fresh) { /* before any sample: as init with them */
-@INIT_LAW@    } else {
-        @P@_bumpless(s, s->last_output);
+@INIT_LAW@    } else { /* from the last output within the new limits (a held sample returns it) */
+@CLAMP_OUT@        @P@_bumpless(s, s->last_output);
         s->skipped = 0;
 @HELD_8@        s->overflows = 0;
     }

@@ -781,3 +781,22 @@ def test_the_output_held_before_any_sample_is_within_the_output_limits(make):
     assert lo <= ctrl.last_output <= hi
     assert lo <= ctrl(1.9974368165136842e+307, setpoint=1.0) <= hi
     assert lo <= ctrl(math.nan) <= hi
+
+
+@pytest.mark.parametrize("make,limits", [
+    (lambda: RecursiveIP(alpha=10.0, kp=2.0, duty_min=0.0, duty_max=0.9),
+     {"duty_min": 0.5}),
+    (lambda: mfcontrol.PID(kp=2.0, ki=1.0, sample_time=0.01, output_limits=(-5, 5)),
+     {"output_limits": (2.0, 5.0)}),
+])
+def test_a_retune_in_automatic_clamps_the_held_output_to_the_new_limits(make, limits):
+    """A rejected sample right after a retune whose limits leave the last output out
+    returned that output: the recursive law's bumpless start kept it unclamped. The
+    restart is from the last output clamped to the new limits, as in manual."""
+    ctrl = make()
+    for _ in range(5):
+        ctrl(0.0, setpoint=0.1)
+    lo = limits.get("duty_min", limits.get("output_limits", (None,))[0])
+    assert ctrl.last_output < lo
+    ctrl.retune(**limits)
+    assert ctrl(math.nan, setpoint=0.1) == lo  # held, within the new limits

@@ -311,10 +311,11 @@ class _Controller:
         """Change parameters while the controller runs: gains, output limits and the
         other tunable ones (:mod:`mfcontrol.laws.tunable`), by the constructor's keywords
         and checked as it checks them (a refused value changes nothing). In automatic
-        mode the law then restarts from the last output, bumpless, as
-        :meth:`set_auto_mode` does (before any sample it starts as a controller built
-        with them would; a retune that changes nothing the law reads changes nothing); in
-        manual mode the held output is clamped to the new limits. The counters stay.
+        mode the law then restarts from the last output clamped to the new limits,
+        bumpless, as :meth:`set_auto_mode` does (before any sample it starts as a
+        controller built with them would; a retune that changes nothing the law reads
+        changes nothing); in manual mode the held output is clamped to the new limits. The
+        counters stay.
 
         A retune is a restart: the derivative's and the estimator's histories start again
         and the sample after it integrates nothing (its output is the last one). It suits
@@ -376,7 +377,8 @@ class _Controller:
             self._last_output = self._limited(self._last_output)
         elif fresh:  # before any sample: start as a controller built with them would
             self._reset_state()
-        else:
+        else:  # from the last output within the new limits: a held sample returns it
+            self._last_output = self._limited(self._last_output)
             self._bumpless_start(self._last_output)
             self._skipped = 0.0
             self._overflows = 0
