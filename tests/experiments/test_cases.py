@@ -30,3 +30,23 @@ def test_overrides_and_configurations():
     assert [a(1.0, setpoint=2.0) for _ in range(3)] == [b(1.0, setpoint=2.0) for _ in range(3)]
     with pytest.raises(mfcontrol.ConfigError, match="controller.kp"):
         mfcontrol.make_controller("motor-noise-pid", {"controller.kp": "x"})
+
+
+def test_a_folder_named_as_a_built_in_case_does_not_hide_it(tmp_path, monkeypatch):
+    """A folder named as the case in the working directory (an export's --out, say) made
+    `mfcontrol export-c motor-noise-ipi` fail with "case file 'motor-noise-ipi' not
+    found". The built-in case is taken; a folder that is no case's name is refused as a
+    folder."""
+    from mfcontrol.errors import CaseError
+    from mfcontrol.experiments.cases import resolve_case
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "motor-noise-ipi").mkdir()
+    name, cfg = resolve_case("motor-noise-ipi")
+    assert name == "motor-noise-ipi" and cfg["controller.law"] == "i-PI"
+    (tmp_path / "results").mkdir()
+    with pytest.raises(CaseError, match="'results' is a folder, not a case"):
+        resolve_case("results")
+    (tmp_path / "mine.toml").mkdir()
+    with pytest.raises(CaseError, match="case file 'mine.toml' not found"):
+        resolve_case("mine.toml")

@@ -27,10 +27,14 @@ def names() -> list[str]:
 
 def _path(name_or_path: str | Path) -> tuple[str, Path]:
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    # a folder named as a built-in case (an --out folder, say) does not hide the case
+    if p.suffix == ".toml" or (p.exists() and not p.is_dir()):
         if not p.is_file():
             raise CaseError(f"case file {str(p)!r} not found")
         return p.stem, p
+    if p.is_dir() and str(name_or_path) not in names():
+        raise CaseError(f"{str(p)!r} is a folder, not a case: give a built-in case's name "
+                        "or the path of a .toml file")
     builtin = CASES_DIR / f"{name_or_path}.toml"
     # a name, not a path: "../cases/x" would name a built-in file and write outside results/
     if str(name_or_path) not in names():
