@@ -539,7 +539,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--frozen", action="store_true",
                    help="every parameter a constant folded into the code, no "
                    "PREFIX_set_params (default: gains and limits in a parameter struct, "
-                   "checked and changed at run time)")
+                   "checked and changed at run time; the q31 i-P family is always frozen)")
     s.set_defaults(func=_cmd_export_c)
 
     s = sub.add_parser("tuner", help="tune a case interactively in the browser: sliders, "

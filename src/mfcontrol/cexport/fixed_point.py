@@ -17,9 +17,11 @@ many times the limits before they saturate. A coefficient c is ``M 2^-s`` with `
 [2^30, 2^31), its relative error at most 2^-31; a product of a code and a coefficient is
 formed in 64 bits and shifted back, rounded to nearest. The integral is held in 64 bits
 with :data:`GUARD_BITS` more fraction bits than the output's code, and every sum
-saturates. A rejected sample (a measurement outside the input limits) holds the output;
-the next step uses the nominal period (the double law spans the time since the last
-sample taken). The coefficients and the output limits' codes are a parameter struct that
+saturates. A rejected sample (a measurement outside the input limits) holds the output,
+and the next sample taken spans the time since the last one as the double law does, for
+up to 255 rejected in a row: the integral's increments times the d periods, the
+derivative divided by ``1 + (d - 1)(1 - ad)`` (its coefficients at d h; a 64-bit division
+on that step only). The coefficients and the output limits' codes are a parameter struct that
 ``PREFIX_set_params`` checks and changes at run time (:func:`q31_params_c` writes one for
 new gains), or constants with ``frozen``.
 """
@@ -29,7 +31,7 @@ from __future__ import annotations
 import math
 import re
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..errors import ConfigError
 from ..laws import pid
@@ -130,10 +132,24 @@ def scales(ctrl, lo: float, hi: float, key_prefix: str = "") -> Scales:
                   lo, hi)
 
 
-def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
-    """The q31 formats of a live :class:`mfcontrol.PID` (refusing what they cannot hold)."""
+def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
+    """The q31 formats of a live :class:`mfcontrol.PID` (refusing what they cannot hold);
+    with ``like``, the PID an export was made from, in that export's formats."""
     cp = ctrl._CP[:, 0]
-    sc = scales(ctrl, float(cp[pid.OUT_MIN]), float(cp[pid.OUT_MAX]), key_prefix)
+    lo, hi = float(cp[pid.OUT_MIN]), float(cp[pid.OUT_MAX])
+    if like is None:
+        sc = scales(ctrl, lo, hi, key_prefix)
+    else:
+        sc = scales(like, float(like._CP[pid.OUT_MIN, 0]), float(like._CP[pid.OUT_MAX, 0]))
+        if ctrl.sample_time != like.sample_time:
+            raise ConfigError(f"{key_prefix}sample_time", ctrl.sample_time, "must be the "
+                              f"export's, {like.sample_time!r}: its coefficients are per "
+                              "period")
+        if not max(abs(lo), abs(hi)) <= sc.u_scale:
+            raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be within the "
+                              f"export's output scale, +-{sc.u_scale!r}")
+        sc = replace(sc, u_limits=(code(lo, sc.u_scale), code(hi, sc.u_scale)), u_lo=lo,
+                     u_hi=hi)
     if cp[pid.TF] != 0.0:
         raise ConfigError(f"{key_prefix}Tf", float(cp[pid.TF]), "the fixed-point PID has no "
                           "measurement filter yet: export with Tf 0, or in float")
@@ -153,7 +169,9 @@ def q31_pid(ctrl, key_prefix: str = "") -> Q31Pid:
         Coefficient.of(kp * ratio, f"{p}kp", kp),
         Coefficient.of(kih * ratio * guard, f"{p}ki", ki),
         Coefficient.of(htt * guard, f"{p}Tt", tt),
-        Coefficient.of(ad, f"{p}N", n), Coefficient.of(bd * ratio, f"{p}kd", kd), derivative)
+        # a pole below 1 (shift 31 or more): one within 2^-32 of 1 would round to 1
+        Coefficient.of(ad, f"{p}N", n, shifts=(31, 62)),
+        Coefficient.of(bd * ratio, f"{p}kd", kd), derivative)
 
 
 #: the q31 PID's coefficients, in the order of its parameter struct: (member, what it is)
@@ -168,12 +186,13 @@ _COEFFICIENTS = (
 )
 
 
-def q31_params_c(ctrl, key_prefix: str = "") -> str:
+def q31_params_c(ctrl, key_prefix: str = "", like=None) -> str:
     """The C initializer of the tunable q31 PID's ``PREFIX_params`` for the live PID
-    ``ctrl``: what ``PREFIX_set_params`` takes to run with its gains. It holds the formats
-    the coefficients are computed for, which must be those of the export it is sent to
-    (the same sample period and input and output limits); ``PREFIX_set_params`` refuses
-    a set made for others.
+    ``ctrl``: what ``PREFIX_set_params`` takes to run with its gains. ``like``: the PID
+    the export it is sent to was made from, whose formats the coefficients and limits are
+    computed in (default: ``ctrl``'s own, from its sample period and input and output
+    limits). The set holds a tag of those formats, and ``PREFIX_set_params`` refuses a
+    set made for others.
 
     Examples
     --------
@@ -183,8 +202,14 @@ def q31_params_c(ctrl, key_prefix: str = "") -> str:
     ...                      input_limits=(-10, 200))
     >>> print(q31_params_c(ctrl).splitlines()[4])
         {1342177280L, 32}, /* kp */
+
+    The same gains with narrower output limits, for that export:
+
+    >>> narrow = mfcontrol.PID(kp=0.3, ki=0.5, sample_time=0.001, output_limits=(-12, 12))
+    >>> print(q31_params_c(narrow, like=ctrl).splitlines()[-3])
+        -67108864L, /* out_min */
     """
-    q = q31_pid(ctrl, key_prefix)
+    q = q31_pid(ctrl, key_prefix, like)
     lo, hi = q.scales.u_limits
     return ("{\n" + f"    0x{_format(ctrl, q.scales):08X}UL, /* format */\n"
             + "".join(f"    {{{c.mantissa}L, {c.shift}}}, /* {name} */\n"
@@ -209,7 +234,11 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
     PU = prefix.upper()
     if frozen:
         subs = {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
-        subs |= {"DER": "1" if q.derivative else "0", "CW": "1" if q.c.mantissa else "0",
+        weighted = q.c.mantissa != 0
+        derivative = ("    {  /* the derivative */\n        int64_t de = "
+                      + (_WEIGHTED.replace("\n ", "\n     ") if weighted else _PLAIN)
+                      + ";\n" + _D_STEP + "    }\n") if q.derivative else ""
+        subs |= {"DERIVATIVE": derivative, "OVER_GAP": _OVER_GAP if q.derivative else "",
                  "ULIM": f"{PU}_U_LO, {PU}_U_HI", "MUL": _MUL[True]}
         subs |= dict.fromkeys(("PARAMS", "STATE_PARAMS", "SET_PARAMS_DECL", "SETTER",
                                "INIT_PARAMS"), "")
@@ -223,8 +252,9 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
             [f"p->{f} == s->params.{f}" for f in ("format", "out_min", "out_max")]
             + [f"p->{f}.m == s->params.{f}.m && p->{f}.s == s->params.{f}.s"
                for f, _ in _COEFFICIENTS])
-        subs |= {"DER": "s->params.ad.m != 0 || s->params.bd.m != 0",
-                 "CW": "s->params.c.m != 0",
+        subs |= {"DERIVATIVE": _fill(_DERIVATIVE, {"WEIGHTED": _WEIGHTED, "PLAIN": _PLAIN,
+                                                   "D_STEP": _D_STEP}),
+                 "OVER_GAP": _OVER_GAP,
                  "ULIM": "s->params.out_min, s->params.out_max", "MUL": _MUL[False],
                  "PARAMS": _fill(_PARAMS, {"MEMBERS": members,
                                            "FORMAT": f"0x{_format(ctrl, q.scales):08X}UL",
@@ -235,8 +265,11 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                  "SETTER": _fill(_SETTER, {"DEFAULTS": q31_params_c(ctrl, key_prefix),
                                            "SAME": same}),
                  "INIT_PARAMS": f"    s->params = {prefix}_default_params;\n"}
-    return q31_files(ctrl, q.scales, coefficients, prefix=prefix, banner=banner,
-                     templates=(_HEADER, _SOURCE), subs=subs)
+    # the pieces first: the coefficients' names in them are filled after
+    subs = {key: subs[key] for key in ("DERIVATIVE", "OVER_GAP")} | subs
+    # the tunable build's coefficients are its default parameter set's, not constants
+    return q31_files(ctrl, q.scales, coefficients if frozen else [], prefix=prefix,
+                     banner=banner, templates=(_HEADER, _SOURCE), subs=subs)
 
 
 def q31_files(ctrl, sc: Scales, coefficients, *, prefix: str, banner: str,
@@ -248,6 +281,9 @@ def q31_files(ctrl, sc: Scales, coefficients, *, prefix: str, banner: str,
     PU = prefix.upper()
     consts = "".join(f"#define {PU}_{name}_M ({c.mantissa}L)\n#define {PU}_{name}_S {c.shift}\n"
                      for name, c in coefficients)
+    if consts:
+        consts = ("/* the coefficients, M * 2^-S with |M| in [2^30, 2^31), or 0\n"
+                  " * (mfcontrol.cexport.fixed_point) */\n" + consts)
     every = {"Q31_HEAD": _Q31_HEAD, "Q31_TAIL": _Q31_TAIL, "Q31_PRELUDE": _Q31_PRELUDE,
              **subs, "P": prefix, "PU": PU, "CONSTS": consts, "BANNER": banner,
              "YLO": str(sc.y_limits[0]), "YHI": str(sc.y_limits[1]),
@@ -300,10 +336,8 @@ _Q31_PRELUDE = """@BANNER@
 
 /* the right shift of a negative integer is arithmetic on every compiler this targets;
  * the build stops where it is not */
-typedef char @P@_arithmetic_shift[((-1L) >> 1) == -1L ? 1 : -1];
+typedef char @P@_arithmetic_shift[((int64_t)-1 >> 1) == (int64_t)-1 ? 1 : -1];
 
-/* the coefficients, M * 2^-S with |M| in [2^30, 2^31), or 0
- * (mfcontrol.cexport.fixed_point) */
 @CONSTS@#define @PU@_Y_LO (@YLO@L)
 #define @PU@_Y_HI (@YHI@L)
 #define @PU@_F @F@
@@ -320,6 +354,8 @@ typedef struct {
     int32_t start;          /* the output the next sample is set to give (bumpless) */
     int32_t last_output;    /* returned in manual mode and after a rejected sample */
     unsigned long nan_count; /* rejected: a measurement outside the input limits */
+    int skipped;            /* samples rejected since the last one taken (up to
+                             * @PU@_SKIP_MAX): the next step spans them */
     int started;            /* 0 until the first sample is taken */
     int pending;            /* 1 while start waits for the next sample */
     /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
@@ -336,9 +372,52 @@ void @P@_init(@P@_state *s);
 @P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint);
 /* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto. */
 void @P@_set_manual(@P@_state *s, @P@_q31 u);
-/* Back to automatic, restarting the law from the last output (bumpless). */
+/* Back to automatic, restarting the law from the last output (bumpless while the
+ * integral that gives it, last output - P - D, is within 2^37 output codes, 2^6 times
+ * the output's scale; beyond, at extreme gains, it saturates there). */
 void @P@_set_auto(@P@_state *s);
 @SET_PARAMS_DECL@@Q31_TAIL@"""
+
+#: the derivative over a gap of periods (only where the step has a derivative)
+_OVER_GAP = """/* The derivative over d periods (d in [2, 256]) from its value x over one:
+ * ad' = Td / (Td + N d h) and bd' = kp Td N / (Td + N d h) are ad and bd divided by
+ * D = 1 + (d - 1)(1 - ad), so x / D rounded to nearest. ad = m 2^-s (s >= 31) rounded to
+ * 2^-31 gives D 2^31 below 2^39, taken to 2^-23 (>> 8, D >= 1) so that x 2^23 fits 63
+ * bits once x is within +-2^39 (beyond, x / D >= 2^39 / 256 saturates an int32 all the
+ * same). On the step after rejected samples only: a 64-bit division. */
+static int64_t @P@_over_gap(int64_t x, int d, int32_t m, int shift)
+{
+    int64_t a = m == 0 ? 0 : shift == 31 ? m : ((((int64_t)m >> (shift - 32)) + 1) >> 1);
+    int64_t den = (((int64_t)1 << 31) + (d - 1) * (((int64_t)1 << 31) - a)) >> 8;
+    int64_t num;
+    if (x > ((int64_t)1 << 39)) x = (int64_t)1 << 39;
+    if (x < -((int64_t)1 << 39)) x = -((int64_t)1 << 39);
+    num = x * ((int64_t)1 << 23);
+    return num >= 0 ? (num + den / 2) / den : -((-num + den / 2) / den);
+}
+
+"""
+
+#: the step's derivative: in the tunable build, tested at run time (a derivative, a
+#: setpoint weight); in the frozen build, written out only where the export has them
+_DERIVATIVE = """\
+    if (s->params.ad.m != 0 || s->params.bd.m != 0) {  /* a derivative */
+        int64_t de;
+        if (s->params.c.m != 0)  /* its setpoint weight */
+            de = @WEIGHTED@;
+        else
+            de = @PLAIN@;
+@D_STEP@    }
+"""
+_D_STEP = """\
+        d = @P@_mul(s->d, @AD@) - @P@_mul(@P@_sat32(de), @BD@);
+        if (gap > 1) d = @P@_over_gap(d, gap, @AD@);
+        d = @P@_sat32(d);
+"""
+_WEIGHTED = """(y - @P@_mul(setpoint, @C@))
+                 - (s->y_old - @P@_mul(s->r_old, @C@))"""
+_PLAIN = "(int64_t)y - s->y_old"
+
 
 #: the end of the product's comment and its body: with a constant shift (the frozen
 #: build) the half is a constant; with a shift read at run time (the tunable one),
@@ -359,7 +438,7 @@ static int64_t @P@_mul(int32_t x, int64_t m, int shift)
 
 #: the tunable build's parameter struct and the members of its setter's answer
 _PARAMS = """
-/* A coefficient: m * 2^-s, with |m| in [2^30, 2^31) and s in [1, 62], or m = 0. */
+/* A coefficient: m * 2^-s, with |m| in [2^30, 2^31) or m = 0, and s in [1, 62]. */
 typedef struct {
     int32_t m;
     int32_t s;
@@ -454,6 +533,7 @@ int @P@_set_params(@P@_state *s, const @P@_params *p)
         s->last_output = @P@_clamp(s->last_output, p->out_min, p->out_max);
         s->i = 0;
         s->d = 0;
+        s->skipped = 0;
         s->started = 0;
         s->start = s->last_output;
         s->pending = 1;
@@ -466,6 +546,8 @@ _SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO (@ULO@L)
 #define @PU@_U_HI (@UHI@L)
 #define @PU@_I_MAX ((int64_t)1 << 61)
 #define @PU@_T_MAX ((int64_t)1 << (61 - @PU@_F))
+/* rejected samples in a row a step spans at most (a longer gap counts as this one) */
+#define @PU@_SKIP_MAX 255
 
 static int32_t @P@_sat32(int64_t x)
 {
@@ -487,7 +569,16 @@ static int64_t @P@_sat_i(int64_t x)
  * the half fit 63 bits, and the result is below 2^61)@MUL@
 }
 
-static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
+/* x * d saturated to +-I_MAX (|x| < 2^61, d in [2, 256]): an increment of the integral
+ * over d periods */
+static int64_t @P@_times(int64_t x, int d)
+{
+    if (x > @PU@_I_MAX / d) return @PU@_I_MAX;
+    if (x < -@PU@_I_MAX / d) return -@PU@_I_MAX;
+    return x * d;
+}
+
+@OVER_GAP@static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
 {
     return (int32_t)(v > hi ? hi : (v < lo ? lo : v));
 }
@@ -501,6 +592,7 @@ void @P@_init(@P@_state *s)
     s->start = 0;
 @INIT_PARAMS@    s->last_output = @P@_clamp(0, @ULIM@);
     s->nan_count = 0;
+    s->skipped = 0;
     s->started = 0;
     s->pending = 0;
     s->mode = @PU@_AUTO;
@@ -510,28 +602,22 @@ void @P@_init(@P@_state *s)
 {
     int64_t p, d = 0, v;
     int32_t u;
+    int gap;
     if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
         return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp(0, @PU@_U_LO, @PU@_U_HI);
     if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
         s->nan_count++;
+        if (s->skipped < @PU@_SKIP_MAX) s->skipped++;
         return s->last_output;
     }
+    gap = s->skipped + 1; /* the period since the last sample taken, in periods */
+    s->skipped = 0;
     if (!s->started) {
         s->y_old = y;
         s->r_old = setpoint;
     }
     p = @P@_mul(@P@_sat32(@P@_mul(setpoint, @B@) - y), @KP@);
-    if (@DER@) {  /* a derivative */
-        int64_t de;
-        if (@CW@)  /* its setpoint weight */
-            de = (y - @P@_mul(setpoint, @C@))
-                 - (s->y_old - @P@_mul(s->r_old, @C@));
-        else
-            de = (int64_t)y - s->y_old;
-        d = @P@_mul(s->d, @AD@) - @P@_mul(@P@_sat32(de), @BD@);
-        d = @P@_sat32(d);
-    }
-    if (s->pending) {  /* the bumpless start: the integral that gives `start` */
+@DERIVATIVE@    if (s->pending) {  /* the bumpless start: the integral that gives `start` */
         int64_t t = (int64_t)s->start - p - d;
         if (t > @PU@_T_MAX) t = @PU@_T_MAX;
         if (t < -@PU@_T_MAX) t = -@PU@_T_MAX;
@@ -540,8 +626,16 @@ void @P@_init(@P@_state *s)
     }
     v = p + ((s->i + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F) + d;
     u = @P@_clamp(v, @ULIM@);
-    s->i = @P@_sat_i(s->i + @P@_mul(@P@_sat32((int64_t)setpoint - y), @KIH@)
-                     + @P@_mul(@P@_sat32((int64_t)u - v), @HTT@));
+    {
+        /* ki h e and h / Tt (u - v), over the periods since the last sample taken */
+        int64_t ie = @P@_mul(@P@_sat32((int64_t)setpoint - y), @KIH@);
+        int64_t it = @P@_mul(@P@_sat32((int64_t)u - v), @HTT@);
+        if (gap > 1) {
+            ie = @P@_times(ie, gap);
+            it = @P@_times(it, gap);
+        }
+        s->i = @P@_sat_i(s->i + ie + it);
+    }
     s->d = (int32_t)d;
     s->y_old = y;
     s->r_old = setpoint;
@@ -564,6 +658,7 @@ void @P@_set_auto(@P@_state *s)
     if (s->mode == @PU@_MANUAL) {
         s->i = 0;
         s->d = 0;
+        s->skipped = 0;
         s->started = 0;
         s->start = s->last_output;
         s->pending = 1;

@@ -64,7 +64,8 @@ class CSource:
     source: str
     law: str  # the law family: "intelligent", "recursive", "pid" or "adrc"
     n_state: int
-    #: the members of ``PREFIX_params``, in order (empty for a frozen export)
+    #: the members of ``PREFIX_params`` in physical units, in order (empty for a frozen
+    #: export, and for the q31 PID's, whose members are coefficients in the codes' units)
     fields: tuple[str, ...] = ()
 
 
