@@ -181,7 +181,7 @@ ERRORS = [
     pytest.param([S, "nope.toml"], ["'nope.toml'", "not found"], id="missing-file"),
     pytest.param([S, "{d}/missing/case.toml"], ["case.toml", "not found"],
                  id="missing-file-in-missing-folder"),
-    pytest.param([S, "{d}"], ["not found"], id="folder-instead-of-file"),
+    pytest.param([S, "{d}"], ["is a folder, not a case"], id="folder-instead-of-file"),
     pytest.param(["run", "nope", "--out", "{d}/out-unknown"], ["'nope'", "unknown case"],
                  id="run-unknown-case"),
     pytest.param(["run", "nope.toml", *SHORT], ["'nope.toml'", "not found"],
@@ -876,7 +876,7 @@ def test_export_c_frozen_and_in_fixed_point(tmp_path):
     proc = cli("export-c", "motor-noise-ipi", "--real", "q31", "--input-limits", "-128",
                "128", "--out", str(tmp_path / "i"))
     assert proc.returncode == 0, proc.stderr
-    assert "frozen" in proc.stdout  # the q31 i-P family has none yet
+    assert "tunable with mfc_set_params" in proc.stdout
     assert not re.search(r"\b(double|float)\b", (tmp_path / "i" / "mfc.c").read_text())
     proc = cli("export-c", "motor-noise-ipi", "--real", "q31", "--input-limits", "-128",
                "128", "--set", "controller.adapt=variational", "--out", str(tmp_path / "v"))

@@ -349,8 +349,7 @@ def _cmd_export_c(args) -> int:
     header, source = export_c(cfg, out=out, prefix=args.prefix, real=args.float,
                               description=f"case {args.case}{sets}", input_limits=limits,
                               frozen=args.frozen)
-    tunable = not args.frozen and (args.float != "q31" or cfg["controller.law"] == "pid")
-    build = f"tunable with {args.prefix}_set_params" if tunable else "frozen"
+    build = "frozen" if args.frozen else f"tunable with {args.prefix}_set_params"
     print(f"wrote {header} and {source} ({cfg['controller.law']}, {args.float}, {build}); "
           f"compile with: cc {' '.join(CFLAGS)} -c {source}")
     key = cfg["sweep.key"]
@@ -530,16 +529,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default mfc: mfc.h, mfc_step...)")
     s.add_argument("--real", "--float", dest="float", choices=("double", "float", "q31"),
                    default="double", help="number type of the C (default double; q31: "
-                   "fixed point for a core without an FPU: the PID, tunable, and the i-P "
-                   "family with the backward difference and a constant gain, frozen; with "
-                   "--input-limits for the measurement's scale)")
+                   "fixed point for a core without an FPU: the PID, and the i-P family with "
+                   "the backward difference and a constant gain; with --input-limits for "
+                   "the measurement's scale)")
     s.add_argument("--input-limits", nargs=2, metavar=("LOW", "HIGH"),
                    help="the measurement's valid range (the sensor's; 'none' for no limit): "
                    "a sample outside is rejected as a NaN is, the output held")
     s.add_argument("--frozen", action="store_true",
                    help="every parameter a constant folded into the code, no "
                    "PREFIX_set_params (default: gains and limits in a parameter struct, "
-                   "checked and changed at run time; the q31 i-P family is always frozen)")
+                   "checked and changed at run time)")
     s.set_defaults(func=_cmd_export_c)
 
     s = sub.add_parser("tuner", help="tune a case interactively in the browser: sliders, "

@@ -289,3 +289,135 @@ def test_what_the_fixed_point_export_cannot_hold_is_refused():
     with pytest.raises(ConfigError, match="q31.*i-PID"):
         c_source(mfcontrol.make_controller("motor-noise-adrc"), real="q31")
     assert math.isfinite(code(-1e300, 1.0))
+
+
+# --- the tunable build (PREFIX_set_params) ---------------------------------------------
+
+@pytest.mark.parametrize("name", list(VARIANTS))
+def test_the_tunable_build_gives_the_frozen_builds_codes(name, tmp_path):
+    """The coefficients and limits read from the parameter struct (the derivative and the
+    back-calculation's integral test at run time) give the frozen build's codes."""
+    ctrl = controller(VARIANTS[name])
+    ops = codes_of_the_run(ctrl)
+    tunable, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "t"), ops)
+    frozen_src = c_source(ctrl, real="q31", frozen=True)
+    assert "set_params" not in frozen_src.header
+    frozen, _ = run(build(frozen_src, tmp_path / "f"), ops)
+    assert tunable.tolist() == frozen.tolist()
+
+
+#: (variant, the retune): new gains, alpha and limits within the output scale; the
+#: back-calculation's integral turned off (its anti-windup then does nothing, as in the
+#: double law)
+RETUNES = [("ipi-clamp", {"controller.kp": 40.0, "controller.ki": 80.0,
+                          "controller.alpha": 40.0, "controller.duty_min": -6.0,
+                          "controller.duty_max": 6.0}),
+           ("ipid-order2-held-back-calculation", {"controller.ki": 0.0, "controller.kd": 0.3,
+                                                  "controller.k_aw": 10.0})]
+
+
+@pytest.mark.parametrize("name,changes", RETUNES, ids=[n for n, _ in RETUNES])
+def test_set_params_restarts_bumplessly_on_the_new_coefficients(name, changes, tmp_path):
+    """In automatic mode a new set restarts the law from the last output clamped to the
+    new limits (held for the order's samples), as a return from manual does: the codes
+    after it are those of the same export put in manual at the last output, given the set
+    there and put back in automatic. The double law retuned at the same sample stays
+    within 1e-4 of the output range."""
+    from mfcontrol.cexport.fixed_point import q31_params_c
+
+    ctrl, new = controller(VARIANTS[name]), controller({**VARIANTS[name], **changes})
+    steps = codes_of_the_run(ctrl)
+    steps = steps[steps[:, 0] == 0]
+    k = 400
+    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a",
+                       sets=[q31_params_c(new, like=ctrl)]),
+                 np.vstack([steps[:k], [[3, 0, 0]], steps[k:]]))
+    assert out[k] == 0  # taken
+    before, after = out[:k], out[k + 1:]
+    taken = before[steps[:k, 1] <= q31_intelligent(ctrl).scales.y_limits[1]]
+    manual, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "c",
+                          sets=[q31_params_c(new, like=ctrl)]),
+                    np.vstack([[[1, taken[-1], 0], [3, 0, 0], [2, 0, 0]], steps[k:]]))
+    assert manual[0] == 0 and after.tolist() == manual[1:].tolist()
+    # the double law, retuned at the same sample
+    sc = q31_intelligent(ctrl).scales
+    py = type(ctrl)(**ctrl._params)
+    keys = {"controller.duty_min": "duty_min", "controller.duty_max": "duty_max"}
+    retune = {keys.get(key, key.removeprefix("controller.")): v for key, v in changes.items()}
+    if "duty_min" in retune:
+        retune["output_limits"] = (retune.pop("duty_min"), retune.pop("duty_max"))
+    u = []
+    for i, (_, y, r) in enumerate(steps):
+        if i == k:
+            py.retune(**retune)
+        u.append(py(y * sc.y_scale / 2**31, setpoint=r * sc.y_scale / 2**31))
+    u_q = np.concatenate([before, after]) * sc.u_scale / 2**31
+    assert np.max(np.abs(u_q - np.array(u))) < 1e-4 * (sc.u_hi - sc.u_lo)
+
+
+def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
+    """A set for other formats, an alpha <= 0, a shift the split product cannot take,
+    k_aw h above 1 and limits out of order are refused with their member's number; the
+    codes go on as if no call had been made; an unchanged set is taken and changes
+    nothing."""
+    from mfcontrol.cexport.fixed_point import q31_params_c
+
+    from .test_fixed_point import initializer, members
+
+    ctrl = controller(VARIANTS["ipid-order2-held-back-calculation"])
+    good = members(q31_params_c(ctrl))
+    names = ["format", "cn", "cp", "cd", "ci", "caw", "out_min", "out_max"]
+    assert len(good) == len(names)
+    bad = {"format": "0x1UL", "cn": "{-1073741824L, 20}", "cp": "{1073741824L, -16}",
+           "cd": "{1073741824L, 63}", "ci": "{1073741823L, 20}",
+           "caw": "{1073741825L, 30}", "out_max": "-2147483647L"}
+    sets = []
+    for name, value in bad.items():
+        values = list(good)
+        values[names.index(name)] = value
+        sets.append(initializer(values))
+    sets.append(initializer(good))
+    steps = codes_of_the_run(ctrl)
+    steps = steps[steps[:, 0] == 0][:300]
+    calls = [[3, i, 0] for i in range(len(sets))]
+    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "t", sets=sets),
+                 np.vstack([steps[:100], calls, steps[100:]]))
+    assert out[100:100 + len(calls)].tolist() == [names.index(n) + 1 for n in bad] + [0]
+    alone, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a"), steps)
+    assert np.concatenate([out[:100], out[100 + len(calls):]]).tolist() == alone.tolist()
+    # a set for an export of another structure is refused in Python
+    order1 = controller(VARIANTS["ipi-clamp"])
+    with pytest.raises(ConfigError, match="structure of the export"):
+        q31_params_c(ctrl, like=order1)
+
+
+def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
+    """Sets at the ends of what the setter takes (mantissas +-(2^31 - 1), shifts -15 and
+    62, k_aw h = 1, limits +-(2^31 - 1)), driven with hostile codes and rejected samples
+    under -fsanitize=undefined: no overflow, every output within the limits."""
+    from mfcontrol.cexport.fixed_point import q31_params_c
+
+    from .test_fixed_point import initializer, members
+
+    ctrl = controller(VARIANTS["ipid-order2-held-back-calculation"])
+    fmt = members(q31_params_c(ctrl))[0]
+    big = 2**31 - 1
+    extremes = [
+        [fmt, f"{{{big}L, -15}}", f"{{-{big}L, -15}}", f"{{{big}L, -15}}",
+         f"{{-{big}L, -15}}", "{1073741824L, 30}", f"-{big}L", f"{big}L"],
+        [fmt, "{1073741824L, 62}", f"{{{big}L, 62}}", f"{{-{big}L, 62}}", f"{{{big}L, 62}}",
+         f"{{{big}L, 62}}", "0L", "0L"],
+    ]
+    sc = q31_intelligent(ctrl).scales
+    values = [-big - 1, -big, -1, 0, 1, big, sc.y_limits[0], sc.y_limits[1]]
+    rows = []
+    for i in range(len(extremes)):
+        rows += [[3, i, 0]] + [[0, a, b] for a in values for b in values]
+        rows += [[1, big, 0], [0, 0, 0], [2, 0, 0], [0, big, -big - 1], [0, 0, big]]
+    exe = build(c_source(ctrl, real="q31"), tmp_path,
+                ("-fsanitize=undefined", "-fno-sanitize-recover=all"),
+                sets=[initializer(e) for e in extremes])
+    out, _ = run(exe, np.array(rows, np.int64))
+    per = len(out) // len(extremes)  # an answer, then the steps' codes
+    assert out[::per].tolist() == [0] * len(extremes)  # every extreme set taken
+    assert not out[per + 1:].any()  # limits (0, 0): every output is 0

@@ -46,9 +46,8 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
         floating-point unit: the PID (:mod:`mfcontrol.cexport.fixed_point`) and the i-P,
         i-PI, i-PD and i-PID with the backward difference and a constant gain
         (:mod:`mfcontrol.cexport.fixed_point_intelligent`), with ``input_limits`` for the
-        measurement's scale: the PID's coefficients in a parameter struct
-        (:func:`mfcontrol.cexport.fixed_point.q31_params_c` writes one for new gains), the
-        i-P family's constants.
+        measurement's scale; the coefficients in a parameter struct unless ``frozen``
+        (:func:`mfcontrol.cexport.fixed_point.q31_params_c` writes one for new gains).
     description : str, optional
         What the files' leading comment says they came from (default: the case and its
         overrides, or the controller's repr).

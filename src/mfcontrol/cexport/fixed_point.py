@@ -132,24 +132,31 @@ def scales(ctrl, lo: float, hi: float, key_prefix: str = "") -> Scales:
                   lo, hi)
 
 
+def export_scales(ctrl, key_prefix: str = "", like=None) -> Scales:
+    """The formats of a fixed-point export of the live controller ``ctrl``; with
+    ``like``, the controller an export was made from, that export's, with ``ctrl``'s
+    output limits as codes in them (refused where they do not fit, or where the periods
+    differ: the coefficients are per period)."""
+    lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
+    if like is None:
+        return scales(ctrl, lo, hi, key_prefix)
+    like_lo, like_hi = (float(like._CP[row, 0]) for row in like._OUT_ROWS)
+    sc = scales(like, like_lo, like_hi)
+    if ctrl.sample_time != like.sample_time:
+        raise ConfigError(f"{key_prefix}sample_time", ctrl.sample_time, "must be the "
+                          f"export's, {like.sample_time!r}: its coefficients are per period")
+    if not max(abs(lo), abs(hi)) <= sc.u_scale:
+        raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be within the "
+                          f"export's output scale, +-{sc.u_scale!r}")
+    return replace(sc, u_limits=(code(lo, sc.u_scale), code(hi, sc.u_scale)), u_lo=lo,
+                   u_hi=hi)
+
+
 def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
     """The q31 formats of a live :class:`mfcontrol.PID` (refusing what they cannot hold);
     with ``like``, the PID an export was made from, in that export's formats."""
     cp = ctrl._CP[:, 0]
-    lo, hi = float(cp[pid.OUT_MIN]), float(cp[pid.OUT_MAX])
-    if like is None:
-        sc = scales(ctrl, lo, hi, key_prefix)
-    else:
-        sc = scales(like, float(like._CP[pid.OUT_MIN, 0]), float(like._CP[pid.OUT_MAX, 0]))
-        if ctrl.sample_time != like.sample_time:
-            raise ConfigError(f"{key_prefix}sample_time", ctrl.sample_time, "must be the "
-                              f"export's, {like.sample_time!r}: its coefficients are per "
-                              "period")
-        if not max(abs(lo), abs(hi)) <= sc.u_scale:
-            raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be within the "
-                              f"export's output scale, +-{sc.u_scale!r}")
-        sc = replace(sc, u_limits=(code(lo, sc.u_scale), code(hi, sc.u_scale)), u_lo=lo,
-                     u_hi=hi)
+    sc = export_scales(ctrl, key_prefix, like)
     if cp[pid.TF] != 0.0:
         raise ConfigError(f"{key_prefix}Tf", float(cp[pid.TF]), "the fixed-point PID has no "
                           "measurement filter yet: export with Tf 0, or in float")
@@ -176,13 +183,14 @@ def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
 
 #: the q31 PID's coefficients, in the order of its parameter struct: (member, what it is)
 _COEFFICIENTS = (
-    ("b", "setpoint weight of the proportional term"),
-    ("c", "setpoint weight of the derivative"),
-    ("kp", "kp * @PU@_Y_SCALE / @PU@_U_SCALE"),
-    ("kih", "ki * h * @PU@_Y_SCALE / @PU@_U_SCALE * 2^@F@ (h the sample period)"),
-    ("htt", "h / Tt * 2^@F@, >= 0 (0: no tracking, only with kih 0)"),
-    ("ad", "the derivative filter's pole Td / (Td + N h), in [0, 1)"),
-    ("bd", "kp Td N / (Td + N h) * @PU@_Y_SCALE / @PU@_U_SCALE, of kp's sign or 0"),
+    ("b", "setpoint weight of the proportional term", (1, 62)),
+    ("c", "setpoint weight of the derivative", (1, 62)),
+    ("kp", "kp * @PU@_Y_SCALE / @PU@_U_SCALE", (1, 62)),
+    ("kih", "ki * h * @PU@_Y_SCALE / @PU@_U_SCALE * 2^@F@ (h the sample period)", (1, 62)),
+    ("htt", "h / Tt * 2^@F@, >= 0 (0: no tracking, only with kih 0)", (1, 62)),
+    ("ad", "the derivative filter's pole Td / (Td + N h), in [0, 1)", (1, 62)),
+    ("bd", "kp Td N / (Td + N h) * @PU@_Y_SCALE / @PU@_U_SCALE, of kp's sign or 0",
+     (1, 62)),
 )
 
 
@@ -209,18 +217,22 @@ def q31_params_c(ctrl, key_prefix: str = "", like=None) -> str:
     >>> print(q31_params_c(narrow, like=ctrl).splitlines()[-3])
         -67108864L, /* out_min */
     """
+    from ..api.model.controllers import PID
+
+    if not isinstance(ctrl, PID):  # the i-P family's
+        from .fixed_point_intelligent import q31_intelligent_params_c
+
+        return q31_intelligent_params_c(ctrl, key_prefix, like)
     q = q31_pid(ctrl, key_prefix, like)
-    lo, hi = q.scales.u_limits
-    return ("{\n" + f"    0x{_format(ctrl, q.scales):08X}UL, /* format */\n"
-            + "".join(f"    {{{c.mantissa}L, {c.shift}}}, /* {name} */\n"
-                      for name, c in ((n, getattr(q, n)) for n, _ in _COEFFICIENTS))
-            + f"    {lo}L, /* out_min */\n    {hi}L /* out_max */\n}}")
+    return params_c(_format("pid", ctrl, q.scales),
+                    [(name, getattr(q, name)) for name, _, _ in _COEFFICIENTS],
+                    q.scales.u_limits)
 
 
-def _format(ctrl, sc: Scales) -> int:
-    """The tag of the formats a q31 PID's coefficients are computed for: its scales, the
-    guard bits and the sample period (a CRC-32 of them)."""
-    return zlib.crc32(f"pid {sc.y_scale!r} {sc.u_scale!r} {GUARD_BITS} "
+def _format(law: str, ctrl, sc: Scales) -> int:
+    """The tag of the formats a q31 law's coefficients are computed for: the law and its
+    structure (``law``), its scales, the guard bits and the sample period (a CRC-32)."""
+    return zlib.crc32(f"{law} {sc.y_scale!r} {sc.u_scale!r} {GUARD_BITS} "
                       f"{ctrl.sample_time!r}".encode())
 
 
@@ -230,7 +242,7 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
     a parameter struct that ``PREFIX_set_params`` checks and changes at run time, or
     constants with ``frozen``."""
     q = q31_pid(ctrl, key_prefix)
-    coefficients = [(name.upper(), getattr(q, name)) for name, _ in _COEFFICIENTS]
+    coefficients = [(name.upper(), getattr(q, name)) for name, _, _ in _COEFFICIENTS]
     PU = prefix.upper()
     if frozen:
         subs = {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
@@ -240,31 +252,17 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                       + ";\n" + _D_STEP + "    }\n") if q.derivative else ""
         subs |= {"DERIVATIVE": derivative, "OVER_GAP": _OVER_GAP if q.derivative else "",
                  "ULIM": f"{PU}_U_LO, {PU}_U_HI", "MUL": _MUL[True]}
-        subs |= dict.fromkeys(("PARAMS", "STATE_PARAMS", "SET_PARAMS_DECL", "SETTER",
-                               "INIT_PARAMS"), "")
+        subs |= dict.fromkeys(TUNABLE_PARTS, "")
     else:
         subs = {name: f"s->params.{name.lower()}.m, s->params.{name.lower()}.s"
                 for name, _ in coefficients}
-        members = "".join(f"    {prefix}_coef {name}; /* {what} */\n"
-                          for name, what in _COEFFICIENTS)
-        fields = ["format", *(name for name, _ in _COEFFICIENTS), "out_min", "out_max"]
-        same = " &&\n        ".join(
-            [f"p->{f} == s->params.{f}" for f in ("format", "out_min", "out_max")]
-            + [f"p->{f}.m == s->params.{f}.m && p->{f}.s == s->params.{f}.s"
-               for f, _ in _COEFFICIENTS])
         subs |= {"DERIVATIVE": _fill(_DERIVATIVE, {"WEIGHTED": _WEIGHTED, "PLAIN": _PLAIN,
                                                    "D_STEP": _D_STEP}),
                  "OVER_GAP": _OVER_GAP,
-                 "ULIM": "s->params.out_min, s->params.out_max", "MUL": _MUL[False],
-                 "PARAMS": _fill(_PARAMS, {"MEMBERS": members,
-                                           "FORMAT": f"0x{_format(ctrl, q.scales):08X}UL",
-                                           "FIELDS": ",\n".join(
-                                               f"    {PU}_FIELD_{f.upper()} = {k}"
-                                               for k, f in enumerate(fields, 1))}),
-                 "STATE_PARAMS": _STATE_PARAMS, "SET_PARAMS_DECL": _SET_PARAMS_DECL,
-                 "SETTER": _fill(_SETTER, {"DEFAULTS": q31_params_c(ctrl, key_prefix),
-                                           "SAME": same}),
-                 "INIT_PARAMS": f"    s->params = {prefix}_default_params;\n"}
+                 "ULIM": "s->params.out_min, s->params.out_max", "MUL": _MUL[False]}
+        subs |= tunable_parts(prefix, _COEFFICIENTS, q31_params_c(ctrl, key_prefix),
+                              _format("pid", ctrl, q.scales), "the PID's coefficients",
+                              _PID_CHECKS, _PID_APPLY)
     # the pieces first: the coefficients' names in them are filled after
     subs = {key: subs[key] for key in ("DERIVATIVE", "OVER_GAP")} | subs
     # the tunable build's coefficients are its default parameter set's, not constants
@@ -436,24 +434,24 @@ static int64_t @P@_mul(int32_t x, int64_t m, int shift)
     return ((((int64_t)x * m) >> (shift - 1)) + 1) >> 1;"""}
 
 
-#: the tunable build's parameter struct and the members of its setter's answer
+#: a tunable build's parameter struct and the members of its setter's answer
 _PARAMS = """
-/* A coefficient: m * 2^-s, with |m| in [2^30, 2^31) or m = 0, and s in [1, 62]. */
+/* A coefficient: m * 2^-s, with |m| in [2^30, 2^31) or m = 0, and s in the range
+ * @P@_set_params takes for it. */
 typedef struct {
     int32_t m;
     int32_t s;
 } @P@_coef;
 
-/* the formats a parameter set is computed for (the scales, the period, F): a set made
- * for another export's is refused */
+/* the formats a parameter set is computed for (the law, its structure, the scales, the
+ * period, F): a set made for another export's is refused */
 #define @PU@_FORMAT @FORMAT@
 
 /* The parameters a running controller may change (@P@_set_params), in the codes' units
- * (mfcontrol.cexport.fixed_point): the PID's coefficients and the output limits. For new
- * gains, export the case again with them (the same input and output limits, so the same
- * scales and @PU@_FORMAT) and take its @P@_default_params, or call
- * mfcontrol.cexport.fixed_point.q31_params_c in Python; new output limits are codes,
- * limit / @PU@_U_SCALE * 2^31. */
+ * (mfcontrol.cexport.fixed_point): @WHAT@ and the output limits. For new gains, call
+ * mfcontrol.cexport.fixed_point.q31_params_c in Python (like= the controller exported),
+ * or export the case again with them and the same limits and take its
+ * @P@_default_params; new output limits are codes, limit / @PU@_U_SCALE * 2^31. */
 typedef struct {
     uint32_t format; /* @PU@_FORMAT */
 @MEMBERS@    int32_t out_min;  /* lower output limit, a code */
@@ -494,10 +492,10 @@ _SETTER = """
 /* the parameters exported: what init starts from */
 const @P@_params @P@_default_params = @DEFAULTS@;
 
-/* a coefficient the products take: 0, or |m| in [2^30, 2^31); its shift in [1, 62] */
-static int @P@_coef_ok(@P@_coef c)
+/* a coefficient the products take: 0, or |m| in [2^30, 2^31); its shift in [lo, hi] */
+static int @P@_coef_ok(@P@_coef c, int lo, int hi)
 {
-    if (c.s < 1 || c.s > 62) return 0;
+    if (c.s < lo || c.s > hi) return 0;
     return c.m == 0 || c.m >= 0x40000000L || (c.m <= -0x40000000L && c.m > INT32_MIN);
 }
 
@@ -505,25 +503,26 @@ int @P@_set_params(@P@_state *s, const @P@_params *p)
 {
     if (!@PU@_INITIALISED(s) || !p) return -1;
     if (p->format != @PU@_FORMAT) return @PU@_FIELD_FORMAT;
-    if (!@P@_coef_ok(p->b)) return @PU@_FIELD_B;
-    if (!@P@_coef_ok(p->c)) return @PU@_FIELD_C;
-    if (!@P@_coef_ok(p->kp)) return @PU@_FIELD_KP;
-    if (!@P@_coef_ok(p->kih)) return @PU@_FIELD_KIH;
-    /* h / Tt >= 0; 0 (Tt infinite) only without an integral, whose windup nothing would
-     * then stop (mfcontrol.PID's rule) */
-    if (!@P@_coef_ok(p->htt) || p->htt.m < 0 || (p->htt.m == 0 && p->kih.m != 0))
-        return @PU@_FIELD_HTT;
-    /* a pole in [0, 1): a value below 1 has a shift of 31 or more */
-    if (!@P@_coef_ok(p->ad) || p->ad.m < 0 || (p->ad.m != 0 && p->ad.s < 31))
-        return @PU@_FIELD_AD;
-    /* kd of kp's sign, or 0 */
-    if (!@P@_coef_ok(p->bd) || (p->bd.m > 0 && p->kp.m <= 0) || (p->bd.m < 0 && p->kp.m >= 0))
-        return @PU@_FIELD_BD;
-    if (p->out_min < -INT32_MAX) return @PU@_FIELD_OUT_MIN;
+@CHECKS@    if (p->out_min < -INT32_MAX) return @PU@_FIELD_OUT_MIN;
     if (p->out_max < p->out_min) return @PU@_FIELD_OUT_MAX;
     if (@SAME@)
         return 0; /* nothing changes */
     s->params = *p;
+@APPLY@    return 0;
+}
+"""
+
+#: the PID's checks beyond each coefficient's range, and what a set taken does
+_PID_CHECKS = {
+    "htt": ("h / Tt >= 0; 0 (Tt infinite) only without an integral, whose windup nothing\n"
+            "     * would then stop (mfcontrol.PID's rule)",
+            "p->htt.m < 0 || (p->htt.m == 0 && p->kih.m != 0)"),
+    "ad": ("a pole in [0, 1): a value below 1 has a shift of 31 or more",
+           "p->ad.m < 0 || (p->ad.m != 0 && p->ad.s < 31)"),
+    "bd": ("kd of kp's sign, or 0",
+           "(p->bd.m > 0 && p->kp.m <= 0) || (p->bd.m < 0 && p->kp.m >= 0)"),
+}
+_PID_APPLY = """\
     if (s->mode == @PU@_MANUAL) {
         s->last_output = @P@_clamp(s->last_output, p->out_min, p->out_max);
     } else if (!s->started && !s->pending) { /* before any sample: as init with them */
@@ -538,9 +537,55 @@ int @P@_set_params(@P@_state *s, const @P@_params *p)
         s->start = s->last_output;
         s->pending = 1;
     }
-    return 0;
-}
 """
+
+
+#: the pieces :func:`tunable_parts` fills (empty in a frozen build)
+TUNABLE_PARTS = ("PARAMS", "STATE_PARAMS", "SET_PARAMS_DECL", "SETTER", "INIT_PARAMS")
+
+
+def tunable_parts(prefix: str, members, defaults: str, tag: int, what: str,
+                  extra: dict[str, tuple[str, str]], apply: str) -> dict[str, str]:
+    """The pieces of a tunable q31 build (``PARAMS``, ``STATE_PARAMS``,
+    ``SET_PARAMS_DECL``, ``SETTER``, ``INIT_PARAMS``): ``members`` the coefficients'
+    ``(name, what, (lowest shift, highest))``, ``defaults`` the exported set's
+    initializer, ``tag`` its formats' (:func:`_format`), ``what`` the struct's words for
+    them, ``extra`` a member's condition of refusal beyond its range (a comment, the C
+    condition), ``apply`` what a set taken does after the copy."""
+    PU = prefix.upper()
+    fields = ["format", *(name for name, _, _ in members), "out_min", "out_max"]
+    checks = "".join(
+        (f"    /* {extra[name][0]} */\n" if name in extra else "")
+        + f"    if (!{prefix}_coef_ok(p->{name}, {lo}, {hi})"
+        + (f" ||\n        {extra[name][1]})" if name in extra else ")")
+        + f"\n        return {PU}_FIELD_{name.upper()};\n"
+        for name, _, (lo, hi) in members)
+    same = " &&\n        ".join(
+        [f"p->{f} == s->params.{f}" for f in ("format", "out_min", "out_max")]
+        + [f"p->{f}.m == s->params.{f}.m && p->{f}.s == s->params.{f}.s"
+           for f, _, _ in members])
+    return {
+        "PARAMS": _fill(_PARAMS, {
+            "MEMBERS": "".join(f"    {prefix}_coef {name}; /* {text} */\n"
+                               for name, text, _ in members),
+            "FORMAT": f"0x{tag:08X}UL", "WHAT": what,
+            "FIELDS": ",\n".join(f"    {PU}_FIELD_{f.upper()} = {k}"
+                                 for k, f in enumerate(fields, 1))}),
+        "STATE_PARAMS": _STATE_PARAMS, "SET_PARAMS_DECL": _SET_PARAMS_DECL,
+        "SETTER": _fill(_SETTER, {"DEFAULTS": defaults, "CHECKS": checks, "SAME": same,
+                                  "APPLY": apply}),
+        "INIT_PARAMS": f"    s->params = {prefix}_default_params;\n"}
+
+
+def params_c(tag: int, coefficients, limits: tuple[int, int]) -> str:
+    """The C initializer of a q31 parameter set: the formats' ``tag``, the
+    ``(name, Coefficient)`` pairs and the output limits' codes."""
+    lo, hi = limits
+    return ("{\n" + f"    0x{tag:08X}UL, /* format */\n"
+            + "".join(f"    {{{c.mantissa}L, {c.shift}}}, /* {name} */\n"
+                      for name, c in coefficients)
+            + f"    {lo}L, /* out_min */\n    {hi}L /* out_max */\n}}")
+
 
 _SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO (@ULO@L)
 #define @PU@_U_HI (@UHI@L)

@@ -32,6 +32,12 @@ returned is the output rounded to the output's code. A rejected sample (a measur
 outside the input limits) holds the output, and the next sample taken spans its period as
 the double law does: its differences divided by d^n and d, T's increment times d, for
 d - 1 rejected samples in a row (up to 255; integer divisions on that step only).
+
+The coefficients and the output limits' codes are a parameter struct that
+``PREFIX_set_params`` checks and changes at run time, as the PID's
+(:mod:`mfcontrol.cexport.fixed_point`), or constants with ``frozen``. The order, the
+kernel and the anti-windup's kind are the code's structure: a set is for an export of the
+same structure (its format tag says so).
 """
 
 from __future__ import annotations
@@ -41,7 +47,16 @@ from dataclasses import dataclass
 from ..errors import ConfigError
 from ..laws import estimators, intelligent
 from ..laws import variational_gain as gain_law
-from .fixed_point import Coefficient, Scales, q31_files, scales
+from .fixed_point import (
+    TUNABLE_PARTS,
+    Coefficient,
+    Scales,
+    _format,
+    export_scales,
+    params_c,
+    q31_files,
+    tunable_parts,
+)
 
 #: the shifts a coefficient of this law may have: a product splits its 64-bit operand into
 #: 16-bit halves, so a coefficient up to just under 2^46 (shift -15) still forms without
@@ -67,8 +82,10 @@ class Q31Intelligent:
     u_init: int  # the output held before the first n samples, a code
 
 
-def q31_intelligent(ctrl, key_prefix: str = "") -> Q31Intelligent:
-    """The q31 formats of a live intelligent controller (refusing what they cannot hold)."""
+def q31_intelligent(ctrl, key_prefix: str = "", like=None) -> Q31Intelligent:
+    """The q31 formats of a live intelligent controller (refusing what they cannot hold);
+    with ``like``, the controller an export was made from, in that export's formats (its
+    structure required the same)."""
     cp = ctrl._CP[:, 0]
     p = key_prefix
     if cp[intelligent.EST] != intelligent.BACKWARD:
@@ -80,13 +97,12 @@ def q31_intelligent(ctrl, key_prefix: str = "") -> Q31Intelligent:
     if cp[intelligent.DELAY] > 0:
         raise ConfigError(f"{p}delay", int(cp[intelligent.DELAY]), "the exported step "
                           "compensates no delay yet: export with delay 0")
-    sc = scales(ctrl, float(cp[intelligent.OUT_MIN]), float(cp[intelligent.OUT_MAX]),
-                key_prefix)
+    sc = export_scales(ctrl, key_prefix, like)
     h = float(ctrl.sample_time)
     n = int(cp[intelligent.N_ORDER])
     gamma = float(cp[gain_law.INV_ALPHA])
     kp, ki, kd = (float(cp[row]) for row in (intelligent.KP, intelligent.KI, intelligent.KD))
-    aw = float(cp[intelligent.AW]) if ki != 0.0 else intelligent.AW_NONE
+    aw = float(cp[intelligent.AW])  # the structure's, whatever ki is now (it may change)
     k_aw = float(cp[intelligent.K_AW]) if aw == intelligent.AW_BACK else 0.0
     if k_aw * h > 1.0:
         raise ConfigError(f"{p}k_aw", k_aw, f"k_aw h = {k_aw * h:.3g} > 1 over-corrects the "
@@ -98,7 +114,7 @@ def q31_intelligent(ctrl, key_prefix: str = "") -> Q31Intelligent:
     def coefficient(value: float, name: str, given: float) -> Coefficient:
         return Coefficient.of(value, f"{p}{name}", given, SHIFTS)
     u_init = min(max(float(cp[intelligent.U_INIT]), sc.u_lo), sc.u_hi)
-    return Q31Intelligent(
+    q = Q31Intelligent(
         sc, n, n == 2 and cp[intelligent.KERNEL] == estimators.HELD,
         coefficient(gamma / h**n * ratio, "alpha", alpha),
         coefficient(gamma * kp * ratio, "kp", kp),
@@ -106,36 +122,118 @@ def q31_intelligent(ctrl, key_prefix: str = "") -> Q31Intelligent:
         coefficient(gamma * ki * h * ratio, "ki", ki),
         Coefficient.of(k_aw * h, f"{p}k_aw", k_aw, (30, 62)), aw,
         round(u_init / sc.u_scale * 2**31))
+    if like is not None and _structure(q) != _structure(q31_intelligent(like)):
+        raise ConfigError(f"{p}law", _structure(q), "must have the structure of the export "
+                          f"it is for, {_structure(q31_intelligent(like))} (its order, "
+                          "kernel and anti-windup are its code)")
+    return q
 
 
-def q31_intelligent_source(ctrl, *, prefix: str, banner: str,
-                           key_prefix: str = "") -> tuple[str, str]:
-    """(header, source) of the q31 intelligent controller of ``ctrl``."""
+def _structure(q: Q31Intelligent) -> str:
+    """What fixes the exported code: the order, the held kernel's mean, the anti-windup."""
+    kind = {intelligent.AW_NONE: "none", intelligent.AW_CLAMP: "clamp",
+            intelligent.AW_BACK: "back-calculation"}[q.anti_windup]
+    return f"order {q.order}, {'mean of the held inputs' if q.held_mean else 'u_h = u_1'}, " \
+        f"anti-windup {kind}"
+
+
+#: the coefficients of the tunable build, in the order of its parameter struct (member,
+#: what it is, the shifts its products take); ``caw`` with the back-calculation only
+_COEFFICIENTS = (
+    ("cn", "gamma / h^n * @PU@_Y_SCALE / @PU@_U_SCALE (gamma = 1 / alpha), > 0", SHIFTS),
+    ("cp", "gamma K_P * @PU@_Y_SCALE / @PU@_U_SCALE", SHIFTS),
+    ("cd", "gamma K_D / h * @PU@_Y_SCALE / @PU@_U_SCALE", SHIFTS),
+    ("ci", "gamma K_I h * @PU@_Y_SCALE / @PU@_U_SCALE", SHIFTS),
+    ("caw", "K_aw h, in [0, 1]", (30, 62)),
+)
+_CHECKS = {
+    "cn": ("alpha > 0", "p->cn.m <= 0"),
+    "caw": ("K_aw h in [0, 1]: at 1 it undoes the whole excess at each limited sample",
+            "p->caw.m < 0 || (p->caw.s == 30 && p->caw.m > 0x40000000L)"),
+}
+_APPLY = """\
+    if (s->mode == @PU@_MANUAL) {
+        s->last_output = @P@_clamp_code(s->last_output, @LIMITS@);
+    } else if (s->fresh) { /* before any sample: as init with them */
+        @P@_restart(s, @P@_clamp_code(@PU@_U_INIT, @LIMITS@));
+    } else { /* restart from the last output within the new limits, as @P@_set_auto does
+              * from manual (the next @N@ samples hold it) */
+        @P@_restart(s, @P@_clamp_code(s->last_output, @LIMITS@));
+    }
+"""
+
+
+def _members(q: Q31Intelligent):
+    back = q.anti_windup == intelligent.AW_BACK
+    return [m for m in _COEFFICIENTS if back or m[0] != "caw"]
+
+
+def _tag(ctrl, q: Q31Intelligent) -> int:
+    return _format(f"intelligent, {_structure(q)}", ctrl, q.scales)
+
+
+def q31_intelligent_params_c(ctrl, key_prefix: str = "", like=None) -> str:
+    """The C initializer of the tunable q31 i-P family's ``PREFIX_params`` for ``ctrl``
+    (see :func:`mfcontrol.cexport.fixed_point.q31_params_c`, which calls this one)."""
+    q = q31_intelligent(ctrl, key_prefix, like)
+    return params_c(_tag(like if like is not None else ctrl, q),
+                    [(name, getattr(q, name)) for name, _, _ in _members(q)],
+                    q.scales.u_limits)
+
+
+def q31_intelligent_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
+                           frozen: bool = False) -> tuple[str, str]:
+    """(header, source) of the q31 intelligent controller of ``ctrl``: its coefficients
+    and output limits in a parameter struct that ``PREFIX_set_params`` checks and changes
+    at run time, or constants with ``frozen``."""
     q = q31_intelligent(ctrl, key_prefix)
-    coefficients = (("CN", q.cn), ("CP", q.cp), ("CD", q.cd), ("CI", q.ci), ("CAW", q.caw))
-    return q31_files(ctrl, q.scales, coefficients, prefix=prefix, banner=banner,
-                     templates=(_HEADER, _SOURCE),
-                     subs={"N": str(q.order), "UINIT": str(q.u_init),
-                           "MEAN": "1" if q.held_mean else "0",
-                           "DER": "1" if q.cd.mantissa else "0",
-                           "CLAMP": "1" if q.anti_windup == intelligent.AW_CLAMP else "0",
-                           "BACK": "1" if q.anti_windup == intelligent.AW_BACK else "0"})
+    coefficients = [(name.upper(), getattr(q, name)) for name, _, _ in _members(q)]
+    PU = prefix.upper()
+    has_i = q.ci.mantissa != 0  # frozen: no anti-windup without an integral
+    subs = {"N": str(q.order), "UINIT": str(q.u_init), "MEAN": "1" if q.held_mean else "0",
+            "CLAMP": "1" if q.anti_windup == intelligent.AW_CLAMP and (has_i or not frozen)
+            else "0",
+            "BACK": "1" if q.anti_windup == intelligent.AW_BACK and (has_i or not frozen)
+            else "0"}
+    if frozen:
+        subs |= {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
+        subs |= {"DER": "1" if q.cd.mantissa else "0", "WITH_I": "",
+                 "LIMITS": f"{PU}_U_LO, {PU}_U_HI", "LO": f"{PU}_U_LO", "HI": f"{PU}_U_HI",
+                 "FRESH_0": "", "FRESH_1": "", "FRESH_MEMBER": ""}
+        subs |= dict.fromkeys(TUNABLE_PARTS, "")
+    else:
+        subs |= {name: f"s->params.{name.lower()}.m, s->params.{name.lower()}.s"
+                 for name, _ in coefficients}
+        lo, hi = (f"{PU}_WIDE(s->params.out_{end})" for end in ("min", "max"))
+        subs |= {"DER": "1", "WITH_I": " && s->params.ci.m != 0",
+                 "LIMITS": f"{lo}, {hi}", "LO": lo, "HI": hi,
+                 "FRESH_0": "    s->fresh = 0;\n", "FRESH_1": "    s->fresh = 1;\n",
+                 "FRESH_MEMBER": "    int fresh;              /* 1 until a sample is taken or "
+                                 "the law restarts */\n"}
+        subs |= tunable_parts(prefix, _members(q), q31_intelligent_params_c(ctrl, key_prefix),
+                              _tag(ctrl, q), "the law's coefficients", _CHECKS, _APPLY)
+    # without the back-calculation its code is left out by the preprocessor (#if 0)
+    subs.setdefault("CAW", "0, 31")
+    # the pieces first: the names in them are filled after
+    subs = {key: subs[key] for key in (*TUNABLE_PARTS, "LIMITS")} | subs
+    return q31_files(ctrl, q.scales, coefficients if frozen else [], prefix=prefix,
+                     banner=banner, templates=(_HEADER, _SOURCE), subs=subs)
 
 
-_HEADER = """@Q31_HEAD@\
+_HEADER = """@Q31_HEAD@@PARAMS@\
 /* rejected samples in a row whose periods the next step spans; beyond, it spans this many
  * (the double law spans them all) */
 #define @PU@_SKIP_MAX 255
 
 typedef struct {
-    int64_t e1, e2;         /* the error's codes at the last two samples */
+@STATE_PARAMS@    int64_t e1, e2;         /* the error's codes at the last two samples */
     int64_t u1, u2;         /* the last two applied outputs, output codes * 2^@F@ */
     int64_t t;              /* the integral term gamma K_I I, output codes * 2^@F@ */
     int k;                  /* samples taken since the start, up to the model order */
     int skipped;            /* samples rejected since the last one taken (up to
                              * @PU@_SKIP_MAX): the next step spans their periods */
     @P@_q31 last_output;    /* returned in manual mode and after a rejected sample */
-    unsigned long nan_count; /* rejected: a measurement outside the input limits */
+@FRESH_MEMBER@    unsigned long nan_count; /* rejected: a measurement outside the input limits */
     /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
      * value is a state never passed to @P@_init, which every function refuses */
     unsigned long mode;
@@ -155,10 +253,13 @@ void @P@_set_manual(@P@_state *s, @P@_q31 u);
 /* Back to automatic, restarting the law from the last output (bumpless: the next @N@
  * samples hold it). */
 void @P@_set_auto(@P@_state *s);
-@Q31_TAIL@"""
+@SET_PARAMS_DECL@@Q31_TAIL@"""
 
-_SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO ((int64_t)(@ULO@L) * ((int64_t)1 << @PU@_F))
-#define @PU@_U_HI ((int64_t)(@UHI@L) * ((int64_t)1 << @PU@_F))
+_SOURCE = """@Q31_PRELUDE@/* an output code in output codes * 2^F */
+#define @PU@_WIDE(code) ((int64_t)(code) * ((int64_t)1 << @PU@_F))
+/* the output limits exported, output codes * 2^F */
+#define @PU@_U_LO @PU@_WIDE(@ULO@L)
+#define @PU@_U_HI @PU@_WIDE(@UHI@L)
 #define @PU@_U_INIT (@UINIT@L)
 #define @PU@_N @N@
 /* a term's bound, output codes * 2^F: five of them sum without overflow */
@@ -224,9 +325,9 @@ static int64_t @P@_times(int64_t x, int64_t d)
     return x * d;
 }
 
-static int64_t @P@_limit(int64_t v)
+static int64_t @P@_limit(int64_t v, int64_t lo, int64_t hi)
 {
-    return v > @PU@_U_HI ? @PU@_U_HI : (v < @PU@_U_LO ? @PU@_U_LO : v);
+    return v > hi ? hi : (v < lo ? lo : v);
 }
 
 /* the output code of a guarded output (within the limits: no overflow) */
@@ -247,15 +348,16 @@ static void @P@_restart(@P@_state *s, @P@_q31 u)
     s->last_output = u;
 }
 
-static @P@_q31 @P@_clamp_code(int64_t u)
+static @P@_q31 @P@_clamp_code(int64_t u, int64_t lo_wide, int64_t hi_wide)
 {
-    int64_t lo = @PU@_U_LO >> @PU@_F, hi = @PU@_U_HI >> @PU@_F;
+    int64_t lo = lo_wide >> @PU@_F, hi = hi_wide >> @PU@_F;
     return (@P@_q31)(u > hi ? hi : (u < lo ? lo : u));
 }
 
 void @P@_init(@P@_state *s)
 {
-    @P@_restart(s, @P@_clamp_code(@PU@_U_INIT));
+@INIT_PARAMS@    @P@_restart(s, @P@_clamp_code(@PU@_U_INIT, @LIMITS@));
+@FRESH_1@
     s->nan_count = 0;
     s->mode = @PU@_AUTO;
 }
@@ -264,7 +366,8 @@ void @P@_init(@P@_state *s)
 {
     int64_t e, uh, base, t, v, u, d;
     if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
-        return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp_code(0);
+        return s->mode == @PU@_MANUAL ? s->last_output
+                                          : @P@_clamp_code(0, @PU@_U_LO, @PU@_U_HI);
     if (y < @PU@_Y_LO || y > @PU@_Y_HI) {
         s->nan_count++;
         if (s->skipped < @PU@_SKIP_MAX) s->skipped++;
@@ -273,7 +376,7 @@ void @P@_init(@P@_state *s)
     e = (int64_t)y - setpoint;
     d = (int64_t)s->skipped + 1; /* the period since the last sample taken, in periods */
     s->skipped = 0;
-    if (s->k < @PU@_N) {  /* no derivative yet: the output holds */
+@FRESH_0@    if (s->k < @PU@_N) {  /* no derivative yet: the output holds */
         s->k++;
         u = s->u1;
     } else {
@@ -283,34 +386,34 @@ void @P@_init(@P@_state *s)
         uh = s->u1;
 #endif
 #if @N@ == 2
-        base = @P@_mul(e - 2 * s->e1 + s->e2, @PU@_CN_M, @PU@_CN_S);
+        base = @P@_mul(e - 2 * s->e1 + s->e2, @CN@);
         if (d > 1) base = @P@_div(base, d * d); /* after rejected samples: h^2 -> (d h)^2 */
 #else
-        base = @P@_mul(e - s->e1, @PU@_CN_M, @PU@_CN_S);
+        base = @P@_mul(e - s->e1, @CN@);
         if (d > 1) base = @P@_div(base, d);
 #endif
 #if @DER@
         {
-            int64_t de = @P@_mul(e - s->e1, @PU@_CD_M, @PU@_CD_S);
+            int64_t de = @P@_mul(e - s->e1, @CD@);
             base += d > 1 ? @P@_div(de, d) : de;
         }
 #endif
-        base += @P@_mul(e, @PU@_CP_M, @PU@_CP_S);
-        t = @P@_mul(e, @PU@_CI_M, @PU@_CI_S);
+        base += @P@_mul(e, @CP@);
+        t = @P@_mul(e, @CI@);
         t = @P@_sat(s->t + (d > 1 ? @P@_times(t, d) : t));
         v = uh - base - t;
-        u = @P@_limit(v);
+        u = @P@_limit(v, @LIMITS@);
 #if @CLAMP@
         /* integrating pushed the output further past the limit it hit: undo it */
-        if ((v > @PU@_U_HI && t < s->t) || (v < @PU@_U_LO && t > s->t)) {
+        if ((v > @HI@ && t < s->t) || (v < @LO@ && t > s->t)) {
             t = s->t;
             v = uh - base - t;
-            u = @P@_limit(v);
+            u = @P@_limit(v, @LIMITS@);
         }
 #endif
 #if @BACK@
-        if (u != v) {
-            int64_t c = @P@_scale(u - v, @PU@_CAW_M, @PU@_CAW_S);
+        if (u != v@WITH_I@) {
+            int64_t c = @P@_scale(u - v, @CAW@);
             t = @P@_sat(t - (d > 1 ? @P@_times(c, d) : c));
         }
 #endif
@@ -328,14 +431,16 @@ void @P@_set_manual(@P@_state *s, @P@_q31 u)
 {
     if (!@PU@_INITIALISED(s)) return;
     s->mode = @PU@_MANUAL;
-    s->last_output = @P@_clamp_code(u);
+    s->last_output = @P@_clamp_code(u, @LIMITS@);
 }
 
 void @P@_set_auto(@P@_state *s)
 {
     if (!@PU@_INITIALISED(s)) return;
     /* from manual: restart from the last output, as the live controller does */
-    if (s->mode == @PU@_MANUAL) @P@_restart(s, s->last_output);
+    if (s->mode == @PU@_MANUAL) {
+        @P@_restart(s, s->last_output);
+@FRESH_0@    }
     s->mode = @PU@_AUTO;
 }
-"""
+@SETTER@"""

@@ -65,7 +65,7 @@ class CSource:
     law: str  # the law family: "intelligent", "recursive", "pid" or "adrc"
     n_state: int
     #: the members of ``PREFIX_params`` in physical units, in order (empty for a frozen
-    #: export, and for the q31 PID's, whose members are coefficients in the codes' units)
+    #: export, and for the q31 ones, whose members are coefficients in the codes' units)
     fields: tuple[str, ...] = ()
 
 
@@ -299,9 +299,9 @@ _CHECKS = {
 
 
 def _q31(ctrl, prefix: str, description: str, key_prefix: str, frozen: bool) -> CSource:
-    """The fixed-point export: the PID (:mod:`mfcontrol.cexport.fixed_point`), tunable
-    unless ``frozen``, and the i-P family with the backward difference
-    (:mod:`mfcontrol.cexport.fixed_point_intelligent`), whose parameters are constants."""
+    """The fixed-point export, tunable unless ``frozen``: the PID
+    (:mod:`mfcontrol.cexport.fixed_point`) and the i-P family with the backward difference
+    (:mod:`mfcontrol.cexport.fixed_point_intelligent`)."""
     from .fixed_point import q31_source
     from .fixed_point_intelligent import q31_intelligent_source
 
@@ -315,10 +315,11 @@ def _q31(ctrl, prefix: str, description: str, key_prefix: str, frozen: bool) -> 
                                     key_prefix=key_prefix, frozen=frozen)
         return CSource(prefix, "q31", header, source, "pid", 0)
     if isinstance(ctrl, IntelligentController):
-        banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in",
-                         banner_tail)
+        banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in"
+                         if frozen else f"as exported; {prefix}_set_params changes the "
+                         "coefficients and limits", banner_tail)
         header, source = q31_intelligent_source(ctrl, prefix=prefix, banner=banner,
-                                                key_prefix=key_prefix)
+                                                key_prefix=key_prefix, frozen=frozen)
         return CSource(prefix, "q31", header, source, "intelligent", 0)
     raise ConfigError("real", "q31", f"exports the PID and the i-P, i-PI, i-PD and i-PID "
                       f"(this is the {_law_label(ctrl)} law): export it in float or double")
