@@ -385,10 +385,18 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
     assert out[100:100 + len(calls)].tolist() == [names.index(n) + 1 for n in bad] + [0]
     alone, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a"), steps)
     assert np.concatenate([out[:100], out[100 + len(calls):]]).tolist() == alone.tolist()
-    # a set for an export of another structure is refused in Python
-    order1 = controller(VARIANTS["ipi-clamp"])
+    # a set for an export of another law or structure is refused in Python (review: an
+    # IPI's for an IP's export was taken; a PID's like= an IPI's raised an IndexError)
+    with pytest.raises(ConfigError, match="a set is for an export of its own law"):
+        q31_params_c(ctrl, like=controller(VARIANTS["ipi-clamp"]))
+    with pytest.raises(ConfigError, match="a set is for an export of its own law"):
+        q31_params_c(controller(VARIANTS["ipi-clamp"]),
+                     like=mfcontrol.PID(kp=1.0, ki=1.0, sample_time=ctrl.sample_time,
+                                        output_limits=(-24, 24), input_limits=INPUT_LIMITS))
+    trapezoid = controller({**VARIANTS["ipid-order2-held-back-calculation"],
+                            "controller.kernel": "trapezoid"})
     with pytest.raises(ConfigError, match="structure of the export"):
-        q31_params_c(ctrl, like=order1)
+        q31_params_c(ctrl, like=trapezoid)
 
 
 def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
@@ -421,3 +429,37 @@ def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
     per = len(out) // len(extremes)  # an answer, then the steps' codes
     assert out[::per].tolist() == [0] * len(extremes)  # every extreme set taken
     assert not out[per + 1:].any()  # limits (0, 0): every output is 0
+
+
+def _after_a_long_gap(ctrl, before, gap, y, r, tmp_path):
+    """The q31 and double outputs for ``before`` (y, r) samples, ``gap`` - 1 rejected
+    ones, then 5 samples of (y, r)."""
+    sc = q31_intelligent(ctrl).scales
+    qy, qu = sc.y_scale / 2**31, sc.u_scale / 2**31
+    ops = np.array([[0, code(a, sc.y_scale), code(b, sc.y_scale)] for a, b in before]
+                   + [[0, sc.y_limits[1] + 1, 0]] * (gap - 1)
+                   + [[0, code(y, sc.y_scale), code(r, sc.y_scale)]] * 5, np.int64)
+    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path), ops)
+    py = type(ctrl)(**ctrl._params)
+    u = np.array([py(a * qy, setpoint=b * qy) for _, a, b in ops])
+    after = slice(len(before) + gap - 1, None)  # the step after the gap, and the next
+    return out[after] * qu, u[after]
+
+
+def test_a_term_over_a_long_gap_saturates_only_where_the_double_laws_does(tmp_path):
+    """Review: after d - 1 rejected samples the step saturated the difference term at 256
+    times the limits, then divided it by d^n. Order 2, a gap of 64 periods over a
+    30-unit setpoint step: +1.85 where the double law gives +4.01, the error carried on;
+    order 1, 255 rejected then y from -0.1 to 40: -0.2, -0.4... where the double law
+    gives -24. The quotient is now formed before it saturates."""
+    ipi = mfcontrol.IPI(alpha=2000.0, kp=20.0, ki=50.0, sample_time=0.001, order=2,
+                        output_limits=(-24.0, 24.0), input_limits=INPUT_LIMITS)
+    q, u = _after_a_long_gap(ipi, [(0.0, 0.0)] * 10, 64, 0.0, 30.0, tmp_path / "2")
+    assert np.abs(u).max() > 1.0  # (a step the law answers)
+    np.testing.assert_allclose(q, u, atol=1e-5)
+    ip = mfcontrol.IP(alpha=2.0, kp=0.01, sample_time=0.001, output_limits=(-24.0, 24.0),
+                      input_limits=INPUT_LIMITS)
+    q, u = _after_a_long_gap(ip, [(-0.01 * k, 0.0) for k in range(10)], 256, 40.0, 0.0,
+                             tmp_path / "1")
+    assert u[0] == -24.0
+    np.testing.assert_allclose(q, u, atol=1e-5)

@@ -140,6 +140,9 @@ def export_scales(ctrl, key_prefix: str = "", like=None) -> Scales:
     lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
     if like is None:
         return scales(ctrl, lo, hi, key_prefix)
+    if type(like) is not type(ctrl):
+        raise ConfigError("like", type(like).__name__, f"must be the law of the set, "
+                          f"{type(ctrl).__name__}: a set is for an export of its own law")
     like_lo, like_hi = (float(like._CP[row, 0]) for row in like._OUT_ROWS)
     sc = scales(like, like_lo, like_hi)
     if ctrl.sample_time != like.sample_time:

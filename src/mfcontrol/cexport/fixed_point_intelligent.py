@@ -169,7 +169,7 @@ def _members(q: Q31Intelligent):
 
 
 def _tag(ctrl, q: Q31Intelligent) -> int:
-    return _format(f"intelligent, {_structure(q)}", ctrl, q.scales)
+    return _format(f"{type(ctrl).__name__}, {_structure(q)}", ctrl, q.scales)
 
 
 def q31_intelligent_params_c(ctrl, key_prefix: str = "", like=None) -> str:
@@ -199,7 +199,7 @@ def q31_intelligent_source(ctrl, *, prefix: str, banner: str, key_prefix: str = 
         subs |= {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
         subs |= {"DER": "1" if q.cd.mantissa else "0", "WITH_I": "",
                  "LIMITS": f"{PU}_U_LO, {PU}_U_HI", "LO": f"{PU}_U_LO", "HI": f"{PU}_U_HI",
-                 "FRESH_0": "", "FRESH_1": "", "FRESH_MEMBER": ""}
+                 "FRESH_0": "", "FRESH_0_IN": "", "FRESH_1": "", "FRESH_MEMBER": ""}
         subs |= dict.fromkeys(TUNABLE_PARTS, "")
     else:
         subs |= {name: f"s->params.{name.lower()}.m, s->params.{name.lower()}.s"
@@ -207,7 +207,8 @@ def q31_intelligent_source(ctrl, *, prefix: str, banner: str, key_prefix: str = 
         lo, hi = (f"{PU}_WIDE(s->params.out_{end})" for end in ("min", "max"))
         subs |= {"DER": "1", "WITH_I": " && s->params.ci.m != 0",
                  "LIMITS": f"{lo}, {hi}", "LO": lo, "HI": hi,
-                 "FRESH_0": "    s->fresh = 0;\n", "FRESH_1": "    s->fresh = 1;\n",
+                 "FRESH_0": "    s->fresh = 0;\n", "FRESH_0_IN": "        s->fresh = 0;\n",
+                 "FRESH_1": "    s->fresh = 1;\n",
                  "FRESH_MEMBER": "    int fresh;              /* 1 until a sample is taken or "
                                  "the law restarts */\n"}
         subs |= tunable_parts(prefix, _members(q), q31_intelligent_params_c(ctrl, key_prefix),
@@ -311,10 +312,23 @@ static int64_t @P@_scale(int64_t x, int64_t m, int s)
 }
 #endif
 
-/* x / d rounded to nearest (|x| <= T_MAX, d > 0) */
-static int64_t @P@_div(int64_t x, int64_t d)
+/* x * M * 2^(F - s) / D (D in [2, 2^16]), rounded and saturated to +-T_MAX as mul: the
+ * product taken over 2^k >= D (it saturates only where the quotient does), then times
+ * 2^k / D in [1, 2) through a 16-bit split */
+static int64_t @P@_mul_over(int64_t x, int64_t m, int s, int64_t D)
 {
-    return x >= 0 ? (x + d / 2) / d : -((-x + d / 2) / d);
+    int k = 0;
+    int64_t p, c, p1, p0, a, q, low;
+    while (((int64_t)1 << k) < D) k++;
+    p = @P@_mul(x, m, s + k);
+    if (p >= @PU@_T_MAX || p <= -@PU@_T_MAX) return p;
+    c = ((int64_t)1 << k) - D;
+    p1 = p >> 16;
+    p0 = p - p1 * 65536;
+    a = p1 * c;
+    q = a >= 0 ? a / D : -((-a + D - 1) / D);
+    low = (a - q * D) * 65536 + p0 * c;
+    return @P@_sat(p + q * 65536 + (low + D / 2) / D);
 }
 
 /* x * d saturated to +-T_MAX (|x| <= T_MAX, d > 0) */
@@ -357,8 +371,7 @@ static @P@_q31 @P@_clamp_code(int64_t u, int64_t lo_wide, int64_t hi_wide)
 void @P@_init(@P@_state *s)
 {
 @INIT_PARAMS@    @P@_restart(s, @P@_clamp_code(@PU@_U_INIT, @LIMITS@));
-@FRESH_1@
-    s->nan_count = 0;
+@FRESH_1@    s->nan_count = 0;
     s->mode = @PU@_AUTO;
 }
 
@@ -386,16 +399,14 @@ void @P@_init(@P@_state *s)
         uh = s->u1;
 #endif
 #if @N@ == 2
-        base = @P@_mul(e - 2 * s->e1 + s->e2, @CN@);
-        if (d > 1) base = @P@_div(base, d * d); /* after rejected samples: h^2 -> (d h)^2 */
+        base = d > 1 ? @P@_mul_over(e - 2 * s->e1 + s->e2, @CN@, d * d)
+                     : @P@_mul(e - 2 * s->e1 + s->e2, @CN@);
 #else
-        base = @P@_mul(e - s->e1, @CN@);
-        if (d > 1) base = @P@_div(base, d);
+        base = d > 1 ? @P@_mul_over(e - s->e1, @CN@, d) : @P@_mul(e - s->e1, @CN@);
 #endif
 #if @DER@
         {
-            int64_t de = @P@_mul(e - s->e1, @CD@);
-            base += d > 1 ? @P@_div(de, d) : de;
+            base += d > 1 ? @P@_mul_over(e - s->e1, @CD@, d) : @P@_mul(e - s->e1, @CD@);
         }
 #endif
         base += @P@_mul(e, @CP@);
@@ -440,7 +451,7 @@ void @P@_set_auto(@P@_state *s)
     /* from manual: restart from the last output, as the live controller does */
     if (s->mode == @PU@_MANUAL) {
         @P@_restart(s, s->last_output);
-@FRESH_0@    }
+@FRESH_0_IN@    }
     s->mode = @PU@_AUTO;
 }
 @SETTER@"""
