@@ -581,9 +581,11 @@ def test_unknown_case():
 
 
 def test_missing_case_file(tmp_path):
-    for path in (tmp_path / "nope.toml", str(tmp_path / "nope.toml"), tmp_path):
+    for path in (tmp_path / "nope.toml", str(tmp_path / "nope.toml")):
         with pytest.raises(CaseError, match="not found"):
             run_case(path)
+    with pytest.raises(CaseError, match="is a folder, not a case"):
+        run_case(tmp_path)
 
 
 @pytest.mark.parametrize("text", [
