@@ -198,12 +198,13 @@ _COEFFICIENTS = (
 
 
 def q31_params_c(ctrl, key_prefix: str = "", like=None) -> str:
-    """The C initializer of the tunable q31 PID's ``PREFIX_params`` for the live PID
-    ``ctrl``: what ``PREFIX_set_params`` takes to run with its gains. ``like``: the PID
-    the export it is sent to was made from, whose formats the coefficients and limits are
-    computed in (default: ``ctrl``'s own, from its sample period and input and output
-    limits). The set holds a tag of those formats, and ``PREFIX_set_params`` refuses a
-    set made for others.
+    """The C initializer of a tunable q31 export's ``PREFIX_params`` for the live
+    controller ``ctrl`` (a PID, or an i-P, i-PI, i-PD or i-PID with the backward
+    difference): what ``PREFIX_set_params`` takes to run with its gains. ``like``: the
+    controller the export it is sent to was made from (the same law and structure), whose
+    formats the coefficients and limits are computed in (default: ``ctrl``'s own, from its
+    sample period and input and output limits). The set holds a tag of those formats, and
+    ``PREFIX_set_params`` refuses a set made for others.
 
     Examples
     --------
