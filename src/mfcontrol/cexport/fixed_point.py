@@ -527,19 +527,12 @@ _PID_CHECKS = {
            "(p->bd.m > 0 && p->kp.m <= 0) || (p->bd.m < 0 && p->kp.m >= 0)"),
 }
 _PID_APPLY = """\
-    if (s->mode == @PU@_MANUAL) {
+    if (s->mode != @PU@_MANUAL && !s->started && !s->pending) {
+        s->last_output = @P@_clamp(0, p->out_min, p->out_max); /* before any sample: as init */
+    } else { /* the output held (in manual mode, or after a rejected sample), within the
+              * new limits; in automatic mode the law restarts from it */
         s->last_output = @P@_clamp(s->last_output, p->out_min, p->out_max);
-    } else if (!s->started && !s->pending) { /* before any sample: as init with them */
-        s->last_output = @P@_clamp(0, p->out_min, p->out_max);
-    } else { /* restart from the last output within the new limits (a held sample
-              * returns it), as @P@_set_auto does from manual */
-        s->last_output = @P@_clamp(s->last_output, p->out_min, p->out_max);
-        s->i = 0;
-        s->d = 0;
-        s->skipped = 0;
-        s->started = 0;
-        s->start = s->last_output;
-        s->pending = 1;
+        if (s->mode != @PU@_MANUAL) @P@_restart(s);
     }
 """
 
@@ -700,18 +693,21 @@ void @P@_set_manual(@P@_state *s, @P@_q31 u)
     s->last_output = @P@_clamp(u, @ULIM@);
 }
 
+/* restart the law from the last output (bumpless), as the live PID's reset does */
+static void @P@_restart(@P@_state *s)
+{
+    s->i = 0;
+    s->d = 0;
+    s->skipped = 0;
+    s->started = 0;
+    s->start = s->last_output;
+    s->pending = 1;
+}
+
 void @P@_set_auto(@P@_state *s)
 {
     if (!@PU@_INITIALISED(s)) return;
-    /* from manual: restart from the last output, as the live PID's reset does */
-    if (s->mode == @PU@_MANUAL) {
-        s->i = 0;
-        s->d = 0;
-        s->skipped = 0;
-        s->started = 0;
-        s->start = s->last_output;
-        s->pending = 1;
-    }
+    if (s->mode == @PU@_MANUAL) @P@_restart(s); /* from manual */
     s->mode = @PU@_AUTO;
 }
 @SETTER@"""

@@ -152,14 +152,13 @@ _CHECKS = {
             "p->caw.m < 0 || (p->caw.s == 30 && p->caw.m > 0x40000000L)"),
 }
 _APPLY = """\
-    if (s->mode == @PU@_MANUAL) {
-        s->last_output = @P@_clamp_code(s->last_output, @LIMITS@);
-    } else if (s->fresh) { /* before any sample: as init with them */
+    /* the output held (in manual mode, or after a rejected sample) within the new limits */
+    s->last_output = @P@_clamp_code(s->last_output, @LIMITS@);
+    if (s->mode == @PU@_MANUAL) return 0;
+    if (s->fresh) /* before any sample: as init with them */
         @P@_restart(s, @P@_clamp_code(@PU@_U_INIT, @LIMITS@));
-    } else { /* restart from the last output within the new limits, as @P@_set_auto does
-              * from manual (the next @N@ samples hold it) */
-        @P@_restart(s, @P@_clamp_code(s->last_output, @LIMITS@));
-    }
+    else /* from it, as @P@_set_auto does from manual (the next @N@ samples hold it) */
+        @P@_restart(s, s->last_output);
 """
 
 

@@ -188,7 +188,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     else:
         driver += _fill(_fill(_SETTER, {
             "INVALID": invalid.name,
-            "CLAMP_OUT": _clamp(law.limits, "s->last_output", "        "),
+            "CLAMP_OUT4": _clamp(law.limits, "s->last_output", "    "),
             "FIELD_OF": "".join(f"    case {row}: return {prefix.upper()}_FIELD_{name.upper()};\n"
                                 for name, row, _ in tunable),
             "SAME": " &&\n        ".join(f"p->{name} == s->params.{name}"
@@ -305,24 +305,22 @@ def _q31(ctrl, prefix: str, description: str, key_prefix: str, frozen: bool) -> 
     from .fixed_point import q31_source
     from .fixed_point_intelligent import q31_intelligent_source
 
-    banner_tail = (" * C99 with <stdint.h>, integer arithmetic only: no floating point, "
-                   "no dynamic memory,\n * no global state. */")
     if isinstance(ctrl, PID):
-        banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in"
-                         if frozen else f"as exported; {prefix}_set_params changes the "
-                         "coefficients and limits", banner_tail)
-        header, source = q31_source(ctrl, prefix=prefix, banner=banner,
-                                    key_prefix=key_prefix, frozen=frozen)
-        return CSource(prefix, "q31", header, source, "pid", 0)
-    if isinstance(ctrl, IntelligentController):
-        banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in"
-                         if frozen else f"as exported; {prefix}_set_params changes the "
-                         "coefficients and limits", banner_tail)
-        header, source = q31_intelligent_source(ctrl, prefix=prefix, banner=banner,
-                                                key_prefix=key_prefix, frozen=frozen)
-        return CSource(prefix, "q31", header, source, "intelligent", 0)
-    raise ConfigError("real", "q31", f"exports the PID and the i-P, i-PI, i-PD and i-PID "
-                      f"(this is the {_law_label(ctrl)} law): export it in float or double")
+        write, name = q31_source, "pid"
+    elif isinstance(ctrl, IntelligentController):
+        write, name = q31_intelligent_source, "intelligent"
+    else:
+        raise ConfigError("real", "q31", f"exports the PID and the i-P, i-PI, i-PD and "
+                          f"i-PID (this is the {_law_label(ctrl)} law): export it in float "
+                          "or double")
+    banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in"
+                     if frozen else f"as exported; {prefix}_set_params changes the "
+                     "coefficients and limits", " * C99 with <stdint.h>, integer "
+                     "arithmetic only: no floating point, no dynamic memory,\n * no global "
+                     "state. */")
+    header, source = write(ctrl, prefix=prefix, banner=banner, key_prefix=key_prefix,
+                           frozen=frozen)
+    return CSource(prefix, "q31", header, source, name, 0)
 
 
 def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
@@ -856,10 +854,11 @@ int @P@_set_params(@P@_state *s, const @P@_params *p)
     if (row >= 0) return @P@_field_of(row);
     if (@SAME@) return 0; /* nothing changes */
     s->params = *p;
-@SET_COEF@    if (s->mode == @PU@_MANUAL) {
-@CLAMP_OUT@    } else if (s->fresh) { /* before any sample: as init with them */
-@INIT_LAW@    } else { /* from the last output within the new limits (a held sample returns it) */
-@CLAMP_OUT@        @P@_bumpless(s, s->last_output);
+@SET_COEF@    /* the output held (manual, or after a rejected sample) within the new limits */
+@CLAMP_OUT4@    if (s->mode == @PU@_MANUAL) return 0;
+    if (s->fresh) { /* before any sample: as init with them */
+@INIT_LAW@    } else { /* from the last output */
+        @P@_bumpless(s, s->last_output);
         s->skipped = 0;
 @HELD_8@        s->overflows = 0;
     }

@@ -373,12 +373,13 @@ class _Controller:
             return
         self._CP[:, 0] = after  # in place: the compiled step holds the array
         self._adopt(new)
+        # the output held (in manual mode, or after a rejected sample) within the new limits
+        self._last_output = self._limited(self._last_output)
         if not self.auto_mode:
-            self._last_output = self._limited(self._last_output)
-        elif fresh:  # before any sample: start as a controller built with them would
+            return
+        if fresh:  # before any sample: start as a controller built with them would
             self._reset_state()
-        else:  # from the last output within the new limits: a held sample returns it
-            self._last_output = self._limited(self._last_output)
+        else:  # from the last output
             self._bumpless_start(self._last_output)
             self._skipped = 0.0
             self._overflows = 0
