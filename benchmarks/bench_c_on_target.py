@@ -1,19 +1,21 @@
-"""What an exported controller costs on a Cortex-M: code size and instructions per step,
-mean and worst, for the Cortex-M4F (float, its FPU) and the Cortex-M0 (float and double in
-software), and the PID and the backward-difference i-PID in fixed point (q31) on both,
-beside the x86 figures of ``bench_c_export.py`` (same controllers).
+"""What an exported controller costs on a Cortex-M: code size, instructions and cycles per
+step, mean and worst, for the Cortex-M4F (float, its FPU) and the Cortex-M0 (float and
+double in software), and the PID and the backward-difference i-PID in fixed point (q31) on
+both, beside the x86 figures of ``bench_c_export.py`` (same controllers).
 
 Each export is cross-compiled with Debian's arm-none-eabi-gcc (``-O2`` and the export's
 flags), its object's ``text`` read with ``arm-none-eabi-size``, and driven with its case's
 closed-loop samples under ``qemu-system-arm -singlestep -d exec``, which logs every
 instruction the emulated core executes: the instructions between two markers around each
 step, less those around a call of an empty function of the same signature, are the
-step's. These are instructions, not cycles (qemu does not model timing; on an M4F most
-instructions take one cycle, loads, divisions and the FPU's divide take more, and the M0's
-software floating point is almost all single-cycle ALU work). The M0 build runs on the
-Cortex-M3 of ``mps2-an385``, which executes ARMv6-M code as an M0 would (qemu has no M0
-board with the RAM). With the algebraic estimator, the run spans two resyncs (2M + 2
-samples). Needs arm-none-eabi-gcc, libnewlib-arm-none-eabi and qemu-system-arm. Run::
+step's. qemu does not model timing: the cycles are the Arm manuals' per-instruction
+counts applied to the instructions executed (``mfcontrol.cexport.cortex_m_cycles``: no
+wait states; exact on the M0 with its single-cycle multiplier; on the M4F a low and a high
+count, whose high one bounds the step). A board's cycle counter (DWT CYCCNT) would measure
+them; this machine has none. The M0 build runs on the Cortex-M3 of ``mps2-an385``, which
+executes ARMv6-M code as an M0 would (qemu has no M0 board with the RAM). With the
+algebraic estimator, the run spans two resyncs (2M + 2 samples). Needs arm-none-eabi-gcc,
+libnewlib-arm-none-eabi and qemu-system-arm. Run::
 
     python benchmarks/bench_c_on_target.py
 """
@@ -21,19 +23,17 @@ samples). Needs arm-none-eabi-gcc, libnewlib-arm-none-eabi and qemu-system-arm. 
 from __future__ import annotations
 
 import math
-import os
-import re
 import subprocess
 import sys
 import tempfile
-import threading
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 import mfcontrol
 from bench_c_export import CONTROLLERS, closed_loop
-from mfcontrol.cexport import CFLAGS, c_source, cortex_m
+from mfcontrol.cexport import CFLAGS, c_source, cortex_m, cortex_m_cycles
 from mfcontrol.cexport.fixed_point import code
 from mfcontrol.cexport.translate import Options
 
@@ -98,29 +98,23 @@ def _samples_header(y: np.ndarray, r: np.ndarray, real: str, scale: float = 1.0)
             f"static const mfc_real R[{len(r)}] = {{\n{row(r)}\n}};\n")
 
 
-def _count(trace: Path, before: int, after: int) -> list[int]:
-    """Instructions between each entry of mark_before and the next of mark_after."""
-    counts, inside, n = [], False, 0
-    pc = re.compile(rb"\[[0-9a-f]+/([0-9a-f]+)/")
-    with open(trace, "rb") as log:
-        for line in log:
-            m = pc.search(line)
-            if m is None:
-                continue
-            addr = int(m.group(1), 16)
-            if addr == before:
-                inside, n = True, 0
-            elif addr == after and inside:
-                counts.append(n)
-                inside = False
-            elif inside:
-                n += 1
-    return counts
+@dataclass
+class Cost:
+    """What one export costs per step on one target: its code size, then the mean over
+    the steady steps and the worst over every step of its instructions and of the low and
+    high cycle counts of :mod:`mfcontrol.cexport.cortex_m_cycles`, and the sample where
+    the most instructions ran."""
+
+    text: int
+    instructions: tuple[float, int]
+    low: tuple[float, int]
+    high: tuple[float, int]
+    worst_at: int
 
 
 def measure(case: str, overrides: dict, real: str, target: str,
-            folder: Path, frozen: bool = False) -> tuple[int, float, int, int]:
-    """(text bytes, mean instructions per steady step, worst step, its sample)."""
+            folder: Path, frozen: bool = False) -> Cost:
+    """What the export of ``case`` costs on ``target`` (closed-loop samples of its case)."""
     ctrl = mfcontrol.make_controller(case, overrides)
     M = ctrl._params.get("window") if ctrl._params.get("estimator") == "algebraic" else None
     n = 2 * M + 2 if M else 100
@@ -140,24 +134,14 @@ def measure(case: str, overrides: dict, real: str, target: str,
     text = int(subprocess.run(["arm-none-eabi-size", "mfc.o"], cwd=folder, check=True,
                               capture_output=True, text=True).stdout.splitlines()[1].split()[0])
     cortex_m.build(folder, target, ["mfc.o"], _MAIN.replace("@BASELINE@", str(BASELINE)))
-    symbols = dict(line.split()[::2][::-1] for line in subprocess.run(
-        ["arm-none-eabi-nm", "drive.elf"], cwd=folder, check=True, capture_output=True,
-        text=True).stdout.splitlines() if len(line.split()) == 3)
-    before, after = (int(symbols[name], 16) & ~1 for name in ("mark_before", "mark_after"))
-    trace = folder / "trace.fifo"
-    os.mkfifo(trace)
-    counts: list[int] = []
-    reader = threading.Thread(target=lambda: counts.extend(_count(trace, before, after)))
-    reader.start()
-    subprocess.run([*cortex_m.qemu_command(folder / "drive.elf", target), "-singlestep",
-                    "-d", "exec,nochain", "-D", str(trace)], cwd=folder, check=True,
-                   capture_output=True, timeout=3600)
-    reader.join()
-    overhead = min(counts[:BASELINE])
-    steps = np.array(counts[BASELINE:]) - overhead
+    # (instructions, low cycles, high cycles) per call
+    counts = np.array(cortex_m_cycles.run(folder / "drive.elf", target))
+    steps = counts[BASELINE:] - counts[:BASELINE].min(axis=0)  # less the empty call's
     steady = steps[(M + 1 if M else 2):]
-    worst = int(np.argmax(steps))
-    return text, float(steady.mean()), int(steps[worst]), worst
+
+    def stat(column: int) -> tuple[float, int]:
+        return float(steady[:, column].mean()), int(steps[:, column].max())
+    return Cost(text, stat(0), stat(1), stat(2), int(np.argmax(steps[:, 0])))
 
 
 def main() -> None:
@@ -175,10 +159,12 @@ def main() -> None:
     if missing:
         sys.exit(f"bench_c_on_target: needs {', '.join(missing)} (Debian: "
                  f"{cortex_m.PACKAGES})")
-    print(f"instructions per step under qemu, {'frozen' if args.frozen else 'tunable'} "
-          f"exports compiled with arm-none-eabi-gcc {' '.join(CFLAGS)}")
-    print(f"{'controller':<50} {'target':<11} {'real':<7} {'text (bytes)':>12} "
-          f"{'mean':>8} {'worst':>8} {'at sample':>10}")
+    print(f"one step under qemu, {'frozen' if args.frozen else 'tunable'} exports compiled "
+          f"with arm-none-eabi-gcc {' '.join(CFLAGS)}: instructions, and cycles from the "
+          "TRM's timings (no wait states; on the M4F low..high, on the M0 exact), mean of the "
+          "steady steps / worst of all")
+    print(f"{'controller':<50} {'target':<11} {'real':<7} {'text (B)':>9} "
+          f"{'instructions':>15} {'cycles':>28} {'worst at':>9}")
     with tempfile.TemporaryDirectory() as tmp:
         for label, case, overrides in CONTROLLERS:
             if args.labels and not label.startswith(tuple(args.labels)):
@@ -192,10 +178,15 @@ def main() -> None:
                     continue
                 folder = Path(tmp) / f"{case}-{len(overrides)}-{target}-{real}"
                 folder.mkdir()
-                text, mean, worst, at = measure(case, overrides, real, target, folder,
-                                                frozen=args.frozen)
-                print(f"{label:<50} {name:<11} {real:<7} {text:>12,} {mean:>8,.0f} "
-                      f"{worst:>8,} {at:>10}", flush=True)
+                c = measure(case, overrides, real, target, folder, frozen=args.frozen)
+                ins = f"{c.instructions[0]:,.0f} / {c.instructions[1]:,}"
+                if c.low == c.high:
+                    cyc = f"{c.high[0]:,.0f} / {c.high[1]:,}"
+                else:
+                    cyc = (f"{c.low[0]:,.0f}..{c.high[0]:,.0f} / "
+                           f"{c.low[1]:,}..{c.high[1]:,}")
+                print(f"{label:<50} {name:<11} {real:<7} {c.text:>9,} {ins:>15} {cyc:>28} "
+                      f"{c.worst_at:>9}", flush=True)
 
 
 if __name__ == "__main__":
