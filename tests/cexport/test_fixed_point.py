@@ -18,11 +18,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.linalg import solve_discrete_lyapunov
 
 import mfcontrol
 from mfcontrol.cexport import c_source, cortex_m
 from mfcontrol.cexport.fixed_point import GUARD_BITS, code, q31_params_c, q31_pid
 from mfcontrol.errors import ConfigError
+from mfcontrol.laws import pid
 
 from . import harness as H
 from .test_on_target import _require_tools
@@ -36,6 +38,9 @@ VARIANTS = [
      "controller.Tt": 0.2, "controller.duty_min": -2.0, "controller.duty_max": 2.0},
     {"controller.kp": 1.0, "controller.ki": 20.0, "controller.duty_min": 0.0,
      "controller.duty_max": 12.0},
+    # the measurement filter: as fast as the derivative; and 50 periods slow
+    {"controller.kd": 0.05, "controller.N": 5.0, "controller.Tf": 0.002},
+    {"controller.Tf": 0.05},
 ]
 
 _MAIN = r"""
@@ -141,7 +146,15 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
     -1 in v, and h/Tt <= 1), so the integral's error grows only by what each step adds.
     A step after rejected samples spans them: the integral's terms times the gap, and the
     derivative divided by D = 1 + (gap - 1)(1 - ad), whose C form (ad rounded to 2^-31,
-    truncated to 2^-23) is replicated here."""
+    truncated to 2^-23) is replicated here.
+
+    With a measurement filter, the terms take its output, whose error comes from its own
+    linear recursion: the error (ex, ew) of the filtered value and its increment obeys
+    e+ = A e + (rho, rho) (over d periods A_d and (d rho, rho)), rho the products' rounding
+    and the coefficients' representation errors times the double's w and y - x. Its bound
+    is carried in the norm |v|_P = sqrt(v' P v), P from A' P A - P = -I, in which A is a
+    contraction (a bound carried in absolute values grows without end where Tf >> h); a
+    step over a gap multiplies it by |A_d|_P. ex is then at most |C^-T e1| |e|_P."""
     q = q31_pid(ctrl)
     py = type(ctrl)(**ctrl._params)
     qy, qu = q.scales.y_scale / 2**31, q.scales.u_scale / 2**31
@@ -152,15 +165,17 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
     b, c = q.b.value, q.c.value
     db, dc = abs(q.b.exact - b), abs(q.c.exact - c)
     kp, dkp = q.kp.value * ratio, abs(q.kp.exact - q.kp.value) * ratio
-    dkih = abs(q.kih.exact - q.kih.value) * ratio / guard
+    kih, dkih = q.kih.value * ratio / guard, abs(q.kih.exact - q.kih.value) * ratio / guard
     htt, dhtt = q.htt.value / guard, abs(q.htt.exact - q.htt.value) / guard
     ad, dad = q.ad.value, abs(q.ad.exact - q.ad.value)
     bd, dbd = q.bd.value * ratio, abs(q.bd.exact - q.bd.value) * ratio
     lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
     dlim = max(abs(q.scales.u_limits[0] * qu - lo), abs(q.scales.u_limits[1] * qu - hi))
     eps = 2.0**-50  # the double law's own rounding, relative
+    filt = _FilterBound(q, qy) if q.fb.mantissa != 0 else None
     out, bounds = [], []
     err_i = err_d = err_u = 0.0  # of the integral, the derivative term, the last output
+    err_y = err_y_old = 0.0  # of the filtered measurement's code, this step's and the last
     first, pending = True, False
     y_old = r_old = d_old = 0.0
     gap = 1  # periods since the last sample taken
@@ -190,13 +205,22 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
         assert gap * htt <= 1.0
         if first:
             y_old, r_old, d_old = y, r, 0.0
+        if filt is not None:  # the double's filter before the step: (x, h x') and y - x
+            x0, w0 = py._CS[pid.YF, 0], py._CS[pid.YF_D, 0] * py.sample_time
+            if first:  # both start at rest at y: no error
+                filt.restart()
+                x0, w0 = y, 0.0
         u = py(y, setpoint=r)
+        if filt is not None:  # the terms take the filtered value, and its error
+            err_y = filt.step(gap, w0, y - x0, py._CS[pid.YF, 0])
+            y = py._CS[pid.YF, 0]
         comp = py.components
         p, i, d, v = comp["P"], comp["I"], comp["D"], comp["unlimited"]
-        err_p = kp * (abs(r) * db + 0.5 * qy) + abs(b * r - y) * dkp + 0.5 * qu
+        err_p = kp * (abs(r) * db + 0.5 * qy + err_y) + abs(b * r - y) * dkp + 0.5 * qu
         if q.derivative:
             de = (y - y_old) if c == 0.0 else (y - c * r) - (y_old - c * r_old)
-            err_de = 0.0 if c == 0.0 else dc * (abs(r) + abs(r_old)) + qy
+            err_de = ((0.0 if c == 0.0 else dc * (abs(r) + abs(r_old)) + qy)
+                      + err_y + err_y_old)
             err_d = (ad * err_d + abs(d_old) * dad + 0.5 * qu + abs(de) * dbd + bd * err_de
                      + 0.5 * qu)
             if gap > 1:  # x / D, D = 1 + (gap - 1)(1 - ad), D as the C forms it
@@ -215,13 +239,65 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
         out.append(u)
         bounds.append(err_u)
         err_i += (gap * (htt * (err_p + err_d + 0.5 * qu + dlim) + abs(r - y) * dkih
-                         + abs(u - v) * dhtt + 2 * 0.5 * qi)
+                         + kih * err_y + abs(u - v) * dhtt + 2 * 0.5 * qi)
                   + eps * (abs(i) + gap * abs(u - v)))
         y_old, r_old, d_old, first, gap = y, r, d, False, 1
+        err_y_old = err_y
     return np.array(out), np.array(bounds)
 
 
-@pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast"])
+class _FilterBound:
+    """The bound on the q31 measurement filter's error along a run (see
+    :func:`bound_along`), in the measurement's units."""
+
+    def __init__(self, q, qy: float):
+        self.fa, self.fb = q.fa, q.fb
+        self.qy, self.lsb = qy, qy / 2**GUARD_BITS  # a code, and the filter's unit
+        fa, fb = q.fa.exact, q.fb.exact
+        self.A = np.array([[1.0 - fb, fa], [-fb, fa]])
+        P = solve_discrete_lyapunov(self.A.T, np.eye(2))
+        self.C = np.linalg.cholesky(P).T  # |v|_P = |C v|
+        self.C_inv = np.linalg.inv(self.C)
+        self.reach = float(np.linalg.norm(self.C_inv.T @ [1.0, 0.0]))  # |ex| <= reach |e|_P
+        self.restart()
+
+    def restart(self) -> None:
+        self.e = 0.0  # the bound on |(ex, ew)|_P
+
+    def _norm(self, M) -> float:
+        return float(np.linalg.norm(self.C @ M @ self.C_inv, 2))
+
+    def step(self, gap: int, w: float, e: float, x_new: float) -> float:
+        """Carry the bound over one step from the double's w = h x' and e = y - x before
+        it; the bound on the filtered code's error after it (x_new the double's)."""
+        eps = 2.0**-50 * 8 * (abs(w) + abs(e) + abs(x_new))  # the double's own rounding
+        rounding = 2 * 0.5 * self.lsb  # the two products
+        if gap == 1:
+            rho = (abs(self.fa.exact - self.fa.value) * abs(w)
+                   + abs(self.fb.exact - self.fb.value) * abs(e) + rounding + eps)
+            self.e = self._norm(self.A) * self.e + rho * float(np.linalg.norm(self.C @ [1, 1]))
+        else:  # the C's alpha and beta, replicated in integers
+            def to31(c):
+                m, s = c.mantissa, c.shift
+                return 0 if m == 0 else m if s == 31 else ((m >> (s - 32)) + 1) >> 1
+            fa31, fb31 = to31(self.fa), to31(self.fb)
+            qd = 2**31 + (gap - 1) * (2**31 - fa31 + gap * fb31)
+            n = gap * fb31 * 2**23
+            hi = n // qd
+            alpha = (fa31 * 2**31 + qd // 2) // qd / 2**31
+            beta = (hi * 256 + ((n - hi * qd) * 256 + qd // 2) // qd) / 2**31
+            fa, fb = self.fa.value, self.fb.value
+            Q = 1.0 + (gap - 1) * (1.0 - fa + gap * fb)
+            rho = (abs(alpha - fa / Q) * abs(w) + abs(beta - gap * fb / Q) * abs(e)
+                   + rounding + gap * eps)
+            A_d = np.array([[1.0 - gap * beta, gap * alpha], [-beta, alpha]])
+            self.e = (self._norm(A_d) * self.e
+                      + rho * float(np.linalg.norm(self.C @ [gap, 1])))
+        return self.reach * self.e + 0.5 * self.qy + eps
+
+
+@pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast",
+                                                "pid-filter", "pi-slow-filter"])
 def test_the_q31_pid_stays_within_its_derived_bound_of_the_double_pid(over, tmp_path):
     ctrl = controller(over)
     src = c_source(ctrl, real="q31")
@@ -301,7 +377,7 @@ def m0_codes(src, ops: np.ndarray, folder: Path) -> list[int]:
 
 def test_the_cortex_m0_computes_the_same_codes(tmp_path):
     _require_tools()
-    ctrl = controller(VARIANTS[1])
+    ctrl = controller(VARIANTS[1] | {"controller.Tf": 0.002})  # the filter's products too
     src = c_source(ctrl, real="q31")
     ops, _, _ = codes_of_the_run(ctrl)
     ops = ops[:400]
@@ -312,8 +388,11 @@ def test_the_cortex_m0_computes_the_same_codes(tmp_path):
 def test_what_the_fixed_point_export_cannot_hold_is_refused():
     with pytest.raises(ConfigError, match="input_limits"):
         c_source(mfcontrol.make_controller(CASE), real="q31")
-    with pytest.raises(ConfigError, match="Tf"):
-        c_source(controller({"controller.Tf": 0.01}), real="q31")
+    # a measurement filter whose coefficients q31 cannot hold: far faster than the
+    # period (1 ms), or far slower
+    for tf in (1e-9, 1e3):
+        with pytest.raises(ConfigError, match=rf"Tf = {tf!r}: gives the measurement filter"):
+            c_source(controller({"controller.Tf": tf}), real="q31")
     with pytest.raises(ConfigError, match="q31'?: exports the PID and the i-P"):
         c_source(mfcontrol.make_controller("voltage-stable-standard"), real="q31")
     ctrl = mfcontrol.PID(kp=1.0, ki=1.0, sample_time=0.01, input_limits=(-1, 1))
@@ -341,8 +420,10 @@ def test_what_the_fixed_point_export_cannot_hold_is_refused():
 # --- the tunable build (PREFIX_set_params) ---------------------------------------------
 
 #: gains changed at run time, the output limits kept (the same scales, so the same format)
+#: new gains, and a measurement filter switched on at run time
 RETUNED = {"controller.kp": 0.5, "controller.ki": 2.0, "controller.kd": 0.02,
-           "controller.N": 5.0, "controller.b": 0.5, "controller.c": 0.3, "controller.Tt": 0.2}
+           "controller.N": 5.0, "controller.b": 0.5, "controller.c": 0.3, "controller.Tt": 0.2,
+           "controller.Tf": 0.002}
 
 
 def members(text: str) -> list[str]:
@@ -354,7 +435,8 @@ def initializer(values: list[str]) -> str:
     return "{" + ", ".join(values) + "}"
 
 
-@pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast"])
+@pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast", "pid-filter",
+                                                "pi-slow-filter"])
 def test_the_tunable_build_gives_the_frozen_builds_codes(over, tmp_path):
     """The coefficients read from the parameter struct (a derivative and a setpoint weight
     tested at run time) give the codes of the constants folded into the frozen build."""
@@ -394,7 +476,7 @@ def test_set_params_restarts_bumplessly_on_the_new_coefficients(tmp_path):
     u = []
     for i, (_, y, r) in enumerate(steps):
         if i == k:
-            py.retune(kp=0.5, ki=2.0, kd=0.02, N=5.0, b=0.5, c=0.3, Tt=0.2)
+            py.retune(kp=0.5, ki=2.0, kd=0.02, N=5.0, b=0.5, c=0.3, Tt=0.2, Tf=0.002)
         u.append(py(y * scale_y, setpoint=r * scale_y))
     u_q = np.concatenate([before, after]) * scale_u
     assert np.max(np.abs(u_q - np.array(u))) < 1e-4 * 48.0
@@ -403,13 +485,15 @@ def test_set_params_restarts_bumplessly_on_the_new_coefficients(tmp_path):
 def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
     """Each member out of what the law takes (a set for other formats, a mantissa or a
     shift the products cannot take, a negative tracking, a tracking of 0 with an integral,
-    a pole at 1, a derivative against kp's sign, limits out of order) is refused with its
+    a pole at 1, a derivative against kp's sign, a filter's fa without fb, a filter with
+    fa + fb = 1, limits out of order) is refused with its
     field's number, and the codes go on as if the call had not been made; an unchanged
     set is taken (0) and changes nothing; a null pointer is refused with -1."""
     ctrl = controller(VARIANTS[1] | {"controller.duty_min": -24.0, "controller.duty_max": 24.0})
     good = members(q31_params_c(ctrl))
-    assert len(good) == 10
-    names = ["format", "b", "c", "kp", "kih", "htt", "ad", "bd", "out_min", "out_max"]
+    names = ["format", "b", "c", "kp", "kih", "htt", "ad", "bd", "fa", "fb", "out_min",
+             "out_max"]
+    assert len(good) == len(names)
     kp_m = int(good[3].strip("{}").split(",")[0].rstrip("L"))
     bad = {
         "format": "0x0UL",
@@ -420,6 +504,8 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
         "htt": "{-1073741824L, 20}",  # negative
         "ad": "{1073741824L, 30}",  # a pole of 1
         "bd": f"{{{-1073741824 if kp_m > 0 else 1073741824}L, 20}}",  # against kp
+        "fa": "{1073741824L, 31}",  # a filter's fa without its fb
+        "fb": "{1073741824L, 31}",  # fa + fb = 1 (fa 0.5 below): an unstable filter
         "out_min": "-2147483647L - 1L",  # INT32_MIN: no symmetric saturation
         "out_max": "-134217729L",  # below out_min
     }
@@ -429,6 +515,8 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
         values[names.index(name)] = value
         if name == "out_max":
             values[names.index("out_min")] = "-134217728L"
+        if name == "fb":
+            values[names.index("fa")] = "{1073741824L, 31}"
         sets.append(initializer(values))
     no_tracking = list(good)
     no_tracking[names.index("htt")] = "{0L, 31}"  # with an integral
@@ -453,7 +541,7 @@ def test_new_limits_clamp_the_held_output_in_manual_and_bound_every_output(tmp_p
     own = members(q31_params_c(retuned))  # in its own formats: another output scale
     narrow = members(q31_params_c(retuned, like=ctrl))
     assert narrow[0] == members(q31_params_c(ctrl))[0] != own[0]  # the export's format
-    assert narrow[8:10] == [f"{code(v, q.scales.u_scale)}L" for v in (-1.0, 2.0)]
+    assert narrow[-2:] == [f"{code(v, q.scales.u_scale)}L" for v in (-1.0, 2.0)]
     ops, _, _ = codes_of_the_run(ctrl)
     steps = ops[ops[:, 0] == 0][:300]
     mixed = np.vstack([steps[:50], [[1, code(20.0, q.scales.u_scale), 0], [3, 0, 0]],
@@ -476,14 +564,17 @@ def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
     good = members(q31_params_c(ctrl))
     big = 2**31 - 1
     fmt = good[0]
+    # the filter's (fa, fb): fa + fb just below 1 (its poles nearest the unit circle),
+    # either one at its smallest
     extremes = [
         [fmt, f"{{{big}L, 1}}", f"{{-{big}L, 1}}", f"{{{big}L, 1}}", f"{{{big}L, 1}}",
-         f"{{{big}L, 1}}", f"{{{big}L, 31}}", f"{{{big}L, 1}}", f"-{big}L", f"{big}L"],
+         f"{{{big}L, 1}}", f"{{{big}L, 31}}", f"{{{big}L, 1}}", f"{{{big - 1}L, 31}}",
+         "{1073741824L, 62}", f"-{big}L", f"{big}L"],
         [fmt, "{-1073741824L, 62}", "{1073741824L, 62}", f"{{-{big}L, 1}}",
          f"{{-{big}L, 1}}", "{1073741824L, 62}", "{1073741824L, 62}", f"{{-{big}L, 1}}",
-         f"-{big}L", f"{big}L"],
+         "{1073741824L, 62}", f"{{{big - 1}L, 31}}", f"-{big}L", f"{big}L"],
         [fmt, f"{{{big}L, 1}}", "{0L, 31}", "{1073741824L, 62}", "{0L, 31}", "{0L, 31}",
-         "{0L, 31}", "{0L, 31}", "0L", "0L"],
+         "{0L, 31}", "{0L, 31}", "{0L, 31}", "{0L, 31}", "0L", "0L"],
     ]
     values = [-big - 1, -big, -1, 0, 1, big]
     rows = []

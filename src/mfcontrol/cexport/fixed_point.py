@@ -21,9 +21,14 @@ saturates. A rejected sample (a measurement outside the input limits) holds the 
 and the next sample taken spans the time since the last one as the double law does, for
 up to 255 rejected in a row: the integral's increments times the d periods, the
 derivative divided by ``1 + (d - 1)(1 - ad)`` (its coefficients at d h; a 64-bit division
-on that step only). The coefficients and the output limits' codes are a parameter struct that
-``PREFIX_set_params`` checks and changes at run time (:func:`q31_params_c` writes one for
-new gains), or constants with ``frozen``.
+on that step only). The measurement filter (``Tf`` > 0) runs on the measurement's code
+times ``2^GUARD_BITS`` in 64 bits: its state is the filtered value ``x`` and its increment
+over a period ``w``, stepped as ``w = fa w + fb (y - x)``, ``x = x + w`` (the double law's
+backward difference, ``fa = 1 / fden``, ``fb = h c / fden``), and over d periods after a
+dropout as ``w = (fa w + d fb (y - x)) / Q``, ``x = x + d w``, ``Q = 1 + (d - 1)(1 - fa +
+d fb)`` (the same algebra at d h). The coefficients and the output limits' codes are a
+parameter struct that ``PREFIX_set_params`` checks and changes at run time
+(:func:`q31_params_c` writes one for new gains), or constants with ``frozen``.
 """
 
 from __future__ import annotations
@@ -107,6 +112,8 @@ class Q31Pid:
     ad: Coefficient
     bd: Coefficient  # bd Y_SCALE / U_SCALE
     derivative: bool
+    fa: Coefficient  # the measurement filter's 1 / fden (0: no filter)
+    fb: Coefficient  # and its h c / fden
 
 
 def code(value: float, scale: float) -> int:
@@ -160,9 +167,6 @@ def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
     with ``like``, the PID an export was made from, in that export's formats."""
     cp = ctrl._CP[:, 0]
     sc = export_scales(ctrl, key_prefix, like)
-    if cp[pid.TF] != 0.0:
-        raise ConfigError(f"{key_prefix}Tf", float(cp[pid.TF]), "the fixed-point PID has no "
-                          "measurement filter yet: export with Tf 0, or in float")
     h = ctrl.sample_time
     sy, su = sc.y_scale, sc.u_scale
     ratio = sy / su
@@ -170,9 +174,21 @@ def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
     tt = float(cp[pid.TT])
     derivative = kd != 0.0
     # the law's own coefficients at the nominal period
-    kih, htt, ad, bd, _, _ = pid.coefficients(ctrl._CP, 0, h)
+    kih, htt, ad, bd, fc, fden = pid.coefficients(ctrl._CP, 0, h)
     guard = 2.0**GUARD_BITS
     p = key_prefix
+    fa = fb = Coefficient(0.0, 0, 31)
+    tf = float(cp[pid.TF])
+    if tf > 0.0:  # both below 1: shifts of 31 or more
+        try:
+            fa = Coefficient.of(1.0 / fden, f"{p}Tf", tf, shifts=(31, 62))
+            fb = Coefficient.of(h * fc / fden, f"{p}Tf", tf, shifts=(31, 62))
+        except ConfigError:
+            raise ConfigError(f"{p}Tf", tf, f"gives the measurement filter's coefficients "
+                              f"{1.0 / fden:.3g} and {h * fc / fden:.3g}, which q31 cannot "
+                              "hold (each in [2^-32, 1)): with the sample period "
+                              f"{h!r} s, Tf must be within about h / 46,000 and 92,000 h, "
+                              "or 0 (no filter); or export in float") from None
     return Q31Pid(
         sc,
         Coefficient.of(float(cp[pid.B]), f"{p}b"), Coefficient.of(float(cp[pid.C]), f"{p}c"),
@@ -181,7 +197,7 @@ def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
         Coefficient.of(htt * guard, f"{p}Tt", tt),
         # a pole below 1 (shift 31 or more): one within 2^-32 of 1 would round to 1
         Coefficient.of(ad, f"{p}N", n, shifts=(31, 62)),
-        Coefficient.of(bd * ratio, f"{p}kd", kd), derivative)
+        Coefficient.of(bd * ratio, f"{p}kd", kd), derivative, fa, fb)
 
 
 #: the q31 PID's coefficients, in the order of its parameter struct: (member, what it is)
@@ -194,6 +210,9 @@ _COEFFICIENTS = (
     ("ad", "the derivative filter's pole Td / (Td + N h), in [0, 1)", (1, 62)),
     ("bd", "kp Td N / (Td + N h) * @PU@_Y_SCALE / @PU@_U_SCALE, of kp's sign or 0",
      (1, 62)),
+    ("fa", "the measurement filter's 1 / (1 + 2 h / Tf + 2 (h / Tf)^2), in (0, 1); 0 with fb "
+     "for no filter", (31, 62)),
+    ("fb", "and 2 (h / Tf)^2 fa, in (0, 1), fa + fb < 1", (31, 62)),
 )
 
 
@@ -248,6 +267,10 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
     q = q31_pid(ctrl, key_prefix)
     coefficients = [(name.upper(), getattr(q, name)) for name, _, _ in _COEFFICIENTS]
     PU = prefix.upper()
+    filtered = q.fb.mantissa != 0
+    filter_parts = {"FILTER_STATE": _FILTER_STATE, "FILTER_START": _FILTER_START,
+                    "FILTER_INIT": "    s->yf = 0;\n    s->yw = 0;\n",
+                    "FILTER_DEFINES": _FILTER_DEFINES, "FILTER_HELPERS": _FILTER_HELPERS}
     if frozen:
         subs = {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
         weighted = q.c.mantissa != 0
@@ -255,20 +278,26 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                       + (_WEIGHTED.replace("\n ", "\n     ") if weighted else _PLAIN)
                       + ";\n" + _D_STEP + "    }\n") if q.derivative else ""
         subs |= {"DERIVATIVE": derivative, "OVER_GAP": _OVER_GAP if q.derivative else "",
+                 "FILTER": _FILTER if filtered else "",
+                 "TO31": _TO31 if q.derivative or filtered else "",
                  "ULIM": f"{PU}_U_LO, {PU}_U_HI", "MUL": _MUL[True]}
+        subs |= {key: text if filtered else "" for key, text in filter_parts.items()}
         subs |= dict.fromkeys(TUNABLE_PARTS, "")
     else:
         subs = {name: f"s->params.{name.lower()}.m, s->params.{name.lower()}.s"
                 for name, _ in coefficients}
         subs |= {"DERIVATIVE": _fill(_DERIVATIVE, {"WEIGHTED": _WEIGHTED, "PLAIN": _PLAIN,
                                                    "D_STEP": _D_STEP}),
-                 "OVER_GAP": _OVER_GAP,
+                 "OVER_GAP": _OVER_GAP, "TO31": _TO31,
+                 # run only where the parameters have a filter
+                 "FILTER": "    if (s->params.fb.m != 0) " + _FILTER.lstrip(),
                  "ULIM": "s->params.out_min, s->params.out_max", "MUL": _MUL[False]}
+        subs |= filter_parts
         subs |= tunable_parts(prefix, _COEFFICIENTS, q31_params_c(ctrl, key_prefix),
                               _format("pid", ctrl, q.scales), "the PID's coefficients",
                               _PID_CHECKS, _PID_APPLY)
     # the pieces first: the coefficients' names in them are filled after
-    subs = {key: subs[key] for key in ("DERIVATIVE", "OVER_GAP")} | subs
+    subs = {key: subs[key] for key in ("DERIVATIVE", "OVER_GAP", "FILTER")} | subs
     # the tunable build's coefficients are its default parameter set's, not constants
     return q31_files(ctrl, q.scales, coefficients if frozen else [], prefix=prefix,
                      banner=banner, templates=(_HEADER, _SOURCE), subs=subs)
@@ -352,7 +381,7 @@ _HEADER = """@Q31_HEAD@@PARAMS@
 typedef struct {
 @STATE_PARAMS@    int64_t i;              /* the integral, in output codes * 2^@F@ */
     int32_t d;              /* the derivative term, output codes */
-    int32_t y_old, r_old;   /* the last sample's measurement and setpoint */
+@FILTER_STATE@    int32_t y_old, r_old;   /* the last sample's (filtered) measurement, setpoint */
     int32_t start;          /* the output the next sample is set to give (bumpless) */
     int32_t last_output;    /* returned in manual mode and after a rejected sample */
     unsigned long nan_count; /* rejected: a measurement outside the input limits */
@@ -389,7 +418,7 @@ _OVER_GAP = """/* The derivative over d periods (d in [2, 256]) from its value x
  * same). On the step after rejected samples only: a 64-bit division. */
 static int64_t @P@_over_gap(int64_t x, int d, int32_t m, int shift)
 {
-    int64_t a = m == 0 ? 0 : shift == 31 ? m : ((((int64_t)m >> (shift - 32)) + 1) >> 1);
+    int64_t a = @P@_to31(m, shift);
     int64_t den = (((int64_t)1 << 31) + (d - 1) * (((int64_t)1 << 31) - a)) >> 8;
     int64_t num;
     if (x > ((int64_t)1 << 39)) x = (int64_t)1 << 39;
@@ -398,6 +427,87 @@ static int64_t @P@_over_gap(int64_t x, int d, int32_t m, int shift)
     return num >= 0 ? (num + den / 2) / den : -((-num + den / 2) / den);
 }
 
+"""
+
+#: a coefficient below 1 rounded to 2^-31 (the steps over a gap of periods take it)
+_TO31 = """\
+/* a coefficient m 2^-s below 1 (s >= 31) rounded to 2^-31, times 2^31 */
+static int64_t @P@_to31(int32_t m, int shift)
+{
+    return m == 0 ? 0 : shift == 31 ? m : ((((int64_t)m >> (shift - 32)) + 1) >> 1);
+}
+
+"""
+
+#: the measurement filter's arithmetic (where the step has a filter)
+_FILTER_HELPERS = """\
+/* x * M * 2^-s rounded to nearest, ties up, for |x| <= 2^57, |M| <= 2^31 and s in
+ * [31, 62] (a filter coefficient, at most 1): x = hi 2^31 + lo (0 <= lo < 2^31) and
+ * lo M = bh 2^31 + bl (0 <= bl < 2^31), so x M = t 2^31 + bl, t = hi M + bh, |t| < 2^58:
+ * no product overflows */
+static int64_t @P@_fmul(int64_t x, int64_t m, int shift)
+{
+    int64_t hi = x >> 31;
+    int64_t lo = x - hi * ((int64_t)1 << 31);
+    int64_t b = lo * m;
+    int64_t bh = b >> 31;
+    int64_t t = hi * m + bh;
+    int64_t bl = b - bh * ((int64_t)1 << 31);
+    return (t + ((bl + ((int64_t)1 << (shift - 1))) >> 31)) >> (shift - 31);
+}
+
+static int64_t @P@_sat_to(int64_t x, int64_t bound)
+{
+    return x > bound ? bound : (x < -bound ? -bound : x);
+}
+
+/* The filter's coefficients over d periods (d in [2, 256]), times 2^31: its step at d h,
+ * w = (fa w + d fb e) / Q with Q = 1 + (d - 1)(1 - fa + d fb), is w = alpha w + beta e with
+ * alpha = fa / Q and beta = d fb / Q, both at most 1 (Q >= 1 + (d - 1) d fb). fa and fb
+ * rounded to 2^-31; Q 2^31 < 2^47; beta's quotient in two steps, so that no product
+ * passes 2^62. On the step after rejected samples only: three 64-bit divisions. */
+static void @P@_filter_gap(int d, int32_t am, int as, int32_t bm, int bs, int64_t *alpha,
+                           int64_t *beta)
+{
+    int64_t fa = @P@_to31(am, as), fb = @P@_to31(bm, bs);
+    int64_t q = ((int64_t)1 << 31) + (d - 1) * (((int64_t)1 << 31) - fa + d * fb);
+    int64_t n = d * fb * ((int64_t)1 << 23);
+    int64_t hi = n / q;
+    *alpha = (fa * ((int64_t)1 << 31) + q / 2) / q;
+    *beta = hi * 256 + ((n - hi * q) * 256 + q / 2) / q;
+}
+
+"""
+
+#: the measurement filter's step: y becomes the filtered measurement's code
+_FILTER = """\
+    {  /* the measurement filter (y * 2^F, in 64 bits): y becomes its filtered code */
+        int64_t e = (int64_t)y * ((int64_t)1 << @PU@_F) - s->yf;
+        int64_t w;
+        if (gap == 1) {
+            w = @P@_fmul(s->yw, @FA@) + @P@_fmul(e, @FB@);
+        } else {  /* one step over the gap, as the double law takes it */
+            int64_t alpha, beta;
+            @P@_filter_gap(gap, @FA@, @FB@, &alpha, &beta);
+            w = @P@_fmul(s->yw, alpha, 31) + @P@_fmul(e, beta, 31);
+        }
+        s->yw = @P@_sat_to(w, @PU@_W_MAX);
+        s->yf = @P@_sat_to(s->yf + @P@_times(s->yw, gap), @PU@_X_MAX);
+        y = @P@_sat32((s->yf + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F);
+    }
+"""
+_FILTER_STATE = """\
+    int64_t yf;             /* the filtered measurement, input codes * 2^@F@ */
+    int64_t yw;             /* its increment over the last period, the same units */
+"""
+_FILTER_START = """\
+        s->yf = (int64_t)y * ((int64_t)1 << @PU@_F); /* at rest at the first one */
+        s->yw = 0;
+"""
+_FILTER_DEFINES = """\
+/* the filter's bounds, input codes * 2^F: its value (a code's), its increment */
+#define @PU@_X_MAX ((int64_t)1 << (31 + @PU@_F))
+#define @PU@_W_MAX ((int64_t)1 << (32 + @PU@_F))
 """
 
 #: the step's derivative: in the tunable build, tested at run time (a derivative, a
@@ -525,6 +635,11 @@ _PID_CHECKS = {
            "p->ad.m < 0 || (p->ad.m != 0 && p->ad.s < 31)"),
     "bd": ("kd of kp's sign, or 0",
            "(p->bd.m > 0 && p->kp.m <= 0) || (p->bd.m < 0 && p->kp.m >= 0)"),
+    "fa": ("the filter's fa > 0 with fb, 0 with it (no filter)",
+           "p->fa.m < 0 || (p->fa.m == 0) != (p->fb.m == 0)"),
+    "fb": ("fb >= 0 and fa + fb < 1 (a filter of positive time constants)",
+           "p->fb.m < 0 ||\n        (p->fb.m != 0 && @P@_to31(p->fa.m, p->fa.s) + "
+           "@P@_to31(p->fb.m, p->fb.s) >= ((int64_t)1 << 31))"),
 }
 _PID_APPLY = """\
     if (s->mode != @PU@_MANUAL && !s->started && !s->pending) {
@@ -590,7 +705,7 @@ _SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO (@ULO@L)
 #define @PU@_T_MAX ((int64_t)1 << (61 - @PU@_F))
 /* rejected samples in a row a step spans at most (a longer gap counts as this one) */
 #define @PU@_SKIP_MAX 255
-
+@FILTER_DEFINES@
 static int32_t @P@_sat32(int64_t x)
 {
     if (x > INT32_MAX) return INT32_MAX;
@@ -620,7 +735,7 @@ static int64_t @P@_times(int64_t x, int d)
     return x * d;
 }
 
-@OVER_GAP@static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
+@TO31@@FILTER_HELPERS@@OVER_GAP@static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
 {
     return (int32_t)(v > hi ? hi : (v < lo ? lo : v));
 }
@@ -629,7 +744,7 @@ void @P@_init(@P@_state *s)
 {
     s->i = 0;
     s->d = 0;
-    s->y_old = 0;
+@FILTER_INIT@    s->y_old = 0;
     s->r_old = 0;
     s->start = 0;
 @INIT_PARAMS@    s->last_output = @P@_clamp(0, @ULIM@);
@@ -657,8 +772,8 @@ void @P@_init(@P@_state *s)
     if (!s->started) {
         s->y_old = y;
         s->r_old = setpoint;
-    }
-    p = @P@_mul(@P@_sat32(@P@_mul(setpoint, @B@) - y), @KP@);
+@FILTER_START@    }
+@FILTER@    p = @P@_mul(@P@_sat32(@P@_mul(setpoint, @B@) - y), @KP@);
 @DERIVATIVE@    if (s->pending) {  /* the bumpless start: the integral that gives `start` */
         int64_t t = (int64_t)s->start - p - d;
         if (t > @PU@_T_MAX) t = @PU@_T_MAX;
