@@ -54,34 +54,67 @@ def test_the_m0_small_multiplier_takes_32_cycles():
     assert cost(_ins("muls r1, r1, r1"), "m0", taken=False, small_multiplier=True) == (32, 32)
 
 
-@pytest.mark.parametrize("text,taken,after_memory,cycles", [
-    ("add.w r1, r2, r1, lsl #2", False, False, (1, 1)),
-    ("umull r0, ip, r0, r2", False, False, (1, 1)),  # the M4's single-cycle 32 x 32 -> 64
-    ("mla r1, r2, r1, r3", False, False, (1, 1)),
-    ("sdiv r0, r1, r2", False, False, (2, 12)),
-    ("ldr r0, [r1, #4]", False, False, (2, 2)),
-    ("ldr.w r3, [r2, #4]!", False, True, (1, 2)),  # may overlap the load before
-    ("ldrd r0, r1, [r2]", False, False, (3, 3)),
-    ("push {r4, r5, lr}", False, False, (4, 4)),
-    ("pop {r4, pc}", True, False, (4, 6)),  # 1 + N + P
-    ("bne.n c <f+0xc>", False, False, (1, 1)),
-    ("bne.n c <f+0xc>", True, False, (2, 4)),  # 1 + P, P from 1 to 3
-    ("cbz r0, 10 <f+0x10>", True, False, (2, 4)),
-    ("bl 0 <g>", True, False, (2, 4)),
-    ("ite ne", False, False, (0, 1)),  # folded into the instruction before, or not
-    ("movne r0, #1", False, False, (1, 1)),
-    ("ldrne r0, [r1]", False, False, (2, 2)),  # a condition from an IT block
-    ("vadd.f32 s0, s0, s1", False, False, (1, 1)),
-    ("vfma.f32 s15, s0, s1", False, False, (3, 3)),
-    ("vdiv.f32 s15, s0, s1", False, False, (14, 14)),
-    ("vldr s15, [r0, #4]", False, False, (2, 2)),
-    ("vmov r0, r1, d0", False, False, (2, 2)),
-    ("vmov s0, r0", False, False, (1, 1)),
-    ("vpush {s16-s19}", False, False, (5, 5)),
-    ("vpush {d8}", False, False, (3, 3)),
+_MOVS, _LOAD, _STORE = "movs r3, #1", "ldr r2, [r3, #0]", "str r2, [r3, #0]"
+
+
+@pytest.mark.parametrize("text,taken,before,cycles", [
+    ("add.w r1, r2, r1, lsl #2", False, None, (1, 1)),
+    ("umull r0, ip, r0, r2", False, None, (1, 1)),  # the M4's single-cycle 32 x 32 -> 64
+    ("mla r1, r2, r1, r3", False, None, (1, 1)),
+    ("sdiv r0, r1, r2", False, None, (2, 12)),
+    ("ldr r0, [r1, #4]", False, None, (2, 2)),
+    ("ldr.w r0, [r1, #4]!", False, _LOAD, (1, 2)),  # may overlap the load before
+    ("ldr.w r0, [r2, #4]", False, _LOAD, (2, 3)),  # not when the load gave its address
+    ("ldr r0, [r1, #4]", False, _STORE, (2, 2)),  # nothing overlaps a store
+    ("str r0, [r1, #4]", False, None, (1, 2)),  # a store with an immediate offset: 1
+    ("str r0, [r1, r2]", False, None, (2, 2)),
+    ("ldr r0, [r3, #4]", False, _MOVS, (2, 3)),  # its address just computed: a stall
+    ("ldr r0, [pc, #8]", False, None, (2, 3)),  # a literal "might add a cycle"
+    ("ldrd r0, r1, [r2]", False, None, (3, 3)),
+    ("push {r4, r5, lr}", False, None, (4, 4)),
+    ("pop {r4, pc}", True, None, (4, 6)),  # 1 + N + P
+    ("popne {r4, pc}", False, None, (3, 3)),  # its condition failed: no refill
+    ("bne.n c <f+0xc>", False, None, (1, 1)),
+    ("bne.n c <f+0xc>", True, None, (2, 4)),  # 1 + P, P from 1 to 3
+    ("cbz r0, 10 <f+0x10>", True, None, (2, 4)),
+    ("bl 0 <g>", True, None, (2, 4)),
+    ("bxeq lr", True, None, (2, 4)),  # a branch in an IT block
+    ("bxeq lr", False, None, (1, 1)),
+    ("tbb [pc, r3]", True, None, (3, 6)),
+    ("ite ne", False, _MOVS, (0, 1)),  # folded into a 16-bit instruction before it
+    ("ite ne", False, "add.w r1, r2, r1, lsl #2", (1, 1)),  # not into a 32-bit one
+    ("movne r0, #1", False, None, (1, 1)),
+    ("ldrne r0, [r1]", False, None, (2, 2)),  # a condition from an IT block
+    ("mrs r0, PRIMASK", False, None, (1, 2)),
+    ("vadd.f32 s0, s0, s1", False, None, (1, 1)),
+    ("vfma.f32 s15, s0, s1", False, None, (3, 3)),
+    ("vdiv.f32 s15, s0, s1", False, None, (14, 14)),
+    ("vldr s15, [r0, #4]", False, None, (2, 2)),
+    ("vldr d8, [r0, #8]", False, None, (3, 3)),
+    ("vmov r0, r1, d0", False, None, (2, 2)),
+    ("vmov s0, r0", False, None, (1, 1)),
+    ("vpush {s16-s19}", False, None, (5, 5)),
+    ("vpush {d8}", False, None, (3, 3)),
 ])
-def test_cortex_m4_cycles_are_tables_3_1_and_7_1s(text, taken, after_memory, cycles):
-    assert cost(_ins(text, 4), "m4f", taken=taken, after_memory=after_memory) == cycles
+def test_cortex_m4_cycles_are_tables_3_1_and_7_1s(text, taken, before, cycles):
+    size = 2 if before in (_MOVS, _LOAD, _STORE) else 4
+    before = None if before is None else _ins(before, size)
+    assert cost(_ins(text, 4), "m4f", taken=taken, before=before) == cycles
+
+
+def test_a_failure_reading_the_trace_is_raised_not_lost(tmp_path, monkeypatch):
+    """An address missing from the disassembly stops the count with an error (it was
+    swallowed in the reader's thread, and run returned the spans before it)."""
+    import mfcontrol.cexport.cortex_m_cycles as cycles
+
+    _require_tools()
+    elf = _build(tmp_path, "m0")
+    code = cycles.disassemble(elf)
+    routine = cycles._symbols(elf)["routine"]  # its first instruction: run in a span
+    monkeypatch.setattr(cycles, "disassemble",
+                        lambda _: {a: i for a, i in code.items() if a != routine})
+    with pytest.raises(ValueError, match="no instruction at"):
+        cycles.run(elf, "m0")
 
 
 def test_an_unknown_target_is_refused():
@@ -166,15 +199,18 @@ EXPECTED = {
 }
 
 
+def _build(folder, target: str):
+    flags, _ = cortex_m.TARGETS[target]
+    (folder / "routine.S").write_text(_ROUTINE)
+    subprocess.run(["arm-none-eabi-gcc", *flags, "-c", "routine.S", "-o", "routine.o"],
+                   cwd=folder, check=True, timeout=600)
+    return cortex_m.build(folder, target, ["routine.o"], _MAIN)
+
+
 @pytest.mark.parametrize("target", ["m0", "m4f"])
 def test_a_routine_run_under_qemu_takes_the_cycles_counted_by_hand(target, tmp_path):
     from mfcontrol.cexport.cortex_m_cycles import run
 
     _require_tools()
-    flags, _ = cortex_m.TARGETS[target]
-    (tmp_path / "routine.S").write_text(_ROUTINE)
-    subprocess.run(["arm-none-eabi-gcc", *flags, "-c", "routine.S", "-o", "routine.o"],
-                   cwd=tmp_path, check=True, timeout=600)
-    elf = cortex_m.build(tmp_path, target, ["routine.o"], _MAIN)
-    empty, routine = run(elf, target)
+    empty, routine = run(_build(tmp_path, target), target)
     assert tuple(a - b for a, b in zip(routine, empty, strict=True)) == EXPECTED[target]

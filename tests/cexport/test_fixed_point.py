@@ -454,7 +454,7 @@ def test_set_params_restarts_bumplessly_on_the_new_coefficients(tmp_path):
     from manual does: the codes after it are those of an export built with the new gains,
     put in manual at the last output and back to automatic. The double law's retune does
     the same, and the two stay within a small tolerance of each other."""
-    ctrl, new = controller({}), controller(RETUNED)
+    ctrl, new = controller({"controller.Tf": 0.005}), controller(RETUNED)
     ops, _, _ = codes_of_the_run(ctrl)
     k = 300
     steps = ops[ops[:, 0] == 0]
@@ -482,14 +482,31 @@ def test_set_params_restarts_bumplessly_on_the_new_coefficients(tmp_path):
     assert np.max(np.abs(u_q - np.array(u))) < 1e-4 * 48.0
 
 
+def test_an_export_without_a_filter_refuses_one(tmp_path):
+    """An export made with Tf 0 has no filter code (1.5 KB less on a Cortex-M0): a set
+    with a filter is refused by its setter (fa, the first filter member) and by
+    q31_params_c(like=) on the host; a set without one is taken."""
+    ctrl = controller({})
+    with pytest.raises(ConfigError, match=r"Tf = 0.002: must be 0 for this export"):
+        q31_params_c(controller({"controller.Tf": 0.002}), like=ctrl)
+    src = c_source(ctrl, real="q31")
+    assert "fmul" not in src.source
+    steps = codes_of_the_run(ctrl)[0][:5]
+    sets = [q31_params_c(controller({"controller.Tf": 0.002})), q31_params_c(ctrl)]
+    out, _ = run(build(src, tmp_path, sets=sets),
+                 np.vstack([steps, [[3, 0, 0], [3, 1, 0]]]))
+    assert out[-2:].tolist() == [9, 0]  # PREFIX_FIELD_FA, then taken
+
+
 def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
     """Each member out of what the law takes (a set for other formats, a mantissa or a
     shift the products cannot take, a negative tracking, a tracking of 0 with an integral,
-    a pole at 1, a derivative against kp's sign, a filter's fa without fb, a filter with
+    a pole at 1, a derivative against kp's sign, a filter's fb without fa, a filter with
     fa + fb = 1, limits out of order) is refused with its
     field's number, and the codes go on as if the call had not been made; an unchanged
     set is taken (0) and changes nothing; a null pointer is refused with -1."""
-    ctrl = controller(VARIANTS[1] | {"controller.duty_min": -24.0, "controller.duty_max": 24.0})
+    ctrl = controller(VARIANTS[1] | {"controller.duty_min": -24.0, "controller.duty_max": 24.0,
+                                     "controller.Tf": 0.002})
     good = members(q31_params_c(ctrl))
     names = ["format", "b", "c", "kp", "kih", "htt", "ad", "bd", "fa", "fb", "out_min",
              "out_max"]
@@ -504,7 +521,7 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
         "htt": "{-1073741824L, 20}",  # negative
         "ad": "{1073741824L, 30}",  # a pole of 1
         "bd": f"{{{-1073741824 if kp_m > 0 else 1073741824}L, 20}}",  # against kp
-        "fa": "{1073741824L, 31}",  # a filter's fa without its fb
+        "fa": "{0L, 31}",  # a filter's fb without its fa
         "fb": "{1073741824L, 31}",  # fa + fb = 1 (fa 0.5 below): an unstable filter
         "out_min": "-2147483647L - 1L",  # INT32_MIN: no symmetric saturation
         "out_max": "-134217729L",  # below out_min
@@ -560,7 +577,7 @@ def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
     """Sets at the ends of what the setter takes (mantissas at +-(2^31 - 1) and 2^30,
     shifts at 1 and 62, limits at +-(2^31 - 1)), driven with hostile codes under
     -fsanitize=undefined: no overflow, every output within the limits."""
-    ctrl = controller({})
+    ctrl = controller({"controller.Tf": 0.002})  # an export that runs a filter
     good = members(q31_params_c(ctrl))
     big = 2**31 - 1
     fmt = good[0]
@@ -581,7 +598,7 @@ def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
     for i in range(len(extremes)):
         rows += [[3, i, 0]] + [[0, a, b] for a in values for b in values]
         rows += [[1, big, 0], [0, 0, 0], [2, 0, 0], [0, big, -big - 1], [0, -big - 1, big]]
-    exe = build(c_source(controller({}), real="q31"), tmp_path,
+    exe = build(c_source(controller({"controller.Tf": 0.002}), real="q31"), tmp_path,
                 ("-fsanitize=undefined", "-fno-sanitize-recover=all"),
                 sets=[initializer(e) for e in extremes])
     # the input limits still reject out-of-range codes; the rest must stay defined

@@ -8,14 +8,17 @@ the trace holds. Both manuals give their counts for memory with no wait states; 
 whose flash needs wait states at its clock takes more.
 
 - **Cortex-M0**: the counts are exact for every instruction but one choice: ``MULS`` takes
-  1 cycle with the fast multiplier or 32 with the small one. :data:`M0` assumes the fast
-  one (STM32F0, LPC11xx, SAMD21's M0+ and most parts); :func:`cost` takes the other.
+  1 cycle with the fast multiplier or 32 with the small one. The counts assume the fast
+  one (STM32F0, LPC11xx and most parts); ``small_multiplier=True`` takes the other. (The
+  Cortex-M0+ has other timings: a taken branch costs 2, not 3.)
 - **Cortex-M4**: some counts are ranges, so each step has a low and a high count:
-  - a load or store right after another one can overlap it and take 1 cycle (low),
-    otherwise 2 (high);
+  - a load takes 1 cycle right after a load whose result is not its address (the two
+    overlap), a store with an immediate offset 1, others 2 (low); 2 each, plus 1 for a
+    literal load (``[pc, #]``) and 1 for an address the instruction before computed
+    (high);
   - a taken branch adds a pipeline refill P of 1 (low) to 3 (high) cycles;
   - ``SDIV``/``UDIV`` take 2 (low) to 12 (high) cycles, depending on the operands;
-  - an ``IT`` may fold into the instruction before it (0 cycles, low) or take 1 (high);
+  - an ``IT`` may fold into a 16-bit instruction before it (0 cycles, low) or take 1;
   - the FPU's ``VDIV``/``VSQRT`` are counted at 14 in both: they can overlap later integer
     instructions, so the low count may overstate what a board measures.
 
@@ -95,7 +98,7 @@ def disassemble(elf: Path) -> dict[int, Instruction]:
 
 def _base(mnemonic: str) -> str:
     """The mnemonic without its width qualifier (``.n``, ``.w``), data type (``.f32``) or
-    condition (``beq`` -> ``b``, ``addeq`` -> ``add``)."""
+    condition (``beq`` -> ``b``, ``addeq`` -> ``add``, ``bxne`` -> ``bx``)."""
     name = mnemonic.split(".")[0]
     if name in ("bl", "bls", "blx", "bx", "b"):  # bls is b + ls, blx and bx are branches
         return "b" if name in ("b", "bls") else name
@@ -118,7 +121,7 @@ def _known(stem: str) -> bool:
                         "rors", "ubfx", "sbfx", "bfi", "bfc", "clz", "ssat", "usat", "sxth",
                         "sxtb", "uxth", "uxtb", "vmov", "vadd", "vsub", "vmul", "vneg",
                         "vabs", "vcmp", "vcmpe", "vcvt", "vldr", "vstr", "vdiv", "vsqrt",
-                        "vmrs", "vmsr", "vnmul"))
+                        "vmrs", "vmsr", "vnmul", "bl", "blx", "bx", "tbb", "tbh"))
 
 
 def _registers(operands: str) -> list[str]:
@@ -137,23 +140,40 @@ def _registers(operands: str) -> list[str]:
     return names
 
 
+def _first(ins: Instruction) -> str:
+    """The first operand: the register an instruction writes (most of them)."""
+    return ins.operands.split(",")[0].strip()
+
+
 def _writes_pc(ins: Instruction) -> bool:
-    first = ins.operands.split(",")[0].strip()
-    return first == "pc"
+    return _first(ins) == "pc"
 
 
-def cost(ins: Instruction, target: str, taken: bool, after_memory: bool = False,
+def _address_base(ins: Instruction) -> str:
+    """The base register of a load's or store's address (``[r1, #4]`` -> ``r1``)."""
+    inside = ins.operands.partition("[")[2]
+    return inside.split(",")[0].split("]")[0].strip()
+
+
+#: what writes no register of its first operand (a stored value, a compared one, a target)
+_NO_RESULT = _MULTIPLE | {"str", "strb", "strh", "strd", "cmp", "cmn", "tst", "teq", "b",
+                          "bl", "bx", "blx", "cbz", "cbnz", "vstr", "vcmp", "vcmpe"}
+
+
+def cost(ins: Instruction, target: str, taken: bool, before: Instruction | None = None,
          small_multiplier: bool = False) -> tuple[int, int]:
     """(low, high) cycles of one instruction on ``target`` ("m0" or "m4f").
 
     ``taken``: the next instruction executed is not the one that follows in memory (a
-    branch taken). ``after_memory``: the instruction before was a single load or store
-    (a Cortex-M4 overlaps the two). ``small_multiplier``: a Cortex-M0 whose ``MULS`` takes
-    32 cycles. On the M0 the two counts are equal.
+    branch taken). ``before``: the instruction executed just before (a Cortex-M4 overlaps
+    a load with the one before it, folds an ``IT`` into a 16-bit one, and stalls a load
+    whose address the one before computed). ``small_multiplier``: a Cortex-M0 whose
+    ``MULS`` takes 32 cycles. On the M0 the two counts are equal.
 
     Examples
     --------
-    >>> cost(Instruction(2, "ldr", "r0, [r1, #4]"), "m4f", taken=False, after_memory=True)
+    >>> load = Instruction(2, "ldr", "r0, [r1, #4]")
+    >>> cost(load, "m4f", taken=False, before=Instruction(2, "ldr", "r2, [r3, #0]"))
     (1, 2)
     >>> cost(Instruction(2, "bne.n", "c <f+0xc>"), "m0", taken=False)
     (1, 1)
@@ -163,7 +183,7 @@ def cost(ins: Instruction, target: str, taken: bool, after_memory: bool = False,
     name = _base(ins.mnemonic)
     if target == "m0":
         return (_m0(name, ins, taken, small_multiplier),) * 2
-    return _m4(name, ins, taken, after_memory)
+    return _m4(name, ins, taken, before)
 
 
 def _m0(name: str, ins: Instruction, taken: bool, small_multiplier: bool) -> int:
@@ -192,44 +212,59 @@ def _m0(name: str, ins: Instruction, taken: bool, small_multiplier: bool) -> int
 
 
 def _m4(name: str, ins: Instruction, taken: bool,
-        after_memory: bool) -> tuple[int, int]:
-    refill = (1, 3)  # P
-    if name in ("b", "cbz", "cbnz"):
-        return (1 + refill[0], 1 + refill[1]) if taken else (1, 1)
-    if name in ("bl", "bx", "blx"):
-        return 1 + refill[0], 1 + refill[1]
-    if name in ("tbb", "tbh"):
-        return 2 + refill[0], 2 + refill[1]
+        before: Instruction | None) -> tuple[int, int]:
+    P = (1, 3)  # the pipeline's refill after a branch taken
+    if name in ("b", "cbz", "cbnz", "bl", "bx", "blx"):
+        # B<cond>, CBZ: 1 not taken; the others only when their condition failed
+        return (1 + P[0], 1 + P[1]) if taken else (1, 1)
+    if name in ("tbb", "tbh"):  # 2 + P in table 3-1; "at least six" in section 3.3.2
+        return (2 + P[0], 6) if taken else (2, 2)
     if name in _LOADS_STORES:
-        if _writes_pc(ins):  # LDR PC: 2 + P
-            return 2 + refill[0], 2 + refill[1]
-        return (1 if after_memory else 2), 2
+        if _writes_pc(ins):  # LDR PC: 2 + P (a failed condition: a load)
+            return (2 + P[0], 2 + P[1]) if taken else (2, 2)
+        previous = _base(before.mnemonic) if before is not None else ""
+        # low: a load right after a load overlaps it (table 3-1's note: neighbouring
+        # loads pipeline; nothing after a store does, nor a load whose address the one
+        # before loaded), and a store with an immediate offset always takes one cycle
+        # (its data phase overlaps the next instruction)
+        store_imm = name.startswith("str") and "#" in ins.operands and "[pc" not in ins.operands
+        after_load = (before is not None and previous.startswith("ldr")
+                      and previous in _LOADS_STORES
+                      and _first(before) != _address_base(ins))  # not a pointer chased
+        low = 1 if store_imm or after_load else 2
+        # high: a literal load "might add a cycle"; an address the instruction before
+        # computed stalls one
+        high = 2 + ("[pc" in ins.operands)
+        if (before is not None and previous not in _NO_RESULT
+                and _first(before) == _address_base(ins)):
+            high += 1
+        return low, high
     if name in ("ldrd", "strd"):
         return 3, 3
     if name in _MULTIPLE:
         regs = _registers(ins.operands)
         n = 1 + sum(2 if r.startswith("d") else 1 for r in regs)  # a d register: 2 words
-        return (n + refill[0], n + refill[1]) if "pc" in regs else (n, n)
+        return (n + P[0], n + P[1]) if "pc" in regs and taken else (n, n)
     if name in ("sdiv", "udiv"):
         return 2, 12
     if name in ("vdiv", "vsqrt"):
         return 14, 14
     if name in _FPU_3:
         return 3, 3
-    if name in ("vldr", "vstr"):
-        return 2, 2
+    if name in ("vldr", "vstr"):  # single 2, double 3
+        return (3, 3) if _first(ins).startswith("d") else (2, 2)
     if name == "vmov" and ins.operands.count(",") >= 2:  # two core registers and a pair
         return 2, 2
     if len(name) <= 5 and name.startswith("it") and set(name[2:]) <= {"t", "e"}:
-        return 0, 1
+        # folded into a 16-bit instruction before it, else one cycle
+        return (0 if before is not None and before.size == 2 else 1), 1
+    if name in ("mrs", "msr", "cpsid", "cpsie"):
+        return 1, 2
+    if name in ("dmb", "dsb", "isb"):  # 1 + B (ISB: 1 + P), B taken as at most 3
+        return 2, 4
     if name in ("add", "mov") and _writes_pc(ins):
-        return 1 + refill[0], 1 + refill[1]
+        return 1 + P[0], 1 + P[1]
     return 1, 1
-
-
-def is_memory(ins: Instruction) -> bool:
-    """A single load or store: what a Cortex-M4 overlaps with the next one."""
-    return _base(ins.mnemonic) in _LOADS_STORES and not _writes_pc(ins)
 
 
 class StepCycles:
@@ -250,32 +285,32 @@ class StepCycles:
         self.before, self.after = before, after
         self.small_multiplier = small_multiplier
         self.steps: list[tuple[int, int, int]] = []
-        self._costs: dict[tuple[int, int, bool], tuple[int, int, bool]] = {}
+        self._costs: dict[tuple[int | None, int, int], tuple[int, int]] = {}
         self._inside = False
         self._previous: int | None = None
-        self._after_memory = False
+        self._before: int | None = None  # the instruction before the previous one
         self._n = self._low = self._high = 0
 
     def feed(self, pc: int) -> None:
         """The next address the core executed."""
         previous, self._previous = self._previous, pc
+        before, self._before = self._before, previous
         if self._inside and previous is not None and previous != self.before:
-            key = (previous, pc, self._after_memory)
+            key = (before, previous, pc)
             known = self._costs.get(key)
             if known is None:  # an instruction's cost depends only on this key: keep it
                 ins = self.code.get(previous)
                 if ins is None:
                     raise ValueError(f"no instruction at {previous:#x} in the disassembly")
-                known = self._costs[key] = (
-                    *cost(ins, self.target, taken=pc != previous + ins.size,
-                          after_memory=self._after_memory,
-                          small_multiplier=self.small_multiplier), is_memory(ins))
-            low, high, self._after_memory = known
+                known = self._costs[key] = cost(
+                    ins, self.target, taken=pc != previous + ins.size,
+                    before=None if before is None else self.code.get(before),
+                    small_multiplier=self.small_multiplier)
             self._n += 1
-            self._low += low
-            self._high += high
+            self._low += known[0]
+            self._high += known[1]
         if pc == self.before:
-            self._inside, self._after_memory = True, False
+            self._inside = True
             self._n = self._low = self._high = 0
         elif pc == self.after and self._inside:
             self.steps.append((self._n, self._low, self._high))
@@ -302,13 +337,18 @@ def run(elf: Path, target: str, before: str = "mark_before", after: str = "mark_
     counter = StepCycles(disassemble(elf), target, symbols[before], symbols[after],
                          small_multiplier)
     pc = re.compile(rb"\[[0-9a-f]+/([0-9a-f]+)/")
+    failed: list[BaseException] = []
 
     def feed(trace: str) -> None:
         with open(trace, "rb") as log:
-            for line in log:
+            for line in log:  # read to the end whatever happens: qemu must not block
                 m = pc.search(line)
-                if m is not None:
+                if m is None or failed:
+                    continue
+                try:
                     counter.feed(int(m.group(1), 16))
+                except BaseException as error:  # raised again below, after qemu
+                    failed.append(error)
 
     with tempfile.TemporaryDirectory() as tmp:
         trace = os.path.join(tmp, "trace.fifo")
@@ -316,12 +356,18 @@ def run(elf: Path, target: str, before: str = "mark_before", after: str = "mark_
         reader = threading.Thread(target=feed, args=(trace,))
         reader.start()
         try:
-            subprocess.run([*cortex_m.qemu_command(elf, target), "-singlestep",
-                            "-d", "exec,nochain", "-D", trace], check=True,
-                           capture_output=True, timeout=3600)
+            done = subprocess.run([*cortex_m.qemu_command(elf, target), "-singlestep",
+                                   "-d", "exec,nochain", "-D", trace], capture_output=True,
+                                  text=True, timeout=3600)
         finally:
-            if reader.is_alive():  # qemu failed before opening the pipe: unblock the reader
-                with open(trace, "wb"):
-                    pass
+            try:  # qemu never opened the pipe (it failed first): let the reader's open end
+                os.close(os.open(trace, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError:  # ENXIO: the reader is gone already
+                pass
             reader.join()
+    if failed:
+        raise failed[0]
+    if done.returncode != 0:
+        raise RuntimeError(f"qemu exited with {done.returncode} running {elf}: "
+                           f"{done.stderr.strip()[-2000:]}")
     return counter.steps

@@ -179,6 +179,10 @@ def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
     p = key_prefix
     fa = fb = Coefficient(0.0, 0, 31)
     tf = float(cp[pid.TF])
+    if tf > 0.0 and like is not None and like._CP[pid.TF, 0] == 0.0:
+        raise ConfigError(f"{p}Tf", tf, "must be 0 for this export: it was made without a "
+                          "measurement filter (Tf 0) and has no code to run one; export "
+                          "with a Tf > 0 to tune one at run time")
     if tf > 0.0:  # both below 1: shifts of 31 or more
         try:
             fa = Coefficient.of(1.0 / fden, f"{p}Tf", tf, shifts=(31, 62))
@@ -267,10 +271,13 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
     q = q31_pid(ctrl, key_prefix)
     coefficients = [(name.upper(), getattr(q, name)) for name, _, _ in _COEFFICIENTS]
     PU = prefix.upper()
+    # the filter's code only in an export with a filter (about 1.5 KB on a Cortex-M0): a
+    # tunable one may retune it, or switch it off and on; one without refuses it
     filtered = q.fb.mantissa != 0
     filter_parts = {"FILTER_STATE": _FILTER_STATE, "FILTER_START": _FILTER_START,
                     "FILTER_INIT": "    s->yf = 0;\n    s->yw = 0;\n",
                     "FILTER_DEFINES": _FILTER_DEFINES, "FILTER_HELPERS": _FILTER_HELPERS}
+    filter_parts = {key: text if filtered else "" for key, text in filter_parts.items()}
     if frozen:
         subs = {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
         weighted = q.c.mantissa != 0
@@ -281,7 +288,7 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                  "FILTER": _FILTER if filtered else "",
                  "TO31": _TO31 if q.derivative or filtered else "",
                  "ULIM": f"{PU}_U_LO, {PU}_U_HI", "MUL": _MUL[True]}
-        subs |= {key: text if filtered else "" for key, text in filter_parts.items()}
+        subs |= filter_parts
         subs |= dict.fromkeys(TUNABLE_PARTS, "")
     else:
         subs = {name: f"s->params.{name.lower()}.m, s->params.{name.lower()}.s"
@@ -290,12 +297,14 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                                                    "D_STEP": _D_STEP}),
                  "OVER_GAP": _OVER_GAP, "TO31": _TO31,
                  # run only where the parameters have a filter
-                 "FILTER": "    if (s->params.fb.m != 0) " + _FILTER.lstrip(),
+                 "FILTER": "    if (s->params.fb.m != 0) " + _FILTER.lstrip()
+                 if filtered else "",
                  "ULIM": "s->params.out_min, s->params.out_max", "MUL": _MUL[False]}
         subs |= filter_parts
         subs |= tunable_parts(prefix, _COEFFICIENTS, q31_params_c(ctrl, key_prefix),
                               _format("pid", ctrl, q.scales), "the PID's coefficients",
-                              _PID_CHECKS, _PID_APPLY)
+                              _PID_CHECKS if filtered else _PID_CHECKS_NO_FILTER,
+                              _PID_APPLY)
     # the pieces first: the coefficients' names in them are filled after
     subs = {key: subs[key] for key in ("DERIVATIVE", "OVER_GAP", "FILTER")} | subs
     # the tunable build's coefficients are its default parameter set's, not constants
@@ -484,7 +493,7 @@ _FILTER = """\
     {  /* the measurement filter (y * 2^F, in 64 bits): y becomes its filtered code */
         int64_t e = (int64_t)y * ((int64_t)1 << @PU@_F) - s->yf;
         int64_t w;
-        if (gap == 1) {
+        if (gap == 1) {  /* (its coefficients' own products: with constants, the cheaper) */
             w = @P@_fmul(s->yw, @FA@) + @P@_fmul(e, @FB@);
         } else {  /* one step over the gap, as the double law takes it */
             int64_t alpha, beta;
@@ -641,6 +650,10 @@ _PID_CHECKS = {
            "p->fb.m < 0 ||\n        (p->fb.m != 0 && @P@_to31(p->fa.m, p->fa.s) + "
            "@P@_to31(p->fb.m, p->fb.s) >= ((int64_t)1 << 31))"),
 }
+#: and in an export without a measurement filter (no code to run one)
+_PID_CHECKS_NO_FILTER = {key: value for key, value in _PID_CHECKS.items() if key != "fb"} | {
+    "fa": ("no measurement filter in this export (made with Tf 0): fa and fb 0",
+           "p->fa.m != 0 || p->fb.m != 0")}
 _PID_APPLY = """\
     if (s->mode != @PU@_MANUAL && !s->started && !s->pending) {
         s->last_output = @P@_clamp(0, p->out_min, p->out_max); /* before any sample: as init */
