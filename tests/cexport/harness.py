@@ -54,7 +54,7 @@ int main(int argc, char **argv)
         FILE *f = fopen(argv[1], "wb");
         if (f == NULL) return 1;
         for (i = 0; i < @PU@_N_STATE; i++) {
-            double v = (double)s.cs[i];
+            double v = (double)s.cs.row[i];
             fwrite(&v, sizeof v, 1, f);
         }
         fclose(f);

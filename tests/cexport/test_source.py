@@ -656,8 +656,9 @@ int main(void)
 
 def test_an_application_reads_the_state_by_the_names_in_the_header(tmp_path):
     """The rows of the law's memory are named in the header (PREFIX_MODULE_NAME, as in
-    mfcontrol.laws): a firmware reads its PID's integral as s.cs[M_PID_I], the value the
-    live controller holds in that row."""
+    mfcontrol.laws): a firmware reads its PID's integral as s.cs.row[M_PID_I], or by
+    name in the union's other view, s.cs.named.y_old: the values the live controller holds
+    in those rows."""
     import subprocess
 
     from mfcontrol.laws import pid
@@ -672,7 +673,7 @@ def test_an_application_reads_the_state_by_the_names_in_the_header(tmp_path):
     (tmp_path / "main.c").write_text(
         "#include <stdio.h>\n#include \"m.h\"\nint main(void)\n{\n    static m_state s;\n"
         f"    m_init(&s);\n{steps}"
-        "    printf(\"%.17g %.17g\\n\", (double)s.cs[M_PID_I], (double)s.cs[M_PID_Y_OLD]);\n"
+        "    printf(\"%.17g %.17g\\n\", (double)s.cs.row[M_PID_I], (double)s.cs.named.y_old);\n"
         "    return 0;\n}\n")
     exe = tmp_path / "t"
     subprocess.run([H.compiler(), *H.CFLAGS, str(tmp_path / "m.c"), str(tmp_path / "main.c"),
@@ -985,3 +986,40 @@ def test_a_held_sample_after_set_params_is_within_the_new_limits(case, keys, tmp
     assert c_out[299] == last and not new[0] <= last <= new[1]
     assert c_out[300] == 0  # set_params's answer: taken
     assert np.all((c_out[301:] >= new[0]) & (c_out[301:] <= new[1]))  # the held one too
+
+
+def test_the_memory_s_named_view_lies_on_its_rows(tmp_path):
+    """Issue 33: the state was an unnamed row array (cs[17]). The memory is a union of its
+    rows (what the law reads and writes) and the same rows by name: a debugger's watch
+    shows s.cs.named.integ. For every law family, each named member is the row of the
+    enum constant it is named after, and each array starts at the row its comment says
+    (checked by the compiled C: the members' addresses)."""
+    import subprocess
+
+    from .test_on_target import CASES
+
+    for k, (case, overrides) in enumerate(CASES + [("motor-noise-adrc", {})]):
+        src = c_source(mfcontrol.make_controller(case, overrides), prefix="m")
+        body = src.header[src.header.index("the law's memory by name"):
+                          src.header.index("} m_memory_rows;")]
+        checks = []
+        for member, row in re.findall(r"m_real (\w+); +/\*.*\((M_\w+|row \d+)\) \*/", body):
+            checks.append(f"&s.cs.named.{member} == &s.cs.row[{row.removeprefix('row ')}]")
+        for member, first in re.findall(r"m_real (\w+)\[\d+\]; +/\*.*rows (\d+) to", body):
+            checks.append(f"&s.cs.named.{member}[0] == &s.cs.row[{first}]")
+        # every row is in the view: the named members and the arrays
+        named = len(re.findall(r"m_real \w+;", body))
+        arrays = sum(int(n) for n in re.findall(r"m_real \w+\[(\d+)\];", body))
+        assert named + arrays == src.n_state and named >= 9, case
+        folder = tmp_path / str(k)
+        folder.mkdir()
+        (folder / "m.h").write_text(src.header)
+        (folder / "m.c").write_text(src.source)
+        (folder / "main.c").write_text(
+            "#include <stdio.h>\n#include \"m.h\"\nint main(void)\n{\n    static m_state s;\n"
+            + "".join(f"    if (!({c})) {{ puts(\"{c}\"); return 1; }}\n" for c in checks)
+            + "    return 0;\n}\n")
+        subprocess.run([H.compiler(), *H.CFLAGS, str(folder / "m.c"), str(folder / "main.c"),
+                        "-o", str(folder / "t"), "-lm"], check=True, timeout=600)
+        done = subprocess.run([str(folder / "t")], capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, f"{case}: {done.stdout}"

@@ -11,6 +11,7 @@ automatic, and the parameter table baked in.
 
 from __future__ import annotations
 
+import inspect
 import math
 import re
 import textwrap
@@ -24,7 +25,7 @@ from ..api.model.controllers import ADRC, PID, RESTART_AFTER, IntelligentControl
 from ..errors import ConfigError
 from ..laws import adrc, estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
-from .translate import CP, CS, REAL, J, Options, Translator
+from .translate import _C_KEYWORDS, CP, CS, REAL, J, Options, Translator
 
 REALS = ("double", "float", "q31")
 #: how to compile an export so that, in double, it computes what mfcontrol computes: no
@@ -205,6 +206,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
         return f"{table}[{tr.param_names.get(row, row)}]"
 
     driver = re.sub(rf"\b{table}\[(\d+)\]", row_read, driver)
+    driver = re.sub(r"\bs->cs\b(?!\.)", "s->cs.row", driver)  # the rows of the union
     banner = _banner(prefix, ctrl, description, f"({law.name} law family, {real})",
                      "baked in" if frozen else
                      f"as exported; {prefix}_set_params changes the tunable ones", _FLOAT_TAIL)
@@ -218,6 +220,7 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                              "PARAMS": "" if frozen else _params_header(prefix, tunable, law),
                              "NAMES": (tr.constant_names() + "\n\n"
                                        if tr.constants else ""),
+                             "MEMORY": _memory_type(prefix, law, n_cs, tr),
                              "STATE_PARAMS": "" if frozen else _STATE_PARAMS,
                              "BACKUP": "" if law.backup is None else
                              _BACKUP_MEMBER.replace("@NB@", str(law.backup.rows)),
@@ -228,7 +231,12 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
                              "SET_PARAMS": "" if frozen else _SET_PARAMS_DECL})
     header = _fill(header, subs)
     parts_c = [f"{banner}\n#include <math.h>\n#include \"{prefix}.h\"",
-               _fill(_CHECKS[real], {"P": prefix})]
+               _fill(_CHECKS[real], {"P": prefix}),
+               # the named view of the memory lies on its rows: no padding between them
+               f"/* the named rows of {prefix}_memory are its rows: the build stops where "
+               "not */\n"
+               f"typedef char {prefix}_memory_layout[sizeof({prefix}_memory_rows) == "
+               f"{n_cs} * sizeof({prefix}_real) ? 1 : -1];"]
     if re.search(rf"\b{table}\[", code + driver):
         # the rows that fix the law's structure (every row in a frozen build): constants,
         # folded into the code
@@ -333,7 +341,10 @@ def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
     if isinstance(ctrl, PID):
         return _terms_law("pid", pid, (CS, J, REAL))
     if isinstance(ctrl, ADRC):
-        return _terms_law("adrc", adrc, (CP, CS, J, REAL))
+        law = _terms_law("adrc", adrc, (CP, CS, J, REAL))
+        law.regions = {adrc.N_STATE: ("ring", "the delay's ring: the outputs of the last "
+                                      "d samples")}
+        return law
     raise TypeError(f"cannot export a {type(ctrl).__name__}: export an IP, IPI, IPD, IPID, "
                     "PID, ADRC or RecursiveIP")
 
@@ -362,6 +373,8 @@ class _Law:
     # None: the step runs on a copy of the memory in local variables, checked, then
     # written back (the compiler keeps the copy in registers: no backup is stored)
     backup: _Backup | None = None
+    # the memory's regions read at computed offsets: first row -> (member name, what)
+    regions: dict = field(default_factory=dict)
 
     @property
     def module_name(self) -> str:
@@ -434,6 +447,9 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
                   f"    s->cs[{intelligent.U1}] = start;\n    s->cs[{intelligent.U2}] = start;\n"
                   "    s->last_output = start;\n"),
         call=_SAMPLED_CALL, state_rows={}, limits=limits, skip=_SAMPLED_SKIP)
+    law.regions = {intelligent.EST_BASE: ("estimator", "the algebraic estimator's memory "
+                                          "(mfcontrol.laws.estimators: its count, moments "
+                                          "and ring)")}
     if cp[intelligent.EST] == intelligent.ALGEBRAIC:
         M = int(cp[intelligent.M_WIN])
         if M > MAX_WINDOW[real]:
@@ -449,6 +465,8 @@ def _intelligent(ctrl, real: str, key_prefix: str) -> _Law:
         count = intelligent.EST_BASE + estimators.COUNT
         spread = intelligent.EST_BASE + estimators.n_state(M)
         n_spread = estimators.SPREAD_ROWS
+        law.regions[spread] = ("resync", "the next resync's moments, summed a few samples "
+                               "a step (estimators.push_spread)")
         slot = f"((long)s->cs[{count}] % {M + 1})"
         # the slots the step wrote, found from the count before it (in the backup); the
         # rest of the ring holds samples already taken, finite. The next resync's moments
@@ -490,7 +508,8 @@ def _recursive() -> _Law:
         call=("    {\n        @R@ raw = 0, gain = 0, gamma = 0;\n"
               "        @STEP@(@CS@, y, setpoint, &raw, &u, &gain, &gamma);\n"
               "        out = raw * 0 + u;\n    }\n"),
-        state_rows={recursive_ip.U0: u0}, limits=(recursive_ip.OUT_MIN, recursive_ip.OUT_MAX))
+        state_rows={recursive_ip.U0: u0}, limits=(recursive_ip.OUT_MIN, recursive_ip.OUT_MAX),
+        regions={u0: ("u0", "the law's u0 parameter, which a bumpless start rewrites")})
 
 
 def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
@@ -507,6 +526,60 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
                   "    s->last_output = start;\n"),
         call=_COEFFICIENTS_CALL, state_rows={}, limits=limits, skip=_COEFFICIENTS_SKIP,
         coefficients=law.coefficients)
+
+
+def _row_comments(module) -> dict[str, str]:
+    """The comments on a law module's constants (``NAME = ...  # what it is``)."""
+    comments = {}
+    for line in inspect.getsource(module).splitlines():
+        m = re.match(r"^([A-Z][A-Z0-9_]*) = [^#]*#\s*(.*)$", line)
+        if m:
+            text = m[2]
+            noqa = re.match(r"noqa: \w+ \((.*)\)$", text)  # `# noqa: E741 (what it is)`
+            comments[m[1]] = noqa[1] if noqa else text
+    return comments
+
+
+def _memory_type(prefix: str, law: _Law, n_cs: int, tr: Translator) -> str:
+    """The C type of a state's memory: a union of its rows (``row[N]``, as the translated
+    law indexes them) and the same rows by name (``named``): each row the law reads by a
+    constant is a member named as the constant, the rows it reads at computed offsets
+    (a window, a ring) arrays named after their region."""
+    names: dict[int, tuple[str, str]] = {}  # row -> (member, comment)
+    taken: dict[str, int] = {}
+    for row, code in sorted(tr.state_names.items()):
+        module, attr = tr.origins[code]
+        member = attr.lower()
+        if member in taken or member in _C_KEYWORDS:  # another module's row of that name
+            member = f"{module.__name__.rsplit('.', 1)[-1]}_{attr}".lower()
+        taken[member] = row
+        names[row] = (member, _row_comments(module).get(attr, ""))
+    lines, row = [], 0
+    while row < n_cs:
+        if row in names:
+            member, comment = names[row]
+            code = tr.state_names[row]
+            lines.append((f"{prefix}_real {member};", f"{comment} ({code})" if comment
+                          else code))
+            row += 1
+            continue
+        end = row + 1  # a run of rows read at computed offsets, up to a region's start
+        while end < n_cs and end not in names and end not in law.regions:
+            end += 1
+        label, what = law.regions.get(row, (f"rows_{row}", "rows read at computed offsets"))
+        lines.append((f"{prefix}_real {label};", f"{what} (row {row})") if end == row + 1
+                     else (f"{prefix}_real {label}[{end - row}];",
+                           f"{what}: rows {row} to {end - 1}"))
+        row = end
+    width = max(len(c) for c, _ in lines)
+    body = "".join(f"    {c:<{width}} /* {w} */\n" for c, w in lines)
+    return ("/* the law's memory by name: its rows in order, each row the law reads by a\n"
+            " * constant named as that constant, in lower case */\n"
+            f"typedef struct {{\n{body}}} {prefix}_memory_rows;\n\n"
+            "/* the law's memory: row[] is what the law reads and writes; named, the same rows\n"
+            " * by name (a debugger's watch, a log: the two lie on the same storage) */\n"
+            f"typedef union {{\n    {prefix}_real row[{n_cs}];\n"
+            f"    {prefix}_memory_rows named;\n}} {prefix}_memory;\n\n")
 
 
 def _memory(law: _Law, n_cs: int, constants: dict[str, int], pu: str) -> dict[str, str]:
@@ -645,9 +718,10 @@ typedef @REAL@ @R@;
 #define @PU@_AUTO 0x6D666331UL
 #define @PU@_MANUAL 0x6D666330UL
 
-@NAMES@@PARAMS@typedef struct {
-@STATE_PARAMS@    /* the law's memory (rows as in mfcontrol.laws.@LAW@) */
-    @R@ cs[@NS@];
+@NAMES@@PARAMS@@MEMORY@typedef struct {
+@STATE_PARAMS@    /* the law's memory: cs.row[PREFIX_MODULE_NAME] as the law indexes it, or
+     * cs.named.<row> (@P@_memory) */
+    @P@_memory cs;
 @BACKUP@@COEF_MEMBER@    /* returned in manual mode and after a rejected sample */
     @R@ last_output;
     /* time (s) of the samples the law did not take since its last one: the next step's

@@ -29,6 +29,7 @@ import ast
 import inspect
 import math
 import re
+import sys
 import textwrap
 import types
 from dataclasses import dataclass, field
@@ -117,6 +118,11 @@ class Translator:
         self.constants: dict[str, int] = {}
         #: the C names of the parameter rows the C reads, by row
         self.param_names: dict[int, str] = {}
+        #: the C names of the state rows the C reads by a constant (the first one read),
+        #: by row: the memory's named view
+        self.state_names: dict[int, str] = {}
+        #: where each constant comes from: C name -> (module, Python name)
+        self.origins: dict[str, tuple[types.ModuleType, str]] = {}
         self.done: dict[tuple, Function] = {}
         self.order: list[Function] = []  # callees before callers
         self._names: set[str] = set()
@@ -178,9 +184,9 @@ class Translator:
         rows = ",\n".join(f"    {name:<{width}} = {value}"
                           for name, value in sorted(self.constants.items()))
         return ("/* constants of mfcontrol.laws, named as there (PREFIX_MODULE_NAME is\n"
-                " * mfcontrol.laws.module.NAME): the rows of the law's memory (an application\n"
-                " * reads a state's as s.cs[PREFIX_MODULE_NAME]) and of its parameters, and the\n"
-                f" * codes it compares with */\nenum {{\n{rows}\n}};")
+                " * mfcontrol.laws.module.NAME): the rows of the law's memory (an\n"
+                " * application reads a state's as s.cs.row[PREFIX_MODULE_NAME]) and of its\n"
+                f" * parameters, and the codes it compares with */\nenum {{\n{rows}\n}};")
 
     def ctype(self, kind: str) -> str:
         return {INT: "long", BOOL: "int", REAL: f"{self.options.prefix}_real"}[kind]
@@ -503,15 +509,16 @@ class _FunctionTranslator:
         if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
             return None
         if isinstance(node, ast.Name):
-            module, attr = self.py.__module__, node.id
+            module, attr = sys.modules[self.py.__module__], node.id
         elif isinstance(node, ast.Attribute) and isinstance(
                 base := self.resolve(node.value), types.ModuleType):
-            module, attr = base.__name__, node.attr
+            module, attr = base, node.attr
         else:
             return None
-        name = f"{self.opt.prefix}_{module.rsplit('.', 1)[-1]}_{attr}".upper()
+        name = f"{self.opt.prefix}_{module.__name__.rsplit('.', 1)[-1]}_{attr}".upper()
         if self.tr.constants.setdefault(name, int(value)) != int(value):  # pragma: no cover
             self.fail(node, f"{name} names two values")
+        self.tr.origins[name] = (module, attr)
         return name
 
     def expr(self, node) -> tuple[str, str]:
@@ -612,7 +619,10 @@ class _FunctionTranslator:
         else:
             self.fail(node, f"subscript of the {col} argument {base.id}")
         if col == CS:
-            return f"cs[{self.expr(row)[0]}]", CS
+            code = self.expr(row)[0]
+            if code in self.tr.constants:  # a row read by its name
+                self.tr.state_names.setdefault(self.tr.constants[code], code)
+            return f"cs[{code}]", CS
         value = self.constant(row)
         if value is None:
             self.fail(node, "a parameter row that is not a constant")
