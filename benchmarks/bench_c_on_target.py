@@ -113,7 +113,7 @@ class Cost:
 
 
 def measure(case: str, overrides: dict, real: str, target: str,
-            folder: Path, frozen: bool = False) -> Cost:
+            folder: Path, frozen: bool = False, small_multiplier: bool = False) -> Cost:
     """What the export of ``case`` costs on ``target`` (closed-loop samples of its case)."""
     ctrl = mfcontrol.make_controller(case, overrides)
     M = ctrl._params.get("window") if ctrl._params.get("estimator") == "algebraic" else None
@@ -135,7 +135,8 @@ def measure(case: str, overrides: dict, real: str, target: str,
                               capture_output=True, text=True).stdout.splitlines()[1].split()[0])
     cortex_m.build(folder, target, ["mfc.o"], _MAIN.replace("@BASELINE@", str(BASELINE)))
     # (instructions, low cycles, high cycles) per call
-    counts = np.array(cortex_m_cycles.run(folder / "drive.elf", target))
+    counts = np.array(cortex_m_cycles.run(folder / "drive.elf", target,
+                                          small_multiplier=small_multiplier))
     steps = counts[BASELINE:] - counts[:BASELINE].min(axis=0)  # less the empty call's
     steady = steps[(M + 1 if M else 2):]
 
@@ -150,6 +151,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frozen", action="store_true", help="the frozen exports (every "
                         "parameter a constant, no setter) instead of the tunable ones")
+    parser.add_argument("--small-multiplier", action="store_true", help="count the M0's "
+                        "MULS at 32 cycles (the small multiplier some parts have), not 1")
     parser.add_argument("--real", choices=sorted({real for _, _, real in TARGETS}),
                         help="only this number type (default: every one)")
     parser.add_argument("labels", nargs="*", help="only the controllers whose label starts "
@@ -176,7 +179,8 @@ def main() -> None:
                     continue
                 folder = Path(tmp) / f"{case}-{len(overrides)}-{target}-{real}"
                 folder.mkdir()
-                c = measure(case, overrides, real, target, folder, frozen=args.frozen)
+                c = measure(case, overrides, real, target, folder, frozen=args.frozen,
+                            small_multiplier=args.small_multiplier)
                 ins = f"{c.instructions[0]:,.0f} / {c.instructions[1]:,}"
                 if c.low == c.high:
                     cyc = f"{c.high[0]:,.0f} / {c.high[1]:,}"
