@@ -286,7 +286,7 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                       + ";\n" + _D_STEP + "    }\n") if q.derivative else ""
         subs |= {"DERIVATIVE": derivative, "OVER_GAP": _OVER_GAP if q.derivative else "",
                  "FILTER": _FILTER if filtered else "",
-                 "TO31": _TO31 if q.derivative or filtered else "",
+                 "TO31": _TO31 if q.derivative else "",
                  "ULIM": f"{PU}_U_LO, {PU}_U_HI", "MUL": _MUL[True]}
         subs |= filter_parts
         subs |= dict.fromkeys(TUNABLE_PARTS, "")
@@ -470,20 +470,43 @@ static int64_t @P@_sat_to(int64_t x, int64_t bound)
     return x > bound ? bound : (x < -bound ? -bound : x);
 }
 
-/* The filter's coefficients over d periods (d in [2, 256]), times 2^31: its step at d h,
- * w = (fa w + d fb e) / Q with Q = 1 + (d - 1)(1 - fa + d fb), is w = alpha w + beta e with
- * alpha = fa / Q and beta = d fb / Q, both at most 1 (Q >= 1 + (d - 1) d fb). fa and fb
- * rounded to 2^-31; Q 2^31 < 2^47; beta's quotient in two steps, so that no product
- * passes 2^62. On the step after rejected samples only: three 64-bit divisions. */
-static void @P@_filter_gap(int d, int32_t am, int as, int32_t bm, int bs, int64_t *alpha,
-                           int64_t *beta)
+/* p 2^-s (0 <= p < 2^63) as a coefficient m 2^-shift the products take: m <= 2^31 and
+ * shift in [31, 62], rounded (below 2^-31 it keeps fewer bits of mantissa, an absolute
+ * error under 2^-63) */
+static int64_t @P@_coef_of(int64_t p, int s, int *shift)
 {
-    int64_t fa = @P@_to31(am, as), fb = @P@_to31(bm, bs);
-    int64_t q = ((int64_t)1 << 31) + (d - 1) * (((int64_t)1 << 31) - fa + d * fb);
-    int64_t n = d * fb * ((int64_t)1 << 23);
-    int64_t hi = n / q;
-    *alpha = (fa * ((int64_t)1 << 31) + q / 2) / q;
-    *beta = hi * 256 + ((n - hi * q) * 256 + q / 2) / q;
+    int k = 0;
+    int64_t m;
+    while ((p >> k) >= ((int64_t)1 << 31)) k++;
+    if (s - k > 62) k = s - 62;
+    m = k > 0 ? ((p >> (k - 1)) + 1) >> 1 : p;
+    if (s - k < 31) {  /* 1 itself, from rounding: the same value at shift 31 */
+        m >>= 31 - (s - k);
+        k = s - 31;
+    }
+    *shift = s - k;
+    return m;
+}
+
+/* The filter's coefficients over d periods (d in [2, 256]): its step at d h,
+ * w = (fa w + d fb e) / Q with Q = 1 + (d - 1)(1 - fa + d fb), is w = alpha w + beta e with
+ * alpha = fa / Q and beta = d fb / Q, both below 1. Q 2^46 from fa and fb's full mantissas
+ * (below 2^63), its reciprocal to 31 bits from one 64-bit division, and alpha and beta
+ * to about 2^-29 relative however small fb is (a slow filter's). On the step after
+ * rejected samples only. */
+static void @P@_filter_gap(int d, int32_t am, int as, int32_t bm, int bs, int64_t *alpha,
+                           int *alpha_s, int64_t *beta, int *beta_s)
+{
+    int64_t fa = as <= 46 ? (int64_t)am << (46 - as) : ((((int64_t)am >> (as - 47)) + 1) >> 1);
+    int64_t t = (int64_t)(d - 1) * d * bm;  /* (d - 1) d fb 2^bs, below 2^47 */
+    int64_t fb = bs <= 46 ? t << (46 - bs) : (((t >> (bs - 47)) + 1) >> 1);
+    int64_t q = ((int64_t)1 << 46) + (d - 1) * (((int64_t)1 << 46) - fa) + fb;
+    int z = 0;
+    int64_t inv;
+    while ((q >> z) >= ((int64_t)1 << 32)) z++;
+    inv = (((int64_t)1 << 62) + (q >> z) / 2) / (q >> z);  /* 2^(62 - z) 2^46 / Q */
+    *alpha = @P@_coef_of(am * inv, as + 16 + z, alpha_s);
+    *beta = @P@_coef_of(((bm * inv) >> 8) * d, bs + 8 + z, beta_s);
 }
 
 """
@@ -497,8 +520,9 @@ _FILTER = """\
             w = @P@_fmul(s->yw, @FA@) + @P@_fmul(e, @FB@);
         } else {  /* one step over the gap, as the double law takes it */
             int64_t alpha, beta;
-            @P@_filter_gap(gap, @FA@, @FB@, &alpha, &beta);
-            w = @P@_fmul(s->yw, alpha, 31) + @P@_fmul(e, beta, 31);
+            int alpha_s, beta_s;
+            @P@_filter_gap(gap, @FA@, @FB@, &alpha, &alpha_s, &beta, &beta_s);
+            w = @P@_fmul(s->yw, alpha, alpha_s) + @P@_fmul(e, beta, beta_s);
         }
         s->yw = @P@_sat_to(w, @PU@_W_MAX);
         s->yf = @P@_sat_to(s->yf + @P@_times(s->yw, gap), @PU@_X_MAX);
