@@ -7,15 +7,20 @@ Each export is cross-compiled with Debian's arm-none-eabi-gcc (``-O2`` and the e
 flags), its object's ``text`` read with ``arm-none-eabi-size``, and driven with its case's
 closed-loop samples under ``qemu-system-arm -singlestep -d exec``, which logs every
 instruction the emulated core executes: the instructions between two markers around each
-step, less those around a call of an empty function of the same signature, are the
-step's. qemu does not model timing: the cycles are the Arm manuals' per-instruction
-counts applied to the instructions executed (``mfcontrol.cexport.cortex_m_cycles``: no
-wait states; exact on the M0 with its single-cycle multiplier; on the M4F a low and a high
-count, whose high one bounds the step). A board's cycle counter (DWT CYCCNT) would measure
-them; this machine has none. The M0 build runs on the Cortex-M3 of ``mps2-an385``, which
-executes ARMv6-M code as an M0 would (qemu has no M0 board with the RAM). With the
-algebraic estimator, the run spans two resyncs (2M + 2 samples). Needs arm-none-eabi-gcc,
-libnewlib-arm-none-eabi and qemu-system-arm. Run::
+step, less those around a call of an empty function of the same signature, are the step's.
+Three samples in a row at a third of the run are rejected (NaN; in q31 a code beyond the
+input limits): the worst step includes the one that spans them (a 64-bit division or two
+in q31, the longer period's coefficients in float), the mean does not. qemu does not model
+timing: the cycles are the Arm manuals' per-instruction counts applied to the instructions
+executed (``mfcontrol.cexport.cortex_m_cycles``: no wait states; exact on the M0 with its
+single-cycle multiplier; on the M4F a low and a high count, whose high one bounds the
+step). A board's cycle counter (DWT CYCCNT) would measure them; this machine has none. The
+M0 build runs on the Cortex-M3 of ``mps2-an385``, which executes ARMv6-M code as an M0
+would (qemu has no M0 board with the RAM). With the algebraic estimator, the run spans two
+resyncs (2M + 2 samples). Needs arm-none-eabi-gcc, libnewlib-arm-none-eabi and
+qemu-system-arm.
+
+Run::
 
     python benchmarks/bench_c_on_target.py
 """
@@ -46,7 +51,13 @@ TARGETS = [("Cortex-M4F", "m4f", "float"), ("Cortex-M0", "m0", "float"),
 Q31_LAWS = ("PID", "i-PID, backward difference")  # the PID's variants too
 BASELINE = 3  # calls of the empty function first
 
+
+def DROPOUT(n: int) -> range:  # noqa: N802 (a constant of the run's length)
+    """The samples of a run of ``n`` that are rejected: three in a row at a third."""
+    return range(n // 3, n // 3 + 3)
+
 _MAIN = r"""
+#include <math.h>
 #include <stdio.h>
 #include "mfc.h"
 #include "samples.h"
@@ -117,13 +128,17 @@ def measure(case: str, overrides: dict, real: str, target: str,
     """What the export of ``case`` costs on ``target`` (closed-loop samples of its case)."""
     ctrl = mfcontrol.make_controller(case, overrides)
     M = ctrl._params.get("window") if ctrl._params.get("estimator") == "algebraic" else None
-    n = 2 * M + 2 if M else 100
+    n = 2 * M + 2 + len(DROPOUT(0)) if M else 100  # two resyncs, the dropout aside
     y, r = closed_loop(case, overrides, n)
     scale = 1.0
     if real == "q31":
         span = 2.0 ** math.ceil(math.log2(max(np.abs(y).max(), np.abs(r).max())))
         ctrl._take_input_limits((-span, span))
         scale = 2.0 * span  # Y_SCALE: twice the input limits' magnitude
+    # a dropout: rejected samples (NaN; in q31 a code beyond the input limits), then the
+    # step that spans them, which the worst step includes
+    y = y.copy()
+    y[list(DROPOUT(n))] = 4.0 * span if real == "q31" else math.nan
     src = c_source(ctrl, real=real, prefix="mfc", frozen=frozen)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)
@@ -138,7 +153,10 @@ def measure(case: str, overrides: dict, real: str, target: str,
     counts = np.array(cortex_m_cycles.run(folder / "drive.elf", target,
                                           small_multiplier=small_multiplier))
     steps = counts[BASELINE:] - counts[:BASELINE].min(axis=0)  # less the empty call's
-    steady = steps[(M + 1 if M else 2):]
+    ordinary = np.ones(len(steps), bool)  # the mean: neither the dropout nor its end
+    ordinary[list(DROPOUT(len(steps)))] = False
+    ordinary[max(DROPOUT(len(steps))) + 1] = False
+    steady = steps[ordinary & (np.arange(len(steps)) >= (M + 1 if M else 2))]
 
     def stat(column: int) -> tuple[float, int]:
         return float(steady[:, column].mean()), int(steps[:, column].max())

@@ -998,7 +998,8 @@ def test_the_memory_s_named_view_lies_on_its_rows(tmp_path):
 
     from .test_on_target import CASES
 
-    for k, (case, overrides) in enumerate(CASES + [("motor-noise-adrc", {})]):
+    extra = [("motor-noise-adrc", {}), ("motor-noise-adrc", {"controller.delay": 3})]
+    for k, (case, overrides) in enumerate(CASES + extra):
         src = c_source(mfcontrol.make_controller(case, overrides), prefix="m")
         body = src.header[src.header.index("the law's memory by name"):
                           src.header.index("} m_memory_rows;")]

@@ -529,15 +529,23 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
 
 
 def _row_comments(module) -> dict[str, str]:
-    """The comments on a law module's constants (``NAME = ...  # what it is``)."""
+    """The comments on a law module's constants (``NAME = ...  # what it is``), made
+    inert as C comment text."""
     comments = {}
     for line in inspect.getsource(module).splitlines():
         m = re.match(r"^([A-Z][A-Z0-9_]*) = [^#]*#\s*(.*)$", line)
         if m:
             text = m[2]
             noqa = re.match(r"noqa: \w+ \((.*)\)$", text)  # `# noqa: E741 (what it is)`
-            comments[m[1]] = noqa[1] if noqa else text
+            text = noqa[1] if noqa else text.split("  # noqa")[0]
+            comments[m[1]] = text.replace("*/", "* /").replace("/*", "/ *").strip()
     return comments
+
+
+#: names a member may not take in a header C++ includes too
+_CPP_KEYWORDS = {"and", "bool", "catch", "class", "delete", "false", "friend", "new",
+                 "not", "operator", "or", "private", "protected", "public", "template",
+                 "this", "throw", "true", "try", "typename", "using", "virtual", "xor"}
 
 
 def _memory_type(prefix: str, law: _Law, n_cs: int, tr: Translator) -> str:
@@ -546,13 +554,15 @@ def _memory_type(prefix: str, law: _Law, n_cs: int, tr: Translator) -> str:
     constant is a member named as the constant, the rows it reads at computed offsets
     (a window, a ring) arrays named after their region."""
     names: dict[int, tuple[str, str]] = {}  # row -> (member, comment)
-    taken: dict[str, int] = {}
+    taken = {label for label, _ in law.regions.values()} | _C_KEYWORDS | _CPP_KEYWORDS
     for row, code in sorted(tr.state_names.items()):
         module, attr = tr.origins[code]
         member = attr.lower()
-        if member in taken or member in _C_KEYWORDS:  # another module's row of that name
+        if member in taken:  # another module's row of that name, or a keyword: qualified
             member = f"{module.__name__.rsplit('.', 1)[-1]}_{attr}".lower()
-        taken[member] = row
+        while member in taken:
+            member += "_"
+        taken.add(member)
         names[row] = (member, _row_comments(module).get(attr, ""))
     lines, row = [], 0
     while row < n_cs:

@@ -70,15 +70,15 @@ N_PARAMS = 7
 
 # state rows
 K = 0  # samples seen
-Z1 = 1  # the observer's prediction of x_k: y ...
-Z2 = 2  # ... y' (n = 2) or f (n = 1) ...
-Z3 = 3  # ... f (n = 2)
+Z1 = 1  # the observer's prediction of x_k, first state: y
+Z2 = 2  # its second state: y' (n = 2) or f (n = 1)
+Z3 = 3  # its third state: f (n = 2)
 START = 4  # the output the first sample is set to give (NaN: none)
 # the last sample's terms, for inspection
 C_P = 5  # kp (r - x1) / b0
 C_D = 6  # -kd x2 / b0 (n = 2; 0 for n = 1)
 C_F = 7  # the total disturbance's estimate f (the output's term is -f / b0)
-C_UNLIM = 8
+C_UNLIM = 8  # the last sample's output before the limits
 HEAD = 9  # the delay's ring: the slot of u_{k-d}, read then overwritten by u_k
 N_STATE = 10  # the ring's d slots follow: n_state(d) rows in all
 #: the terms of the last output by signal name (a live controller's ``components`` and

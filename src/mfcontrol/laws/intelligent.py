@@ -113,28 +113,28 @@ START_HOLD = 1.0
 STARTUPS = {"hold": START_HOLD, "backward-difference": START_BACKWARD}
 
 # state rows (after the gain adaptation rows)
-K = variational_gain.N_STATE + 0
+K = variational_gain.N_STATE + 0  # samples taken
 Y1 = variational_gain.N_STATE + 1  # y_{k-1}
 Y2 = variational_gain.N_STATE + 2  # y_{k-2}
-R1 = variational_gain.N_STATE + 3
-R2 = variational_gain.N_STATE + 4
+R1 = variational_gain.N_STATE + 3  # r_{k-1}
+R2 = variational_gain.N_STATE + 4  # r_{k-2}
 U1 = variational_gain.N_STATE + 5  # applied u_{k-1}
 INTEG = variational_gain.N_STATE + 6  # integral of e
-E1 = variational_gain.N_STATE + 7
+E1 = variational_gain.N_STATE + 7  # e_{k-1}
 # the last sample's terms, for inspection
-C_F = variational_gain.N_STATE + 8
+C_F = variational_gain.N_STATE + 8  # the estimate of F
 C_FF = variational_gain.N_STATE + 9  # feed-forward y*^(n)
-C_P = variational_gain.N_STATE + 10
-C_I = variational_gain.N_STATE + 11
-C_D = variational_gain.N_STATE + 12
-C_UNLIM = variational_gain.N_STATE + 13
+C_P = variational_gain.N_STATE + 10  # the last sample's proportional term
+C_I = variational_gain.N_STATE + 11  # the last sample's integral term
+C_D = variational_gain.N_STATE + 12  # the last sample's derivative term
+C_UNLIM = variational_gain.N_STATE + 13  # the last sample's output before the limits
 U2 = variational_gain.N_STATE + 14  # applied u_{k-2}
 # the rls gain's estimate (F / alpha0, alpha / alpha0) and covariance P (11, 12, 22)
-RLS_F = variational_gain.N_STATE + 15
-RLS_A = variational_gain.N_STATE + 16
-RLS_P11 = variational_gain.N_STATE + 17
-RLS_P12 = variational_gain.N_STATE + 18
-RLS_P22 = variational_gain.N_STATE + 19
+RLS_F = variational_gain.N_STATE + 15  # rls: the estimate of F / alpha0
+RLS_A = variational_gain.N_STATE + 16  # rls: the estimate of alpha / alpha0
+RLS_P11 = variational_gain.N_STATE + 17  # rls: covariance P11
+RLS_P12 = variational_gain.N_STATE + 18  # rls: covariance P12
+RLS_P22 = variational_gain.N_STATE + 19  # rls: covariance P22
 EST_BASE = variational_gain.N_STATE + 20
 #: the terms of the bracket by signal name: a live controller's ``components`` and the
 #: engine's recorded trajectory rows both read these

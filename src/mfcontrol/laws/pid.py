@@ -52,20 +52,20 @@ N_PARAMS = 10
 
 # state rows
 K = 0  # samples seen
-I = 1  # noqa: E741 (the integral term, as the textbook names it)
-D = 2
-Y_OLD = 3
+I = 1  # the integral term  # noqa: E741 (the textbook's name)
+D = 2  # the derivative term
+Y_OLD = 3  # the last sample's (filtered) measurement
 START = 4  # the output the first sample's integral is set to give (NaN: none)
 # the last sample's terms, for inspection
-C_P = 5
-C_I = 6
-C_D = 7
-C_UNLIM = 8
+C_P = 5  # the last sample's proportional term
+C_I = 6  # the last sample's integral term
+C_D = 7  # the last sample's derivative term
+C_UNLIM = 8  # the last sample's output before the limits
 # after the terms (rows a snapshot from before them lacks at its end): the measurement
 # filter's state and the last setpoint
 YF = 9  # the filtered measurement y_f
 YF_D = 10  # its derivative y_f'
-R_OLD = 11
+R_OLD = 11  # the last sample's setpoint
 N_STATE = 12
 #: the names of the rows a step's overflow guard checks, with the output (the C export's
 #: guard checks these only; :mod:`mfcontrol.engine.live` checks every row). After a step

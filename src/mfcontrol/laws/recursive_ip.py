@@ -48,10 +48,10 @@ H = vg.N_PARAMS + 11
 N_PARAMS = vg.N_PARAMS + 12
 
 # state rows (after the gain adaptation rows)
-U_PREV = vg.N_STATE + 0
-Y_PREV = vg.N_STATE + 1
-R_PREV = vg.N_STATE + 2
-K = vg.N_STATE + 3
+U_PREV = vg.N_STATE + 0  # u_{k-1}
+Y_PREV = vg.N_STATE + 1  # y_{k-1}
+R_PREV = vg.N_STATE + 2  # r_{k-1}
+K = vg.N_STATE + 3  # samples taken
 N_STATE = vg.N_STATE + 4
 
 #: from this sample on :func:`advance` depends on k only through the state: a kernel may
