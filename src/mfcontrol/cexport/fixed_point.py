@@ -470,14 +470,27 @@ static int64_t @P@_sat_to(int64_t x, int64_t bound)
     return x > bound ? bound : (x < -bound ? -bound : x);
 }
 
+/* the number of bits of x >= 0: a binary search (a loop of 64-bit shifts costs a
+ * Cortex-M0 hundreds of instructions) */
+static int @P@_bits(int64_t x)
+{
+    int n = 0;
+    if (x >> 32) { n += 32; x >>= 32; }
+    if (x >> 16) { n += 16; x >>= 16; }
+    if (x >> 8) { n += 8; x >>= 8; }
+    if (x >> 4) { n += 4; x >>= 4; }
+    if (x >> 2) { n += 2; x >>= 2; }
+    if (x >> 1) { n += 1; x >>= 1; }
+    return n + (int)x;
+}
+
 /* p 2^-s (0 <= p < 2^63) as a coefficient m 2^-shift the products take: m <= 2^31 and
  * shift in [31, 62], rounded (below 2^-31 it keeps fewer bits of mantissa, an absolute
  * error under 2^-63) */
 static int64_t @P@_coef_of(int64_t p, int s, int *shift)
 {
-    int k = 0;
+    int k = @P@_bits(p >> 31);  /* the least k with p / 2^k below 2^31 */
     int64_t m;
-    while ((p >> k) >= ((int64_t)1 << 31)) k++;
     if (s - k > 62) k = s - 62;
     m = k > 0 ? ((p >> (k - 1)) + 1) >> 1 : p;
     if (s - k < 31) {  /* 1 itself, from rounding: the same value at shift 31 */
@@ -501,9 +514,8 @@ static void @P@_filter_gap(int d, int32_t am, int as, int32_t bm, int bs, int64_
     int64_t t = (int64_t)(d - 1) * d * bm;  /* (d - 1) d fb 2^bs, below 2^47 */
     int64_t fb = bs <= 46 ? t << (46 - bs) : (((t >> (bs - 47)) + 1) >> 1);
     int64_t q = ((int64_t)1 << 46) + (d - 1) * (((int64_t)1 << 46) - fa) + fb;
-    int z = 0;
+    int z = @P@_bits(q >> 32);  /* q / 2^z below 2^32 */
     int64_t inv;
-    while ((q >> z) >= ((int64_t)1 << 32)) z++;
     inv = (((int64_t)1 << 62) + (q >> z) / 2) / (q >> z);  /* 2^(62 - z) 2^46 / Q */
     *alpha = @P@_coef_of(am * inv, as + 16 + z, alpha_s);
     *beta = @P@_coef_of(((bm * inv) >> 8) * d, bs + 8 + z, beta_s);
