@@ -52,9 +52,12 @@ Q31_LAWS = ("PID", "i-PID, backward difference")  # the PID's variants too
 BASELINE = 3  # calls of the empty function first
 
 
-def DROPOUT(n: int) -> range:  # noqa: N802 (a constant of the run's length)
-    """The samples of a run of ``n`` that are rejected: three in a row at a third."""
-    return range(n // 3, n // 3 + 3)
+DROPOUT = 3  # samples rejected in a row, at a third of the run
+
+
+def _dropout(n: int) -> list[int]:
+    """The samples of a run of ``n`` that are rejected."""
+    return list(range(n // 3, n // 3 + DROPOUT))
 
 _MAIN = r"""
 #include <math.h>
@@ -128,7 +131,7 @@ def measure(case: str, overrides: dict, real: str, target: str,
     """What the export of ``case`` costs on ``target`` (closed-loop samples of its case)."""
     ctrl = mfcontrol.make_controller(case, overrides)
     M = ctrl._params.get("window") if ctrl._params.get("estimator") == "algebraic" else None
-    n = 2 * M + 2 + len(DROPOUT(0)) if M else 100  # two resyncs, the dropout aside
+    n = 2 * M + 2 + DROPOUT if M else 100  # two resyncs, the dropout aside
     y, r = closed_loop(case, overrides, n)
     scale = 1.0
     if real == "q31":
@@ -137,8 +140,9 @@ def measure(case: str, overrides: dict, real: str, target: str,
         scale = 2.0 * span  # Y_SCALE: twice the input limits' magnitude
     # a dropout: rejected samples (NaN; in q31 a code beyond the input limits), then the
     # step that spans them, which the worst step includes
+    dropout = _dropout(n)
     y = y.copy()
-    y[list(DROPOUT(n))] = 4.0 * span if real == "q31" else math.nan
+    y[dropout] = 4.0 * span if real == "q31" else math.nan
     src = c_source(ctrl, real=real, prefix="mfc", frozen=frozen)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)
@@ -154,8 +158,7 @@ def measure(case: str, overrides: dict, real: str, target: str,
                                           small_multiplier=small_multiplier))
     steps = counts[BASELINE:] - counts[:BASELINE].min(axis=0)  # less the empty call's
     ordinary = np.ones(len(steps), bool)  # the mean: neither the dropout nor its end
-    ordinary[list(DROPOUT(len(steps)))] = False
-    ordinary[max(DROPOUT(len(steps))) + 1] = False
+    ordinary[dropout + [dropout[-1] + 1]] = False
     steady = steps[ordinary & (np.arange(len(steps)) >= (M + 1 if M else 2))]
 
     def stat(column: int) -> tuple[float, int]:

@@ -23,7 +23,8 @@ TARGETS = {
 }
 #: Debian's packages that provide the tools
 PACKAGES = "gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm"
-TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-size", "arm-none-eabi-nm", "qemu-system-arm")
+TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-size", "arm-none-eabi-nm",
+         "arm-none-eabi-objdump", "qemu-system-arm")
 
 # the vector table at address 0 (the stack in the boards' RAM) and a reset handler that
 # turns the FPU on where there is one (it is off at reset), then newlib's start-up

@@ -160,6 +160,11 @@ _NO_RESULT = _MULTIPLE | {"str", "strb", "strh", "strd", "cmp", "cmn", "tst", "t
                           "bl", "bx", "blx", "cbz", "cbnz", "vstr", "vcmp", "vcmpe"}
 
 
+def _check(target: str) -> None:
+    if target not in TARGETS:
+        raise ValueError(f"target {target!r}: expected one of {', '.join(TARGETS)}")
+
+
 def cost(ins: Instruction, target: str, taken: bool, before: Instruction | None = None,
          small_multiplier: bool = False) -> tuple[int, int]:
     """(low, high) cycles of one instruction on ``target`` ("m0" or "m4f").
@@ -178,8 +183,7 @@ def cost(ins: Instruction, target: str, taken: bool, before: Instruction | None 
     >>> cost(Instruction(2, "bne.n", "c <f+0xc>"), "m0", taken=False)
     (1, 1)
     """
-    if target not in TARGETS:
-        raise ValueError(f"target {target!r}: expected one of {', '.join(TARGETS)}")
+    _check(target)
     name = _base(ins.mnemonic)
     if target == "m0":
         return (_m0(name, ins, taken, small_multiplier),) * 2
@@ -279,8 +283,7 @@ class StepCycles:
 
     def __init__(self, code: dict[int, Instruction], target: str, before: int, after: int,
                  small_multiplier: bool = False):
-        if target not in TARGETS:
-            raise ValueError(f"target {target!r}: expected one of {', '.join(TARGETS)}")
+        _check(target)
         self.code, self.target = code, target
         self.before, self.after = before, after
         self.small_multiplier = small_multiplier

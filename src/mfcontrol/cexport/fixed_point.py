@@ -278,6 +278,7 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                     "FILTER_INIT": "    s->yf = 0;\n    s->yw = 0;\n",
                     "FILTER_DEFINES": _FILTER_DEFINES, "FILTER_HELPERS": _FILTER_HELPERS}
     filter_parts = {key: text if filtered else "" for key, text in filter_parts.items()}
+    filter_parts["FILTER_HELPERS"] = _fill(filter_parts["FILTER_HELPERS"], {"BITS": BITS})
     if frozen:
         subs = {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
         weighted = q.c.mantissa != 0
@@ -286,7 +287,7 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                       + ";\n" + _D_STEP + "    }\n") if q.derivative else ""
         subs |= {"DERIVATIVE": derivative, "OVER_GAP": _OVER_GAP if q.derivative else "",
                  "FILTER": _FILTER if filtered else "",
-                 "TO31": _TO31 if q.derivative else "",
+                 "AT": _AT if q.derivative or filtered else "",
                  "ULIM": f"{PU}_U_LO, {PU}_U_HI", "MUL": _MUL[True]}
         subs |= filter_parts
         subs |= dict.fromkeys(TUNABLE_PARTS, "")
@@ -295,7 +296,7 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                 for name, _ in coefficients}
         subs |= {"DERIVATIVE": _fill(_DERIVATIVE, {"WEIGHTED": _WEIGHTED, "PLAIN": _PLAIN,
                                                    "D_STEP": _D_STEP}),
-                 "OVER_GAP": _OVER_GAP, "TO31": _TO31,
+                 "OVER_GAP": _OVER_GAP, "AT": _AT,
                  # run only where the parameters have a filter
                  "FILTER": "    if (s->params.fb.m != 0) " + _FILTER.lstrip()
                  if filtered else "",
@@ -427,7 +428,7 @@ _OVER_GAP = """/* The derivative over d periods (d in [2, 256]) from its value x
  * same). On the step after rejected samples only: a 64-bit division. */
 static int64_t @P@_over_gap(int64_t x, int d, int32_t m, int shift)
 {
-    int64_t a = @P@_to31(m, shift);
+    int64_t a = @P@_at(m, shift, 31);
     int64_t den = (((int64_t)1 << 31) + (d - 1) * (((int64_t)1 << 31) - a)) >> 8;
     int64_t num;
     if (x > ((int64_t)1 << 39)) x = (int64_t)1 << 39;
@@ -438,12 +439,32 @@ static int64_t @P@_over_gap(int64_t x, int d, int32_t m, int shift)
 
 """
 
-#: a coefficient below 1 rounded to 2^-31 (the steps over a gap of periods take it)
-_TO31 = """\
-/* a coefficient m 2^-s below 1 (s >= 31) rounded to 2^-31, times 2^31 */
-static int64_t @P@_to31(int32_t m, int shift)
+#: a coefficient at another scale (the steps over a gap of periods take their
+#: coefficients so)
+_AT = """\
+/* x 2^-s at the scale 2^-k, x 2^(k - s) (x >= 0): exact for s <= k, rounded to nearest for
+ * s > k (a coefficient m 2^-s below 1 rounded to 2^-31 is at(m, s, 31)) */
+static int64_t @P@_at(int64_t x, int s, int k)
 {
-    return m == 0 ? 0 : shift == 31 ? m : ((((int64_t)m >> (shift - 32)) + 1) >> 1);
+    return s == k ? x : s < k ? x << (k - s) : (((x >> (s - k - 1)) + 1) >> 1);
+}
+
+"""
+
+#: the bit length of a non-negative integer (the i-P family's step over a gap takes it too)
+BITS = """\
+/* the number of bits of x >= 0: a binary search (a loop of 64-bit shifts costs a
+ * Cortex-M0 hundreds of instructions) */
+static int @P@_bits(int64_t x)
+{
+    int n = 0;
+    if (x >> 32) { n += 32; x >>= 32; }
+    if (x >> 16) { n += 16; x >>= 16; }
+    if (x >> 8) { n += 8; x >>= 8; }
+    if (x >> 4) { n += 4; x >>= 4; }
+    if (x >> 2) { n += 2; x >>= 2; }
+    if (x >> 1) { n += 1; x >>= 1; }
+    return n + (int)x;
 }
 
 """
@@ -465,26 +486,7 @@ static int64_t @P@_fmul(int64_t x, int64_t m, int shift)
     return (t + ((bl + ((int64_t)1 << (shift - 1))) >> 31)) >> (shift - 31);
 }
 
-static int64_t @P@_sat_to(int64_t x, int64_t bound)
-{
-    return x > bound ? bound : (x < -bound ? -bound : x);
-}
-
-/* the number of bits of x >= 0: a binary search (a loop of 64-bit shifts costs a
- * Cortex-M0 hundreds of instructions) */
-static int @P@_bits(int64_t x)
-{
-    int n = 0;
-    if (x >> 32) { n += 32; x >>= 32; }
-    if (x >> 16) { n += 16; x >>= 16; }
-    if (x >> 8) { n += 8; x >>= 8; }
-    if (x >> 4) { n += 4; x >>= 4; }
-    if (x >> 2) { n += 2; x >>= 2; }
-    if (x >> 1) { n += 1; x >>= 1; }
-    return n + (int)x;
-}
-
-/* p 2^-s (0 <= p < 2^63) as a coefficient m 2^-shift the products take: m <= 2^31 and
+@BITS@/* p 2^-s (0 <= p < 2^63) as a coefficient m 2^-shift the products take: m <= 2^31 and
  * shift in [31, 62], rounded (below 2^-31 it keeps fewer bits of mantissa, an absolute
  * error under 2^-63) */
 static int64_t @P@_coef_of(int64_t p, int s, int *shift)
@@ -510,9 +512,8 @@ static int64_t @P@_coef_of(int64_t p, int s, int *shift)
 static void @P@_filter_gap(int d, int32_t am, int as, int32_t bm, int bs, int64_t *alpha,
                            int *alpha_s, int64_t *beta, int *beta_s)
 {
-    int64_t fa = as <= 46 ? (int64_t)am << (46 - as) : ((((int64_t)am >> (as - 47)) + 1) >> 1);
-    int64_t t = (int64_t)(d - 1) * d * bm;  /* (d - 1) d fb 2^bs, below 2^47 */
-    int64_t fb = bs <= 46 ? t << (46 - bs) : (((t >> (bs - 47)) + 1) >> 1);
+    int64_t fa = @P@_at(am, as, 46);
+    int64_t fb = @P@_at((int64_t)(d - 1) * d * bm, bs, 46);  /* (d - 1) d fb, below 2^47 2^-bs */
     int64_t q = ((int64_t)1 << 46) + (d - 1) * (((int64_t)1 << 46) - fa) + fb;
     int z = @P@_bits(q >> 32);  /* q / 2^z below 2^32 */
     int64_t inv;
@@ -683,8 +684,8 @@ _PID_CHECKS = {
     "fa": ("the filter's fa > 0 with fb, 0 with it (no filter)",
            "p->fa.m < 0 || (p->fa.m == 0) != (p->fb.m == 0)"),
     "fb": ("fb >= 0 and fa + fb < 1 (a filter of positive time constants)",
-           "p->fb.m < 0 ||\n        (p->fb.m != 0 && @P@_to31(p->fa.m, p->fa.s) + "
-           "@P@_to31(p->fb.m, p->fb.s) >= ((int64_t)1 << 31))"),
+           "p->fb.m < 0 ||\n        (p->fb.m != 0 && @P@_at(p->fa.m, p->fa.s, 31) + "
+           "@P@_at(p->fb.m, p->fb.s, 31) >= ((int64_t)1 << 31))"),
 }
 #: and in an export without a measurement filter (no code to run one)
 _PID_CHECKS_NO_FILTER = {key: value for key, value in _PID_CHECKS.items() if key != "fb"} | {
@@ -762,13 +763,11 @@ static int32_t @P@_sat32(int64_t x)
     return (int32_t)x;
 }
 
-/* the integral's bound: the integral and two products (each below 2^61) sum without
- * overflow */
-static int64_t @P@_sat_i(int64_t x)
+/* x saturated to +-bound: the integral to I_MAX (it and two products, each below 2^61,
+ * sum without overflow), the filter's values to theirs */
+static int64_t @P@_sat_to(int64_t x, int64_t bound)
 {
-    if (x > @PU@_I_MAX) return @PU@_I_MAX;
-    if (x < -@PU@_I_MAX) return -@PU@_I_MAX;
-    return x;
+    return x > bound ? bound : (x < -bound ? -bound : x);
 }
 
 /* x * M * 2^-S, rounded to nearest, ties up (|x| < 2^31, |M| < 2^31: the product and
@@ -784,7 +783,7 @@ static int64_t @P@_times(int64_t x, int d)
     return x * d;
 }
 
-@TO31@@FILTER_HELPERS@@OVER_GAP@static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
+@AT@@FILTER_HELPERS@@OVER_GAP@static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
 {
     return (int32_t)(v > hi ? hi : (v < lo ? lo : v));
 }
@@ -840,7 +839,7 @@ void @P@_init(@P@_state *s)
             ie = @P@_times(ie, gap);
             it = @P@_times(it, gap);
         }
-        s->i = @P@_sat_i(s->i + ie + it);
+        s->i = @P@_sat_to(s->i + ie + it, @PU@_I_MAX);
     }
     s->d = (int32_t)d;
     s->y_old = y;

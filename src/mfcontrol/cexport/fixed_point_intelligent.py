@@ -48,6 +48,7 @@ from ..errors import ConfigError
 from ..laws import estimators, intelligent
 from ..laws import variational_gain as gain_law
 from .fixed_point import (
+    BITS,
     TUNABLE_PARTS,
     Coefficient,
     Scales,
@@ -190,6 +191,7 @@ def q31_intelligent_source(ctrl, *, prefix: str, banner: str, key_prefix: str = 
     PU = prefix.upper()
     has_i = q.ci.mantissa != 0  # frozen: no anti-windup without an integral
     subs = {"N": str(q.order), "UINIT": str(q.u_init), "MEAN": "1" if q.held_mean else "0",
+            "BITS": BITS,
             "CLAMP": "1" if q.anti_windup == intelligent.AW_CLAMP and (has_i or not frozen)
             else "0",
             "BACK": "1" if q.anti_windup == intelligent.AW_BACK and (has_i or not frozen)
@@ -311,14 +313,13 @@ static int64_t @P@_scale(int64_t x, int64_t m, int s)
 }
 #endif
 
-/* x * M * 2^(F - s) / D (D in [2, 2^16]), rounded and saturated to +-T_MAX as mul: the
+@BITS@/* x * M * 2^(F - s) / D (D in [2, 2^16]), rounded and saturated to +-T_MAX as mul: the
  * product taken over 2^k >= D (it saturates only where the quotient does), then times
  * 2^k / D in [1, 2) through a 16-bit split */
 static int64_t @P@_mul_over(int64_t x, int64_t m, int s, int64_t D)
 {
-    int k = 0;
+    int k = @P@_bits(D - 1);  /* the least k with 2^k >= D */
     int64_t p, c, p1, p0, a, q, low;
-    while (((int64_t)1 << k) < D) k++;
     p = @P@_mul(x, m, s + k);
     if (p >= @PU@_T_MAX || p <= -@PU@_T_MAX) return p;
     c = ((int64_t)1 << k) - D;

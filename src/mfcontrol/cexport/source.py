@@ -11,6 +11,7 @@ automatic, and the parameter table baked in.
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 import re
@@ -528,9 +529,10 @@ def _terms_law(name: str, law, reset_kinds: tuple) -> _Law:
         coefficients=law.coefficients)
 
 
+@functools.cache
 def _row_comments(module) -> dict[str, str]:
     """The comments on a law module's constants (``NAME = ...  # what it is``), made
-    inert as C comment text."""
+    inert as C comment text (read once per module)."""
     comments = {}
     for line in inspect.getsource(module).splitlines():
         m = re.match(r"^([A-Z][A-Z0-9_]*) = [^#]*#\s*(.*)$", line)
@@ -553,7 +555,7 @@ def _memory_type(prefix: str, law: _Law, n_cs: int, tr: Translator) -> str:
     law indexes them) and the same rows by name (``named``): each row the law reads by a
     constant is a member named as the constant, the rows it reads at computed offsets
     (a window, a ring) arrays named after their region."""
-    names: dict[int, tuple[str, str]] = {}  # row -> (member, comment)
+    names: dict[int, tuple[str, str, str]] = {}  # row -> (member, comment, C name)
     taken = {label for label, _ in law.regions.values()} | _C_KEYWORDS | _CPP_KEYWORDS
     for row, code in sorted(tr.state_names.items()):
         module, attr = tr.origins[code]
@@ -563,12 +565,11 @@ def _memory_type(prefix: str, law: _Law, n_cs: int, tr: Translator) -> str:
         while member in taken:
             member += "_"
         taken.add(member)
-        names[row] = (member, _row_comments(module).get(attr, ""))
+        names[row] = (member, _row_comments(module).get(attr, ""), code)
     lines, row = [], 0
     while row < n_cs:
         if row in names:
-            member, comment = names[row]
-            code = tr.state_names[row]
+            member, comment, code = names[row]
             lines.append((f"{prefix}_real {member};", f"{comment} ({code})" if comment
                           else code))
             row += 1
