@@ -1,23 +1,24 @@
 """What an exported controller costs on a Cortex-M: code size, instructions and cycles per
 step, mean and worst, for the Cortex-M4F (float, its FPU) and the Cortex-M0 (float and
-double in software), and the PID and the backward-difference i-PID in fixed point (q31) on
-both, beside the x86 figures of ``bench_c_export.py`` (same controllers).
+double in software), the PID and the backward-difference i-PID in fixed point (q31) on
+both, and the PID in q15 on the M0, beside the x86 figures of ``bench_c_export.py`` (same
+controllers).
 
 Each export is cross-compiled with Debian's arm-none-eabi-gcc (``-O2`` and the export's
 flags), its object's ``text`` read with ``arm-none-eabi-size``, and driven with its case's
 closed-loop samples under ``qemu-system-arm -singlestep -d exec``, which logs every
 instruction the emulated core executes: the instructions between two markers around each
 step, less those around a call of an empty function of the same signature, are the step's.
-Three samples in a row at a third of the run are rejected (NaN; in q31 a code beyond the
-input limits): the worst step includes the one that spans them (a 64-bit division or two
-in q31, the longer period's coefficients in float), the mean does not. qemu does not model
-timing: the cycles are the Arm manuals' per-instruction counts applied to the instructions
-executed (``mfcontrol.cexport.cortex_m_cycles``: no wait states; exact on the M0 with its
-single-cycle multiplier; on the M4F a low and a high count, whose high one bounds the
-step). A board's cycle counter (DWT CYCCNT) would measure them; this machine has none. The
-M0 build runs on the Cortex-M3 of ``mps2-an385``, which executes ARMv6-M code as an M0
-would (qemu has no M0 board with the RAM). With the algebraic estimator, the run spans two
-resyncs (2M + 2 samples). Needs arm-none-eabi-gcc, libnewlib-arm-none-eabi and
+Three samples in a row at a third of the run are rejected (NaN; in fixed point a code beyond
+the input limits): the worst step includes the one that spans them (a 64-bit division or two
+in fixed point, the longer period's coefficients in float), the mean does not. qemu does not
+model timing: the cycles are the Arm manuals' per-instruction counts applied to the
+instructions executed (``mfcontrol.cexport.cortex_m_cycles``: no wait states; exact on the
+M0 with its single-cycle multiplier; on the M4F a low and a high count, whose high one
+bounds the step). A board's cycle counter (DWT CYCCNT) would measure them; this machine has
+none. The M0 build runs on the Cortex-M3 of ``mps2-an385``, which executes ARMv6-M code as
+an M0 would (qemu has no M0 board with the RAM). With the algebraic estimator, the run spans
+two resyncs (2M + 2 samples). Needs arm-none-eabi-gcc, libnewlib-arm-none-eabi and
 qemu-system-arm.
 
 Run::
@@ -44,11 +45,15 @@ from mfcontrol.cexport.translate import Options
 
 TARGETS = [("Cortex-M4F", "m4f", "float"), ("Cortex-M0", "m0", "float"),
            ("Cortex-M0", "m0", "double"), ("Cortex-M4F", "m4f", "q31"),
-           ("Cortex-M0", "m0", "q31")]  # (label, mfcontrol.cexport.cortex_m target, real)
+           ("Cortex-M0", "m0", "q31"), ("Cortex-M0", "m0", "q15")]
+# (label, mfcontrol.cexport.cortex_m target, real)
 #: the controllers measured in fixed point (q31 exports the PID and the i-P family with the
 #: backward difference; the measurement range it needs is the run's largest |y| or |r| up
 #: to a power of two)
 Q31_LAWS = ("PID", "i-PID, backward difference")  # the PID's variants too
+#: and in q15 (the PID only: on a Cortex-M0, where its 32-bit products are one MULS each)
+Q15_LAWS = ("PID",)
+FIXED = {"q31": 31, "q15": 15}  # the fixed-point words and their codes' bits
 BASELINE = 3  # calls of the empty function first
 
 
@@ -95,10 +100,10 @@ int main(void)
 
 
 def _samples_header(y: np.ndarray, r: np.ndarray, real: str, scale: float = 1.0) -> str:
-    if real == "q31":  # the codes, at the export's measurement scale
+    if real in FIXED:  # the codes, at the export's measurement scale
         def row(values):
-            return ",\n".join(f"    {code(float(v), scale)}" for v in values)
-        return ("typedef mfc_q31 mfc_real;\n"
+            return ",\n".join(f"    {code(float(v), scale, FIXED[real])}" for v in values)
+        return (f"typedef mfc_{real} mfc_real;\n"
                 f"#define N_SAMPLES {len(y)}L\n"
                 f"static const mfc_real Y[{len(y)}] = {{\n{row(y)}\n}};\n"
                 f"static const mfc_real R[{len(r)}] = {{\n{row(r)}\n}};\n")
@@ -134,15 +139,15 @@ def measure(case: str, overrides: dict, real: str, target: str,
     n = 2 * M + 2 + DROPOUT if M else 100  # two resyncs, the dropout aside
     y, r = closed_loop(case, overrides, n)
     scale = 1.0
-    if real == "q31":
+    if real in FIXED:
         span = 2.0 ** math.ceil(math.log2(max(np.abs(y).max(), np.abs(r).max())))
         ctrl._take_input_limits((-span, span))
         scale = 2.0 * span  # Y_SCALE: twice the input limits' magnitude
-    # a dropout: rejected samples (NaN; in q31 a code beyond the input limits), then the
+    # a dropout: rejected samples (NaN; in fixed point a code beyond the input limits), the
     # step that spans them, which the worst step includes
     dropout = _dropout(n)
     y = y.copy()
-    y[dropout] = 4.0 * span if real == "q31" else math.nan
+    y[dropout] = 4.0 * span if real in FIXED else math.nan
     src = c_source(ctrl, real=real, prefix="mfc", frozen=frozen)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)
@@ -196,7 +201,8 @@ def main() -> None:
             for name, target, real in TARGETS:
                 if args.real and real != args.real:
                     continue
-                if real == "q31" and not label.startswith(Q31_LAWS):
+                if (real == "q31" and not label.startswith(Q31_LAWS)
+                        or real == "q15" and not label.startswith(Q15_LAWS)):
                     continue
                 folder = Path(tmp) / f"{case}-{len(overrides)}-{target}-{real}"
                 folder.mkdir()

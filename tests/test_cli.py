@@ -882,6 +882,17 @@ def test_export_c_frozen_and_in_fixed_point(tmp_path):
                "128", "--set", "controller.adapt=variational", "--out", str(tmp_path / "v"))
     assert proc.returncode == 2 and "constant gain only" in proc.stderr, proc.stderr
     assert "Traceback" not in proc.stderr
+    # q15: the PID in 16-bit codes; the i-P family is refused in one line
+    proc = cli("export-c", "motor-noise-pid", "--real", "q15", "--input-limits", "-128",
+               "128", "--out", str(tmp_path / "h"))
+    assert proc.returncode == 0 and "q15" in proc.stdout, proc.stderr
+    assert "typedef int16_t mfc_q15;" in (tmp_path / "h" / "mfc.h").read_text()
+    subprocess.run([compiler(), *CFLAGS, "-c", str(tmp_path / "h" / "mfc.c"), "-o",
+                    str(tmp_path / "h.o")], check=True)
+    proc = cli("export-c", "motor-noise-ipi", "--real", "q15", "--input-limits", "-128",
+               "128", "--out", str(tmp_path / "j"))
+    assert proc.returncode == 2 and "real = 'q15': exports the PID only" in proc.stderr
+    assert "Traceback" not in proc.stderr and len(proc.stderr.splitlines()) == 1
 
 
 def test_export_c_of_a_sweep_case_says_it_exports_the_base_setting(tmp_path):

@@ -527,11 +527,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", help="output folder (default results/CASE/c)")
     s.add_argument("--prefix", default="mfc", help="file name and prefix of every C name "
                    "(default mfc: mfc.h, mfc_step...)")
-    s.add_argument("--real", "--float", dest="float", choices=("double", "float", "q31"),
-                   default="double", help="number type of the C (default double; q31: "
-                   "fixed point for a core without an FPU: the PID, and the i-P family with "
-                   "the backward difference and a constant gain; with --input-limits for "
-                   "the measurement's scale)")
+    s.add_argument("--real", "--float", dest="float",
+                   choices=("double", "float", "q31", "q15"), default="double",
+                   help="number type of the C (default double; q31: fixed point for a core "
+                   "without an FPU: the PID, and the i-P family with the backward "
+                   "difference and a constant gain; q15: the PID in 16-bit codes, about "
+                   "half q31's cycles on a Cortex-M0; both with --input-limits for the "
+                   "measurement's scale)")
     s.add_argument("--input-limits", nargs=2, metavar=("LOW", "HIGH"),
                    help="the measurement's valid range (the sensor's; 'none' for no limit): "
                    "a sample outside is rejected as a NaN is, the output held")

@@ -1,4 +1,5 @@
-"""The q31 PID (mfcontrol.cexport.fixed_point) against the double PID it implements.
+"""The fixed-point PID (mfcontrol.cexport.fixed_point), q31 and q15, against the double PID
+it implements.
 
 The export is compiled under the tests' warnings (and with -fsanitize=undefined, which
 reports a signed overflow), driven with codes of the case's closed loop, and compared at
@@ -6,7 +7,8 @@ every step with the live double PID driven with the same values: the difference 
 within a first-order bound derived along the run from the export's arithmetic (each
 coefficient's representation error, each product's rounding, the integral's guard bits,
 carried through the law's recursions). Hostile codes saturate and never leave the output
-limits; the Cortex-M0 computes the same codes as x86.
+limits; the Cortex-M0 computes the same codes as x86. Each test runs for both words
+(``real``) where the word changes what it checks.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from scipy.linalg import solve_discrete_lyapunov
 
 import mfcontrol
 from mfcontrol.cexport import c_source, cortex_m
-from mfcontrol.cexport.fixed_point import GUARD_BITS, code, q31_params_c, q31_pid
+from mfcontrol.cexport.fixed_point import GUARD_BITS, code, fixed_params_c, fixed_pid
 from mfcontrol.errors import ConfigError
 from mfcontrol.laws import pid
 
@@ -31,6 +33,8 @@ from .test_on_target import _require_tools
 from .test_source import closed_loop
 
 CASE = "motor-noise-pid"
+WORDS = ["q31", "q15"]
+BITS = {"q31": 31, "q15": 15}
 INPUT_LIMITS = (-128.0, 128.0)  # the measurement's scale 256: codes dequantize exactly
 VARIANTS = [
     {},
@@ -54,10 +58,10 @@ int main(void)
     @P@_init(&s);
     while (fread(row, sizeof row, 1, stdin) == 1) {
         if (row[0] == 0) {
-            long u = (long)@P@_step(&s, (@P@_q31)row[1], (@P@_q31)row[2]);
+            long u = (long)@P@_step(&s, (@P@_@Q@)row[1], (@P@_@Q@)row[2]);
             fwrite(&u, sizeof u, 1, stdout);
         } else if (row[0] == 1) {
-            @P@_set_manual(&s, (@P@_q31)row[1]);
+            @P@_set_manual(&s, (@P@_@Q@)row[1]);
         } else if (row[0] == 2) {
             @P@_set_auto(&s);
 @SET@        }
@@ -94,7 +98,7 @@ def build(src, folder: Path, flags=(), sets=()) -> Path:
     table = ("" if not sets else f"static const @P@_params SETS[{len(sets)}] = {{\n"
              + ",\n".join(sets) + "\n};\n")
     main = _MAIN.replace("@SETS@", table).replace("@SET@", _SET if sets else "")
-    (folder / "main.c").write_text(main.replace("@P@", src.prefix))
+    (folder / "main.c").write_text(main.replace("@P@", src.prefix).replace("@Q@", src.real))
     exe = folder / "drive"
     done = subprocess.run([H.compiler(), *H.CFLAGS, *flags, "-I", str(folder),
                            str(folder / f"{src.prefix}.c"), str(folder / "main.c"), "-o",
@@ -116,27 +120,28 @@ def run(exe: Path, ops: np.ndarray) -> tuple[np.ndarray, int]:
 REJECTED = (150, 151, 152, 300, 451, 752, 1125, 1126)
 
 
-def codes_of_the_run(ctrl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ops, y, r): the case's closed loop as codes, with measurements outside the input
-    limits (:data:`REJECTED`), a manual period and the return to automatic; y and r
-    dequantized (exactly: the scale is a power of two)."""
-    q = q31_pid(ctrl)
+def codes_of_the_run(ctrl, real: str = "q31") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ops, y, r): the case's closed loop as codes of ``real``, with measurements outside
+    the input limits (:data:`REJECTED`), a manual period and the return to automatic; y
+    and r dequantized (exactly: the scale is a power of two)."""
+    q = fixed_pid(ctrl, real=real)
+    b = BITS[real]
     y, r = closed_loop(CASE)
-    Y = np.array([code(v, q.scales.y_scale) for v in y])
-    R = np.array([code(v, q.scales.y_scale) for v in r])
+    Y = np.array([code(v, q.scales.y_scale, b) for v in y])
+    R = np.array([code(v, q.scales.y_scale, b) for v in r])
     n = len(Y)
-    outside = q.scales.y_limits[1] + 2**20  # 0.12 above the upper input limit
+    outside = q.scales.y_limits[1] + 2**(b - 11)  # 0.12 above the upper input limit
     Y[list(REJECTED)] = outside
-    u_manual = code(0.25 * q.scales.u_scale, q.scales.u_scale)
+    u_manual = code(0.25 * q.scales.u_scale, q.scales.u_scale, b)
     ops = np.vstack([np.column_stack([np.zeros(n // 2), Y[:n // 2], R[:n // 2]]),
                      [[1, u_manual, 0]],
                      np.column_stack([np.zeros(5), Y[n // 2:n // 2 + 5], R[n // 2:n // 2 + 5]]),
                      [[2, 0, 0]],
                      np.column_stack([np.zeros(n - n // 2), Y[n // 2:], R[n // 2:]])])
-    return ops.astype(np.int64), Y * (q.scales.y_scale / 2**31), R * (q.scales.y_scale / 2**31)
+    return ops.astype(np.int64), Y * (q.scales.y_scale / 2**b), R * (q.scales.y_scale / 2**b)
 
 
-def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
+def bound_along(ctrl, ops, real: str = "q31") -> tuple[np.ndarray, np.ndarray]:
     """The double PID's outputs for ``ops`` and a first-order bound on |u_q31 - u| at each
     of its steps, carried through the law's recursions. Sources: each coefficient's
     representation error (known exactly: value against M 2^-S), each product's rounding
@@ -155,9 +160,9 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
     is carried in the norm |v|_P = sqrt(v' P v), P from A' P A - P = -I, in which A is a
     contraction (a bound carried in absolute values grows without end where Tf >> h); a
     step over a gap multiplies it by |A_d|_P. ex is then at most |C^-T e1| |e|_P."""
-    q = q31_pid(ctrl)
+    q = fixed_pid(ctrl, real=real)
     py = type(ctrl)(**ctrl._params)
-    qy, qu = q.scales.y_scale / 2**31, q.scales.u_scale / 2**31
+    qy, qu = q.scales.y_scale / 2**BITS[real], q.scales.u_scale / 2**BITS[real]
     qi = qu / 2**GUARD_BITS
     # a coefficient in codes is the law's divided by this
     ratio = q.scales.u_scale / q.scales.y_scale
@@ -175,7 +180,10 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
     filt = _FilterBound(q, qy) if q.fb.mantissa != 0 else None
     out, bounds = [], []
     err_i = err_d = err_u = 0.0  # of the integral, the derivative term, the last output
-    err_y = err_y_old = 0.0  # of the filtered measurement's code, this step's and the last
+    err_y = 0.0  # of the filtered measurement's code
+    # the derivative's: err_g bounds g = (its error) + bd (the error of its y - c r term),
+    # err_eps_old that term's at the last step
+    err_g = err_eps_old = 0.0
     first, pending = True, False
     y_old = r_old = d_old = 0.0
     gap = 1  # periods since the last sample taken
@@ -187,7 +195,7 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
             continue
         if op == 2:  # the law restarts from the last output
             py.set_auto_mode(True)
-            err_i = err_d = 0.0
+            err_i = err_d = err_g = 0.0
             first, pending, gap = True, True, 1
             continue
         y, r = a * qy, code_r * qy
@@ -219,18 +227,31 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
         err_p = kp * (abs(r) * db + 0.5 * qy + err_y) + abs(b * r - y) * dkp + 0.5 * qu
         if q.derivative:
             de = (y - y_old) if c == 0.0 else (y - c * r) - (y_old - c * r_old)
-            err_de = ((0.0 if c == 0.0 else dc * (abs(r) + abs(r_old)) + qy)
-                      + err_y + err_y_old)
-            err_d = (ad * err_d + abs(d_old) * dad + 0.5 * qu + abs(de) * dbd + bd * err_de
-                     + 0.5 * qu)
+            # the error e of D = ad D_old - bd (t - t_old), t = y - c r, is e = ad e_old -
+            # bd (eps - eps_old) + rho (eps: t's error; rho: the coefficients' and the two
+            # products' roundings). Carried as g = e + bd eps = ad g_old + (1 - ad) bd
+            # eps_old + rho, the errors of t telescope: bd max|eps| where a bound on e
+            # alone gives 2 bd max|eps| / (1 - ad), 100 times that at ad = 0.98.
+            err_eps = err_y + (0.0 if c == 0.0 else dc * abs(r) + 0.5 * qy)
+            if first:  # t_old = t: the first difference is exactly 0
+                err_g, err_eps_old = bd * err_eps, err_eps
+            rho = abs(d_old) * dad + abs(de) * dbd + 2 * 0.5 * qu
+            if gap == 1:
+                err_g = ad * err_g + (1.0 - ad) * bd * err_eps_old + rho
+                err_d = err_g + bd * err_eps
+            else:  # e before the division by D, from the bound on e alone
+                err_d = ad * err_d + bd * (err_eps + err_eps_old) + rho
+            err_eps_old = err_eps
             if gap > 1:  # x / D, D = 1 + (gap - 1)(1 - ad), D as the C forms it
                 m, shift = q.ad.mantissa, q.ad.shift
-                a31 = 0 if m == 0 else m if shift == 31 else ((m >> (shift - 32)) + 1) >> 1
+                a31 = (0 if m == 0 else m << (31 - shift) if shift <= 31
+                       else ((m >> (shift - 32)) + 1) >> 1)
                 d_c = ((2**31 + (gap - 1) * (2**31 - a31)) >> 8) * 2.0**8 / 2**31
                 d_true = 1.0 + (gap - 1) * (1.0 - ad)
                 x = abs(comp["D"]) * d_true
                 err_d = (err_d / d_c + x * abs(1.0 / d_c - 1.0 / d_true) + 0.5 * qu
                          + 8 * eps * x)
+                err_g = err_d + bd * err_eps
         if pending:  # the integral set to give the last output
             err_i = err_u + err_p + err_d
             pending = False
@@ -238,11 +259,13 @@ def bound_along(ctrl, ops) -> tuple[np.ndarray, np.ndarray]:
         err_u = err_v + dlim + eps * abs(u)
         out.append(u)
         bounds.append(err_u)
-        err_i += (gap * (htt * (err_p + err_d + 0.5 * qu + dlim) + abs(r - y) * dkih
-                         + kih * err_y + abs(u - v) * dhtt + 2 * 0.5 * qi)
+        # the tracking term h / Tt (u - v) is exactly 0 in both where the double's v is
+        # farther than the C's error from the limits (the C's is within them too)
+        limited = not lo + err_v < v < hi - err_v
+        err_i += (gap * ((htt * (err_p + err_d + 0.5 * qu + dlim) if limited else 0.0)
+                         + abs(r - y) * dkih + kih * err_y + abs(u - v) * dhtt + 2 * 0.5 * qi)
                   + eps * (abs(i) + gap * abs(u - v)))
         y_old, r_old, d_old, first, gap = y, r, d, False, 1
-        err_y_old = err_y
     return np.array(out), np.array(bounds)
 
 
@@ -321,47 +344,59 @@ class _FilterBound:
         return self.reach * self.e + 0.5 * self.qy + eps
 
 
+@pytest.mark.parametrize("real", WORDS)
 @pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast",
                                                 "pid-filter", "pi-slow-filter"])
-def test_the_q31_pid_stays_within_its_derived_bound_of_the_double_pid(over, tmp_path):
+def test_the_fixed_point_pid_stays_within_its_derived_bound_of_the_double_pid(
+        over, real, tmp_path):
     ctrl = controller(over)
-    src = c_source(ctrl, real="q31")
-    ops, _, _ = codes_of_the_run(ctrl)
+    src = c_source(ctrl, real=real)
+    ops, _, _ = codes_of_the_run(ctrl, real)
     out, nan_count = run(build(src, tmp_path), ops)
-    u_q = out * (q31_pid(ctrl).scales.u_scale / 2**31)
-    u, bound = bound_along(ctrl, ops)
+    u_q = out * (fixed_pid(ctrl, real=real).scales.u_scale / 2**BITS[real])
+    u, bound = bound_along(ctrl, ops, real)
     assert len(u) == len(u_q)
     err = np.abs(u_q - u)
     worst = int(np.argmax(err / bound))
     assert np.all(err <= bound), (f"step {worst}: |{u_q[worst]!r} - {u[worst]!r}| > "
                                   f"{bound[worst]:.3g}")
     assert nan_count == len(REJECTED)  # (752 in the manual period is not a sample taken)
-    # the bound means something: within 1e-4 of the output's range over the whole run
+    # the bound means something: within 1e-4 of the output's range over the whole run in
+    # q31, 2e-2 in q15 (codes 2^16 times coarser)
     lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
-    assert bound.max() < 1e-4 * (hi - lo)
+    assert bound.max() < (1e-4 if real == "q31" else 2e-2) * (hi - lo)
     assert err.max() > 0.0  # and the comparison sees the fixed point's rounding
 
 
-#: coefficients at the top of their range (shifts near 1: the least room in 64 bits)
+#: coefficients at the top of their range (shifts near 1: the least room in the products)
 EXTREME = {"controller.kp": 5e7, "controller.ki": 10.0, "controller.kd": 2e5,
            "controller.N": 5.0, "controller.b": 100.0, "controller.c": -50.0,
            "controller.Tt": 0.002, "controller.duty_min": -2.0, "controller.duty_max": 2.0}
+#: and in q15, whose coefficients reach 2^14 (kp Y_SCALE / U_SCALE = 32 kp here)
+EXTREME_Q15 = EXTREME | {"controller.kp": 500.0, "controller.kd": 0.6,
+                         "controller.b": 30.0, "controller.c": -30.0}
 
 
-@pytest.mark.parametrize("over", [VARIANTS[1], EXTREME], ids=["pid-weights", "extreme"])
-def test_hostile_codes_saturate_without_undefined_behaviour(over, tmp_path):
+@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("over", ["pid-weights", "extreme"])
+def test_hostile_codes_saturate_without_undefined_behaviour(over, real, tmp_path):
     """The extreme codes as measurement, setpoint and manual output, under
     -fsanitize=undefined (a signed overflow or an out-of-range shift is reported): every
     output is within the output limits, a measurement outside the input limits is held
     and counted."""
+    over = (VARIANTS[1] if over == "pid-weights" else
+            EXTREME if real == "q31" else EXTREME_Q15)
     ctrl = controller(over)
-    q = q31_pid(ctrl)
-    src = c_source(ctrl, real="q31")
-    big, y_lo, y_hi = 2**31 - 1, *q.scales.y_limits
+    q = fixed_pid(ctrl, real=real)
+    if over is EXTREME_Q15:  # at the top of q15's range: shifts of 1
+        assert q.kp.shift == 1 and q.bd.shift <= 2
+    src = c_source(ctrl, real=real)
+    top = 2**BITS[real]
+    big, y_lo, y_hi = top - 1, *q.scales.y_limits
     values = [-big - 1, -big, -1, 0, 1, big, y_lo, y_hi, y_lo - 1, y_hi + 1]
     rng = np.random.default_rng(5)
     rows = [[0, a, b] for a in values for b in values]
-    rows += [[0, int(a), int(b)] for a, b in rng.integers(-2**31, 2**31, (300, 2))]
+    rows += [[0, int(a), int(b)] for a, b in rng.integers(-top, top, (300, 2))]
     rows += [[1, big, 0], [0, 0, 0], [2, 0, 0], [0, 0, big], [1, -big - 1, 0], [2, 0, 0],
              [0, y_hi, -big - 1]]
     exe = build(src, tmp_path, ("-fsanitize=undefined", "-fno-sanitize-recover=all"))
@@ -372,7 +407,7 @@ def test_hostile_codes_saturate_without_undefined_behaviour(over, tmp_path):
 
 
 def m0_codes(src, ops: np.ndarray, folder: Path) -> list[int]:
-    """The output codes of the q31 export ``src`` cross-compiled for the Cortex-M0 and run
+    """The output codes of the fixed-point export ``src`` cross-compiled for the Cortex-M0 and run
     under qemu on ``ops``; asserts that no software floating-point routine is linked in."""
     folder.mkdir()
     (folder / "mfc.h").write_text(src.header)
@@ -383,8 +418,8 @@ def m0_codes(src, ops: np.ndarray, folder: Path) -> list[int]:
             "int main(void)\n{\n    static mfc_state s;\n    long i;\n    mfc_init(&s);\n"
             f"    for (i = 0; i < {len(ops)}L; i++) {{\n"
             "        if (OPS[i][0] == 0) printf(\"u %ld\\n\", (long)mfc_step(&s, "
-            "(mfc_q31)OPS[i][1], (mfc_q31)OPS[i][2]));\n"
-            "        else if (OPS[i][0] == 1) mfc_set_manual(&s, (mfc_q31)OPS[i][1]);\n"
+            f"(mfc_{src.real})OPS[i][1], (mfc_{src.real})OPS[i][2]));\n"
+            f"        else if (OPS[i][0] == 1) mfc_set_manual(&s, (mfc_{src.real})OPS[i][1]);\n"
             "        else mfc_set_auto(&s);\n    }\n    return 0;\n}\n")
     flags, _ = cortex_m.TARGETS["m0"]
     subprocess.run(["arm-none-eabi-gcc", *flags, *H.CFLAGS, "-c", str(folder / "mfc.c"),
@@ -400,11 +435,12 @@ def m0_codes(src, ops: np.ndarray, folder: Path) -> list[int]:
     return [int(line[2:]) for line in done.stdout.splitlines() if line.startswith("u ")]
 
 
-def test_the_cortex_m0_computes_the_same_codes(tmp_path):
+@pytest.mark.parametrize("real", WORDS)
+def test_the_cortex_m0_computes_the_same_codes(real, tmp_path):
     _require_tools()
     ctrl = controller(VARIANTS[1] | {"controller.Tf": 0.002})  # the filter's products too
-    src = c_source(ctrl, real="q31")
-    ops, _, _ = codes_of_the_run(ctrl)
+    src = c_source(ctrl, real=real)
+    ops, _, _ = codes_of_the_run(ctrl, real)
     ops = ops[:400]
     x86, _ = run(build(src, tmp_path / "x86"), ops)
     assert m0_codes(src, ops, tmp_path / "m0") == x86.tolist()
@@ -435,11 +471,29 @@ def test_what_the_fixed_point_export_cannot_hold_is_refused():
     # a set for an export: its period, and limits within its output scale
     ctrl = controller({})
     with pytest.raises(ConfigError, match="sample_time"):
-        q31_params_c(mfcontrol.PID(**{**ctrl._params, "sample_time": 0.002}), like=ctrl)
+        fixed_params_c(mfcontrol.PID(**{**ctrl._params, "sample_time": 0.002}), like=ctrl)
     with pytest.raises(ConfigError, match="within the export's output scale"):
-        q31_params_c(mfcontrol.PID(**{**ctrl._params, "output_limits": (-1e3, 1e3)}),
+        fixed_params_c(mfcontrol.PID(**{**ctrl._params, "output_limits": (-1e3, 1e3)}),
                      like=ctrl)
     assert math.isfinite(code(1e300, 1.0))
+
+
+def test_what_q15_cannot_hold_is_refused():
+    """q15 exports the PID only; a coefficient beyond 2^14 (a shift below 1) is refused in
+    the words of its parameter; its integral's coefficients go on to 2^38."""
+    ipi = mfcontrol.make_controller("motor-noise-ipi-algebraic",
+                                    {"controller.estimator": "backward-difference"})
+    ipi._take_input_limits(INPUT_LIMITS)
+    with pytest.raises(ConfigError, match="real = 'q15': exports the PID only"):
+        c_source(ipi, real="q15")
+    with pytest.raises(ConfigError, match="real = 'q15': must be q31 for the i-P family"):
+        fixed_params_c(mfcontrol.make_controller("motor-noise-ipi-algebraic"), real="q15")
+    with pytest.raises(ConfigError, match=r"kp = 600.0: gives the q15 coefficient 1.92e\+04"):
+        c_source(controller(EXTREME_Q15 | {"controller.kp": 600.0}), real="q15")
+    # q31 takes it (its coefficients reach 2^30)
+    c_source(controller(EXTREME_Q15 | {"controller.kp": 600.0}), real="q31")
+    q = fixed_pid(controller({"controller.ki": 1e4, "controller.Tt": 0.001}), real="q15")
+    assert q.kih.shift < 0 and q.htt.shift < 0  # shifted left in 64 bits
 
 
 # --- the tunable build (PREFIX_set_params) ---------------------------------------------
@@ -452,7 +506,7 @@ RETUNED = {"controller.kp": 0.5, "controller.ki": 2.0, "controller.kd": 0.02,
 
 
 def members(text: str) -> list[str]:
-    """The members of a C initializer of ``PREFIX_params`` (q31_params_c's), in order."""
+    """The members of a C initializer of ``PREFIX_params`` (fixed_params_c's), in order."""
     return re.findall(r"^    (\{[^}]*\}|[-0-9xA-FUL]+),? /\*", text, flags=re.M)
 
 
@@ -460,43 +514,45 @@ def initializer(values: list[str]) -> str:
     return "{" + ", ".join(values) + "}"
 
 
+@pytest.mark.parametrize("real", WORDS)
 @pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast", "pid-filter",
                                                 "pi-slow-filter"])
-def test_the_tunable_build_gives_the_frozen_builds_codes(over, tmp_path):
+def test_the_tunable_build_gives_the_frozen_builds_codes(over, real, tmp_path):
     """The coefficients read from the parameter struct (a derivative and a setpoint weight
     tested at run time) give the codes of the constants folded into the frozen build."""
     ctrl = controller(over)
-    ops, _, _ = codes_of_the_run(ctrl)
-    tunable, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "t"), ops)
-    frozen_src = c_source(ctrl, real="q31", frozen=True)
+    ops, _, _ = codes_of_the_run(ctrl, real)
+    tunable, _ = run(build(c_source(ctrl, real=real), tmp_path / "t"), ops)
+    frozen_src = c_source(ctrl, real=real, frozen=True)
     assert "set_params" not in frozen_src.header
     frozen, _ = run(build(frozen_src, tmp_path / "f"), ops)
     assert tunable.tolist() == frozen.tolist()
 
 
-def test_set_params_restarts_bumplessly_on_the_new_coefficients(tmp_path):
+@pytest.mark.parametrize("real", WORDS)
+def test_set_params_restarts_bumplessly_on_the_new_coefficients(real, tmp_path):
     """In automatic mode a new set restarts the law from the last output, as a return
     from manual does: the codes after it are those of an export built with the new gains,
     put in manual at the last output and back to automatic. The double law's retune does
     the same, and the two stay within a small tolerance of each other."""
     ctrl, new = controller({"controller.Tf": 0.005}), controller(RETUNED)
-    ops, _, _ = codes_of_the_run(ctrl)
+    ops, _, _ = codes_of_the_run(ctrl, real)
     k = 300
     steps = ops[ops[:, 0] == 0]
     retune = np.vstack([steps[:k], [[3, 0, 0]], steps[k:]])
-    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a",
-                       sets=[q31_params_c(new)]), retune)
+    out, _ = run(build(c_source(ctrl, real=real), tmp_path / "a",
+                       sets=[fixed_params_c(new, real=real)]), retune)
     assert out[k] == 0  # taken
     before, after = out[:k], out[k + 1:]
-    alone, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "b"), steps[:k])
+    alone, _ = run(build(c_source(ctrl, real=real), tmp_path / "b"), steps[:k])
     assert before.tolist() == alone.tolist()
     restart = np.vstack([[[1, before[-1], 0], [2, 0, 0]], steps[k:]])
-    fresh, _ = run(build(c_source(new, real="q31"), tmp_path / "c"), restart)
+    fresh, _ = run(build(c_source(new, real=real), tmp_path / "c"), restart)
     assert after.tolist() == fresh.tolist()
     assert after[0] == before[-1]  # bumpless: the first output is the last one
     # the double law, retuned at the same sample
-    q = q31_pid(ctrl)
-    scale_y, scale_u = q.scales.y_scale / 2**31, q.scales.u_scale / 2**31
+    q = fixed_pid(ctrl, real=real)
+    scale_y, scale_u = q.scales.y_scale / 2**BITS[real], q.scales.u_scale / 2**BITS[real]
     py = type(ctrl)(**ctrl._params)
     u = []
     for i, (_, y, r) in enumerate(steps):
@@ -504,26 +560,61 @@ def test_set_params_restarts_bumplessly_on_the_new_coefficients(tmp_path):
             py.retune(kp=0.5, ki=2.0, kd=0.02, N=5.0, b=0.5, c=0.3, Tt=0.2, Tf=0.002)
         u.append(py(y * scale_y, setpoint=r * scale_y))
     u_q = np.concatenate([before, after]) * scale_u
-    assert np.max(np.abs(u_q - np.array(u))) < 1e-4 * 48.0
+    # (q15's codes are 2^16 times coarser)
+    assert np.max(np.abs(u_q - np.array(u))) < (1e-4 if real == "q31" else 1e-2) * 48.0
 
 
 def test_an_export_without_a_filter_refuses_one(tmp_path):
     """An export made with Tf 0 has no filter code (1.5 KB less on a Cortex-M0): a set
     with a filter is refused by its setter (fa, the first filter member) and by
-    q31_params_c(like=) on the host; a set without one is taken."""
+    fixed_params_c(like=) on the host; a set without one is taken."""
     ctrl = controller({})
     with pytest.raises(ConfigError, match=r"Tf = 0.002: must be 0 for this export"):
-        q31_params_c(controller({"controller.Tf": 0.002}), like=ctrl)
+        fixed_params_c(controller({"controller.Tf": 0.002}), like=ctrl)
     src = c_source(ctrl, real="q31")
     assert "fmul" not in src.source
     steps = codes_of_the_run(ctrl)[0][:5]
-    sets = [q31_params_c(controller({"controller.Tf": 0.002})), q31_params_c(ctrl)]
+    sets = [fixed_params_c(controller({"controller.Tf": 0.002})), fixed_params_c(ctrl)]
     out, _ = run(build(src, tmp_path, sets=sets),
                  np.vstack([steps, [[3, 0, 0], [3, 1, 0]]]))
     assert out[-2:].tolist() == [9, 0]  # PREFIX_FIELD_FA, then taken
 
 
-def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
+#: per word, a value each member's check refuses (see the test below)
+REFUSED = {
+    "q31": {
+        "format": "0x0UL",
+        "b": "{1073741823L, 30}",  # not normalised
+        "c": "{1073741824L, 63}",  # shift beyond 62
+        "kp": "{1073741824L, 0}",  # shift below 1
+        "kih": "{-2147483647L - 1L, 20}",  # |m| = 2^31
+        "htt": "{-1073741824L, 20}",  # negative
+        "ad": "{1073741824L, 30}",  # a pole of 1
+        "bd": None,  # against kp's sign (below)
+        "fa": "{0L, 31}",  # a filter's fb without its fa
+        "fb": "{1073741824L, 31}",  # fa + fb = 1 (fa 0.5 below): an unstable filter
+        "out_min": "-2147483647L - 1L",  # INT32_MIN: no symmetric saturation
+        "out_max": "-134217729L",  # below out_min (-134217728 below)
+    },
+    "q15": {
+        "format": "0x0UL",
+        "b": "{16383L, 14}",  # not normalised (15 bits)
+        "c": "{16384L, 31}",  # shift beyond 30
+        "kp": "{16384L, 0}",  # shift below 1
+        "kih": "{-32768L, 20}",  # |m| = 2^15
+        "htt": "{-16384L, 20}",  # negative
+        "ad": "{16384L, 14}",  # a pole of 1
+        "bd": None,
+        "fa": "{0L, 31}",  # the filter's are q31's in both words
+        "fb": "{1073741824L, 31}",
+        "out_min": "-32768L",  # INT16_MIN
+        "out_max": "-2049L",  # below out_min (-2048 below)
+    },
+}
+
+
+@pytest.mark.parametrize("real", WORDS)
+def test_a_refused_parameter_set_changes_nothing_and_names_its_member(real, tmp_path):
     """Each member out of what the law takes (a set for other formats, a mantissa or a
     shift the products cannot take, a negative tracking, a tracking of 0 with an integral,
     a pole at 1, a derivative against kp's sign, a filter's fb without fa, a filter with
@@ -532,83 +623,93 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
     set is taken (0) and changes nothing; a null pointer is refused with -1."""
     ctrl = controller(VARIANTS[1] | {"controller.duty_min": -24.0, "controller.duty_max": 24.0,
                                      "controller.Tf": 0.002})
-    good = members(q31_params_c(ctrl))
+    good = members(fixed_params_c(ctrl, real=real))
     names = ["format", "b", "c", "kp", "kih", "htt", "ad", "bd", "fa", "fb", "out_min",
              "out_max"]
     assert len(good) == len(names)
     kp_m = int(good[3].strip("{}").split(",")[0].rstrip("L"))
-    bad = {
-        "format": "0x0UL",
-        "b": "{1073741823L, 30}",  # not normalised
-        "c": "{1073741824L, 63}",  # shift beyond 62
-        "kp": "{1073741824L, 0}",  # shift below 1
-        "kih": "{-2147483647L - 1L, 20}",  # |m| = 2^31
-        "htt": "{-1073741824L, 20}",  # negative
-        "ad": "{1073741824L, 30}",  # a pole of 1
-        "bd": f"{{{-1073741824 if kp_m > 0 else 1073741824}L, 20}}",  # against kp
-        "fa": "{0L, 31}",  # a filter's fb without its fa
-        "fb": "{1073741824L, 31}",  # fa + fb = 1 (fa 0.5 below): an unstable filter
-        "out_min": "-2147483647L - 1L",  # INT32_MIN: no symmetric saturation
-        "out_max": "-134217729L",  # below out_min
-    }
+    low = 2 ** (BITS[real] - 1)
+    bad = REFUSED[real] | {"bd": f"{{{-low if kp_m > 0 else low}L, 20}}"}  # against kp
     sets = []
     for name, value in bad.items():
         values = list(good)
         values[names.index(name)] = value
         if name == "out_max":
-            values[names.index("out_min")] = "-134217728L"
+            values[names.index("out_min")] = f"{int(value.rstrip('L')) + 1}L"
         if name == "fb":
             values[names.index("fa")] = "{1073741824L, 31}"
         sets.append(initializer(values))
     no_tracking = list(good)
     no_tracking[names.index("htt")] = "{0L, 31}"  # with an integral
     sets += [initializer(no_tracking), initializer(good)]
-    ops, _, _ = codes_of_the_run(ctrl)
+    ops, _, _ = codes_of_the_run(ctrl, real)
     steps = ops[ops[:, 0] == 0][:200]
     calls = [[3, i, 0] for i in range(len(sets))] + [[3, -1, 0]]
     mixed = np.vstack([steps[:100], calls, steps[100:]])
-    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "t", sets=sets), mixed)
+    out, _ = run(build(c_source(ctrl, real=real), tmp_path / "t", sets=sets), mixed)
     answers = out[100:100 + len(calls)].tolist()
     assert answers == [names.index(n) + 1 for n in bad] + [names.index("htt") + 1, 0, -1]
-    alone, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a"), steps)
+    alone, _ = run(build(c_source(ctrl, real=real), tmp_path / "a"), steps)
     assert np.concatenate([out[:100], out[100 + len(calls):]]).tolist() == alone.tolist()
 
 
-def test_new_limits_clamp_the_held_output_in_manual_and_bound_every_output(tmp_path):
-    """A set made for the export with other limits (q31_params_c's like=) is taken, and
+@pytest.mark.parametrize("real", WORDS)
+def test_new_limits_clamp_the_held_output_in_manual_and_bound_every_output(real, tmp_path):
+    """A set made for the export with other limits (fixed_params_c's like=) is taken, and
     its limits hold every output, the manual one included."""
     ctrl = controller({})
-    q = q31_pid(ctrl)
+    q = fixed_pid(ctrl, real=real)
+    b = BITS[real]
     retuned = mfcontrol.PID(**{**ctrl._params, "output_limits": (-1.0, 2.0)})
-    own = members(q31_params_c(retuned))  # in its own formats: another output scale
-    narrow = members(q31_params_c(retuned, like=ctrl))
-    assert narrow[0] == members(q31_params_c(ctrl))[0] != own[0]  # the export's format
-    assert narrow[-2:] == [f"{code(v, q.scales.u_scale)}L" for v in (-1.0, 2.0)]
-    ops, _, _ = codes_of_the_run(ctrl)
+    # in its own formats: another output scale
+    own = members(fixed_params_c(retuned, real=real))
+    narrow = members(fixed_params_c(retuned, like=ctrl, real=real))
+    assert narrow[0] == members(fixed_params_c(ctrl, real=real))[0] != own[0]  # the export's
+    assert narrow[-2:] == [f"{code(v, q.scales.u_scale, b)}L" for v in (-1.0, 2.0)]
+    ops, _, _ = codes_of_the_run(ctrl, real)
     steps = ops[ops[:, 0] == 0][:300]
-    mixed = np.vstack([steps[:50], [[1, code(20.0, q.scales.u_scale), 0], [3, 0, 0]],
+    mixed = np.vstack([steps[:50], [[1, code(20.0, q.scales.u_scale, b), 0], [3, 0, 0]],
                        steps[50:60], [[2, 0, 0]], steps[60:]])
-    out, _ = run(build(c_source(ctrl, real="q31"), tmp_path, sets=[initializer(narrow)]),
+    out, _ = run(build(c_source(ctrl, real=real), tmp_path, sets=[initializer(narrow)]),
                  mixed)
     assert out[50] == 0
     held, auto = out[51:61], out[61:]
-    assert held.tolist() == [code(2.0, q.scales.u_scale)] * 10  # 20 clamped to 2
-    assert auto.min() >= code(-1.0, q.scales.u_scale)
-    assert auto.max() <= code(2.0, q.scales.u_scale)
-    assert auto.max() == code(2.0, q.scales.u_scale)  # the loop's demand reaches the rail
+    assert held.tolist() == [code(2.0, q.scales.u_scale, b)] * 10  # 20 clamped to 2
+    assert auto.min() >= code(-1.0, q.scales.u_scale, b)
+    assert auto.max() <= code(2.0, q.scales.u_scale, b)
+    assert auto.max() == code(2.0, q.scales.u_scale, b)  # the loop's demand reaches the rail
 
 
-def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
-    """Sets at the ends of what the setter takes (mantissas at +-(2^31 - 1) and 2^30,
-    shifts at 1 and 62, limits at +-(2^31 - 1)), driven with hostile codes under
-    -fsanitize=undefined: no overflow, every output within the limits."""
+def _extremes_q15(fmt: str) -> list[list[str]]:
+    """q15's sets at the ends of what its setter takes: 15-bit mantissas at +-(2^15 - 1)
+    and 2^14, shifts at 1 and 30 (the integral's at -24 and 30, the pole's at 15), limits
+    at +-(2^15 - 1); the filter's members are q31's (as in q31's sets)."""
+    big, low, big31 = 2**15 - 1, 2**14, 2**31 - 1
+    return [
+        [fmt, f"{{{big}L, 1}}", f"{{-{big}L, 1}}", f"{{{big}L, 1}}", f"{{{big}L, -24}}",
+         f"{{{big}L, -24}}", f"{{{big}L, 15}}", f"{{{big}L, 1}}", f"{{{big31 - 1}L, 31}}",
+         "{1073741824L, 62}", f"-{big}L", f"{big}L"],
+        [fmt, f"{{-{low}L, 30}}", f"{{{low}L, 30}}", f"{{-{big}L, 1}}", f"{{-{big}L, -24}}",
+         f"{{{low}L, 30}}", f"{{{low}L, 30}}", f"{{-{big}L, 1}}", "{1073741824L, 62}",
+         f"{{{big31 - 1}L, 31}}", f"-{big}L", f"{big}L"],
+        [fmt, f"{{{big}L, 1}}", "{0L, 30}", f"{{{low}L, 30}}", "{0L, 30}", "{0L, 30}",
+         "{0L, 30}", "{0L, 30}", "{0L, 31}", "{0L, 31}", "0L", "0L"],
+    ]
+
+
+@pytest.mark.parametrize("real", WORDS)
+def test_extreme_valid_parameter_sets_keep_every_code_defined(real, tmp_path):
+    """Sets at the ends of what the setter takes (in q31 mantissas at +-(2^31 - 1) and
+    2^30, shifts at 1 and 62, limits at +-(2^31 - 1); q15's in :func:`_extremes_q15`),
+    driven with hostile codes under -fsanitize=undefined: no overflow, every output within
+    the limits."""
     ctrl = controller({"controller.Tf": 0.002})  # an export that runs a filter
-    good = members(q31_params_c(ctrl))
-    big = 2**31 - 1
+    good = members(fixed_params_c(ctrl, real=real))
+    big = 2**BITS[real] - 1
     fmt = good[0]
     # the filter's (fa, fb): fa + fb just below 1 (its poles nearest the unit circle),
     # either one at its smallest
-    extremes = [
+    extremes = _extremes_q15(fmt) if real == "q15" else [
         [fmt, f"{{{big}L, 1}}", f"{{-{big}L, 1}}", f"{{{big}L, 1}}", f"{{{big}L, 1}}",
          f"{{{big}L, 1}}", f"{{{big}L, 31}}", f"{{{big}L, 1}}", f"{{{big - 1}L, 31}}",
          "{1073741824L, 62}", f"-{big}L", f"{big}L"],
@@ -618,7 +719,7 @@ def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
         [fmt, f"{{{big}L, 1}}", "{0L, 31}", "{1073741824L, 62}", "{0L, 31}", "{0L, 31}",
          "{0L, 31}", "{0L, 31}", "{0L, 31}", "{0L, 31}", "0L", "0L"],
     ]
-    lo, hi = q31_pid(ctrl).scales.y_limits  # the input limits: the largest codes taken
+    lo, hi = fixed_pid(ctrl, real=real).scales.y_limits  # the largest codes taken
     values = [-big - 1, -big, lo, -1, 0, 1, hi, big]
     rows = []
     for i in range(len(extremes)):
@@ -626,7 +727,7 @@ def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
         # a dropout longer than a step spans, then a jump from limit to limit and back
         rows += [[0, big, 0]] * 260 + [[0, hi, lo], [0, lo, hi]] * 30
         rows += [[1, big, 0], [0, 0, 0], [2, 0, 0], [0, big, -big - 1], [0, -big - 1, big]]
-    exe = build(c_source(controller({"controller.Tf": 0.002}), real="q31"), tmp_path,
+    exe = build(c_source(controller({"controller.Tf": 0.002}), real=real), tmp_path,
                 ("-fsanitize=undefined", "-fno-sanitize-recover=all"),
                 sets=[initializer(e) for e in extremes])
     # the input limits still reject out-of-range codes; the rest must stay defined
@@ -647,7 +748,7 @@ int main(void)
     mfc_init(&s);
     while (fread(&y, sizeof y, 1, stdin) == 1) {
         long long state[2];
-        (void)mfc_step(&s, (mfc_q31)y, 0);
+        (void)mfc_step(&s, (mfc_@Q@)y, 0);
         state[0] = (long long)s.yf;
         state[1] = (long long)s.yw;
         fwrite(state, sizeof state, 1, stdout);
@@ -690,26 +791,28 @@ def filter_states(q, samples) -> list[tuple[int, int]]:
     return states
 
 
+@pytest.mark.parametrize("real", WORDS)
 @pytest.mark.parametrize("tf", [0.002, 10.0], ids=["fast", "10000-periods"])
-def test_the_q31_filter_is_its_integer_arithmetic_bit_for_bit(tf, tmp_path):
+def test_the_filter_is_its_integer_arithmetic_bit_for_bit(tf, real, tmp_path):
     """The bound test cannot see a rounding off by one code (a half dropped in a product,
     a quotient truncated): here the C's filter state after every sample equals the same
     integer arithmetic written in Python, over steps, rejected samples (a run of 260,
     more than a step spans) and jumps between the input limits."""
     ctrl = controller({"controller.Tf": tf})
-    q = q31_pid(ctrl)
+    q = fixed_pid(ctrl, real=real)
     lo, hi = q.scales.y_limits
     rng = np.random.default_rng(3)
     samples = [int(v) for v in rng.integers(lo, hi, 300)]
     samples += [hi + 1] * 260 + [lo, hi] * 20 + [lo - 1, lo - 1, hi, 0]
-    samples += [int(v) for v in rng.integers(-2**20, 2**20, 200)]
+    small = 2 ** (BITS[real] - 11)
+    samples += [int(v) for v in rng.integers(-small, small, 200)]
     samples[50:60] = [hi + 5] * 10  # a gap of 11 periods
     folder = tmp_path / "f"
     folder.mkdir()
-    src = c_source(ctrl, real="q31")
+    src = c_source(ctrl, real=real)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)
-    (folder / "main.c").write_text(_FILTER_MAIN)
+    (folder / "main.c").write_text(_FILTER_MAIN.replace("@Q@", real))
     subprocess.run([H.compiler(), *H.CFLAGS, "-fsanitize=undefined",
                     "-fno-sanitize-recover=all", "-I", str(folder), str(folder / "mfc.c"),
                     str(folder / "main.c"), "-o", str(folder / "t")], check=True, timeout=600)
@@ -726,7 +829,7 @@ def test_a_slow_q31_filter_spans_a_long_dropout_as_accurately_as_a_period(tf, tm
     300 to 350 times that of the same change without them (0.114 of +-128 for Tf 60 s).
     Both are now the q31 filter's own rounding."""
     ctrl = controller({"controller.Tf": tf})
-    q = q31_pid(ctrl)
+    q = fixed_pid(ctrl)
     qy = q.scales.y_scale / 2**31
     lo, hi = q.scales.y_limits
     errors = []
@@ -737,7 +840,7 @@ def test_a_slow_q31_filter_spans_a_long_dropout_as_accurately_as_a_period(tf, tm
         src = c_source(ctrl, real="q31", frozen=True)
         (folder / "mfc.h").write_text(src.header)
         (folder / "mfc.c").write_text(src.source)
-        (folder / "main.c").write_text(_FILTER_MAIN)
+        (folder / "main.c").write_text(_FILTER_MAIN.replace("@Q@", "q31"))
         subprocess.run([H.compiler(), "-O2", "-I", str(folder), str(folder / "mfc.c"),
                         str(folder / "main.c"), "-o", str(folder / "t")], check=True,
                        timeout=600)

@@ -323,20 +323,20 @@ def test_set_params_restarts_bumplessly_on_the_new_coefficients(name, changes, t
     after it are those of the same export put in manual at the last output, given the set
     there and put back in automatic. The double law retuned at the same sample stays
     within 1e-4 of the output range."""
-    from mfcontrol.cexport.fixed_point import q31_params_c
+    from mfcontrol.cexport.fixed_point import fixed_params_c
 
     ctrl, new = controller(VARIANTS[name]), controller({**VARIANTS[name], **changes})
     steps = codes_of_the_run(ctrl)
     steps = steps[steps[:, 0] == 0]
     k = 400
     out, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "a",
-                       sets=[q31_params_c(new, like=ctrl)]),
+                       sets=[fixed_params_c(new, like=ctrl)]),
                  np.vstack([steps[:k], [[3, 0, 0]], steps[k:]]))
     assert out[k] == 0  # taken
     before, after = out[:k], out[k + 1:]
     taken = before[steps[:k, 1] <= q31_intelligent(ctrl).scales.y_limits[1]]
     manual, _ = run(build(c_source(ctrl, real="q31"), tmp_path / "c",
-                          sets=[q31_params_c(new, like=ctrl)]),
+                          sets=[fixed_params_c(new, like=ctrl)]),
                     np.vstack([[[1, taken[-1], 0], [3, 0, 0], [2, 0, 0]], steps[k:]]))
     assert manual[0] == 0 and after.tolist() == manual[1:].tolist()
     # the double law, retuned at the same sample
@@ -360,12 +360,12 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
     k_aw h above 1 and limits out of order are refused with their member's number; the
     codes go on as if no call had been made; an unchanged set is taken and changes
     nothing."""
-    from mfcontrol.cexport.fixed_point import q31_params_c
+    from mfcontrol.cexport.fixed_point import fixed_params_c
 
     from .test_fixed_point import initializer, members
 
     ctrl = controller(VARIANTS["ipid-order2-held-back-calculation"])
-    good = members(q31_params_c(ctrl))
+    good = members(fixed_params_c(ctrl))
     names = ["format", "cn", "cp", "cd", "ci", "caw", "out_min", "out_max"]
     assert len(good) == len(names)
     bad = {"format": "0x1UL", "cn": "{-1073741824L, 20}", "cp": "{1073741824L, -16}",
@@ -388,27 +388,27 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(tmp_path):
     # a set for an export of another law or structure is refused in Python (review: an
     # IPI's for an IP's export was taken; a PID's like= an IPI's raised an IndexError)
     with pytest.raises(ConfigError, match="a set is for an export of its own law"):
-        q31_params_c(ctrl, like=controller(VARIANTS["ipi-clamp"]))
+        fixed_params_c(ctrl, like=controller(VARIANTS["ipi-clamp"]))
     with pytest.raises(ConfigError, match="a set is for an export of its own law"):
-        q31_params_c(controller(VARIANTS["ipi-clamp"]),
+        fixed_params_c(controller(VARIANTS["ipi-clamp"]),
                      like=mfcontrol.PID(kp=1.0, ki=1.0, sample_time=ctrl.sample_time,
                                         output_limits=(-24, 24), input_limits=INPUT_LIMITS))
     trapezoid = controller({**VARIANTS["ipid-order2-held-back-calculation"],
                             "controller.kernel": "trapezoid"})
     with pytest.raises(ConfigError, match="structure of the export"):
-        q31_params_c(ctrl, like=trapezoid)
+        fixed_params_c(ctrl, like=trapezoid)
 
 
 def test_extreme_valid_parameter_sets_keep_every_code_defined(tmp_path):
     """Sets at the ends of what the setter takes (mantissas +-(2^31 - 1), shifts -15 and
     62, k_aw h = 1, limits +-(2^31 - 1)), driven with hostile codes and rejected samples
     under -fsanitize=undefined: no overflow, every output within the limits."""
-    from mfcontrol.cexport.fixed_point import q31_params_c
+    from mfcontrol.cexport.fixed_point import fixed_params_c
 
     from .test_fixed_point import initializer, members
 
     ctrl = controller(VARIANTS["ipid-order2-held-back-calculation"])
-    fmt = members(q31_params_c(ctrl))[0]
+    fmt = members(fixed_params_c(ctrl))[0]
     big = 2**31 - 1
     extremes = [
         [fmt, f"{{{big}L, -15}}", f"{{-{big}L, -15}}", f"{{{big}L, -15}}",

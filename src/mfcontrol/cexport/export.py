@@ -41,13 +41,15 @@ def export_c(case: str | Path | Config | Any, overrides: Mapping[str, Any] | Non
         Folder of the two files (created if missing).
     prefix : str
         Prefix of the files and of every exported name (``PREFIX_step``...).
-    real : {"double", "float", "q31"}
+    real : {"double", "float", "q31", "q15"}
         Number type of the exported code. ``"q31"`` is fixed point for a core without a
         floating-point unit: the PID (:mod:`mfcontrol.cexport.fixed_point`) and the i-P,
         i-PI, i-PD and i-PID with the backward difference and a constant gain
         (:mod:`mfcontrol.cexport.fixed_point_intelligent`), with ``input_limits`` for the
-        measurement's scale; the coefficients in a parameter struct unless ``frozen``
-        (:func:`mfcontrol.cexport.fixed_point.q31_params_c` writes one for new gains).
+        measurement's scale; ``"q15"`` the PID in 16-bit codes (about half q31's cycles on
+        a Cortex-M0, for codes of 2^-15 of the scale). The coefficients are in a parameter
+        struct unless ``frozen`` (:func:`mfcontrol.cexport.fixed_point.fixed_params_c`
+        writes one for new gains).
     description : str, optional
         What the files' leading comment says they came from (default: the case and its
         overrides, or the controller's repr).

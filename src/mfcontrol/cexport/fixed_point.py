@@ -1,5 +1,6 @@
-"""The PID as fixed-point C (``real="q31"``), for a microcontroller without a floating-point
-unit (a Cortex-M0), where software floating point costs thousands of instructions a step.
+"""The PID as fixed-point C (``real="q31"`` or ``"q15"``), for a microcontroller without a
+floating-point unit (a Cortex-M0), where software floating point costs thousands of
+instructions a step.
 
 Not a translation: integers need formats the law's Python does not carry. This is the PID
 of :mod:`mfcontrol.laws.pid` written out in integer arithmetic, every coefficient
@@ -7,28 +8,35 @@ computed here from the controller's parameters, and held to the double law by te
 (``tests/cexport/test_fixed_point.py``: within an error bound derived step by step on the
 case's closed loop, with hostile codes, and with the same bits on a Cortex-M0 as on x86).
 
-Formats. A signal is an ``int32_t`` code. The measurement and the setpoint:
-``y = Y * Y_SCALE / 2^31``, with ``Y_SCALE`` twice the larger magnitude of the input
-limits (the sensor's range, required), so that the difference of two codes fits an int32.
-The output: ``u = U * U_SCALE / 2^31``, ``U_SCALE`` :data:`U_HEADROOM` times the larger
+Words (:data:`WORDS`). In q31 a signal is an ``int32_t`` code of 31 bits and a sign, a
+coefficient's mantissa has 31 bits, and a code times a coefficient is formed in 64 bits
+(on a Cortex-M0 a library call). In q15 a signal is an ``int16_t`` code, a coefficient's
+mantissa has 15 bits (relative error at most 2^-15), and the product is formed in 32 bits
+(one ``MULS``): about half the cycles on a Cortex-M0, for a code of 2^-15 of the scale.
+The integral and the measurement filter are 64-bit in both.
+
+Formats. The measurement and the setpoint: ``y = Y * Y_SCALE / 2^B`` (B = 31 or 15), with
+``Y_SCALE`` twice the larger magnitude of the input limits (the sensor's range,
+required), so that the difference of two codes fits a code. The output: ``u = U *
+U_SCALE / 2^B``, ``U_SCALE`` the word's headroom (16 in q31, 4 in q15) times the larger
 magnitude of the output limits (required finite), so that the terms before the limits (a
 derivative kick, the unlimited output the back-calculation sees) have room up to that
-many times the limits before they saturate. A coefficient c is ``M 2^-s`` with ``M`` in
-[2^30, 2^31), its relative error at most 2^-31; a product of a code and a coefficient is
-formed in 64 bits and shifted back, rounded to nearest. The integral is held in 64 bits
-with :data:`GUARD_BITS` more fraction bits than the output's code, and every sum
-saturates. A rejected sample (a measurement outside the input limits) holds the output,
-and the next sample taken spans the time since the last one as the double law does, for
-up to 255 rejected in a row: the integral's increments times the d periods, the
-derivative divided by ``1 + (d - 1)(1 - ad)`` (its coefficients at d h; a 64-bit division
-on that step only). The measurement filter (``Tf`` > 0) runs on the measurement's code
-times ``2^GUARD_BITS`` in 64 bits: its state is the filtered value ``x`` and its increment
-over a period ``w``, stepped as ``w = fa w + fb (y - x)``, ``x = x + w`` (the double law's
-backward difference, ``fa = 1 / fden``, ``fb = h c / fden``), and over d periods after a
-dropout as ``w = (fa w + d fb (y - x)) / Q``, ``x = x + d w``, ``Q = 1 + (d - 1)(1 - fa +
-d fb)`` (the same algebra at d h). The coefficients and the output limits' codes are a
-parameter struct that ``PREFIX_set_params`` checks and changes at run time
-(:func:`q31_params_c` writes one for new gains), or constants with ``frozen``.
+many times the limits before they saturate. A coefficient c is ``M 2^-s`` with ``|M|``
+in [2^(B-1), 2^B); a product of a code and a coefficient is shifted back, rounded to
+nearest. The integral is held in 64 bits with :data:`GUARD_BITS` more fraction bits than
+the output's code, and every sum saturates. A rejected sample (a measurement outside the
+input limits) holds the output, and the next sample taken spans the time since the last
+one as the double law does, for up to 255 rejected in a row: the integral's increments
+times the d periods, the derivative divided by ``1 + (d - 1)(1 - ad)`` (its coefficients
+at d h; a 64-bit division on that step only). The measurement filter (``Tf`` > 0) runs on
+the measurement's code times ``2^GUARD_BITS`` in 64 bits with q31 coefficients: its state
+is the filtered value ``x`` and its increment over a period ``w``, stepped as ``w = fa w
++ fb (y - x)``, ``x = x + w`` (the double law's backward difference, ``fa = 1 / fden``,
+``fb = h c / fden``), and over d periods after a dropout as ``w = (fa w + d fb (y - x)) /
+Q``, ``x = x + d w``, ``Q = 1 + (d - 1)(1 - fa + d fb)`` (the same algebra at d h). The
+coefficients and the output limits' codes are a parameter struct that
+``PREFIX_set_params`` checks and changes at run time (:func:`fixed_params_c` writes one
+for new gains), or constants with ``frozen``.
 """
 
 from __future__ import annotations
@@ -45,14 +53,38 @@ from .source import _fill
 #: fraction bits of the integral beyond the output's code: an increment ki h e of one
 #: code of e in a year of 1 kHz samples still moves it
 GUARD_BITS = 24
-#: the output's scale over the output limits' magnitude: room for the terms before limiting
-U_HEADROOM = 16
-_ONE = 2**31
+
+
+@dataclass(frozen=True)
+class Word:
+    """A fixed-point export's word: its codes' C type and fraction bits, the type a code
+    times a coefficient is formed in, and the output's scale over the output limits'
+    magnitude (room for the terms before limiting: a derivative kick, the unlimited
+    output the back-calculation sees)."""
+
+    name: str  # what --real says: q31, q15
+    bits: int  # a code is an integer of this many bits and a sign
+    code: str  # its C type
+    product: str  # the C type of a code times a coefficient (both of ``bits`` bits)
+    headroom: int  # U_SCALE over the output limits' magnitude
+
+    @property
+    def code_max(self) -> str:
+        """The C name of the largest code."""
+        return f"INT{self.bits + 1}_MAX"
+
+
+#: q31: codes of 31 bits, products in 64 (on a Cortex-M0, a library call each); q15:
+#: codes of 15 bits, products in 32 (one MULS), less headroom to keep the output's
+#: resolution (its limits are +-2^13 codes)
+WORDS = {"q31": Word("q31", 31, "int32_t", "int64_t", 16),
+         "q15": Word("q15", 15, "int16_t", "int32_t", 4)}
 
 
 @dataclass(frozen=True)
 class Coefficient:
-    """``value`` as ``mantissa * 2^-shift`` (``mantissa`` in [2^30, 2^31) or 0)."""
+    """``value`` as ``mantissa * 2^-shift`` (``|mantissa|`` in [2^(bits - 1), 2^bits) or
+    0: ``bits`` 31 in q31, 15 in q15)."""
 
     value: float
     mantissa: int
@@ -60,24 +92,25 @@ class Coefficient:
 
     @classmethod
     def of(cls, value: float, name: str, given: float | None = None,
-           shifts: tuple[int, int] = (1, 62)) -> Coefficient:
-        """``value`` in q31, refused in the words of ``name = given`` (the parameter it
-        comes from, as the user gave it; default ``value``) where its shift is outside
-        ``shifts`` (what the C's products take)."""
+           shifts: tuple[int, int] = (1, 62), bits: int = 31) -> Coefficient:
+        """``value`` with a mantissa of ``bits`` bits (31: q31's, 15: q15's), refused in
+        the words of ``name = given`` (the parameter it comes from, as the user gave it;
+        default ``value``) where its shift is outside ``shifts`` (what the C's products
+        take)."""
         given = value if given is None else given
-        if value == 0.0:
-            return cls(0.0, 0, 31)
+        if value == 0.0:  # a shift the products take (q15's shift 30 at most)
+            return cls(0.0, 0, min(31, shifts[1]))
         if not math.isfinite(value):
             raise ConfigError(name, given, "must be finite for a fixed-point export")
-        shift = 30 - math.floor(math.log2(abs(value)))
+        shift = bits - 1 - math.floor(math.log2(abs(value)))
         mantissa = round(abs(value) * 2.0**shift)
-        if mantissa == _ONE:  # rounded up to the next power of two
-            mantissa, shift = _ONE // 2, shift - 1
+        if mantissa == 2**bits:  # rounded up to the next power of two
+            mantissa, shift = 2 ** (bits - 1), shift - 1
         if not shifts[0] <= shift <= shifts[1]:
-            raise ConfigError(name, given, f"gives the q31 coefficient {value:.3g} (in the "
-                              "codes' units), outside what one holds (2^"
-                              f"{30 - shifts[1]} to 2^{31 - shifts[0]}): export in float, "
-                              "or change the scales (input and output limits)")
+            raise ConfigError(name, given, f"gives the q{bits} coefficient {value:.3g} (in "
+                              "the codes' units), outside what one holds (2^"
+                              f"{bits - 1 - shifts[1]} to 2^{bits - shifts[0]}): export in "
+                              "float, or change the scales (input and output limits)")
         return cls(value, int(math.copysign(mantissa, value)), shift)
 
     @property
@@ -97,12 +130,14 @@ class Scales:
     u_limits: tuple[int, int]  # codes of the output limits
     u_lo: float  # the output limits themselves
     u_hi: float
+    bits: int = 31  # a code's (its word's)
 
 
 @dataclass(frozen=True)
-class Q31Pid:
-    """The scales and coefficients of a PID's q31 export."""
+class FixedPid:
+    """The word, scales and coefficients of a PID's fixed-point export."""
 
+    word: Word
     scales: Scales
     b: Coefficient
     c: Coefficient
@@ -116,15 +151,19 @@ class Q31Pid:
     fb: Coefficient  # and its h c / fden
 
 
-def code(value: float, scale: float) -> int:
-    """The int32 code of ``value`` at full scale ``scale``, rounded and saturated."""
-    return int(round(min(max(value / scale * _ONE, -_ONE + 1.0), _ONE - 1.0)))
+def code(value: float, scale: float, bits: int = 31) -> int:
+    """The code of ``value`` at full scale ``scale`` (``bits`` bits and a sign: 31 an
+    int32's, 15 an int16's), rounded and saturated."""
+    one = 2.0**bits
+    return int(round(min(max(value / scale * one, -one + 1.0), one - 1.0)))
 
 
-def scales(ctrl, lo: float, hi: float, key_prefix: str = "") -> Scales:
-    """The formats of a live controller with output limits (lo, hi): ``Y_SCALE`` twice the
-    larger magnitude of its input limits (required: the sensor's range), ``U_SCALE``
-    :data:`U_HEADROOM` times that of the output limits (required finite)."""
+def scales(ctrl, lo: float, hi: float, key_prefix: str = "",
+           word: Word = WORDS["q31"]) -> Scales:
+    """The formats of a live controller with output limits (lo, hi) in ``word``:
+    ``Y_SCALE`` twice the larger magnitude of its input limits (required: the sensor's
+    range), ``U_SCALE`` the word's headroom times that of the output limits (required
+    finite)."""
     if not (math.isfinite(lo) and math.isfinite(hi)) or max(abs(lo), abs(hi)) == 0.0:
         raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be finite and not "
                           "both 0 for a fixed-point export (they set the output's scale)")
@@ -134,39 +173,43 @@ def scales(ctrl, lo: float, hi: float, key_prefix: str = "") -> Scales:
                           "measurement's range (the sensor's) for its scale: both limits "
                           "finite, not both 0 (--input-limits LOW HIGH, input_limits=)")
     sy = 2.0 * max(abs(y_lo), abs(y_hi))
-    su = U_HEADROOM * max(abs(lo), abs(hi))
-    return Scales(sy, su, (code(y_lo, sy), code(y_hi, sy)), (code(lo, su), code(hi, su)),
-                  lo, hi)
+    su = word.headroom * max(abs(lo), abs(hi))
+    b = word.bits
+    return Scales(sy, su, (code(y_lo, sy, b), code(y_hi, sy, b)),
+                  (code(lo, su, b), code(hi, su, b)), lo, hi, b)
 
 
-def export_scales(ctrl, key_prefix: str = "", like=None) -> Scales:
+def export_scales(ctrl, key_prefix: str = "", like=None,
+                  word: Word = WORDS["q31"]) -> Scales:
     """The formats of a fixed-point export of the live controller ``ctrl``; with
     ``like``, the controller an export was made from, that export's, with ``ctrl``'s
     output limits as codes in them (refused where they do not fit, or where the periods
     differ: the coefficients are per period)."""
     lo, hi = (float(ctrl._CP[row, 0]) for row in ctrl._OUT_ROWS)
     if like is None:
-        return scales(ctrl, lo, hi, key_prefix)
+        return scales(ctrl, lo, hi, key_prefix, word)
     if type(like) is not type(ctrl):
         raise ConfigError("like", type(like).__name__, f"must be the law of the set, "
                           f"{type(ctrl).__name__}: a set is for an export of its own law")
     like_lo, like_hi = (float(like._CP[row, 0]) for row in like._OUT_ROWS)
-    sc = scales(like, like_lo, like_hi)
+    sc = scales(like, like_lo, like_hi, word=word)
     if ctrl.sample_time != like.sample_time:
         raise ConfigError(f"{key_prefix}sample_time", ctrl.sample_time, "must be the "
                           f"export's, {like.sample_time!r}: its coefficients are per period")
     if not max(abs(lo), abs(hi)) <= sc.u_scale:
         raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be within the "
                           f"export's output scale, +-{sc.u_scale!r}")
-    return replace(sc, u_limits=(code(lo, sc.u_scale), code(hi, sc.u_scale)), u_lo=lo,
-                   u_hi=hi)
+    return replace(sc, u_limits=(code(lo, sc.u_scale, sc.bits), code(hi, sc.u_scale, sc.bits)),
+                   u_lo=lo, u_hi=hi)
 
 
-def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
-    """The q31 formats of a live :class:`mfcontrol.PID` (refusing what they cannot hold);
-    with ``like``, the PID an export was made from, in that export's formats."""
+def fixed_pid(ctrl, key_prefix: str = "", like=None, real: str = "q31") -> FixedPid:
+    """The fixed-point formats (``real``: q31 or q15) of a live :class:`mfcontrol.PID`
+    (refusing what they cannot hold); with ``like``, the PID an export was made from, in
+    that export's formats."""
+    word = WORDS[real]
     cp = ctrl._CP[:, 0]
-    sc = export_scales(ctrl, key_prefix, like)
+    sc = export_scales(ctrl, key_prefix, like, word)
     h = ctrl.sample_time
     sy, su = sc.y_scale, sc.u_scale
     ratio = sy / su
@@ -177,6 +220,12 @@ def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
     kih, htt, ad, bd, fc, fden = pid.coefficients(ctrl._CP, 0, h)
     guard = 2.0**GUARD_BITS
     p = key_prefix
+    kinds = _KINDS[real]
+
+    def coefficient(member: str, value: float, name: str, given: float) -> Coefficient:
+        shifts, bits = kinds[_KIND[member]]
+        return Coefficient.of(value, f"{p}{name}", given, shifts, bits)
+
     fa = fb = Coefficient(0.0, 0, 31)
     tf = float(cp[pid.TF])
     if tf > 0.0 and like is not None and like._CP[pid.TF, 0] == 0.0:
@@ -185,91 +234,122 @@ def q31_pid(ctrl, key_prefix: str = "", like=None) -> Q31Pid:
                           "with a Tf > 0 to tune one at run time")
     if tf > 0.0:  # both below 1: shifts of 31 or more
         try:
-            fa = Coefficient.of(1.0 / fden, f"{p}Tf", tf, shifts=(31, 62))
-            fb = Coefficient.of(h * fc / fden, f"{p}Tf", tf, shifts=(31, 62))
+            fa = coefficient("fa", 1.0 / fden, "Tf", tf)
+            fb = coefficient("fb", h * fc / fden, "Tf", tf)
         except ConfigError:
             raise ConfigError(f"{p}Tf", tf, f"gives the measurement filter's coefficients "
-                              f"{1.0 / fden:.3g} and {h * fc / fden:.3g}, which q31 cannot "
-                              "hold (each in [2^-32, 1)): with the sample period "
-                              f"{h!r} s, Tf must be within about h / 46,000 and 92,000 h, "
-                              "or 0 (no filter); or export in float") from None
-    return Q31Pid(
-        sc,
-        Coefficient.of(float(cp[pid.B]), f"{p}b"), Coefficient.of(float(cp[pid.C]), f"{p}c"),
-        Coefficient.of(kp * ratio, f"{p}kp", kp),
-        Coefficient.of(kih * ratio * guard, f"{p}ki", ki),
-        Coefficient.of(htt * guard, f"{p}Tt", tt),
-        # a pole below 1 (shift 31 or more): one within 2^-32 of 1 would round to 1
-        Coefficient.of(ad, f"{p}N", n, shifts=(31, 62)),
-        Coefficient.of(bd * ratio, f"{p}kd", kd), derivative, fa, fb)
+                              f"{1.0 / fden:.3g} and {h * fc / fden:.3g}, which its q31 "
+                              "coefficients cannot hold (each in [2^-32, 1)): with the "
+                              f"sample period {h!r} s, Tf must be within about h / 46,000 "
+                              "and 92,000 h, or 0 (no filter); or export in float") from None
+    return FixedPid(
+        word, sc,
+        coefficient("b", float(cp[pid.B]), "b", float(cp[pid.B])),
+        coefficient("c", float(cp[pid.C]), "c", float(cp[pid.C])),
+        coefficient("kp", kp * ratio, "kp", kp),
+        coefficient("kih", kih * ratio * guard, "ki", ki),
+        coefficient("htt", htt * guard, "Tt", tt),
+        coefficient("ad", ad, "N", n),
+        coefficient("bd", bd * ratio, "kd", kd), derivative, fa, fb)
 
 
-#: the q31 PID's coefficients, in the order of its parameter struct: (member, what it is)
+#: the PID's coefficients, in the order of its parameter struct: (member, what it is)
 _COEFFICIENTS = (
-    ("b", "setpoint weight of the proportional term", (1, 62)),
-    ("c", "setpoint weight of the derivative", (1, 62)),
-    ("kp", "kp * @PU@_Y_SCALE / @PU@_U_SCALE", (1, 62)),
-    ("kih", "ki * h * @PU@_Y_SCALE / @PU@_U_SCALE * 2^@F@ (h the sample period)", (1, 62)),
-    ("htt", "h / Tt * 2^@F@, >= 0 (0: no tracking, only with kih 0)", (1, 62)),
-    ("ad", "the derivative filter's pole Td / (Td + N h), in [0, 1)", (1, 62)),
-    ("bd", "kp Td N / (Td + N h) * @PU@_Y_SCALE / @PU@_U_SCALE, of kp's sign or 0",
-     (1, 62)),
+    ("b", "setpoint weight of the proportional term"),
+    ("c", "setpoint weight of the derivative"),
+    ("kp", "kp * @PU@_Y_SCALE / @PU@_U_SCALE"),
+    ("kih", "ki * h * @PU@_Y_SCALE / @PU@_U_SCALE * 2^@F@ (h the sample period)"),
+    ("htt", "h / Tt * 2^@F@, >= 0 (0: no tracking, only with kih 0)"),
+    ("ad", "the derivative filter's pole Td / (Td + N h), in [0, 1)"),
+    ("bd", "kp Td N / (Td + N h) * @PU@_Y_SCALE / @PU@_U_SCALE, of kp's sign or 0"),
     ("fa", "the measurement filter's 1 / (1 + 2 h / Tf + 2 (h / Tf)^2), in (0, 1); 0 with fb "
-     "for no filter", (31, 62)),
-    ("fb", "and 2 (h / Tf)^2 fa, in (0, 1), fa + fb < 1", (31, 62)),
+     "for no filter"),
+    ("fb", "and 2 (h / Tf)^2 fa, in (0, 1), fa + fb < 1"),
 )
+#: what each coefficient multiplies, which sets the range of shifts the C takes
+_KIND = {"b": "gain", "c": "gain", "kp": "gain", "bd": "gain", "kih": "integral",
+         "htt": "integral", "ad": "pole", "fa": "filter", "fb": "filter"}
+#: per word and kind: ((lowest shift, highest), the mantissa's bits). A code times a
+#: coefficient is formed in the word's product type and shifted right by at least 1 (the
+#: half of the rounding must fit); q15's integral products, added in 64 bits, may also
+#: shift left (kih and h / Tt at 2^24 pass 2^14 at ordinary gains); a pole is below 1; the
+#: filter runs in 64 bits with q31 coefficients in both words.
+_KINDS = {
+    "q31": {"gain": ((1, 62), 31), "integral": ((1, 62), 31), "pole": ((31, 62), 31),
+            "filter": ((31, 62), 31)},
+    "q15": {"gain": ((1, 30), 15), "integral": ((-24, 30), 15), "pole": ((15, 30), 15),
+            "filter": ((31, 62), 31)},
+}
 
 
-def q31_params_c(ctrl, key_prefix: str = "", like=None) -> str:
-    """The C initializer of a tunable q31 export's ``PREFIX_params`` for the live
-    controller ``ctrl`` (a PID, or an i-P, i-PI, i-PD or i-PID with the backward
-    difference): what ``PREFIX_set_params`` takes to run with its gains. ``like``: the
-    controller the export it is sent to was made from (the same law and structure), whose
-    formats the coefficients and limits are computed in (default: ``ctrl``'s own, from its
-    sample period and input and output limits). The set holds a tag of those formats, and
-    ``PREFIX_set_params`` refuses a set made for others.
+def _members(real: str):
+    """The tunable parameter struct's coefficients in ``real``: (member, what it is,
+    (lowest shift, highest), mantissa bits)."""
+    return [(name, text, *_KINDS[real][_KIND[name]]) for name, text in _COEFFICIENTS]
+
+
+def fixed_params_c(ctrl, key_prefix: str = "", like=None, real: str = "q31") -> str:
+    """The C initializer of a tunable fixed-point export's ``PREFIX_params`` for the live
+    controller ``ctrl`` (a PID in q31 or q15, or an i-P, i-PI, i-PD or i-PID with the
+    backward difference in q31): what ``PREFIX_set_params`` takes to run with its gains.
+    ``like``: the controller the export it is sent to was made from (the same law and
+    structure), whose formats the coefficients and limits are computed in (default:
+    ``ctrl``'s own, from its sample period and input and output limits); ``real``: that
+    export's word. The set holds a tag of those formats, and ``PREFIX_set_params``
+    refuses a set made for others.
 
     Examples
     --------
     >>> import mfcontrol
-    >>> from mfcontrol.cexport.fixed_point import q31_params_c
+    >>> from mfcontrol.cexport.fixed_point import fixed_params_c
     >>> ctrl = mfcontrol.PID(kp=0.3, ki=0.5, sample_time=0.001, output_limits=(-24, 24),
     ...                      input_limits=(-10, 200))
-    >>> print(q31_params_c(ctrl).splitlines()[4])
+    >>> print(fixed_params_c(ctrl).splitlines()[4])
         {1342177280L, 32}, /* kp */
 
     The same gains with narrower output limits, for that export:
 
     >>> narrow = mfcontrol.PID(kp=0.3, ki=0.5, sample_time=0.001, output_limits=(-12, 12))
-    >>> print(q31_params_c(narrow, like=ctrl).splitlines()[-3])
+    >>> print(fixed_params_c(narrow, like=ctrl).splitlines()[-3])
         -67108864L, /* out_min */
+
+    For a q15 export (15-bit mantissas, codes of 16 bits):
+
+    >>> print(fixed_params_c(ctrl, real="q15").splitlines()[4])
+        {20480L, 16}, /* kp */
     """
     from ..api.model.controllers import PID
 
+    if real not in WORDS:
+        raise ConfigError("real", real, f"must be one of {', '.join(WORDS)}")
     if not isinstance(ctrl, PID):  # the i-P family's
+        if real != "q31":
+            raise ConfigError("real", real, "must be q31 for the i-P family (q15 exports "
+                              "the PID)")
         from .fixed_point_intelligent import q31_intelligent_params_c
 
         return q31_intelligent_params_c(ctrl, key_prefix, like)
-    q = q31_pid(ctrl, key_prefix, like)
+    q = fixed_pid(ctrl, key_prefix, like, real)
     return params_c(_format("pid", ctrl, q.scales),
-                    [(name, getattr(q, name)) for name, _, _ in _COEFFICIENTS],
+                    [(name, getattr(q, name)) for name, _ in _COEFFICIENTS],
                     q.scales.u_limits)
 
 
 def _format(law: str, ctrl, sc: Scales) -> int:
     """The tag of the formats a q31 law's coefficients are computed for: the law and its
     structure (``law``), its scales, the guard bits and the sample period (a CRC-32)."""
+    word = "" if sc.bits == 31 else f" q{sc.bits}"  # (q31's tags as they were)
     return zlib.crc32(f"{law} {sc.y_scale!r} {sc.u_scale!r} {GUARD_BITS} "
-                      f"{ctrl.sample_time!r}".encode())
+                      f"{ctrl.sample_time!r}{word}".encode())
 
 
-def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
-               frozen: bool = False) -> tuple[str, str]:
-    """(header, source) of the q31 PID of ``ctrl``: its coefficients and output limits in
-    a parameter struct that ``PREFIX_set_params`` checks and changes at run time, or
-    constants with ``frozen``."""
-    q = q31_pid(ctrl, key_prefix)
-    coefficients = [(name.upper(), getattr(q, name)) for name, _, _ in _COEFFICIENTS]
+def pid_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
+               frozen: bool = False, real: str = "q31") -> tuple[str, str]:
+    """(header, source) of the fixed-point PID of ``ctrl`` (``real``: q31 or q15): its
+    coefficients and output limits in a parameter struct that ``PREFIX_set_params`` checks
+    and changes at run time, or constants with ``frozen``."""
+    q = fixed_pid(ctrl, key_prefix, real=real)
+    coefficients = [(name.upper(), getattr(q, name)) for name, _ in _COEFFICIENTS]
     PU = prefix.upper()
     # the filter's code only in an export with a filter (about 1.5 KB on a Cortex-M0): a
     # tunable one may retune it, or switch it off and on; one without refuses it
@@ -302,10 +382,14 @@ def q31_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
                  if filtered else "",
                  "ULIM": "s->params.out_min, s->params.out_max", "MUL": _MUL[False]}
         subs |= filter_parts
-        subs |= tunable_parts(prefix, _COEFFICIENTS, q31_params_c(ctrl, key_prefix),
+        subs |= tunable_parts(prefix, _members(real),
+                              fixed_params_c(ctrl, key_prefix, real=real),
                               _format("pid", ctrl, q.scales), "the PID's coefficients",
                               _PID_CHECKS if filtered else _PID_CHECKS_NO_FILTER,
                               _PID_APPLY)
+    # the integral's products: q15's may shift left (its coefficients' range, _KINDS)
+    subs |= ({"IMUL": "@P@_mul", "IMUL_HELPER": ""} if real == "q31" else
+             {"IMUL": "@P@_imul", "IMUL_HELPER": _IMUL_Q15})
     # the pieces first: the coefficients' names in them are filled after
     subs = {key: subs[key] for key in ("DERIVATIVE", "OVER_GAP", "FILTER")} | subs
     # the tunable build's coefficients are its default parameter set's, not constants
@@ -323,10 +407,14 @@ def q31_files(ctrl, sc: Scales, coefficients, *, prefix: str, banner: str,
     consts = "".join(f"#define {PU}_{name}_M ({c.mantissa}L)\n#define {PU}_{name}_S {c.shift}\n"
                      for name, c in coefficients)
     if consts:
-        consts = ("/* the coefficients, M * 2^-S with |M| in [2^30, 2^31), or 0\n"
-                  " * (mfcontrol.cexport.fixed_point) */\n" + consts)
+        consts = ("/* the coefficients, M * 2^-S with |M| in [2^(B-1), 2^B), or 0 (B the bits "
+                  "of its\n * mantissa: 31, or 15 for a q15 law's own; "
+                  "mfcontrol.cexport.fixed_point) */\n" + consts)
+    word = next(w for w in WORDS.values() if w.bits == sc.bits)
     every = {"Q31_HEAD": _Q31_HEAD, "Q31_TAIL": _Q31_TAIL, "Q31_PRELUDE": _Q31_PRELUDE,
              **subs, "P": prefix, "PU": PU, "CONSTS": consts, "BANNER": banner,
+             "Q": word.name, "QBITS": str(word.bits), "CODE": word.code, "PROD": word.product,
+             "CODE_MAX": word.code_max, "RESULT": str(2 * word.bits - 1),
              "YLO": str(sc.y_limits[0]), "YHI": str(sc.y_limits[1]),
              "ULO": str(sc.u_limits[0]), "UHI": str(sc.u_limits[1]),
              "YS": repr(sc.y_scale), "US": repr(sc.u_scale), "DT": repr(ctrl.sample_time),
@@ -349,9 +437,9 @@ _Q31_HEAD = """@BANNER@
 extern "C" {
 #endif
 
-/* q31 codes: the measurement and the setpoint are y = Y * @PU@_Y_SCALE / 2^31, the
- * output u = U * @PU@_U_SCALE / 2^31 (int32_t; the scales in the physical units) */
-typedef int32_t @P@_q31;
+/* @Q@ codes: the measurement and the setpoint are y = Y * @PU@_Y_SCALE / 2^@QBITS@, the
+ * output u = U * @PU@_U_SCALE / 2^@QBITS@ (@CODE@; the scales in the physical units) */
+typedef @CODE@ @P@_@Q@;
 #define @PU@_Y_SCALE @YS@
 #define @PU@_U_SCALE @US@
 /* sample period (s) the law was built for: call @P@_step once per period */
@@ -390,10 +478,10 @@ typedef char @P@_arithmetic_shift[((int64_t)-1 >> 1) == (int64_t)-1 ? 1 : -1];
 _HEADER = """@Q31_HEAD@@PARAMS@
 typedef struct {
 @STATE_PARAMS@    int64_t i;              /* the integral, in output codes * 2^@F@ */
-    int32_t d;              /* the derivative term, output codes */
-@FILTER_STATE@    int32_t y_old, r_old;   /* the last sample's (filtered) measurement, setpoint */
-    int32_t start;          /* the output the next sample is set to give (bumpless) */
-    int32_t last_output;    /* returned in manual mode and after a rejected sample */
+    @P@_@Q@ d;              /* the derivative term, output codes */
+@FILTER_STATE@    @P@_@Q@ y_old, r_old;   /* the last sample's (filtered) measurement, setpoint */
+    @P@_@Q@ start;          /* the output the next sample is set to give (bumpless) */
+    @P@_@Q@ last_output;    /* returned in manual mode and after a rejected sample */
     unsigned long nan_count; /* rejected: a measurement outside the input limits */
     int skipped;            /* samples rejected since the last one taken (up to
                              * @PU@_SKIP_MAX): the next step spans them */
@@ -410,11 +498,11 @@ void @P@_init(@P@_state *s);
  * measurement outside the input limits returns the last output and counts in nan_count.
  * Every sum saturates: no code overflows. On a state never initialised: returns 0
  * clamped to the output limits and changes nothing. */
-@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint);
+@P@_@Q@ @P@_step(@P@_state *s, @P@_@Q@ y, @P@_@Q@ setpoint);
 /* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto. */
-void @P@_set_manual(@P@_state *s, @P@_q31 u);
+void @P@_set_manual(@P@_state *s, @P@_@Q@ u);
 /* Back to automatic, restarting the law from the last output (bumpless while the
- * integral that gives it, last output - P - D, is within 2^37 output codes, 2^6 times
+ * integral that gives it, last output - P - D, is within 2^37 output codes, far beyond
  * the output's scale; beyond, at extreme gains, it saturates there). */
 void @P@_set_auto(@P@_state *s);
 @SET_PARAMS_DECL@@Q31_TAIL@"""
@@ -539,7 +627,7 @@ _FILTER = """\
         }
         s->yw = @P@_sat_to(w, @PU@_W_MAX);
         s->yf = @P@_sat_to(s->yf + @P@_times(s->yw, gap), @PU@_X_MAX);
-        y = @P@_sat32((s->yf + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F);
+        y = @P@_sat_code((s->yf + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F);
     }
 """
 _FILTER_STATE = """\
@@ -560,7 +648,7 @@ _FILTER_DEFINES = """\
 #: setpoint weight); in the frozen build, written out only where the export has them
 _DERIVATIVE = """\
     if (s->params.ad.m != 0 || s->params.bd.m != 0) {  /* a derivative */
-        int64_t de;
+        @PROD@ de;
         if (s->params.c.m != 0)  /* its setpoint weight */
             de = @WEIGHTED@;
         else
@@ -568,13 +656,13 @@ _DERIVATIVE = """\
 @D_STEP@    }
 """
 _D_STEP = """\
-        d = @P@_mul(s->d, @AD@) - @P@_mul(@P@_sat32(de), @BD@);
+        d = @P@_mul(s->d, @AD@) - @P@_mul(@P@_sat_code(de), @BD@);
         if (gap > 1) d = @P@_over_gap(d, gap, @AD@);
-        d = @P@_sat32(d);
+        d = @P@_sat_code(d);
 """
 _WEIGHTED = """(y - @P@_mul(setpoint, @C@))
                  - (s->y_old - @P@_mul(s->r_old, @C@))"""
-_PLAIN = "(int64_t)y - s->y_old"
+_PLAIN = "(@PROD@)y - s->y_old"
 
 
 #: the end of the product's comment and its body: with a constant shift (the frozen
@@ -583,21 +671,36 @@ _PLAIN = "(int64_t)y - s->y_old"
 #: once where the other form shifts twice (the same codes: an identity of integers;
 #: measured on the Cortex-M4F, each form is the cheaper one in its build)
 _MUL = {True: """ */
-static int64_t @P@_mul(int32_t x, int64_t m, int shift)
+static @PROD@ @P@_mul(@P@_@Q@ x, @PROD@ m, int shift)
 {
-    return ((int64_t)x * m + ((int64_t)1 << (shift - 1))) >> shift;""",
+    return ((@PROD@)x * m + ((@PROD@)1 << (shift - 1))) >> shift;""",
         False: """; the half added as
  * floor((a + 2^(S-1)) / 2^S) = floor((floor(a / 2^(S-1)) + 1) / 2): one shift by the
  * variable S, not two) */
-static int64_t @P@_mul(int32_t x, int64_t m, int shift)
+static @PROD@ @P@_mul(@P@_@Q@ x, @PROD@ m, int shift)
 {
-    return ((((int64_t)x * m) >> (shift - 1)) + 1) >> 1;"""}
+    return ((((@PROD@)x * m) >> (shift - 1)) + 1) >> 1;"""}
+
+
+#: q15's products for the integral (its coefficients kih and h / Tt times 2^F pass 2^14 at
+#: ordinary gains): a shift S <= 0 multiplies the 32-bit product by 2^-S in 64 bits,
+#: exactly (a left shift of a negative number would be undefined behaviour)
+_IMUL_Q15 = """
+/* x * M * 2^-S for the integral (|x|, |M| < 2^15): as mul for S >= 1; for S in [-24, 0]
+ * exactly, the product times 2^-S (below 2^54) */
+static int64_t @P@_imul(@P@_q15 x, int32_t m, int shift)
+{
+    if (shift > 0) return @P@_mul(x, m, shift);
+    return (int64_t)(x * m) * ((int64_t)1 << -shift);
+}
+"""
 
 
 #: a tunable build's parameter struct and the members of its setter's answer
 _PARAMS = """
-/* A coefficient: m * 2^-s, with |m| in [2^30, 2^31) or m = 0, and s in the range
- * @P@_set_params takes for it. */
+/* A coefficient: m * 2^-s, with |m| in [2^(B-1), 2^B) or m = 0 (B the bits of its
+ * mantissa, 31, or 15 for a q15 law's own), and s in the range @P@_set_params takes
+ * for it. */
 typedef struct {
     int32_t m;
     int32_t s;
@@ -609,13 +712,14 @@ typedef struct {
 
 /* The parameters a running controller may change (@P@_set_params), in the codes' units
  * (mfcontrol.cexport.fixed_point): @WHAT@ and the output limits. For new gains, call
- * mfcontrol.cexport.fixed_point.q31_params_c in Python (like= the controller exported),
+ * mfcontrol.cexport.fixed_point.fixed_params_c in Python (like= the controller
+ * exported, real="@Q@"),
  * or export the case again with them and the same limits and take its
- * @P@_default_params; new output limits are codes, limit / @PU@_U_SCALE * 2^31. */
+ * @P@_default_params; new output limits are codes, limit / @PU@_U_SCALE * 2^@QBITS@. */
 typedef struct {
     uint32_t format; /* @PU@_FORMAT */
-@MEMBERS@    int32_t out_min;  /* lower output limit, a code */
-    int32_t out_max;  /* upper output limit, a code, >= out_min */
+@MEMBERS@    @CODE@ out_min;  /* lower output limit, a code */
+    @CODE@ out_max;  /* upper output limit, a code, >= out_min */
 } @P@_params;
 
 /* what @P@_set_params returns: 0 taken, -1 a state never initialised, or the member at
@@ -652,18 +756,19 @@ _SETTER = """
 /* the parameters exported: what init starts from */
 const @P@_params @P@_default_params = @DEFAULTS@;
 
-/* a coefficient the products take: 0, or |m| in [2^30, 2^31); its shift in [lo, hi] */
-static int @P@_coef_ok(@P@_coef c, int lo, int hi)
+/* a coefficient the products take: 0, or |m| in [low, 2 low) (low 2^(B-1), B the bits of
+ * its mantissa); its shift in [lo, hi] */
+static int @P@_coef_ok(@P@_coef c, int lo, int hi, int32_t low)
 {
     if (c.s < lo || c.s > hi) return 0;
-    return c.m == 0 || c.m >= 0x40000000L || (c.m <= -0x40000000L && c.m > INT32_MIN);
+    return c.m == 0 || (c.m >= low && c.m - low < low) || (c.m <= -low && -low - c.m < low);
 }
 
 int @P@_set_params(@P@_state *s, const @P@_params *p)
 {
     if (!@PU@_INITIALISED(s) || !p) return -1;
     if (p->format != @PU@_FORMAT) return @PU@_FIELD_FORMAT;
-@CHECKS@    if (p->out_min < -INT32_MAX) return @PU@_FIELD_OUT_MIN;
+@CHECKS@    if (p->out_min < -@CODE_MAX@) return @PU@_FIELD_OUT_MIN;
     if (p->out_max < p->out_min) return @PU@_FIELD_OUT_MAX;
     if (@SAME@)
         return 0; /* nothing changes */
@@ -678,7 +783,7 @@ _PID_CHECKS = {
             "     * would then stop (mfcontrol.PID's rule)",
             "p->htt.m < 0 || (p->htt.m == 0 && p->kih.m != 0)"),
     "ad": ("a pole in [0, 1): a value below 1 has a shift of 31 or more",
-           "p->ad.m < 0 || (p->ad.m != 0 && p->ad.s < 31)"),
+           "p->ad.m < 0 || (p->ad.m != 0 && p->ad.s < @QBITS@)"),
     "bd": ("kd of kp's sign, or 0",
            "(p->bd.m > 0 && p->kp.m <= 0) || (p->bd.m < 0 && p->kp.m >= 0)"),
     "fa": ("the filter's fa > 0 with fb, 0 with it (no filter)",
@@ -710,26 +815,26 @@ def tunable_parts(prefix: str, members, defaults: str, tag: int, what: str,
                   extra: dict[str, tuple[str, str]], apply: str) -> dict[str, str]:
     """The pieces of a tunable q31 build (``PARAMS``, ``STATE_PARAMS``,
     ``SET_PARAMS_DECL``, ``SETTER``, ``INIT_PARAMS``): ``members`` the coefficients'
-    ``(name, what, (lowest shift, highest))``, ``defaults`` the exported set's
+    ``(name, what, (lowest shift, highest), mantissa bits)``, ``defaults`` the exported set's
     initializer, ``tag`` its formats' (:func:`_format`), ``what`` the struct's words for
     them, ``extra`` a member's condition of refusal beyond its range (a comment, the C
     condition), ``apply`` what a set taken does after the copy."""
     PU = prefix.upper()
-    fields = ["format", *(name for name, _, _ in members), "out_min", "out_max"]
+    fields = ["format", *(name for name, _, _, _ in members), "out_min", "out_max"]
     checks = "".join(
         (f"    /* {extra[name][0]} */\n" if name in extra else "")
-        + f"    if (!{prefix}_coef_ok(p->{name}, {lo}, {hi})"
+        + f"    if (!{prefix}_coef_ok(p->{name}, {lo}, {hi}, 0x{2 ** (bits - 1):X}L)"
         + (f" ||\n        {extra[name][1]})" if name in extra else ")")
         + f"\n        return {PU}_FIELD_{name.upper()};\n"
-        for name, _, (lo, hi) in members)
+        for name, _, (lo, hi), bits in members)
     same = " &&\n        ".join(
         [f"p->{f} == s->params.{f}" for f in ("format", "out_min", "out_max")]
         + [f"p->{f}.m == s->params.{f}.m && p->{f}.s == s->params.{f}.s"
-           for f, _, _ in members])
+           for f, _, _, _ in members])
     return {
         "PARAMS": _fill(_PARAMS, {
             "MEMBERS": "".join(f"    {prefix}_coef {name}; /* {text} */\n"
-                               for name, text, _ in members),
+                               for name, text, _, _ in members),
             "FORMAT": f"0x{tag:08X}UL", "WHAT": what,
             "FIELDS": ",\n".join(f"    {PU}_FIELD_{f.upper()} = {k}"
                                  for k, f in enumerate(fields, 1))}),
@@ -756,11 +861,12 @@ _SOURCE = """@Q31_PRELUDE@#define @PU@_U_LO (@ULO@L)
 /* rejected samples in a row a step spans at most (a longer gap counts as this one) */
 #define @PU@_SKIP_MAX 255
 @FILTER_DEFINES@
-static int32_t @P@_sat32(int64_t x)
+/* x saturated to a code, +-@CODE_MAX@ */
+static @P@_@Q@ @P@_sat_code(int64_t x)
 {
-    if (x > INT32_MAX) return INT32_MAX;
-    if (x < -INT32_MAX) return -INT32_MAX;
-    return (int32_t)x;
+    if (x > @CODE_MAX@) return @CODE_MAX@;
+    if (x < -@CODE_MAX@) return -@CODE_MAX@;
+    return (@P@_@Q@)x;
 }
 
 /* x saturated to +-bound: the integral to I_MAX (it and two products, each below 2^61,
@@ -770,10 +876,10 @@ static int64_t @P@_sat_to(int64_t x, int64_t bound)
     return x > bound ? bound : (x < -bound ? -bound : x);
 }
 
-/* x * M * 2^-S, rounded to nearest, ties up (|x| < 2^31, |M| < 2^31: the product and
- * the half fit 63 bits, and the result is below 2^61)@MUL@
+/* x * M * 2^-S, rounded to nearest, ties up (|x| < 2^@QBITS@, |M| < 2^@QBITS@, S >= 1: the
+ * product and the half fit @PROD@, and the result is below 2^@RESULT@)@MUL@
 }
-
+@IMUL_HELPER@
 /* x * d saturated to +-I_MAX (|x| < 2^61, d in [2, 256]): an increment of the integral
  * over d periods */
 static int64_t @P@_times(int64_t x, int d)
@@ -783,9 +889,9 @@ static int64_t @P@_times(int64_t x, int d)
     return x * d;
 }
 
-@AT@@FILTER_HELPERS@@OVER_GAP@static int32_t @P@_clamp(int64_t v, int32_t lo, int32_t hi)
+@AT@@FILTER_HELPERS@@OVER_GAP@static @P@_@Q@ @P@_clamp(int64_t v, @P@_@Q@ lo, @P@_@Q@ hi)
 {
-    return (int32_t)(v > hi ? hi : (v < lo ? lo : v));
+    return (@P@_@Q@)(v > hi ? hi : (v < lo ? lo : v));
 }
 
 void @P@_init(@P@_state *s)
@@ -803,10 +909,10 @@ void @P@_init(@P@_state *s)
     s->mode = @PU@_AUTO;
 }
 
-@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint)
+@P@_@Q@ @P@_step(@P@_state *s, @P@_@Q@ y, @P@_@Q@ setpoint)
 {
     int64_t p, d = 0, v;
-    int32_t u;
+    @P@_@Q@ u;
     int gap;
     if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
         return s->mode == @PU@_MANUAL ? s->last_output : @P@_clamp(0, @PU@_U_LO, @PU@_U_HI);
@@ -821,7 +927,7 @@ void @P@_init(@P@_state *s)
         s->y_old = y;
         s->r_old = setpoint;
 @FILTER_START@    }
-@FILTER@    p = @P@_mul(@P@_sat32(@P@_mul(setpoint, @B@) - y), @KP@);
+@FILTER@    p = @P@_mul(@P@_sat_code(@P@_mul(setpoint, @B@) - y), @KP@);
 @DERIVATIVE@    if (s->pending) {  /* the bumpless start: the integral that gives `start` */
         int64_t t = (int64_t)s->start - p - d;
         if (t > @PU@_T_MAX) t = @PU@_T_MAX;
@@ -833,15 +939,15 @@ void @P@_init(@P@_state *s)
     u = @P@_clamp(v, @ULIM@);
     {
         /* ki h e and h / Tt (u - v), over the periods since the last sample taken */
-        int64_t ie = @P@_mul(@P@_sat32((int64_t)setpoint - y), @KIH@);
-        int64_t it = @P@_mul(@P@_sat32((int64_t)u - v), @HTT@);
+        int64_t ie = @IMUL@(@P@_sat_code((int64_t)setpoint - y), @KIH@);
+        int64_t it = @IMUL@(@P@_sat_code((int64_t)u - v), @HTT@);
         if (gap > 1) {
             ie = @P@_times(ie, gap);
             it = @P@_times(it, gap);
         }
         s->i = @P@_sat_to(s->i + ie + it, @PU@_I_MAX);
     }
-    s->d = (int32_t)d;
+    s->d = (@P@_@Q@)d;
     s->y_old = y;
     s->r_old = setpoint;
     s->started = 1;
@@ -849,7 +955,7 @@ void @P@_init(@P@_state *s)
     return u;
 }
 
-void @P@_set_manual(@P@_state *s, @P@_q31 u)
+void @P@_set_manual(@P@_state *s, @P@_@Q@ u)
 {
     if (!@PU@_INITIALISED(s)) return;
     s->mode = @PU@_MANUAL;

@@ -165,7 +165,7 @@ _APPLY = """\
 
 def _members(q: Q31Intelligent):
     back = q.anti_windup == intelligent.AW_BACK
-    return [m for m in _COEFFICIENTS if back or m[0] != "caw"]
+    return [(*m, 31) for m in _COEFFICIENTS if back or m[0] != "caw"]
 
 
 def _tag(ctrl, q: Q31Intelligent) -> int:
@@ -174,10 +174,10 @@ def _tag(ctrl, q: Q31Intelligent) -> int:
 
 def q31_intelligent_params_c(ctrl, key_prefix: str = "", like=None) -> str:
     """The C initializer of the tunable q31 i-P family's ``PREFIX_params`` for ``ctrl``
-    (see :func:`mfcontrol.cexport.fixed_point.q31_params_c`, which calls this one)."""
+    (see :func:`mfcontrol.cexport.fixed_point.fixed_params_c`, which calls this one)."""
     q = q31_intelligent(ctrl, key_prefix, like)
     return params_c(_tag(like if like is not None else ctrl, q),
-                    [(name, getattr(q, name)) for name, _, _ in _members(q)],
+                    [(name, getattr(q, name)) for name, _, _, _ in _members(q)],
                     q.scales.u_limits)
 
 
@@ -187,7 +187,7 @@ def q31_intelligent_source(ctrl, *, prefix: str, banner: str, key_prefix: str = 
     and output limits in a parameter struct that ``PREFIX_set_params`` checks and changes
     at run time, or constants with ``frozen``."""
     q = q31_intelligent(ctrl, key_prefix)
-    coefficients = [(name.upper(), getattr(q, name)) for name, _, _ in _members(q)]
+    coefficients = [(name.upper(), getattr(q, name)) for name, _, _, _ in _members(q)]
     PU = prefix.upper()
     has_i = q.ci.mantissa != 0  # frozen: no anti-windup without an integral
     subs = {"N": str(q.order), "UINIT": str(q.u_init), "MEAN": "1" if q.held_mean else "0",
@@ -234,7 +234,7 @@ typedef struct {
     int k;                  /* samples taken since the start, up to the model order */
     int skipped;            /* samples rejected since the last one taken (up to
                              * @PU@_SKIP_MAX): the next step spans their periods */
-    @P@_q31 last_output;    /* returned in manual mode and after a rejected sample */
+    @P@_@Q@ last_output;    /* returned in manual mode and after a rejected sample */
 @FRESH_MEMBER@    unsigned long nan_count; /* rejected: a measurement outside the input limits */
     /* @PU@_AUTO or @PU@_MANUAL (set by @P@_init, @P@_set_manual, @P@_set_auto); any other
      * value is a state never passed to @P@_init, which every function refuses */
@@ -249,9 +249,9 @@ void @P@_init(@P@_state *s);
  * the next sample taken spans its period (its differences and integral over the longer
  * time, as the double law's). Every sum saturates: no code overflows. On a state never
  * initialised: returns 0 clamped to the output limits and changes nothing. */
-@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint);
+@P@_@Q@ @P@_step(@P@_state *s, @P@_@Q@ y, @P@_@Q@ setpoint);
 /* Manual mode: every step returns u, clamped to the output limits, until @P@_set_auto. */
-void @P@_set_manual(@P@_state *s, @P@_q31 u);
+void @P@_set_manual(@P@_state *s, @P@_@Q@ u);
 /* Back to automatic, restarting the law from the last output (bumpless: the next @N@
  * samples hold it). */
 void @P@_set_auto(@P@_state *s);
@@ -345,12 +345,12 @@ static int64_t @P@_limit(int64_t v, int64_t lo, int64_t hi)
 }
 
 /* the output code of a guarded output (within the limits: no overflow) */
-static @P@_q31 @P@_code(int64_t u)
+static @P@_@Q@ @P@_code(int64_t u)
 {
-    return (@P@_q31)((u + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F);
+    return (@P@_@Q@)((u + ((int64_t)1 << (@PU@_F - 1))) >> @PU@_F);
 }
 
-static void @P@_restart(@P@_state *s, @P@_q31 u)
+static void @P@_restart(@P@_state *s, @P@_@Q@ u)
 {
     s->e1 = 0;
     s->e2 = 0;
@@ -362,10 +362,10 @@ static void @P@_restart(@P@_state *s, @P@_q31 u)
     s->last_output = u;
 }
 
-static @P@_q31 @P@_clamp_code(int64_t u, int64_t lo_wide, int64_t hi_wide)
+static @P@_@Q@ @P@_clamp_code(int64_t u, int64_t lo_wide, int64_t hi_wide)
 {
     int64_t lo = lo_wide >> @PU@_F, hi = hi_wide >> @PU@_F;
-    return (@P@_q31)(u > hi ? hi : (u < lo ? lo : u));
+    return (@P@_@Q@)(u > hi ? hi : (u < lo ? lo : u));
 }
 
 void @P@_init(@P@_state *s)
@@ -375,7 +375,7 @@ void @P@_init(@P@_state *s)
     s->mode = @PU@_AUTO;
 }
 
-@P@_q31 @P@_step(@P@_state *s, @P@_q31 y, @P@_q31 setpoint)
+@P@_@Q@ @P@_step(@P@_state *s, @P@_@Q@ y, @P@_@Q@ setpoint)
 {
     int64_t e, uh, base, t, v, u, d;
     if (s->mode != @PU@_AUTO) /* manual; or never initialised: within the limits, unchanged */
@@ -438,7 +438,7 @@ void @P@_init(@P@_state *s)
     return s->last_output;
 }
 
-void @P@_set_manual(@P@_state *s, @P@_q31 u)
+void @P@_set_manual(@P@_state *s, @P@_@Q@ u)
 {
     if (!@PU@_INITIALISED(s)) return;
     s->mode = @PU@_MANUAL;

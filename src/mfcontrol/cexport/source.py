@@ -28,7 +28,7 @@ from ..laws import adrc, estimators, intelligent, pid, recursive_ip
 from ..laws import variational_gain as gain_law
 from .translate import _C_KEYWORDS, CP, CS, REAL, J, Options, Translator
 
-REALS = ("double", "float", "q31")
+REALS = ("double", "float", "q31", "q15")
 #: how to compile an export so that, in double, it computes what mfcontrol computes: no
 #: contraction of a multiply and an add into one rounding (and no -ffast-math)
 CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
@@ -128,8 +128,8 @@ def c_source(ctrl, *, prefix: str = "mfc", real: str = "double", description: st
     check_prefix(prefix)
     if real not in REALS:
         raise ConfigError("real", real, f"must be one of {', '.join(REALS)}")
-    if real == "q31":
-        return _q31(ctrl, prefix, description, key_prefix, frozen)
+    if real in ("q31", "q15"):
+        return _fixed(ctrl, prefix, description, key_prefix, frozen, real)
     law = law_of(ctrl, real, key_prefix)  # refuses what cannot export
     if isinstance(ctrl, RecursiveIP):
         # the parameters as built: a bumpless start rewrites the law's u0 in place
@@ -307,29 +307,38 @@ _CHECKS = {
 }
 
 
-def _q31(ctrl, prefix: str, description: str, key_prefix: str, frozen: bool) -> CSource:
-    """The fixed-point export, tunable unless ``frozen``: the PID
+def _fixed(ctrl, prefix: str, description: str, key_prefix: str, frozen: bool,
+           real: str) -> CSource:
+    """The fixed-point export, tunable unless ``frozen``: the PID in q31 or q15
     (:mod:`mfcontrol.cexport.fixed_point`) and the i-P family with the backward difference
-    (:mod:`mfcontrol.cexport.fixed_point_intelligent`)."""
-    from .fixed_point import q31_source
+    in q31 (:mod:`mfcontrol.cexport.fixed_point_intelligent`)."""
+    from .fixed_point import pid_source
     from .fixed_point_intelligent import q31_intelligent_source
 
     if isinstance(ctrl, PID):
-        write, name = q31_source, "pid"
-    elif isinstance(ctrl, IntelligentController):
-        write, name = q31_intelligent_source, "intelligent"
-    else:
+        name = "pid"
+    elif isinstance(ctrl, IntelligentController) and real == "q31":
+        name = "intelligent"
+    elif real == "q31":
         raise ConfigError("real", "q31", f"exports the PID and the i-P, i-PI, i-PD and "
                           f"i-PID (this is the {_law_label(ctrl)} law): export it in float "
                           "or double")
-    banner = _banner(prefix, ctrl, description, "in fixed point (q31)", "baked in"
+    else:  # why not: the estimate of F divides a code's step by h^n, 2^16 times coarser
+        raise ConfigError("real", real, f"exports the PID only (this is the "
+                          f"{_law_label(ctrl)} law): q31 exports the i-P family with the "
+                          "backward difference, float or double every law")
+    banner = _banner(prefix, ctrl, description, f"in fixed point ({real})", "baked in"
                      if frozen else f"as exported; {prefix}_set_params changes the "
                      "coefficients and limits", " * C99 with <stdint.h>, integer "
                      "arithmetic only: no floating point, no dynamic memory,\n * no global "
                      "state. */")
-    header, source = write(ctrl, prefix=prefix, banner=banner, key_prefix=key_prefix,
-                           frozen=frozen)
-    return CSource(prefix, "q31", header, source, name, 0)
+    if name == "pid":
+        header, source = pid_source(ctrl, prefix=prefix, banner=banner,
+                                    key_prefix=key_prefix, frozen=frozen, real=real)
+    else:
+        header, source = q31_intelligent_source(ctrl, prefix=prefix, banner=banner,
+                                                key_prefix=key_prefix, frozen=frozen)
+    return CSource(prefix, real, header, source, name, 0)
 
 
 def law_of(ctrl, real: str = "double", key_prefix: str = "") -> _Law:
