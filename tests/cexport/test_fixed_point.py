@@ -231,7 +231,8 @@ def bound_along(ctrl, ops, real: str = "q31") -> tuple[np.ndarray, np.ndarray]:
             # bd (eps - eps_old) + rho (eps: t's error; rho: the coefficients' and the two
             # products' roundings). Carried as g = e + bd eps = ad g_old + (1 - ad) bd
             # eps_old + rho, the errors of t telescope: bd max|eps| where a bound on e
-            # alone gives 2 bd max|eps| / (1 - ad), 100 times that at ad = 0.98.
+            # e <= g + bd |eps| settles at 2 bd max|eps|, where a bound on e alone gives
+            # 2 bd max|eps| / (1 - ad): 50 times that at ad = 0.98.
             err_eps = err_y + (0.0 if c == 0.0 else dc * abs(r) + 0.5 * qy)
             if first:  # t_old = t: the first difference is exactly 0
                 err_g, err_eps_old = bd * err_eps, err_eps
@@ -260,8 +261,9 @@ def bound_along(ctrl, ops, real: str = "q31") -> tuple[np.ndarray, np.ndarray]:
         out.append(u)
         bounds.append(err_u)
         # the tracking term h / Tt (u - v) is exactly 0 in both where the double's v is
-        # farther than the C's error from the limits (the C's is within them too)
-        limited = not lo + err_v < v < hi - err_v
+        # farther than the C's error from the limits and the C's limits (their codes,
+        # within dlim of them): the C's v is then within its limits too
+        limited = not lo + dlim + err_v < v < hi - dlim - err_v
         err_i += (gap * ((htt * (err_p + err_d + 0.5 * qu + dlim) if limited else 0.0)
                          + abs(r - y) * dkih + kih * err_y + abs(u - v) * dhtt + 2 * 0.5 * qi)
                   + eps * (abs(i) + gap * abs(u - v)))
@@ -344,9 +346,15 @@ class _FilterBound:
         return self.reach * self.e + 0.5 * self.qy + eps
 
 
+#: limits that are not codes (dlim > 0) and a fast tracking, for the bound's tracking term
+ASYMMETRIC = {"controller.duty_min": -7.3, "controller.duty_max": 12.0,
+              "controller.Tt": 0.05}
+
+
 @pytest.mark.parametrize("real", WORDS)
-@pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast",
-                                                "pid-filter", "pi-slow-filter"])
+@pytest.mark.parametrize("over", [*VARIANTS, ASYMMETRIC],
+                         ids=["pi", "pid-weights", "pi-fast", "pid-filter", "pi-slow-filter",
+                              "pi-asymmetric-limits"])
 def test_the_fixed_point_pid_stays_within_its_derived_bound_of_the_double_pid(
         over, real, tmp_path):
     ctrl = controller(over)

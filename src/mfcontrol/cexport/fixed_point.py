@@ -17,7 +17,8 @@ The integral and the measurement filter are 64-bit in both.
 
 Formats. The measurement and the setpoint: ``y = Y * Y_SCALE / 2^B`` (B = 31 or 15), with
 ``Y_SCALE`` twice the larger magnitude of the input limits (the sensor's range,
-required), so that the difference of two codes fits a code. The output: ``u = U *
+required), so that the difference of two codes within them fits a code (but for the one
+extreme, 2^B, which saturates to 2^B - 1). The output: ``u = U *
 U_SCALE / 2^B``, ``U_SCALE`` the word's headroom (16 in q31, 4 in q15) times the larger
 magnitude of the output limits (required finite), so that the terms before the limits (a
 derivative kick, the unlimited output the back-calculation sees) have room up to that
