@@ -317,7 +317,7 @@ def fixed_params_c(ctrl, key_prefix: str = "", like=None, real: str = "q31") -> 
     For a q15 export (15-bit mantissas, codes of 16 bits):
 
     >>> print(fixed_params_c(ctrl, real="q15").splitlines()[4])
-        {20480L, 16}, /* kp */
+        {20480L, 14}, /* kp */
     """
     from ..api.model.controllers import PID
 
@@ -881,12 +881,17 @@ static int64_t @P@_sat_to(int64_t x, int64_t bound)
  * product and the half fit @PROD@, and the result is below 2^@RESULT@)@MUL@
 }
 @IMUL_HELPER@
-/* x * d saturated to +-I_MAX (|x| < 2^61, d in [2, 256]): an increment of the integral
- * over d periods */
+/* x * d saturated to +-I_MAX (|x| < 2^61, d in [1, 256]): an increment over d periods.
+ * Within +-2^53 it cannot saturate (d <= 2^8): the 64-bit divisions that find where it
+ * would (a library call each on a Cortex-M) only beyond, and no product for d = 1 (the
+ * filter's every step) */
 static int64_t @P@_times(int64_t x, int d)
 {
-    if (x > @PU@_I_MAX / d) return @PU@_I_MAX;
-    if (x < -@PU@_I_MAX / d) return -@PU@_I_MAX;
+    if (d == 1) return x;
+    if (x > ((int64_t)1 << 53) || x < -((int64_t)1 << 53)) {
+        if (x > @PU@_I_MAX / d) return @PU@_I_MAX;
+        if (x < -@PU@_I_MAX / d) return -@PU@_I_MAX;
+    }
     return x * d;
 }
 

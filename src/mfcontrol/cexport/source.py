@@ -67,7 +67,8 @@ class CSource:
     law: str  # the law family: "intelligent", "recursive", "pid" or "adrc"
     n_state: int
     #: the members of ``PREFIX_params`` in physical units, in order (empty for a frozen
-    #: export, and for the q31 ones, whose members are coefficients in the codes' units)
+    #: export, and for the fixed-point ones, whose members are coefficients in the codes'
+    #: units)
     fields: tuple[str, ...] = ()
 
 
