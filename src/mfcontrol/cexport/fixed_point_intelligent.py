@@ -331,11 +331,15 @@ static int64_t @P@_mul_over(int64_t x, int64_t m, int s, int64_t D)
     return @P@_sat(p + q * 65536 + (low + D / 2) / D);
 }
 
-/* x * d saturated to +-T_MAX (|x| <= T_MAX, d > 0) */
+/* x * d saturated to +-T_MAX (|x| <= T_MAX, d in [1, 256]: the periods since the last
+ * sample taken). Within +-2^51 it cannot saturate (d <= 2^8): the 64-bit divisions that
+ * find where it would (a library call each on a Cortex-M) only beyond */
 static int64_t @P@_times(int64_t x, int64_t d)
 {
-    if (x > @PU@_T_MAX / d) return @PU@_T_MAX;
-    if (x < -@PU@_T_MAX / d) return -@PU@_T_MAX;
+    if (x > ((int64_t)1 << 51) || x < -((int64_t)1 << 51)) {
+        if (x > @PU@_T_MAX / d) return @PU@_T_MAX;
+        if (x < -@PU@_T_MAX / d) return -@PU@_T_MAX;
+    }
     return x * d;
 }
 
