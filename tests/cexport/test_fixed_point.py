@@ -502,6 +502,22 @@ def test_what_q15_cannot_hold_is_refused():
     c_source(controller(EXTREME_Q15 | {"controller.kp": 600.0}), real="q31")
     q = fixed_pid(controller({"controller.ki": 1e4, "controller.Tt": 0.001}), real="q15")
     assert q.kih.shift < 0 and q.htt.shift < 0  # shifted left in 64 bits
+    # a derivative filter's pole too small to hold is named by kd, what was set (a user's
+    # try-out: it named N, and suggested changing the scales, which cannot help)
+    for real in WORDS:
+        with pytest.raises(ConfigError, match=r"kd = 1e-(08|13): gives the derivative filter's "
+                                              r"pole .* set kd 0"):
+            c_source(controller({"controller.kd": 1e-8 if real == "q15" else 1e-13}),
+                     real=real)
+
+
+def test_make_controller_builds_the_controller_an_export_was_made_from():
+    """``like=`` needs the exported controller with its input limits: make_controller takes
+    them as export-c's --input-limits does (a user's try-out found no public way)."""
+    exported = mfcontrol.make_controller(CASE, input_limits=INPUT_LIMITS)
+    assert fixed_params_c(exported, real="q15") == fixed_params_c(controller({}), real="q15")
+    with pytest.raises(ConfigError, match="input_limits"):
+        mfcontrol.make_controller(CASE, input_limits=(1.0, -1.0))
 
 
 # --- the tunable build (PREFIX_set_params) ---------------------------------------------

@@ -106,13 +106,7 @@ def source_of(case, overrides=None, *, prefix: str = "mfc", real: str = "double"
                               "input_limits=, not its export")
         return c_source(case, prefix=prefix, real=real, frozen=frozen,
                         description=description or repr(case))
-    ctrl = make_controller(case, overrides)
-    if input_limits is not None:
-        try:
-            ctrl._take_input_limits(input_limits)
-        except ValueError as exc:
-            raise ConfigError("input_limits", input_limits,
-                              str(exc).partition(": ")[2]) from None
+    ctrl = make_controller(case, overrides, input_limits=input_limits)
     what = case if isinstance(case, str | Path) else getattr(case, "name", "a configuration")
     sets = "".join(f" --set {k}={v!r}" for k, v in (overrides or {}).items())
     return c_source(ctrl, prefix=prefix, real=real, key_prefix="controller.", frozen=frozen,

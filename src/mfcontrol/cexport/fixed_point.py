@@ -243,6 +243,13 @@ def fixed_pid(ctrl, key_prefix: str = "", like=None, real: str = "q31") -> Fixed
                               "coefficients cannot hold (each in [2^-32, 1)): with the "
                               f"sample period {h!r} s, Tf must be within about h / 46,000 "
                               "and 92,000 h, or 0 (no filter); or export in float") from None
+    (_, top), bits = kinds["pole"]
+    if 0.0 < ad < 2.0 ** (bits - 1 - top):  # Td far below N h: name what the user set
+        raise ConfigError(f"{p}kd", kd, f"gives the derivative filter's pole Td / (Td + N "
+                          f"h) = {ad:.3g} (Td = kd / kp, N = {n!r}, h = {h!r}), below what "
+                          f"{real} holds (2^{bits - 1 - top}): a derivative filtered this "
+                          "little is not one; set kd 0 (no derivative), a smaller N, or "
+                          "export in float")
     return FixedPid(
         word, sc,
         coefficient("b", float(cp[pid.B]), "b", float(cp[pid.B])),
@@ -263,8 +270,8 @@ _COEFFICIENTS = (
     ("htt", "h / Tt * 2^@F@, >= 0 (0: no tracking, only with kih 0)"),
     ("ad", "the derivative filter's pole Td / (Td + N h), in [0, 1)"),
     ("bd", "kp Td N / (Td + N h) * @PU@_Y_SCALE / @PU@_U_SCALE, of kp's sign or 0"),
-    ("fa", "the measurement filter's 1 / (1 + 2 h / Tf + 2 (h / Tf)^2), in (0, 1); 0 with fb "
-     "for no filter"),
+    ("fa", "the measurement filter's 1 / (1 + 2 h / Tf + 2 (h / Tf)^2), in (0, 1);\n"
+     "        * 0 with fb for no filter"),
     ("fb", "and 2 (h / Tf)^2 fa, in (0, 1), fa + fb < 1"),
 )
 #: what each coefficient multiplies, which sets the range of shifts the C takes
@@ -438,8 +445,11 @@ _Q31_HEAD = """@BANNER@
 extern "C" {
 #endif
 
-/* @Q@ codes: the measurement and the setpoint are y = Y * @PU@_Y_SCALE / 2^@QBITS@, the
- * output u = U * @PU@_U_SCALE / 2^@QBITS@ (@CODE@; the scales in the physical units) */
+/* @Q@ codes (@CODE@): a measurement or a setpoint y (physical units) is the code
+ * Y = round(y * 2^@QBITS@ / @PU@_Y_SCALE), the output code U is u = U * @PU@_U_SCALE / 2^@QBITS@;
+ * a code is within +-(2^@QBITS@ - 1). The scales (and the period) are double constants for
+ * the host or for conversions the compiler folds: on a core without an FPU, convert at
+ * run time with integers (a reading's counts per code), not with them. */
 typedef @CODE@ @P@_@Q@;
 #define @PU@_Y_SCALE @YS@
 #define @PU@_U_SCALE @US@
@@ -511,7 +521,7 @@ void @P@_set_auto(@P@_state *s);
 #: the derivative over a gap of periods (only where the step has a derivative)
 _OVER_GAP = """/* The derivative over d periods (d in [2, 256]) from its value x over one:
  * ad' = Td / (Td + N d h) and bd' = kp Td N / (Td + N d h) are ad and bd divided by
- * D = 1 + (d - 1)(1 - ad), so x / D rounded to nearest. ad = m 2^-s (s >= 31) rounded to
+ * D = 1 + (d - 1)(1 - ad), so x / D rounded to nearest. ad = m 2^-s (s >= @QBITS@) rounded to
  * 2^-31 gives D 2^31 below 2^39, taken to 2^-23 (>> 8, D >= 1) so that x 2^23 fits 63
  * bits once x is within +-2^39 (beyond, x / D >= 2^39 / 256 saturates an int32 all the
  * same). On the step after rejected samples only: a 64-bit division. */
@@ -699,9 +709,9 @@ static int64_t @P@_imul(@P@_q15 x, int32_t m, int shift)
 
 #: a tunable build's parameter struct and the members of its setter's answer
 _PARAMS = """
-/* A coefficient: m * 2^-s, with |m| in [2^(B-1), 2^B) or m = 0 (B the bits of its
- * mantissa, 31, or 15 for a q15 law's own), and s in the range @P@_set_params takes
- * for it. */
+/* A coefficient: m * 2^-s, with |m| in [2^(B-1), 2^B) or m = 0, B the bits of its
+ * mantissa and s in the range @P@_set_params takes for it (both given with each member
+ * of @P@_params). */
 typedef struct {
     int32_t m;
     int32_t s;
@@ -712,11 +722,10 @@ typedef struct {
 #define @PU@_FORMAT @FORMAT@
 
 /* The parameters a running controller may change (@P@_set_params), in the codes' units
- * (mfcontrol.cexport.fixed_point): @WHAT@ and the output limits. For new gains, call
- * mfcontrol.cexport.fixed_point.fixed_params_c in Python (like= the controller
- * exported, real="@Q@"),
- * or export the case again with them and the same limits and take its
- * @P@_default_params; new output limits are codes, limit / @PU@_U_SCALE * 2^@QBITS@. */
+ * (mfcontrol.cexport.fixed_point): @WHAT@ and the output limits. For new
+ * gains, call mfcontrol.cexport.fixed_point.fixed_params_c(ctrl, like=exported,
+ * real="@Q@") in Python, or export the case again with them and the same limits and take
+ * its @P@_default_params; new output limits are codes, limit / @PU@_U_SCALE * 2^@QBITS@. */
 typedef struct {
     uint32_t format; /* @PU@_FORMAT */
 @MEMBERS@    @CODE@ out_min;  /* lower output limit, a code */
@@ -783,7 +792,7 @@ _PID_CHECKS = {
     "htt": ("h / Tt >= 0; 0 (Tt infinite) only without an integral, whose windup nothing\n"
             "     * would then stop (mfcontrol.PID's rule)",
             "p->htt.m < 0 || (p->htt.m == 0 && p->kih.m != 0)"),
-    "ad": ("a pole in [0, 1): a value below 1 has a shift of 31 or more",
+    "ad": ("a pole in [0, 1): a value below 1 has a shift of @QBITS@ or more",
            "p->ad.m < 0 || (p->ad.m != 0 && p->ad.s < @QBITS@)"),
     "bd": ("kd of kp's sign, or 0",
            "(p->bd.m > 0 && p->kp.m <= 0) || (p->bd.m < 0 && p->kp.m >= 0)"),
@@ -834,8 +843,9 @@ def tunable_parts(prefix: str, members, defaults: str, tag: int, what: str,
            for f, _, _, _ in members])
     return {
         "PARAMS": _fill(_PARAMS, {
-            "MEMBERS": "".join(f"    {prefix}_coef {name}; /* {text} */\n"
-                               for name, text, _, _ in members),
+            "MEMBERS": "".join(f"    {prefix}_coef {name}; /* {text};\n"
+                               f"        * m of {bits} bits, s in [{lo}, {hi}] */\n"
+                               for name, text, (lo, hi), bits in members),
             "FORMAT": f"0x{tag:08X}UL", "WHAT": what,
             "FIELDS": ",\n".join(f"    {PU}_FIELD_{f.upper()} = {k}"
                                  for k, f in enumerate(fields, 1))}),

@@ -179,7 +179,8 @@ def run_config(cfg: Config, name: str = "", *, fast: bool = False) -> Result | S
     return simulate(cfg, name=name, fast=fast)
 
 
-def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | None = None
+def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | None = None,
+                    *, input_limits: tuple[float | None, float | None] | None = None
                     ) -> IntelligentController | RecursiveIP | PID | ADRC:
     """The live controller of a case: the object a sampling loop (or exported C) runs, built
     by the translator every run of the case uses
@@ -192,6 +193,12 @@ def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | No
     overrides : mapping, optional
         Dotted keys set on the case first (as ``--set``); each must be one the case's
         run reads (:func:`check_reads`).
+    input_limits : (low, high), optional
+        The measurement's valid range (the sensor's; None for no limit), as
+        ``export-c --input-limits`` gives it: a sample outside is rejected as a NaN is.
+        A fixed-point export's scale comes from it, so this builds the controller an
+        export was made from (``like=`` of
+        :func:`mfcontrol.cexport.fixed_point.fixed_params_c`).
 
     Returns
     -------
@@ -218,4 +225,11 @@ def make_controller(case: str | Path | Config, overrides: Mapping[str, Any] | No
         check_reads(cfg, "run", overrides or {})
     else:
         cfg = resolve_case(case, overrides, command="run")[1]
-    return controller(cfg)
+    ctrl = controller(cfg)
+    if input_limits is not None:
+        try:
+            ctrl._take_input_limits(input_limits)
+        except ValueError as exc:
+            raise ConfigError("input_limits", input_limits,
+                              str(exc).partition(": ")[2]) from None
+    return ctrl
