@@ -131,14 +131,13 @@ class Scales:
     u_limits: tuple[int, int]  # codes of the output limits
     u_lo: float  # the output limits themselves
     u_hi: float
-    bits: int = 31  # a code's (its word's)
+    word: Word = WORDS["q31"]  # the codes' word
 
 
 @dataclass(frozen=True)
 class FixedPid:
-    """The word, scales and coefficients of a PID's fixed-point export."""
+    """The scales (with the word) and coefficients of a PID's fixed-point export."""
 
-    word: Word
     scales: Scales
     b: Coefficient
     c: Coefficient
@@ -177,7 +176,7 @@ def scales(ctrl, lo: float, hi: float, key_prefix: str = "",
     su = word.headroom * max(abs(lo), abs(hi))
     b = word.bits
     return Scales(sy, su, (code(y_lo, sy, b), code(y_hi, sy, b)),
-                  (code(lo, su, b), code(hi, su, b)), lo, hi, b)
+                  (code(lo, su, b), code(hi, su, b)), lo, hi, word)
 
 
 def export_scales(ctrl, key_prefix: str = "", like=None,
@@ -200,8 +199,9 @@ def export_scales(ctrl, key_prefix: str = "", like=None,
     if not max(abs(lo), abs(hi)) <= sc.u_scale:
         raise ConfigError(f"{key_prefix}output_limits", [lo, hi], "must be within the "
                           f"export's output scale, +-{sc.u_scale!r}")
-    return replace(sc, u_limits=(code(lo, sc.u_scale, sc.bits), code(hi, sc.u_scale, sc.bits)),
-                   u_lo=lo, u_hi=hi)
+    b = sc.word.bits
+    return replace(sc, u_limits=(code(lo, sc.u_scale, b), code(hi, sc.u_scale, b)), u_lo=lo,
+                   u_hi=hi)
 
 
 def fixed_pid(ctrl, key_prefix: str = "", like=None, real: str = "q31") -> FixedPid:
@@ -243,22 +243,25 @@ def fixed_pid(ctrl, key_prefix: str = "", like=None, real: str = "q31") -> Fixed
                               "coefficients cannot hold (each in [2^-32, 1)): with the "
                               f"sample period {h!r} s, Tf must be within about h / 46,000 "
                               "and 92,000 h, or 0 (no filter); or export in float") from None
-    (_, top), bits = kinds["pole"]
-    if 0.0 < ad < 2.0 ** (bits - 1 - top):  # Td far below N h: name what the user set
+    try:
+        pole = coefficient("ad", ad, "N", n)
+    except ConfigError:
+        if ad > 0.5:  # within a mantissa's step of 1: N names it
+            raise
+        # Td far below N h: name what the user set, not N
         raise ConfigError(f"{p}kd", kd, f"gives the derivative filter's pole Td / (Td + N "
                           f"h) = {ad:.3g} (Td = kd / kp, N = {n!r}, h = {h!r}), below what "
-                          f"{real} holds (2^{bits - 1 - top}): a derivative filtered this "
-                          "little is not one; set kd 0 (no derivative), a smaller N, or "
-                          "export in float")
+                          f"a {real} coefficient holds: a derivative filtered this little is "
+                          "not one; set kd 0 (no derivative), a smaller N, or export in "
+                          "float") from None
     return FixedPid(
-        word, sc,
+        sc,
         coefficient("b", float(cp[pid.B]), "b", float(cp[pid.B])),
         coefficient("c", float(cp[pid.C]), "c", float(cp[pid.C])),
         coefficient("kp", kp * ratio, "kp", kp),
         coefficient("kih", kih * ratio * guard, "ki", ki),
         coefficient("htt", htt * guard, "Tt", tt),
-        coefficient("ad", ad, "N", n),
-        coefficient("bd", bd * ratio, "kd", kd), derivative, fa, fb)
+        pole, coefficient("bd", bd * ratio, "kd", kd), derivative, fa, fb)
 
 
 #: the PID's coefficients, in the order of its parameter struct: (member, what it is)
@@ -346,7 +349,7 @@ def fixed_params_c(ctrl, key_prefix: str = "", like=None, real: str = "q31") -> 
 def _format(law: str, ctrl, sc: Scales) -> int:
     """The tag of the formats a q31 law's coefficients are computed for: the law and its
     structure (``law``), its scales, the guard bits and the sample period (a CRC-32)."""
-    word = "" if sc.bits == 31 else f" q{sc.bits}"  # (q31's tags as they were)
+    word = "" if sc.word.name == "q31" else f" {sc.word.name}"  # (q31's tags as they were)
     return zlib.crc32(f"{law} {sc.y_scale!r} {sc.u_scale!r} {GUARD_BITS} "
                       f"{ctrl.sample_time!r}{word}".encode())
 
@@ -370,7 +373,7 @@ def pid_source(ctrl, *, prefix: str, banner: str, key_prefix: str = "",
     if frozen:
         subs = {name: f"{PU}_{name}_M, {PU}_{name}_S" for name, _ in coefficients}
         weighted = q.c.mantissa != 0
-        derivative = ("    {  /* the derivative */\n        int64_t de = "
+        derivative = ("    {  /* the derivative */\n        @PROD@ de = "
                       + (_WEIGHTED.replace("\n ", "\n     ") if weighted else _PLAIN)
                       + ";\n" + _D_STEP + "    }\n") if q.derivative else ""
         subs |= {"DERIVATIVE": derivative, "OVER_GAP": _OVER_GAP if q.derivative else "",
@@ -418,7 +421,7 @@ def q31_files(ctrl, sc: Scales, coefficients, *, prefix: str, banner: str,
         consts = ("/* the coefficients, M * 2^-S with |M| in [2^(B-1), 2^B), or 0 (B the bits "
                   "of its\n * mantissa: 31, or 15 for a q15 law's own; "
                   "mfcontrol.cexport.fixed_point) */\n" + consts)
-    word = next(w for w in WORDS.values() if w.bits == sc.bits)
+    word = sc.word
     every = {"Q31_HEAD": _Q31_HEAD, "Q31_TAIL": _Q31_TAIL, "Q31_PRELUDE": _Q31_PRELUDE,
              **subs, "P": prefix, "PU": PU, "CONSTS": consts, "BANNER": banner,
              "Q": word.name, "QBITS": str(word.bits), "CODE": word.code, "PROD": word.product,
