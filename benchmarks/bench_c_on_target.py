@@ -40,7 +40,7 @@ import numpy as np
 import mfcontrol
 from bench_c_export import CONTROLLERS, closed_loop
 from mfcontrol.cexport import CFLAGS, c_source, cortex_m, cortex_m_cycles
-from mfcontrol.cexport.fixed_point import code
+from mfcontrol.cexport.fixed_point import WORDS, code
 from mfcontrol.cexport.translate import Options
 
 TARGETS = [("Cortex-M4F", "m4f", "float"), ("Cortex-M0", "m0", "float"),
@@ -53,7 +53,6 @@ TARGETS = [("Cortex-M4F", "m4f", "float"), ("Cortex-M0", "m0", "float"),
 Q31_LAWS = ("PID", "i-PID, backward difference")  # the PID's variants too
 #: and in q15 (the PID only: on a Cortex-M0, where its 32-bit products are one MULS each)
 Q15_LAWS = ("PID",)
-FIXED = {"q31": 31, "q15": 15}  # the fixed-point words and their codes' bits
 BASELINE = 3  # calls of the empty function first
 
 
@@ -100,9 +99,9 @@ int main(void)
 
 
 def _samples_header(y: np.ndarray, r: np.ndarray, real: str, scale: float = 1.0) -> str:
-    if real in FIXED:  # the codes, at the export's measurement scale
+    if real in WORDS:  # the codes, at the export's measurement scale
         def row(values):
-            return ",\n".join(f"    {code(float(v), scale, FIXED[real])}" for v in values)
+            return ",\n".join(f"    {code(float(v), scale, WORDS[real].bits)}" for v in values)
         return (f"typedef mfc_{real} mfc_real;\n"
                 f"#define N_SAMPLES {len(y)}L\n"
                 f"static const mfc_real Y[{len(y)}] = {{\n{row(y)}\n}};\n"
@@ -139,7 +138,7 @@ def measure(case: str, overrides: dict, real: str, target: str,
     n = 2 * M + 2 + DROPOUT if M else 100  # two resyncs, the dropout aside
     y, r = closed_loop(case, overrides, n)
     scale = 1.0
-    if real in FIXED:
+    if real in WORDS:
         span = 2.0 ** math.ceil(math.log2(max(np.abs(y).max(), np.abs(r).max())))
         ctrl._take_input_limits((-span, span))
         scale = 2.0 * span  # Y_SCALE: twice the input limits' magnitude
@@ -147,7 +146,7 @@ def measure(case: str, overrides: dict, real: str, target: str,
     # step that spans them, which the worst step includes
     dropout = _dropout(n)
     y = y.copy()
-    y[dropout] = 4.0 * span if real in FIXED else math.nan
+    y[dropout] = 4.0 * span if real in WORDS else math.nan
     src = c_source(ctrl, real=real, prefix="mfc", frozen=frozen)
     (folder / "mfc.h").write_text(src.header)
     (folder / "mfc.c").write_text(src.source)

@@ -24,7 +24,7 @@ from scipy.linalg import solve_discrete_lyapunov
 
 import mfcontrol
 from mfcontrol.cexport import c_source, cortex_m
-from mfcontrol.cexport.fixed_point import GUARD_BITS, code, fixed_params_c, fixed_pid
+from mfcontrol.cexport.fixed_point import GUARD_BITS, WORDS, code, fixed_params_c, fixed_pid
 from mfcontrol.errors import ConfigError
 from mfcontrol.laws import pid
 
@@ -33,8 +33,8 @@ from .test_on_target import _require_tools
 from .test_source import closed_loop
 
 CASE = "motor-noise-pid"
-WORDS = ["q31", "q15"]
-BITS = {"q31": 31, "q15": 15}
+#: the words, and each one's code bits, as the export has them
+BITS = {real: word.bits for real, word in WORDS.items()}
 INPUT_LIMITS = (-128.0, 128.0)  # the measurement's scale 256: codes dequantize exactly
 VARIANTS = [
     {},
@@ -351,7 +351,7 @@ ASYMMETRIC = {"controller.duty_min": -7.3, "controller.duty_max": 12.0,
               "controller.Tt": 0.05}
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 @pytest.mark.parametrize("over", [*VARIANTS, ASYMMETRIC],
                          ids=["pi", "pid-weights", "pi-fast", "pid-filter", "pi-slow-filter",
                               "pi-asymmetric-limits"])
@@ -385,7 +385,7 @@ EXTREME_Q15 = EXTREME | {"controller.kp": 500.0, "controller.kd": 0.6,
                          "controller.b": 30.0, "controller.c": -30.0}
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 @pytest.mark.parametrize("over", ["pid-weights", "extreme"])
 def test_hostile_codes_saturate_without_undefined_behaviour(over, real, tmp_path):
     """The extreme codes as measurement, setpoint and manual output, under
@@ -443,7 +443,7 @@ def m0_codes(src, ops: np.ndarray, folder: Path) -> list[int]:
     return [int(line[2:]) for line in done.stdout.splitlines() if line.startswith("u ")]
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 def test_the_cortex_m0_computes_the_same_codes(real, tmp_path):
     _require_tools()
     ctrl = controller(VARIANTS[1] | {"controller.Tf": 0.002})  # the filter's products too
@@ -538,7 +538,7 @@ def initializer(values: list[str]) -> str:
     return "{" + ", ".join(values) + "}"
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 @pytest.mark.parametrize("over", VARIANTS, ids=["pi", "pid-weights", "pi-fast", "pid-filter",
                                                 "pi-slow-filter"])
 def test_the_tunable_build_gives_the_frozen_builds_codes(over, real, tmp_path):
@@ -553,7 +553,7 @@ def test_the_tunable_build_gives_the_frozen_builds_codes(over, real, tmp_path):
     assert tunable.tolist() == frozen.tolist()
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 def test_set_params_restarts_bumplessly_on_the_new_coefficients(real, tmp_path):
     """In automatic mode a new set restarts the law from the last output, as a return
     from manual does: the codes after it are those of an export built with the new gains,
@@ -637,7 +637,7 @@ REFUSED = {
 }
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 def test_a_refused_parameter_set_changes_nothing_and_names_its_member(real, tmp_path):
     """Each member out of what the law takes (a set for other formats, a mantissa or a
     shift the products cannot take, a negative tracking, a tracking of 0 with an integral,
@@ -677,7 +677,7 @@ def test_a_refused_parameter_set_changes_nothing_and_names_its_member(real, tmp_
     assert np.concatenate([out[:100], out[100 + len(calls):]]).tolist() == alone.tolist()
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 def test_new_limits_clamp_the_held_output_in_manual_and_bound_every_output(real, tmp_path):
     """A set made for the export with other limits (fixed_params_c's like=) is taken, and
     its limits hold every output, the manual one included."""
@@ -721,7 +721,7 @@ def _extremes_q15(fmt: str) -> list[list[str]]:
     ]
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 def test_extreme_valid_parameter_sets_keep_every_code_defined(real, tmp_path):
     """Sets at the ends of what the setter takes (in q31 mantissas at +-(2^31 - 1) and
     2^30, shifts at 1 and 62, limits at +-(2^31 - 1); q15's in :func:`_extremes_q15`),
@@ -815,7 +815,7 @@ def filter_states(q, samples) -> list[tuple[int, int]]:
     return states
 
 
-@pytest.mark.parametrize("real", WORDS)
+@pytest.mark.parametrize("real", list(WORDS))
 @pytest.mark.parametrize("tf", [0.002, 10.0], ids=["fast", "10000-periods"])
 def test_the_filter_is_its_integer_arithmetic_bit_for_bit(tf, real, tmp_path):
     """The bound test cannot see a rounding off by one code (a half dropped in a product,
